@@ -1,0 +1,71 @@
+"""Exceptions raised by geomfdi.
+
+Every error geomfdi raises on bad input or an impossible design derives from
+:class:`GeomFDIError`, itself a :class:`ValueError`, so callers may catch either.
+Messages name the offending argument and say what was wrong with it.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "GeomFDIError",
+    "ShapeError",
+    "NonFiniteError",
+    "ComplexInputError",
+    "DesignError",
+    "NotIsolableError",
+    "RankDeficientError",
+    "ModelFileError",
+]
+
+
+class GeomFDIError(ValueError):
+    """Base class of all geomfdi input and design errors.
+
+    Attributes
+    ----------
+    argument : str or None
+        Name of the argument at fault, when there is one.
+    """
+
+    def __init__(self, message: str, *, argument: str | None = None) -> None:
+        super().__init__(message)
+        self.argument = argument
+
+
+class ShapeError(GeomFDIError):
+    """An array has the wrong shape, is empty, or two arrays do not conform."""
+
+
+class NonFiniteError(GeomFDIError):
+    """An array contains ``nan`` or ``inf``."""
+
+
+class ComplexInputError(GeomFDIError):
+    """An array that must be real has complex entries."""
+
+
+class RankDeficientError(GeomFDIError):
+    """A matrix that must have full rank (e.g. full column rank) does not."""
+
+
+class DesignError(GeomFDIError):
+    """A requested design cannot be carried out (bad options or unsolvable equations)."""
+
+
+class NotIsolableError(DesignError):
+    """The requested residual does not exist: the target fault cannot be decoupled.
+
+    Attributes
+    ----------
+    reason : str
+        Why: ``"dim S* = n"``, ``"L_j in S*"``, ``"L_j = 0"`` or another explanation.
+    """
+
+    def __init__(self, message: str, *, reason: str = "", argument: str | None = None) -> None:
+        super().__init__(message, argument=argument)
+        self.reason = reason or message
+
+
+class ModelFileError(GeomFDIError):
+    """A model file (TOML) is missing an entry or holds an invalid one."""

@@ -1,0 +1,37 @@
+"""Shared test configuration."""
+
+from __future__ import annotations
+
+import os
+
+import matplotlib
+import pytest
+from hypothesis import HealthCheck, settings
+
+matplotlib.use("Agg")
+
+settings.register_profile(
+    "default",
+    deadline=None,
+    max_examples=60,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.register_profile(
+    "ci",
+    deadline=None,
+    max_examples=40,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.load_profile("ci" if os.environ.get("CI") else "default")
+
+
+@pytest.fixture
+def seed001():
+    """The example of seed 001, §4 (Hou-Wen-Chen 2011)."""
+    import geomfdi as gf
+
+    A = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]
+    B = [[1, 0, 1], [0, 1, 1], [0, 1, 0]]
+    C = [[0, 1, 0], [0, 0, 1], [1, 0, 2]]
+    return gf.Plant(A, B, C)
