@@ -15,7 +15,23 @@ from .generator import ResidualBank, ResidualGenerator
 from .plant import Plant
 from .tolerance import CloseRankWarning, set_rtol
 
-# --- geometry (subspace.py, invariants.py, exact.py) ---
+# --- geometry (subspace.py, conditioned_invariant.py, unobservability.py, exact.py) ---
+from . import exact
+from .conditioned_invariant import (
+    FriendSet,
+    InvariantSubspace,
+    friend,
+    friends,
+    is_conditioned_invariant,
+    min_conditioned_invariant,
+)
+from .subspace import Subspace, apply, image, kernel, preimage, principal_angles
+from .unobservability import (
+    is_unobservability_subspace,
+    measurement_map,
+    min_unobservability_subspace,
+    unobservable_subspace,
+)
 
 # --- synthesis and verification (transforms.py, synthesis.py, verification.py) ---
 

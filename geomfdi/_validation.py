@@ -131,13 +131,9 @@ def as_matrix(
     if square and r != c:
         raise ShapeError(f"{name}: must be square, got shape {arr.shape}", argument=name)
     if rows is not None and r != rows:
-        raise ShapeError(
-            f"{name}: expected {rows} rows, got shape {arr.shape}", argument=name
-        )
+        raise ShapeError(f"{name}: expected {rows} rows, got shape {arr.shape}", argument=name)
     if cols is not None and c != cols:
-        raise ShapeError(
-            f"{name}: expected {cols} columns, got shape {arr.shape}", argument=name
-        )
+        raise ShapeError(f"{name}: expected {cols} columns, got shape {arr.shape}", argument=name)
     return arr
 
 

@@ -11,9 +11,10 @@ defaults to ``1e3 * n * eps`` with ``n`` the ambient dimension (math.md §3).  T
 decision is always taken on the *un-normalised* product, never on a re-orthonormalised
 one.
 
-The *gap* of a decision is ``sigma_r / sigma_{r+1}`` (smallest kept over largest
-dropped singular value; ``inf`` when nothing is dropped or nothing kept, measured
-against ``tol`` then).  A gap below :data:`GAP_WARN` means the rank was a close call:
+The *gap* of a decision is ``sigma_r / max(sigma_{r+1}, eps * scale)``: the smallest
+kept over the largest dropped singular value, with ``scale`` standing in for a missing
+kept value (rank 0) and the rounding floor ``eps * scale`` for a missing or negligible
+dropped one (full rank).  A gap below :data:`GAP_WARN` means the rank was a close call:
 geomfdi issues a :class:`CloseRankWarning` and records the gap in the result.
 
 ``rtol`` can be changed globally with :func:`set_rtol` or locally with the
@@ -38,11 +39,13 @@ __all__ = [
     "set_rtol",
     "tolerance",
     "rank_decision",
+    "record_decisions",
 ]
 
 GAP_WARN = 1e3
 _EPS = float(np.finfo(float).eps)
 _RTOL: float | None = None
+_RECORDERS: list[list[RankDecision]] = []
 
 
 class CloseRankWarning(UserWarning):
@@ -93,18 +96,34 @@ class RankDecision:
     tol : float
         Absolute threshold ``rtol * scale``.
     gap : float
-        ``sigma_rank / sigma_{rank+1}``; ``tol`` stands in for a missing or zero side
-        (``inf`` for an exactly zero or empty matrix).
+        ``sigma_rank / max(sigma_{rank+1}, eps * scale)``; ``scale`` stands in for a
+        missing kept value (rank 0).
     """
 
     rank: int
     tol: float
     gap: float
+    what: str = ""
 
     @property
     def close(self) -> bool:
         """True when the gap is below :data:`GAP_WARN`."""
         return self.gap < GAP_WARN
+
+
+@contextlib.contextmanager
+def record_decisions() -> Iterator[list[RankDecision]]:
+    """Collect every rank decision taken inside the block (and silence their warnings).
+
+    Algorithms use this to keep the smallest gap behind their result and to issue one
+    summary :class:`CloseRankWarning` instead of many.
+    """
+    rec: list[RankDecision] = []
+    _RECORDERS.append(rec)
+    try:
+        yield rec
+    finally:
+        _RECORDERS.remove(rec)
 
 
 def rank_decision(
@@ -129,13 +148,14 @@ def rank_decision(
     scale = float(scale) if scale > 0 else 1.0
     tol = get_rtol(n) * scale
     rank = int(np.count_nonzero(s > tol))
-    kept = float(s[rank - 1]) if rank > 0 else tol
+    floor = _EPS * scale
+    kept = float(s[rank - 1]) if rank > 0 else scale
     dropped = float(s[rank]) if rank < s.size else 0.0
-    if dropped <= 0.0:
-        dropped = tol if rank > 0 else 0.0
-    gap = kept / dropped if dropped > 0 else float("inf")
-    dec = RankDecision(rank=rank, tol=tol, gap=gap)
-    if warn and dec.close:
+    gap = kept / max(dropped, floor)
+    dec = RankDecision(rank=rank, tol=tol, gap=gap, what=what)
+    for rec in _RECORDERS:
+        rec.append(dec)
+    if warn and dec.close and not _RECORDERS:
         warnings.warn(
             f"{what}: close rank decision (singular-value gap {gap:.3g} < {GAP_WARN:g} around "
             f"tol {tol:.3g}); the result may change with the tolerance",
