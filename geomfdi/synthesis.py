@@ -1,0 +1,592 @@
+"""Residual-generator synthesis: (F, E, G, M, H, K) from S* (seed 001 §3.4, math.md §4).
+
+For a residual that must see the faults ``target`` and ignore ``decouple`` (and every
+disturbance), with S = S*(Σ_{i∈decouple} Im L_i + Im L_d) on the design model of
+:mod:`geomfdi.transforms`, Q an orthonormal basis of S^⊥ and P = Qᵀ::
+
+    D0 = −Q Qᵀ A S (C S)⁺              P (A + D0 C) S = 0
+    H  = orthonormal rows of Im C ⊖ C S  Ker H C = Ker C + S
+    M  = H C Q,   A0 = P (A + D0 C) Q    (M, A0) observable
+    F  = A0 + D1 M                       D1 places the spectrum (only what must move)
+    D  = D0 + Q D1 H,   E = P D,   G = P B + E Du,   K = H Du
+
+giving ``w' = F w − E y + G u, r = M w − H y + K u`` with the identities
+``F P = P A + E C``, ``M P = H C`` checked on every design, so that ``e = w − P x``
+obeys ``e' = F e − P L m`` and ``r = M e``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+import scipy.signal
+
+from ._validation import as_indices, as_real_array
+from .conditioned_invariant import friend
+from .errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
+from .faults import Fault, SensorFault
+from .generator import ResidualBank, ResidualGenerator
+from .plant import Plant
+from .realization import minimal_realization
+from .subspace import Subspace, _norm2
+from .transforms import DesignModel, pseudo_actuator_model
+from .unobservability import measurement_map, min_unobservability_subspace
+
+__all__ = [
+    "design_residual_generator",
+    "design_bank",
+    "design_sensor_bank",
+    "default_margin",
+    "IDENTITY_TOL",
+]
+
+IDENTITY_TOL = 1e-8
+"""Largest relative residual of the construction identities accepted in a design."""
+
+
+# ----------------------------------------------------------------- poles
+def default_margin(dt: float) -> float:
+    """Default stability requirement on the generator's spectrum.
+
+    Continuous: every eigenvalue must have ``Re λ ≤ −1``; discrete: ``|λ| ≤ 0.5``.
+    Eigenvalues already inside are kept; the others are moved (see :func:`_default_targets`).
+    """
+    return 0.5 if dt > 0 else 1.0
+
+
+def _is_good(lam: complex, dt: float, margin: float) -> bool:
+    return abs(lam) <= margin if dt > 0 else lam.real <= -margin
+
+
+def _default_targets(bad: np.ndarray, dt: float, margin: float) -> np.ndarray:
+    """Where to move eigenvalues that violate the margin.
+
+    Continuous: mirror onto the margin line, ``λ → −max(|Re λ|, margin) + i Im λ``;
+    discrete: pull radially onto the circle ``|λ| = margin`` (0 stays 0).  Repeated
+    targets are spread by 10 % steps so that a single-output pair can place them.
+    """
+    out = []
+    for lam in bad:
+        if dt > 0:
+            mu = margin * lam / abs(lam) if abs(lam) > 0 else 0.0
+        else:
+            mu = complex(-max(abs(lam.real), margin), lam.imag)
+        out.append(complex(mu))
+    out = np.array(out, dtype=complex)
+    seen: dict[tuple[float, float], int] = {}
+    for k, mu in enumerate(out):
+        key = (round(mu.real, 9), round(abs(mu.imag), 9))
+        j = seen.get(key, 0)
+        seen[key] = j + 1
+        if j:
+            out[k] = mu * (1 - 0.1 * j) if dt > 0 else complex(mu.real * (1 + 0.1 * j), mu.imag)
+    return out
+
+
+def _check_spectrum(poles: Any, k: int, dt: float, row: str) -> np.ndarray:
+    arr = np.atleast_1d(np.asarray(poles))
+    if arr.ndim != 1 or arr.size != k:
+        raise DesignError(
+            f"poles: expected {k} poles for {row} (the order of its quotient observer), got "
+            f"{arr.size}",
+            argument="poles",
+        )
+    try:
+        arr = arr.astype(complex)
+    except (TypeError, ValueError) as exc:
+        raise DesignError(f"poles: must be numbers, got {poles!r}", argument="poles") from exc
+    if not np.all(np.isfinite(arr)):
+        raise DesignError("poles: must be finite", argument="poles")
+    stable = np.abs(arr) < 1 if dt > 0 else arr.real < 0
+    if not np.all(stable):
+        where = "inside the unit circle" if dt > 0 else "in the open left half-plane"
+        raise DesignError(
+            f"poles: every pole must lie {where}; got {arr[~stable].tolist()}", argument="poles"
+        )
+    if not np.allclose(np.sort_complex(arr), np.sort_complex(arr.conj()), rtol=1e-12, atol=0):
+        raise DesignError("poles: complex poles must come in conjugate pairs", argument="poles")
+    return arr
+
+
+def _place(
+    A0: np.ndarray, M: np.ndarray, poles: np.ndarray | None, dt: float, margin: float
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """D1 with ``eig(A0 + D1 M)`` as requested; only violating eigenvalues when poles=None.
+
+    Partial assignment: ordered real Schur form of ``A0ᵀ = U [[T11, T12], [0, T22]] Uᵀ``
+    with the good eigenvalues in T11; feedback acting on the T22 coordinates only moves
+    eig(T22) (scipy.signal.place_poles on (T22, B2)) and keeps eig(T11).
+    """
+    k = A0.shape[0]
+    At, Bt = A0.T, M.T
+    if poles is not None:
+        targets, U, k1 = poles, np.eye(k), 0
+    else:
+        T, U, k1 = scipy.linalg.schur(
+            At, output="real", sort=lambda x, y: _is_good(complex(x, y), dt, margin)
+        )
+        bad = np.linalg.eigvals(T[k1:, k1:]) if k1 < k else np.zeros(0)
+        targets = _default_targets(bad, dt, margin)
+    nb = k - k1
+    info: dict[str, Any] = {"kept": k1, "moved": nb}
+    if nb == 0:
+        info["computed_poles"] = np.linalg.eigvals(A0)
+        return np.zeros((k, M.shape[0])), info
+    Tm = U.T @ At @ U
+    B2 = (U.T @ Bt)[k1:]
+    T22 = Tm[k1:, k1:]
+    try:
+        res = scipy.signal.place_poles(T22, B2, targets)
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        raise DesignError(
+            f"poles: cannot place {targets.tolist()}: {exc}", argument="poles"
+        ) from exc
+    K = np.zeros((M.shape[0], k))
+    K[:, k1:] = res.gain_matrix
+    Kt = K @ U.T
+    D1 = -Kt.T
+    info["computed_poles"] = np.linalg.eigvals(A0 + D1 @ M)
+    info["requested_poles"] = targets
+    return D1, info
+
+
+# --------------------------------------------------------- construction
+def _rel(x: np.ndarray, *scales: float) -> float:
+    s = max([*scales, 1e-300])
+    return float(np.linalg.norm(x, 2) / s) if x.size else 0.0
+
+
+def _construct(
+    model: DesignModel, S: Subspace, poles: Any, margin: float, row: str
+) -> dict[str, Any]:
+    A, B, C, Du = model.A, model.B, model.C, model.Du
+    Q = S.complement().basis
+    P = Q.T
+    D0 = friend(A, C, S)
+    H = measurement_map(C, S)
+    M = H @ C @ Q
+    A0 = P @ (A + D0 @ C) @ Q
+    k = A0.shape[0]
+    req = None if poles is None else _check_spectrum(poles, k, model.dt, row)
+    D1, pinfo = _place(A0, M, req, model.dt, margin)
+    F = A0 + D1 @ M
+    D = D0 + Q @ D1 @ H
+    E = P @ D
+    G = P @ B + E @ Du
+    K = H @ Du
+    nA, nC = _norm2(A), _norm2(C)
+    ident = {
+        "F P = P A + E C": _rel(F @ P - P @ A - E @ C, _norm2(F), nA, _norm2(E) * nC),
+        "M P = H C": _rel(M @ P - H @ C, _norm2(M), nC),
+        "P (A + D0 C) S = 0": _rel(P @ (A + D0 @ C) @ S.basis, nA, _norm2(D0) * nC),
+    }
+    bad = {k_: v for k_, v in ident.items() if v > IDENTITY_TOL}
+    if bad:
+        raise DesignError(
+            f"{row}: construction identities fail ({bad}); the rank decisions behind S* are "
+            "probably ill-conditioned",
+            argument="plant",
+        )
+    return {
+        "F": F,
+        "E": E,
+        "G": G,
+        "M": M,
+        "H": H,
+        "K": K,
+        "P": P,
+        "D0": D0,
+        "D1": D1,
+        "identities": ident,
+        "placement": pinfo,
+    }
+
+
+def _deliver(model: DesignModel, c: dict[str, Any], minimal: bool) -> dict[str, np.ndarray]:
+    """The generator on the measured y: wrap the output filter, then reduce."""
+    F, E, G, M, H, K = (c[x] for x in "FEGMHK")
+    if model.augmented:
+        a, q = model.filter_pole, model.C.shape[0]
+        g, Azz = ((1.0 - a), a * np.eye(q)) if model.dt > 0 else (a, -a * np.eye(q))
+        k = F.shape[0]
+        F = np.block([[F, -E], [np.zeros((q, k)), Azz]])
+        E = np.vstack([np.zeros((k, q)), -g * np.eye(q)])
+        G = np.vstack([G, np.zeros((q, G.shape[1]))])
+        M = np.hstack([M, -H])
+        H = np.zeros((M.shape[0], q))
+        K = np.zeros((M.shape[0], G.shape[1]))
+    q = E.shape[1]
+    full_order = F.shape[0]
+    if minimal:
+        mr = minimal_realization(F, np.hstack([-E, G]), M, np.hstack([-H, K]))
+        F, Bm, M, Dm = mr.A, mr.B, mr.C, mr.D
+        E, G = -Bm[:, :q], Bm[:, q:]
+        H, K = -Dm[:, :q], Dm[:, q:]
+    return {"F": F, "E": E, "G": G, "M": M, "H": H, "K": K, "full_order": full_order}
+
+
+# ------------------------------------------------------------ front ends
+def _coerce_plant(plant: Any) -> Plant:
+    if isinstance(plant, Plant):
+        return plant
+    try:
+        import control
+
+        if isinstance(plant, control.StateSpace):
+            return Plant.from_statespace(plant)
+    except ImportError:  # pragma: no cover
+        pass
+    raise GeomFDIError(
+        f"plant: expected a gf.Plant or control.StateSpace, got {type(plant).__name__}",
+        argument="plant",
+    )
+
+
+def _coerce_faults(faults: Any) -> list[Fault]:
+    if isinstance(faults, Fault):
+        faults = [faults]
+    try:
+        out = list(faults)
+    except TypeError as exc:
+        raise GeomFDIError(
+            "faults: must be a list of SensorFault / ActuatorFault / Fault", argument="faults"
+        ) from exc
+    if not out:
+        raise GeomFDIError("faults: at least one fault is required", argument="faults")
+    return out
+
+
+def _existence(
+    model: DesignModel, target: Sequence[int], decouple: Sequence[int]
+) -> tuple[Any, list[str]]:
+    """S*_J and, per target, why it cannot be seen ('' when it can)."""
+    n = model.n
+    cols = [model.signatures[j] for j in decouple] + [model.disturbance]
+    L = np.hstack(cols) if cols else np.zeros((n, 0))
+    S = min_unobservability_subspace(model.A, model.C, L)
+    reasons = []
+    for j in target:
+        Lj = model.signatures[j]
+        if Lj.size == 0 or _norm2(Lj) == 0:
+            reasons.append(f"fault {j}: L_{j} = 0 (it does not act on the design model)")
+        elif S.dim == n:
+            reasons.append(f"fault {j}: dim S* = n = {n}: decoupling the others leaves nothing")
+        elif S.contains(Subspace(Lj)):
+            reasons.append(
+                f"fault {j}: Im L_{j} ⊆ S* (dim {S.dim}): it is not isolable from "
+                f"faults {list(decouple)}"
+            )
+        else:
+            reasons.append("")
+    return S, reasons
+
+
+def _build(
+    plant: Plant,
+    faults: list[Fault],
+    model: DesignModel,
+    target: tuple[int, ...],
+    decouple: tuple[int, ...],
+    poles: Any,
+    margin: float,
+    minimal: bool,
+    row: str,
+) -> ResidualGenerator:
+    S, reasons = _existence(model, target, decouple)
+    why = [r for r in reasons if r]
+    if why:
+        raise NotIsolableError(
+            f"{row}: no residual exists: " + "; ".join(why), reason="; ".join(why)
+        )
+    c = _construct(model, S, poles, margin, row)
+    d = _deliver(model, c, minimal)
+    info = {
+        "S_dim": S.dim,
+        "S_history": S.history,
+        "W_dim": S.W.dim,
+        "W_history": S.W.history,
+        "min_gap": S.min_gap,
+        "quotient_order": c["F"].shape[0],
+        "full_order": d["full_order"],
+        "design_n": model.n,
+        "filter_pole": model.filter_pole,
+        "P": c["P"],
+        "identities": c["identities"],
+        "poles": c["placement"]["computed_poles"],
+        "placement": c["placement"],
+        "transform_notes": model.notes,
+        "construction": {k: c[k] for k in ("F", "E", "G", "M", "H", "K", "P", "D0", "D1")},
+    }
+    g = ResidualGenerator(
+        d["F"],
+        d["E"],
+        d["G"],
+        d["M"],
+        d["H"],
+        d["K"],
+        dt=plant.dt,
+        target=target,
+        decoupled=decouple,
+        method=model.method,
+        info=info,
+    )
+    from .verification import fault_gains
+
+    gains, dc = fault_gains(g, plant, faults)
+    g.info["fault_gain"] = gains
+    g.info["dc_gain"] = dc
+    return g
+
+
+def design_residual_generator(
+    plant: Plant,
+    faults: Sequence[Fault],
+    target: int | Sequence[int],
+    *,
+    decouple: int | Sequence[int] | None = None,
+    poles: Any = None,
+    method: str = "exact",
+    filter_pole: float | None = None,
+    margin: float | None = None,
+    minimal: bool = True,
+) -> ResidualGenerator:
+    """Design one residual generator that sees ``target`` and ignores ``decouple``.
+
+    Parameters
+    ----------
+    plant : Plant
+    faults : list of SensorFault / ActuatorFault / Fault
+    target : int or sequence of int
+        Faults the residual must see (indices into ``faults``).
+    decouple : int or sequence of int, optional
+        Faults it must ignore (default: all faults not in ``target``).  Disturbances
+        of the plant are always decoupled.
+    poles : sequence, optional
+        Spectrum of the quotient observer F (length = its order ``n_design − dim S*``),
+        stable and closed under conjugation.  Default: keep the eigenvalues that already
+        satisfy :func:`default_margin` (or ``margin``) and move only the others.
+    method : {"exact", "paper", "mvw"}
+        Sensor-fault transform (:mod:`geomfdi.transforms`).
+    filter_pole : float, optional
+        ``a`` of the output filter of the exact transform.
+    margin : float, optional
+        Stability requirement for the default spectrum (continuous: ``Re λ ≤ −margin``;
+        discrete: ``|λ| ≤ margin``).
+    minimal : bool
+        Deliver a minimal realization (default); the order before reduction is in
+        ``g.info["full_order"]``.
+
+    Returns
+    -------
+    ResidualGenerator
+        Acting on the measured y and u.  ``g.info`` holds the design numbers: S* and
+        W* dimensions and histories, smallest singular-value gap, the projection P, the
+        identity residuals, the poles, the relative gain and DC gain from every fault
+        on the physical model.
+
+    Raises
+    ------
+    NotIsolableError
+        When a target fault cannot be seen while decoupling the others
+        (``Im L_j ⊆ S*``, ``dim S* = n`` or ``L_j = 0``).
+    DesignError
+        Bad options (poles, method) or a failed construction.
+
+    Notes
+    -----
+    Seed 001 §3.4 with math.md Errata 1–2: the generator reads the measured y, and
+    with the default exact transform sensor faults are decoupled exactly, including
+    transients.  With ``method="paper"`` the decoupling holds only on the paper's
+    pseudo-actuator model; :func:`geomfdi.verify` shows the leakage.
+
+    References
+    ----------
+    Hou, Wen, Chen (2011), eq. 17–23; Massoumnia, Verghese, Willsky (1989), "Failure
+    detection and identification", IEEE TAC 34(3).
+
+    Examples
+    --------
+    >>> import geomfdi as gf
+    >>> p = gf.Plant([[1, 1, 1], [0, 1, 0], [2, 0, 1]], [[1, 0, 1], [0, 1, 1], [0, 1, 0]],
+    ...              [[0, 1, 0], [0, 0, 1], [1, 0, 2]])
+    >>> faults = [gf.SensorFault(i) for i in range(3)]
+    >>> g = gf.design_residual_generator(p, faults, 0, method="paper", poles=[-2])
+    >>> g.order, round(float(g.F[0, 0]), 12)
+    (1, -2.0)
+    """
+    plant = _coerce_plant(plant)
+    faults = _coerce_faults(faults)
+    nf = len(faults)
+    tgt = as_indices(target, "target", nf)
+    if not tgt:
+        raise GeomFDIError("target: at least one fault index is required", argument="target")
+    if decouple is None:
+        dec = tuple(j for j in range(nf) if j not in tgt)
+    else:
+        dec = as_indices(decouple, "decouple", nf)
+    both = set(tgt) & set(dec)
+    if both:
+        raise GeomFDIError(f"decouple: faults {sorted(both)} are also targets", argument="decouple")
+    model = pseudo_actuator_model(plant, faults, method, filter_pole=filter_pole)
+    mg = default_margin(plant.dt) if margin is None else float(margin)
+    return _build(plant, faults, model, tgt, dec, poles, mg, minimal, "the residual")
+
+
+def _row_poles(poles: Any, rows: int) -> list[Any]:
+    """``poles`` for a bank: one spectrum for every row, or a list with one per row."""
+    if poles is None:
+        return [None] * rows
+    if (
+        isinstance(poles, list | tuple)
+        and poles
+        and all(p is None or isinstance(p, list | tuple | np.ndarray) for p in poles)
+    ):
+        if len(poles) != rows:
+            raise DesignError(
+                f"poles: a per-row list must have {rows} entries, got {len(poles)}",
+                argument="poles",
+            )
+        return list(poles)
+    return [poles] * rows
+
+
+def design_bank(
+    plant: Plant,
+    faults: Sequence[Fault],
+    structure: Any,
+    *,
+    poles: Any = None,
+    method: str = "exact",
+    filter_pole: float | None = None,
+    margin: float | None = None,
+    minimal: bool = True,
+) -> ResidualBank:
+    """Design one residual generator per row of a structure matrix.
+
+    Parameters
+    ----------
+    plant : Plant
+    faults : list of SensorFault / ActuatorFault / Fault
+    structure : array_like of bool, (rows, len(faults))
+        ``structure[r, j] = 1``: residual r must see fault j; 0: must ignore it.
+    poles : sequence or list of sequences, optional
+        One spectrum used for every row, or one per row (``None`` entries: default).
+    method, filter_pole, margin, minimal
+        As in :func:`design_residual_generator`.
+
+    Returns
+    -------
+    ResidualBank
+        ``generators[r]`` is ``None`` where row r cannot be realised (reason in
+        ``diagnostics[r]``).  ``structure`` is the *achieved* structure on the physical
+        model (entry true when the relative gain from fault j exceeds 1e-8), which for
+        ``method="paper"`` shows the leakage of Erratum 2.  ``isolable[j]``: fault j's
+        column is non-zero and differs from every other column.  Rows whose target has
+        zero DC gain are reported ``"weak: zero DC gain from fault j"``.
+    """
+    plant = _coerce_plant(plant)
+    faults = _coerce_faults(faults)
+    nf = len(faults)
+    S = as_real_array(structure, "structure")
+    if S.ndim == 1:
+        S = S.reshape(1, -1)
+    if S.ndim != 2 or S.shape[1] != nf:
+        raise ShapeError(
+            f"structure: expected {nf} columns (one per fault), got shape {S.shape}",
+            argument="structure",
+        )
+    if not np.all((S == 0) | (S == 1)):
+        raise GeomFDIError("structure: entries must be 0 or 1", argument="structure")
+    req = S.astype(bool)
+    model = pseudo_actuator_model(plant, faults, method, filter_pole=filter_pole)
+    mg = default_margin(plant.dt) if margin is None else float(margin)
+    rows = req.shape[0]
+    per_row = _row_poles(poles, rows)
+    gens: list[ResidualGenerator | None] = []
+    diags: list[str] = []
+    achieved = np.zeros_like(req)
+    for r in range(rows):
+        tgt = tuple(int(j) for j in np.flatnonzero(req[r]))
+        dec = tuple(int(j) for j in np.flatnonzero(~req[r]))
+        if not tgt:
+            gens.append(None)
+            diags.append("missing: the row requests no fault")
+            continue
+        try:
+            g = _build(plant, faults, model, tgt, dec, per_row[r], mg, minimal, f"row {r}")
+        except NotIsolableError as exc:
+            gens.append(None)
+            diags.append(f"missing: {exc.reason}")
+            continue
+        gens.append(g)
+        achieved[r] = g.info["fault_gain"] > 1e-8
+        weak = [
+            j
+            for j in tgt
+            if np.isfinite(g.info["dc_gain"][j])
+            and g.info["dc_gain"][j] <= 1e-8 * max(g.info["fault_gain"][j], 1e-300)
+        ]
+        if weak:
+            diags.append("weak: zero DC gain from fault " + ", ".join(map(str, weak)))
+        else:
+            diags.append("ok")
+    cols = [tuple(achieved[:, j]) for j in range(nf)]
+    isolable = np.array(
+        [any(cols[j]) and all(cols[j] != cols[i] for i in range(nf) if i != j) for j in range(nf)]
+    )
+    return ResidualBank(
+        generators=gens,
+        requested=req,
+        structure=achieved,
+        isolable=isolable,
+        diagnostics=diags,
+        faults=faults,
+        dt=plant.dt,
+        method=method,
+        info={
+            "design_n": model.n,
+            "filter_pole": model.filter_pole,
+            "notes": model.notes,
+            "margin": mg,
+        },
+    )
+
+
+def design_sensor_bank(
+    plant: Plant,
+    *,
+    method: str = "exact",
+    poles: Any = None,
+    filter_pole: float | None = None,
+    margin: float | None = None,
+    minimal: bool = True,
+) -> ResidualBank:
+    """One residual per sensor, each decoupled from every other sensor (``S_FDI = I``).
+
+    The bank of seed 001 §4.  See :func:`design_bank`.
+
+    Examples
+    --------
+    >>> import geomfdi as gf
+    >>> p = gf.Plant([[1, 1, 1], [0, 1, 0], [2, 0, 1]], [[1, 0, 1], [0, 1, 1], [0, 1, 0]],
+    ...              [[0, 1, 0], [0, 0, 1], [1, 0, 2]])
+    >>> gf.design_sensor_bank(p).isolable.tolist()
+    [True, True, True]
+    >>> gf.design_sensor_bank(p, method="mvw").isolable.tolist()
+    [True, False, False]
+    """
+    plant = _coerce_plant(plant)
+    faults = [SensorFault(i) for i in range(plant.q)]
+    return design_bank(
+        plant,
+        faults,
+        np.eye(plant.q),
+        poles=poles,
+        method=method,
+        filter_pole=filter_pole,
+        margin=margin,
+        minimal=minimal,
+    )

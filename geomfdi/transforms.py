@@ -1,0 +1,200 @@
+"""Sensor fault → pseudo-actuator fault: the three transforms of math.md §2.
+
+The geometric algorithms act on state-side signatures ``L``.  A fault with an output
+part ``Df`` (sensor faults, general faults, disturbances with ``Dd``) must first be
+moved into the state equation:
+
+``"paper"`` (seed 001, eq. 7–10)
+    solve ``C f = Df`` (minimum-norm f; refuse when ``Df ∉ Im C``), ``L = Bf − A f``.
+    Decouples only constant faults in steady state (math.md Erratum 2).
+``"mvw"`` (Massoumnia–Verghese–Willsky 1989)
+    two columns per component ``[Bf − A f, f]`` (the signal and its derivative):
+    exact but conservative.
+``"exact"`` (default)
+    output filter ``z' = −a z + a y`` (discrete ``z⁺ = a z + (1 − a) y``) appended to
+    the plant; the generator measures ``z``, the filter becomes part of the generator,
+    and the output part of a fault becomes the actuator signature ``[Bf; a Df]``.
+    Used only when some fault or disturbance has an output part.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .errors import DesignError
+from .faults import fault_matrices
+from .plant import Plant
+from .subspace import _norm2, pinv
+from .tolerance import get_rtol
+
+__all__ = ["DesignModel", "pseudo_actuator_model", "METHODS", "default_filter_pole"]
+
+METHODS = ("exact", "paper", "mvw")
+
+
+def default_filter_pole(plant: Plant) -> float:
+    """Default output-filter parameter ``a``.
+
+    Continuous: ``a = max(1, rho(A))`` (rho: spectral radius), so the filter is not
+    slower than the plant; discrete: ``a = 0.5``.
+    """
+    if plant.is_discrete:
+        return 0.5
+    rho = float(np.max(np.abs(np.linalg.eigvals(plant.A)))) if plant.n else 0.0
+    return max(1.0, rho)
+
+
+@dataclass
+class DesignModel:
+    """The model the geometry runs on: state-side signatures only.
+
+    Attributes
+    ----------
+    A, B, C, Du : ndarray
+        Dynamics, input, measured output and input feedthrough of the design model
+        (augmented with the filter states for the exact transform).
+    signatures : list of ndarray
+        One ``(n_design, k_j)`` state signature per fault.
+    disturbance : ndarray, (n_design, kd)
+        Signature of the disturbances (always decoupled).
+    method : str
+    filter_pole : float or None
+        ``a`` of the output filter when the plant was augmented, else None.
+    n_plant : int
+        Number of plant states (the first ``n_plant`` design states).
+    notes : list of str
+        What the transform chose (e.g. minimum-norm f_i when Ker C ≠ 0).
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    Du: np.ndarray
+    signatures: list[np.ndarray]
+    disturbance: np.ndarray
+    method: str
+    filter_pole: float | None
+    n_plant: int
+    dt: float
+    notes: list[str] = field(default_factory=list)
+    preimages: list[np.ndarray | None] = field(default_factory=list)
+
+    @property
+    def n(self) -> int:
+        return self.A.shape[0]
+
+    @property
+    def augmented(self) -> bool:
+        return self.filter_pole is not None
+
+
+def _solve_output(C: np.ndarray, Df: np.ndarray, what: str) -> tuple[np.ndarray, bool]:
+    """Minimum-norm f with ``C f = Df``; second value: True if f is not unique."""
+    scale = _norm2(C)
+    f = pinv(C, scale, what="C⁺") @ Df
+    resid = np.linalg.norm(C @ f - Df, 2)
+    if resid > get_rtol(max(C.shape)) * max(scale * _norm2(f), _norm2(Df), 1e-300) * 10:
+        raise DesignError(
+            f"{what}: its output signature is not in Im C, so C f = Df has no solution and the "
+            "'paper'/'mvw' transform does not exist (use method='exact')",
+            argument="faults",
+        )
+    s = np.linalg.svd(C, compute_uv=False)
+    rank = int(np.count_nonzero(s > get_rtol(max(C.shape)) * scale))
+    return f, rank < C.shape[1]
+
+
+def pseudo_actuator_model(
+    plant: Plant, faults: Any, method: str = "exact", *, filter_pole: float | None = None
+) -> DesignModel:
+    """Move every fault's output part into the state equation (math.md §2).
+
+    Parameters
+    ----------
+    plant : Plant
+    faults : list of Fault
+    method : {"exact", "paper", "mvw"}
+    filter_pole : float, optional
+        ``a`` of the output filter (exact method); default :func:`default_filter_pole`.
+
+    Returns
+    -------
+    DesignModel
+    """
+    if method not in METHODS:
+        raise DesignError(f"method: must be one of {METHODS}, got {method!r}", argument="method")
+    sigs = fault_matrices(faults, plant.n, plant.q)
+    A, B, C, D = (np.array(plant.A), np.array(plant.B), np.array(plant.C), np.array(plant.D))
+    Bd, Dd = np.array(plant.Bd), np.array(plant.Dd)
+    notes: list[str] = []
+    preimages: list[np.ndarray | None] = []
+    if method == "exact":
+        needs = any(np.any(Df != 0) for _, Df in sigs) or bool(np.any(Dd != 0))
+        if not needs:
+            return DesignModel(
+                A,
+                B,
+                C,
+                D,
+                [Bf for Bf, _ in sigs],
+                Bd,
+                method,
+                None,
+                plant.n,
+                plant.dt,
+                ["no fault or disturbance has an output part: no filter needed"],
+                [None] * len(sigs),
+            )
+        a = default_filter_pole(plant) if filter_pole is None else float(filter_pole)
+        n, q = plant.n, plant.q
+        if plant.is_discrete:
+            if not 0.0 <= a < 1.0:
+                raise DesignError(
+                    f"filter_pole: must lie in [0, 1) for a discrete plant, got {a}",
+                    argument="filter_pole",
+                )
+            g, Azz = 1.0 - a, a * np.eye(q)
+        else:
+            if not a > 0 or not np.isfinite(a):
+                raise DesignError(
+                    f"filter_pole: must be > 0 for a continuous plant, got {a}",
+                    argument="filter_pole",
+                )
+            g, Azz = a, -a * np.eye(q)
+        Aa = np.block([[A, np.zeros((n, q))], [g * C, Azz]])
+        Ba = np.vstack([B, g * D])
+        Ca = np.hstack([np.zeros((q, n)), np.eye(q)])
+        Du = np.zeros((q, plant.m))
+        La = [np.vstack([Bf, g * Df]) for Bf, Df in sigs]
+        Lda = np.vstack([Bd, g * Dd])
+        notes.append(
+            f"output filter appended ({q} states, a = {a:g}); the generator reads y through it"
+        )
+        return DesignModel(
+            Aa, Ba, Ca, Du, La, Lda, method, a, n, plant.dt, notes, [None] * len(sigs)
+        )
+    # paper / mvw: C f = Df
+    Ls = []
+    for k, (Bf, Df) in enumerate(sigs):
+        if not np.any(Df != 0):
+            Ls.append(Bf)
+            preimages.append(None)
+            continue
+        f, nonunique = _solve_output(C, Df, f"faults[{k}]")
+        if nonunique:
+            notes.append(
+                f"faults[{k}]: C f = Df has many solutions (Ker C ≠ 0); the minimum-norm f "
+                "was used, and S* may depend on this choice"
+            )
+        preimages.append(f)
+        sig = Bf - A @ f
+        Ls.append(np.hstack([sig, f]) if method == "mvw" else sig)
+    if np.any(Dd != 0):
+        f, _ = _solve_output(C, Dd, "Dd (disturbance)")
+        Ld = np.hstack([Bd - A @ f, f]) if method == "mvw" else Bd - A @ f
+    else:
+        Ld = Bd
+    return DesignModel(A, B, C, D, Ls, Ld, method, None, plant.n, plant.dt, notes, preimages)
