@@ -30,7 +30,7 @@ from .errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
 from .faults import Fault, SensorFault
 from .generator import ResidualBank, ResidualGenerator
 from .plant import Plant
-from .realization import minimal_realization
+from .realization import minimal_realization, reachable_subspace
 from .subspace import Subspace, _norm2
 from .transforms import DesignModel, pseudo_actuator_model
 from .unobservability import measurement_map, min_unobservability_subspace
@@ -65,25 +65,44 @@ def _default_targets(bad: np.ndarray, dt: float, margin: float) -> np.ndarray:
     """Where to move eigenvalues that violate the margin.
 
     Continuous: mirror onto the margin line, ``λ → −max(|Re λ|, margin) + i Im λ``;
-    discrete: pull radially onto the circle ``|λ| = margin`` (0 stays 0).  Repeated
-    targets are spread by 10 % steps so that a single-output pair can place them.
+    discrete: pull radially onto the circle ``|λ| = margin`` (0 stays 0).  Nearly real
+    targets are made real and coinciding ones spread by 10 % steps (a single-output
+    pair cannot place a repeated pole).
     """
-    out = []
+    mus = []
     for lam in bad:
         if dt > 0:
             mu = margin * lam / abs(lam) if abs(lam) > 0 else 0.0
         else:
             mu = complex(-max(abs(lam.real), margin), lam.imag)
-        out.append(complex(mu))
-    out = np.array(out, dtype=complex)
-    seen: dict[tuple[float, float], int] = {}
-    for k, mu in enumerate(out):
-        key = (round(mu.real, 9), round(abs(mu.imag), 9))
-        j = seen.get(key, 0)
-        seen[key] = j + 1
-        if j:
-            out[k] = mu * (1 - 0.1 * j) if dt > 0 else complex(mu.real * (1 + 0.1 * j), mu.imag)
-    return out
+        mu = complex(mu)
+        if abs(mu.imag) <= 1e-6 * max(1.0, abs(mu)):
+            mu = complex(mu.real, 0.0)
+        mus.append(mu)
+    reals = [m.real for m in mus if m.imag == 0]
+    uppers = [m for m in mus if m.imag > 0]
+
+    def spread(vals: list, scale) -> list:
+        out: list = []
+        for v in vals:
+            j = sum(1 for w in out if abs(w - v) <= 1e-3 * max(1.0, abs(v)))
+            while any(abs(w - scale(v, j)) <= 1e-3 * max(1.0, abs(v)) for w in out):
+                j += 1
+            out.append(scale(v, j))
+        return out
+
+    if dt > 0:
+
+        def scale(v, j):
+            return v * (1 - 0.1 * j) if j else v
+    else:
+
+        def scale(v, j):
+            return complex(v.real * (1 + 0.1 * j), v.imag) if j else v
+
+    reals = [complex(v).real for v in spread([complex(r) for r in reals], scale)]
+    uppers = spread(uppers, scale)
+    return np.array(reals + [u for v in uppers for u in (v, v.conjugate())], dtype=complex)
 
 
 def _check_spectrum(poles: Any, k: int, dt: float, row: str) -> np.ndarray:
@@ -205,27 +224,70 @@ def _construct(
     }
 
 
-def _deliver(model: DesignModel, c: dict[str, Any], minimal: bool) -> dict[str, np.ndarray]:
-    """The generator on the measured y: wrap the output filter, then reduce."""
+def _deliver(model: DesignModel, c: dict[str, Any], minimal: bool) -> dict[str, Any]:
+    """The generator on the measured y: wrap the output filter, then reduce.
+
+    With filtered channels Φ and raw channels R, the design generator reads
+    ``[y_R; z]``; its states are joined with the filter ``z' = −a z + a y_Φ``
+    (discrete ``z⁺ = a z + (1 − a) y_Φ``)::
+
+        [w; z]' = [[F, −E_z], [0, −a I]] [w; z] − [E_R y_R ; −a y_Φ] + [G; 0] u
+        r       = [M, −H_z] [w; z] − H_R y_R + K u
+    """
     F, E, G, M, H, K = (c[x] for x in "FEGMHK")
+    q = len(model.raw) + len(model.filtered)
     if model.augmented:
-        a, q = model.filter_pole, model.C.shape[0]
-        g, Azz = ((1.0 - a), a * np.eye(q)) if model.dt > 0 else (a, -a * np.eye(q))
+        a = model.filter_pole
+        nr, nz = len(model.raw), len(model.filtered)
+        g, Azz = ((1.0 - a), a * np.eye(nz)) if model.dt > 0 else (a, -a * np.eye(nz))
         k = F.shape[0]
-        F = np.block([[F, -E], [np.zeros((q, k)), Azz]])
-        E = np.vstack([np.zeros((k, q)), -g * np.eye(q)])
-        G = np.vstack([G, np.zeros((q, G.shape[1]))])
-        M = np.hstack([M, -H])
-        H = np.zeros((M.shape[0], q))
-        K = np.zeros((M.shape[0], G.shape[1]))
-    q = E.shape[1]
+        ER, Ez = E[:, :nr], E[:, nr:]
+        HR, Hz = H[:, :nr], H[:, nr:]
+        Fn = np.block([[F, -Ez], [np.zeros((nz, k)), Azz]])
+        En = np.zeros((k + nz, q))
+        En[:k, list(model.raw)] = ER
+        En[k:, list(model.filtered)] = -g * np.eye(nz)
+        Hn = np.zeros((M.shape[0], q))
+        Hn[:, list(model.raw)] = HR
+        F, E, H = Fn, En, Hn
+        G = np.vstack([G, np.zeros((nz, G.shape[1]))])
+        M = np.hstack([M, -Hz])
     full_order = F.shape[0]
+    removed = 0
     if minimal:
         mr = minimal_realization(F, np.hstack([-E, G]), M, np.hstack([-H, K]))
         F, Bm, M, Dm = mr.A, mr.B, mr.C, mr.D
         E, G = -Bm[:, :q], Bm[:, q:]
         H, K = -Dm[:, :q], Dm[:, q:]
-    return {"F": F, "E": E, "G": G, "M": M, "H": H, "K": K, "full_order": full_order}
+        removed = mr.removed
+    return {
+        "F": F,
+        "E": E,
+        "G": G,
+        "M": M,
+        "H": H,
+        "K": K,
+        "full_order": full_order,
+        "removed": removed,
+    }
+
+
+def _design_transfer_zero(model: DesignModel, c: dict[str, Any], j: int) -> bool:
+    """Is the design-model transfer from fault j identically zero?
+
+    ``e' = F e − (P L_j + E Df_j) f``, ``r = M e − H Df_j f`` (Df_j: raw feedthrough).
+    """
+    Lj = model.signatures[j]
+    Dfj = model.feedthrough[j] if model.feedthrough else np.zeros((model.C.shape[0], Lj.shape[1]))
+    b = c["P"] @ Lj + c["E"] @ Dfj
+    d = c["H"] @ Dfj
+    scale = max(_norm2(c["P"]) * _norm2(Lj) + _norm2(c["E"]) * _norm2(Dfj), 1e-300)
+    if _norm2(d) > 1e-9 * max(_norm2(c["H"]) * _norm2(Dfj), 1e-300):
+        return False
+    if _norm2(b) <= 1e-9 * scale:
+        return True
+    V = reachable_subspace(c["F"], b).basis
+    return _norm2(c["M"] @ V) <= 1e-9 * max(_norm2(c["M"]), 1e-300)
 
 
 # ------------------------------------------------------------ front ends
@@ -262,7 +324,7 @@ def _coerce_faults(faults: Any) -> list[Fault]:
 def _existence(
     model: DesignModel, target: Sequence[int], decouple: Sequence[int]
 ) -> tuple[Any, list[str]]:
-    """S*_J and, per target, why it cannot be seen ('' when it can)."""
+    """S*_J and, per target, why it cannot be seen ('' when it may be)."""
     n = model.n
     cols = [model.signatures[j] for j in decouple] + [model.disturbance]
     L = np.hstack(cols) if cols else np.zeros((n, 0))
@@ -270,14 +332,17 @@ def _existence(
     reasons = []
     for j in target:
         Lj = model.signatures[j]
-        if Lj.size == 0 or _norm2(Lj) == 0:
+        direct = bool(model.feedthrough) and _norm2(model.feedthrough[j]) > 0
+        if direct:
+            reasons.append("")
+        elif Lj.size == 0 or _norm2(Lj) == 0:
             reasons.append(f"fault {j}: L_{j} = 0 (it does not act on the design model)")
         elif S.dim == n:
             reasons.append(f"fault {j}: dim S* = n = {n}: decoupling the others leaves nothing")
         elif S.contains(Subspace(Lj)):
             reasons.append(
-                f"fault {j}: Im L_{j} ⊆ S* (dim {S.dim}): it is not isolable from "
-                f"faults {list(decouple)}"
+                f"fault {j}: Im L_{j} ⊆ S* (dim {S.dim}): it is not isolable from faults "
+                f"{list(decouple)}"
             )
         else:
             reasons.append("")
@@ -287,7 +352,8 @@ def _existence(
 def _build(
     plant: Plant,
     faults: list[Fault],
-    model: DesignModel,
+    method: str,
+    filter_pole: float | None,
     target: tuple[int, ...],
     decouple: tuple[int, ...],
     poles: Any,
@@ -295,13 +361,25 @@ def _build(
     minimal: bool,
     row: str,
 ) -> ResidualGenerator:
+    model = pseudo_actuator_model(plant, faults, method, decouple=decouple, filter_pole=filter_pole)
     S, reasons = _existence(model, target, decouple)
     why = [r for r in reasons if r]
+    if not why and S.dim == model.n:
+        why = [f"dim S* = n = {model.n}: decoupling faults {list(decouple)} leaves nothing"]
     if why:
         raise NotIsolableError(
             f"{row}: no residual exists: " + "; ".join(why), reason="; ".join(why)
         )
     c = _construct(model, S, poles, margin, row)
+    unseen = [j for j in target if _design_transfer_zero(model, c, j)]
+    if unseen:
+        why = [
+            f"fault {j}: not seen (Im L_{j} ⊆ S* and its direct output part is annihilated by H)"
+            for j in unseen
+        ]
+        raise NotIsolableError(
+            f"{row}: no residual exists: " + "; ".join(why), reason="; ".join(why)
+        )
     d = _deliver(model, c, minimal)
     info = {
         "S_dim": S.dim,
@@ -311,13 +389,16 @@ def _build(
         "min_gap": S.min_gap,
         "quotient_order": c["F"].shape[0],
         "full_order": d["full_order"],
+        "removed_states": d["removed"],
         "design_n": model.n,
-        "filter_pole": model.filter_pole,
+        "filter_pole": model.filter_pole if model.augmented else None,
+        "filtered_channels": model.filtered,
         "P": c["P"],
         "identities": c["identities"],
         "poles": c["placement"]["computed_poles"],
         "placement": c["placement"],
         "transform_notes": model.notes,
+        "faults": list(faults),
         "construction": {k: c[k] for k in ("F", "E", "G", "M", "H", "K", "P", "D0", "D1")},
     }
     g = ResidualGenerator(
@@ -430,9 +511,8 @@ def design_residual_generator(
     both = set(tgt) & set(dec)
     if both:
         raise GeomFDIError(f"decouple: faults {sorted(both)} are also targets", argument="decouple")
-    model = pseudo_actuator_model(plant, faults, method, filter_pole=filter_pole)
     mg = default_margin(plant.dt) if margin is None else float(margin)
-    return _build(plant, faults, model, tgt, dec, poles, mg, minimal, "the residual")
+    return _build(plant, faults, method, filter_pole, tgt, dec, poles, mg, minimal, "the residual")
 
 
 def _row_poles(poles: Any, rows: int) -> list[Any]:
@@ -516,7 +596,9 @@ def design_bank(
             diags.append("missing: the row requests no fault")
             continue
         try:
-            g = _build(plant, faults, model, tgt, dec, per_row[r], mg, minimal, f"row {r}")
+            g = _build(
+                plant, faults, method, filter_pole, tgt, dec, per_row[r], mg, minimal, f"row {r}"
+            )
         except NotIsolableError as exc:
             gens.append(None)
             diags.append(f"missing: {exc.reason}")

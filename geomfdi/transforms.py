@@ -11,10 +11,14 @@ moved into the state equation:
     two columns per component ``[Bf − A f, f]`` (the signal and its derivative):
     exact but conservative.
 ``"exact"`` (default)
-    output filter ``z' = −a z + a y`` (discrete ``z⁺ = a z + (1 − a) y``) appended to
-    the plant; the generator measures ``z``, the filter becomes part of the generator,
-    and the output part of a fault becomes the actuator signature ``[Bf; a Df]``.
-    Used only when some fault or disturbance has an output part.
+    output filter ``z' = −a z + a y_F`` (discrete ``z⁺ = a z + (1 − a) y_F``) appended
+    to the plant on the channels F that carry the output part of a fault to be
+    decoupled or of a disturbance; the generator measures ``z`` instead of ``y_F`` (the
+    filter becomes part of the generator) and the output part of a fault becomes the
+    actuator signature ``[Bf; a Df_F]``.  The other channels R are read raw, so a
+    target fault's output part on them stays a direct feedthrough ``Df_R``.  Filtering
+    only F keeps the delivered order minimal (e.g. order 1 for sensor 1 of seed 001's
+    example).
 """
 
 from __future__ import annotations
@@ -82,13 +86,17 @@ class DesignModel:
     notes: list[str] = field(default_factory=list)
     preimages: list[np.ndarray | None] = field(default_factory=list)
 
+    feedthrough: list[np.ndarray] = field(default_factory=list)
+    raw: tuple[int, ...] = ()
+    filtered: tuple[int, ...] = ()
+
     @property
     def n(self) -> int:
         return self.A.shape[0]
 
     @property
     def augmented(self) -> bool:
-        return self.filter_pole is not None
+        return self.filter_pole is not None and len(self.filtered) > 0
 
 
 def _solve_output(C: np.ndarray, Df: np.ndarray, what: str) -> tuple[np.ndarray, bool]:
@@ -108,15 +116,23 @@ def _solve_output(C: np.ndarray, Df: np.ndarray, what: str) -> tuple[np.ndarray,
 
 
 def pseudo_actuator_model(
-    plant: Plant, faults: Any, method: str = "exact", *, filter_pole: float | None = None
+    plant: Plant,
+    faults: Any,
+    method: str = "exact",
+    *,
+    decouple: Any = None,
+    filter_pole: float | None = None,
 ) -> DesignModel:
-    """Move every fault's output part into the state equation (math.md §2).
+    """Move the output part of faults into the state equation (math.md §2).
 
     Parameters
     ----------
     plant : Plant
     faults : list of Fault
     method : {"exact", "paper", "mvw"}
+    decouple : sequence of int, optional
+        Faults to be decoupled; with the exact method only the output channels they
+        (and the disturbances) touch are filtered.  Default: every fault.
     filter_pole : float, optional
         ``a`` of the output filter (exact method); default :func:`default_filter_pole`.
 
@@ -131,9 +147,16 @@ def pseudo_actuator_model(
     Bd, Dd = np.array(plant.Bd), np.array(plant.Dd)
     notes: list[str] = []
     preimages: list[np.ndarray | None] = []
+    n, q = plant.n, plant.q
     if method == "exact":
-        needs = any(np.any(Df != 0) for _, Df in sigs) or bool(np.any(Dd != 0))
-        if not needs:
+        dec = range(len(sigs)) if decouple is None else decouple
+        touched = np.zeros(q, dtype=bool)
+        for j in dec:
+            touched |= np.any(sigs[j][1] != 0, axis=1)
+        touched |= np.any(Dd != 0, axis=1) if Dd.size else False
+        filt = tuple(int(i) for i in np.flatnonzero(touched))
+        raw = tuple(int(i) for i in np.flatnonzero(~touched))
+        if not filt:
             return DesignModel(
                 A,
                 B,
@@ -143,38 +166,58 @@ def pseudo_actuator_model(
                 Bd,
                 method,
                 None,
-                plant.n,
+                n,
                 plant.dt,
-                ["no fault or disturbance has an output part: no filter needed"],
+                ["no decoupled fault or disturbance has an output part: no filter needed"],
                 [None] * len(sigs),
+                [Df for _, Df in sigs],
+                tuple(range(q)),
+                (),
             )
         a = default_filter_pole(plant) if filter_pole is None else float(filter_pole)
-        n, q = plant.n, plant.q
+        nf_ = len(filt)
         if plant.is_discrete:
             if not 0.0 <= a < 1.0:
                 raise DesignError(
                     f"filter_pole: must lie in [0, 1) for a discrete plant, got {a}",
                     argument="filter_pole",
                 )
-            g, Azz = 1.0 - a, a * np.eye(q)
+            g, Azz = 1.0 - a, a * np.eye(nf_)
         else:
             if not a > 0 or not np.isfinite(a):
                 raise DesignError(
                     f"filter_pole: must be > 0 for a continuous plant, got {a}",
                     argument="filter_pole",
                 )
-            g, Azz = a, -a * np.eye(q)
-        Aa = np.block([[A, np.zeros((n, q))], [g * C, Azz]])
-        Ba = np.vstack([B, g * D])
-        Ca = np.hstack([np.zeros((q, n)), np.eye(q)])
-        Du = np.zeros((q, plant.m))
-        La = [np.vstack([Bf, g * Df]) for Bf, Df in sigs]
-        Lda = np.vstack([Bd, g * Dd])
+            g, Azz = a, -a * np.eye(nf_)
+        fi, ri = list(filt), list(raw)
+        Aa = np.block([[A, np.zeros((n, nf_))], [g * C[fi], Azz]])
+        Ba = np.vstack([B, g * D[fi]])
+        Ca = np.block([[C[ri], np.zeros((len(ri), nf_))], [np.zeros((nf_, n)), np.eye(nf_)]])
+        Du = np.vstack([D[ri], np.zeros((nf_, plant.m))])
+        La = [np.vstack([Bf, g * Df[fi]]) for Bf, Df in sigs]
+        Lda = np.vstack([Bd, g * Dd[fi]])
+        ft = [np.vstack([Df[ri], np.zeros((nf_, Df.shape[1]))]) for _, Df in sigs]
         notes.append(
-            f"output filter appended ({q} states, a = {a:g}); the generator reads y through it"
+            f"output filter on channels {list(filt)} (a = {a:g}); the generator reads them "
+            f"through it and channels {list(raw)} raw"
         )
         return DesignModel(
-            Aa, Ba, Ca, Du, La, Lda, method, a, n, plant.dt, notes, [None] * len(sigs)
+            Aa,
+            Ba,
+            Ca,
+            Du,
+            La,
+            Lda,
+            method,
+            a,
+            n,
+            plant.dt,
+            notes,
+            [None] * len(sigs),
+            ft,
+            raw,
+            filt,
         )
     # paper / mvw: C f = Df
     Ls = []
@@ -197,4 +240,7 @@ def pseudo_actuator_model(
         Ld = np.hstack([Bd - A @ f, f]) if method == "mvw" else Bd - A @ f
     else:
         Ld = Bd
-    return DesignModel(A, B, C, D, Ls, Ld, method, None, plant.n, plant.dt, notes, preimages)
+    zeros = [np.zeros((q, Df.shape[1])) for _, Df in sigs]
+    return DesignModel(
+        A, B, C, D, Ls, Ld, method, None, n, plant.dt, notes, preimages, zeros, tuple(range(q)), ()
+    )

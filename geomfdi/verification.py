@@ -381,17 +381,26 @@ def _exact_design(g: ResidualGenerator, plant: Plant, faults: list[Fault]) -> di
     ]
     n, q, m = plant.n, plant.q, plant.m
     a = g.info.get("filter_pole")
-    if g.method == "exact" and a is not None:
-        a = sp.nsimplify(float(a), rational=True, tolerance=1e-12)
-        gg, Azz = ((1 - a), a * sp.eye(q)) if plant.dt > 0 else (a, -a * sp.eye(q))
-        Ad = sp.BlockMatrix([[A, sp.zeros(n, q)], [gg * C, Azz]]).as_explicit()
-        Bdm = B.col_join(gg * D)
-        Cd = sp.zeros(q, n).row_join(sp.eye(q))
-        Du = sp.zeros(q, m)
-        Ls = [Bf.col_join(gg * Df) for Bf, Df in sigs]
-        Ldist = Bd.col_join(gg * Dd)
+    filt = list(g.info.get("filtered_channels", ()))
+    raw = [i for i in range(q) if i not in filt]
+    if g.method == "exact" and a is not None and filt:
+        a = sp.Rational(float(a)).limit_denominator(10**6)
+        nz = len(filt)
+        gg, Azz = ((1 - a), a * sp.eye(nz)) if plant.dt > 0 else (a, -a * sp.eye(nz))
+
+        def rows_of(X, idx):
+            return X.extract(idx, list(range(X.cols))) if idx else sp.zeros(0, X.cols)
+
+        Ad = sp.BlockMatrix([[A, sp.zeros(n, nz)], [gg * rows_of(C, filt), Azz]]).as_explicit()
+        Bdm = B.col_join(gg * rows_of(D, filt))
+        Cd = sp.BlockMatrix(
+            [[rows_of(C, raw), sp.zeros(len(raw), nz)], [sp.zeros(nz, n), sp.eye(nz)]]
+        ).as_explicit()
+        Du = rows_of(D, raw).col_join(sp.zeros(nz, m))
+        Ls = [Bf.col_join(gg * rows_of(Df, filt)) for Bf, Df in sigs]
+        Ldist = Bd.col_join(gg * rows_of(Dd, filt))
     else:
-        Ad, Bdm, Cd, Du, a = A, B, C, D, None
+        Ad, Bdm, Cd, Du, a, raw, filt = A, B, C, D, None, list(range(q)), []
         Cp = C.pinv()
 
         def move(Bf, Df):
@@ -423,14 +432,21 @@ def _exact_design(g: ResidualGenerator, plant: Plant, faults: list[Fault]) -> di
     G = P * Bdm + E * Du
     K = H * Du
     if a is not None:
-        k = F.rows
-        gg, Azz = ((1 - a), a * sp.eye(q)) if plant.dt > 0 else (a, -a * sp.eye(q))
-        F = sp.BlockMatrix([[F, -E], [sp.zeros(q, k), Azz]]).as_explicit()
-        E = sp.zeros(k, q).col_join(-gg * sp.eye(q))
-        G = G.col_join(sp.zeros(q, m))
-        M = M.row_join(-H)
-        H = sp.zeros(M.rows, q)
-        K = sp.zeros(M.rows, m)
+        k, nr, nz = F.rows, len(raw), len(filt)
+        gg, Azz = ((1 - a), a * sp.eye(nz)) if plant.dt > 0 else (a, -a * sp.eye(nz))
+        ER, Ez = E[:, :nr], E[:, nr:]
+        HR, Hz = H[:, :nr], H[:, nr:]
+        Fn = sp.BlockMatrix([[F, -Ez], [sp.zeros(nz, k), Azz]]).as_explicit()
+        En = sp.zeros(k + nz, q)
+        Hn = sp.zeros(M.rows, q)
+        for c_, i in enumerate(raw):
+            En[:k, i] = ER[:, c_]
+            Hn[:, i] = HR[:, c_]
+        for c_, i in enumerate(filt):
+            En[k + c_, i] = -gg
+        G = G.col_join(sp.zeros(nz, m))
+        M = M.row_join(-Hz)
+        F, E, H = Fn, En, Hn
     return {
         "F": F,
         "E": E,
