@@ -132,6 +132,37 @@ class ResidualGenerator:
             info={**self.info, "scale": self.info.get("scale", 1.0) * c},
         )
 
+    def normalized(self, kind: str = "dc") -> ResidualGenerator:
+        """The generator rescaled so that its response to its (first) target is unit.
+
+        Parameters
+        ----------
+        kind : {"dc", "markov"}
+            ``"dc"``: unit DC gain from the target fault on the physical model.
+            ``"markov"``: unit first non-zero Markov parameter of the target's transfer
+            on the design model, ``−H Df_j`` or ``−M F^k (P L_j + E Df_j)`` — the
+            normalisation of seed 001's example (M = 1 and ``p_j L_j = ±1`` for its rows
+            p_1 = (0,1,0), p_2 = (−2,2,1), p_3 = (−3,3,1)).
+        """
+        if not self.target:
+            raise GeomFDIError("normalized: the generator has no target fault", argument="kind")
+        j = self.target[0]
+        if kind == "dc":
+            dc = self.info.get("dc_gain")
+            value = None if dc is None else float(dc[j])
+            what = "DC gain"
+        elif kind == "markov":
+            value = self.info.get("markov_gain")
+            what = "first Markov parameter"
+        else:
+            raise GeomFDIError(f"kind: must be 'dc' or 'markov', got {kind!r}", argument="kind")
+        if value is None or not np.isfinite(value) or value <= 0:
+            raise GeomFDIError(
+                f"kind: cannot normalise by the {what} (value {value}); choose another kind",
+                argument="kind",
+            )
+        return self.scaled(1.0 / value)
+
     def to_statespace(self) -> Any:
         """python-control ``StateSpace`` with inputs ``[y; u]`` and outputs ``r``.
 
@@ -206,6 +237,21 @@ class ResidualBank:
     @property
     def n_residuals(self) -> int:
         return len(self.generators)
+
+    def normalized(self, kind: str = "dc") -> ResidualBank:
+        """Every generator rescaled with :meth:`ResidualGenerator.normalized`."""
+        gens = [None if g is None else g.normalized(kind) for g in self.generators]
+        return ResidualBank(
+            gens,
+            self.requested,
+            self.structure,
+            self.isolable,
+            self.diagnostics,
+            self.faults,
+            self.dt,
+            self.method,
+            {**self.info, "normalized": kind},
+        )
 
     @property
     def n_faults(self) -> int:

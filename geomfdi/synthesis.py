@@ -321,6 +321,30 @@ def _coerce_faults(faults: Any) -> list[Fault]:
     return out
 
 
+def _first_markov(model: DesignModel, c: dict[str, Any], j: int) -> float:
+    """Norm of the first non-zero Markov parameter of fault j's design-model transfer.
+
+    ``h_0 = −H Df_j``, ``h_k = −M F^{k−1} (P L_j + E Df_j)`` (k ≥ 1).
+    """
+    Dfj = model.feedthrough[j] if model.feedthrough else 0.0 * model.signatures[j][:0]
+    if isinstance(Dfj, np.ndarray) and Dfj.size:
+        h0 = c["H"] @ Dfj
+        if _norm2(h0) > 1e-9 * max(_norm2(c["H"]) * _norm2(Dfj), 1e-300):
+            return _norm2(h0)
+        b = c["P"] @ model.signatures[j] + c["E"] @ Dfj
+    else:
+        b = c["P"] @ model.signatures[j]
+    ref = max(_norm2(c["M"]) * _norm2(b), 1e-300)
+    v = b
+    for _ in range(c["F"].shape[0]):
+        h = c["M"] @ v
+        if _norm2(h) > 1e-9 * ref:
+            return _norm2(h)
+        v = c["F"] @ v
+        ref *= max(_norm2(c["F"]), 1.0)
+    return 0.0
+
+
 def _existence(
     model: DesignModel, target: Sequence[int], decouple: Sequence[int]
 ) -> tuple[Any, list[str]]:
@@ -382,6 +406,7 @@ def _build(
         )
     d = _deliver(model, c, minimal)
     info = {
+        "markov_gain": _first_markov(model, c, target[0]),
         "S_dim": S.dim,
         "S_history": S.history,
         "W_dim": S.W.dim,
