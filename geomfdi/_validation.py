@@ -49,6 +49,8 @@ def as_real_array(value: Any, name: str) -> np.ndarray:
     except Exception as exc:  # ragged nested lists
         raise ShapeError(f"{name}: cannot be read as an array ({exc})", argument=name) from exc
     if arr.dtype == object:
+        if any(x is None or isinstance(x, str | bytes) for x in arr.flat):
+            raise GeomFDIError(f"{name}: entries must be numbers, got None or text", argument=name)
         try:
             arr = arr.astype(complex)
         except (TypeError, ValueError) as exc:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validation import as_matrix
+from ._validation import as_matrix, as_real_array
 from .errors import ShapeError
 from .subspace import Subspace, apply, intersect_kernel, pinv
 from .tolerance import GAP_WARN, CloseRankWarning, RankDecision, record_decisions
@@ -206,6 +206,14 @@ def friend(A: Any, C: Any, S: Any) -> np.ndarray:
     return -Q @ (Q.T @ A @ Sb @ pinv(CS, float(np.linalg.norm(C, 2)), what="(C S)⁺"))
 
 
+def _as_block(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
+    """A real array of ``shape`` (any array with as many entries is reshaped)."""
+    arr = as_real_array(value, name)
+    if arr.size != shape[0] * shape[1]:
+        raise ShapeError(f"{name}: expected shape {shape}, got shape {arr.shape}", argument=name)
+    return arr.reshape(shape)
+
+
 @dataclass(frozen=True)
 class FriendSet:
     """All output injections D with ``(A + D C) S ⊆ S``: an affine set.
@@ -233,8 +241,8 @@ class FriendSet:
 
     def member(self, X: Any, Y: Any) -> np.ndarray:
         """The friend ``D0 + S X + Q Y Zᵀ``."""
-        X = np.asarray(X, dtype=float).reshape(self.S.shape[1], self.D0.shape[1])
-        Y = np.asarray(Y, dtype=float).reshape(self.Q.shape[1], self.Z.shape[1])
+        X = _as_block(X, "X", (self.S.shape[1], self.D0.shape[1]))
+        Y = _as_block(Y, "Y", (self.Q.shape[1], self.Z.shape[1]))
         return self.D0 + self.S @ X + self.Q @ Y @ self.Z.T
 
     def random(self, rng: np.random.Generator | int | None = None) -> np.ndarray:

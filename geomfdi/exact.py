@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .errors import DesignError, GeomFDIError, ShapeError
+from .errors import ComplexInputError, DesignError, GeomFDIError, NonFiniteError, ShapeError
 
 __all__ = [
     "to_rational",
@@ -41,26 +41,39 @@ def _rational_entry(x: Any, name: str) -> sp.Rational:
     if isinstance(x, sp.Basic):
         if x.is_Rational:
             return sp.Rational(x)
-        if x.is_Float:
+        if x.is_Float and x.is_finite:
             return sp.Rational(repr(float(x)))
+        if x in (sp.nan, sp.oo, -sp.oo, sp.zoo) or x.is_Float:
+            raise NonFiniteError(f"{name}: entries must be finite, got {x}", argument=name)
+        if x.is_number and not x.is_real:
+            raise ComplexInputError(f"{name}: must be real, got complex entries", argument=name)
         raise GeomFDIError(f"{name}: entries must be rational numbers, got {x}", argument=name)
-    if isinstance(x, bool):
+    if isinstance(x, bool | str | bytes):
         raise GeomFDIError(f"{name}: entries must be numbers, got {x!r}", argument=name)
+    if isinstance(x, list | tuple | np.ndarray):
+        raise ShapeError(
+            f"{name}: cannot be read as a matrix (rows of different lengths or nesting too deep)",
+            argument=name,
+        )
     if isinstance(x, int | np.integer):
         return sp.Integer(int(x))
     if isinstance(x, complex | np.complexfloating):
-        raise GeomFDIError(f"{name}: must be real, got complex entries", argument=name)
+        raise ComplexInputError(f"{name}: must be real, got complex entries", argument=name)
     try:
         f = float(x)
     except (TypeError, ValueError) as exc:
         raise GeomFDIError(f"{name}: entries must be numbers, got {x!r}", argument=name) from exc
     if not np.isfinite(f):
-        raise GeomFDIError(f"{name}: entries must be finite, got {f}", argument=name)
+        raise NonFiniteError(f"{name}: entries must be finite, got {f}", argument=name)
     return sp.Rational(repr(f))
 
 
 def to_rational(M: Any, name: str = "M", *, rows: int | None = None) -> sp.Matrix:
     """Convert ``M`` to a sympy Matrix of exact rationals (a 1-D input is a column)."""
+    if M is None:
+        raise GeomFDIError(f"{name}: a value is required, got None", argument=name)
+    if isinstance(M, str | bytes):
+        raise GeomFDIError(f"{name}: entries must be numbers, got {M!r}", argument=name)
     if isinstance(M, sp.MatrixBase):
         data = M.tolist()
     else:
@@ -177,7 +190,11 @@ def _prepare(A: Any, C: Any, L: Any) -> tuple[sp.Matrix, sp.Matrix, ExactSubspac
     else:
         if hasattr(L, "basis") and not isinstance(L, sp.MatrixBase):  # a numeric Subspace
             L = L.basis
-        Lm = to_rational(L, "L", rows=n) if np.size(L) else sp.zeros(n, 0)
+        Lm = to_rational(L, "L")
+        if Lm.cols == 0:
+            Lm = sp.zeros(n, 0)
+        elif Lm.rows != n:
+            raise ShapeError(f"L: expected {n} rows, got shape {Lm.shape}", argument="L")
         Ls = ExactSubspace(Lm, n)
     return A, C, Ls
 
@@ -200,7 +217,24 @@ def min_conditioned_invariant(A: Any, C: Any, L: Any) -> ExactSubspace:
 
 
 def min_unobservability_subspace(A: Any, C: Any, L: Any) -> ExactSubspace:
-    """S* in exact arithmetic: ``Z_0 = Q^n, Z_k = W* + A⁻¹(Z_{k-1}) ∩ Ker C`` (eq. 15)."""
+    """S* in exact arithmetic: ``Z_0 = Q^n, Z_k = W* + A⁻¹(Z_{k-1}) ∩ Ker C`` (eq. 15).
+
+    Returns an :class:`ExactSubspace` with the canonical rational basis, ``history`` and
+    ``W`` (the exact W*).
+
+    Examples
+    --------
+    Seed 001, §4: S* of the signatures ``L_2, L_3`` is spanned by e1 and e3.
+
+    >>> import geomfdi as gf
+    >>> A = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]
+    >>> C = [[0, 1, 0], [0, 0, 1], [1, 0, 2]]
+    >>> S = gf.exact.min_unobservability_subspace(A, C, [[1, -1], [0, 0], [3, -2]])
+    >>> S.basis.T, S.history, S.W.history
+    (Matrix([
+    [1, 0, 0],
+    [0, 0, 1]]), [3, 2, 2], [2, 2])
+    """
     A, C, Ls = _prepare(A, C, L)
     W = min_conditioned_invariant(A, C, Ls)
     n = A.rows

@@ -99,7 +99,7 @@ class SensorFault(Fault):
     def signatures(
         self, n: int, q: int, *, argument: str = "fault"
     ) -> tuple[np.ndarray, np.ndarray]:
-        as_index(self.i, f"{argument}.i (sensor index)", q)
+        as_index(self.i, f"{argument}.i", q)
         Df = np.zeros((q, 1))
         Df[self.i, 0] = 1.0
         return np.zeros((n, 1)), Df

@@ -6,14 +6,14 @@ from typing import Any
 
 import numpy as np
 
-from ._validation import as_matrix
+from ._validation import as_int, as_matrix
 from .errors import GeomFDIError, ShapeError
 
 __all__ = ["Plant"]
 
 
 def _as_dt(dt: Any) -> float:
-    if isinstance(dt, bool) or dt is None:
+    if isinstance(dt, bool | str | bytes) or dt is None:
         raise GeomFDIError(
             f"dt: must be 0 (continuous time) or a positive sampling period, got {dt!r}",
             argument="dt",
@@ -163,8 +163,8 @@ class Plant:
             )
         B = np.asarray(sys.B, dtype=float)
         D = np.asarray(sys.D, dtype=float)
-        k = int(n_disturbances)
-        if not 0 <= k <= B.shape[1]:
+        k = as_int(n_disturbances, "n_disturbances", minimum=0)
+        if k > B.shape[1]:
             raise GeomFDIError(
                 f"n_disturbances: must be in 0..{B.shape[1]}, got {n_disturbances}",
                 argument="n_disturbances",

@@ -3,7 +3,8 @@
 Every subspace of R^n is stored as an orthonormal basis (n x k) obtained from an SVD.
 Each operation is a small function, in the manner of the Basile–Marro toolbox
 (``ima``, ``ker``, ``sums``, ``ints``, ``invt``), so that the invariant-subspace
-algorithms in :mod:`geomfdi.invariants` read like the recursions they implement.
+algorithms in :mod:`geomfdi.conditioned_invariant` and
+:mod:`geomfdi.unobservability` read like the recursions they implement.
 
 All rank decisions go through :func:`geomfdi.tolerance.rank_decision`: a singular value
 counts when it exceeds ``rtol * scale`` where ``scale`` is the norm of the operator that
@@ -133,10 +134,12 @@ class Subspace:
     # ----------------------------------------------------------- operations
     def _check_same(self, other: Subspace, op: str) -> None:
         if not isinstance(other, Subspace):
-            raise GeomFDIError(f"{op}: expected a Subspace, got {type(other).__name__}")
+            raise GeomFDIError(
+                f"other: {op} expects a Subspace, got {type(other).__name__}", argument="other"
+            )
         if other.n != self.n:
             raise ShapeError(
-                f"{op}: subspaces live in R^{self.n} and R^{other.n}", argument="other"
+                f"other: {op} of subspaces of R^{self.n} and R^{other.n}", argument="other"
             )
 
     def __add__(self, other: Subspace) -> Subspace:
@@ -155,7 +158,7 @@ class Subspace:
     def contains(self, other: Subspace | Any) -> bool:
         """Inclusion test ``other ⊆ self``: ``(I - Q Qᵀ) Q_other`` has rank 0."""
         if not isinstance(other, Subspace):
-            other = Subspace(other)
+            other = _to_subspace(other, "other")
         self._check_same(other, "contains")
         if other.dim == 0:
             return True
@@ -196,6 +199,16 @@ class Subspace:
 
 
 # ------------------------------------------------------------ free functions
+def _to_subspace(value: Any, name: str) -> Subspace:
+    """``value`` if it is a Subspace, else the span of its columns (errors name ``name``)."""
+    if isinstance(value, Subspace):
+        return value
+    arr = as_matrix(value, name, allow_empty=True, vector_as="column")
+    if arr.shape[0] == 0:
+        raise ShapeError(f"{name}: the ambient dimension must be at least 1", argument=name)
+    return Subspace(arr)
+
+
 def image(M: Any) -> Subspace:
     """``Im M``, the column space of ``M``."""
     return Subspace(M)
@@ -209,16 +222,21 @@ def kernel(M: Any) -> Subspace:
     return Subspace.from_orthonormal(_null_basis(arr, _norm2(arr), "kernel"))
 
 
-def apply(A: np.ndarray, S: Subspace) -> Subspace:
+def apply(A: Any, S: Subspace) -> Subspace:
     """``A S`` = Im(A Q_S), rank decided on the un-normalised product against ``||A||``."""
+    S = _to_subspace(S, "S")
+    A = as_matrix(A, "A", cols=S.n, allow_empty=True)
+    if A.shape[0] == 0:
+        raise ShapeError(f"A: must have at least one row, got shape {A.shape}", argument="A")
     return Subspace(A @ S.basis, scale=_norm2(A))
 
 
 def preimage(A: Any, S: Subspace) -> Subspace:
     """``A⁻¹ S`` = {x : A x ∈ S} = Ker(Q_⊥ᵀ A) (A need not be invertible)."""
     arr = as_matrix(A, "A", allow_empty=True)
-    if not isinstance(S, Subspace):
-        S = Subspace(S)
+    S = _to_subspace(S, "S")
+    if arr.shape[1] == 0:
+        raise ShapeError(f"A: must have at least one column, got shape {arr.shape}", argument="A")
     if arr.shape[0] != S.n:
         raise ShapeError(
             f"A: expected {S.n} rows to map into R^{S.n}, got shape {arr.shape}", argument="A"
@@ -245,7 +263,23 @@ def preimage_in_kernel(A: np.ndarray, S: Subspace, C: np.ndarray) -> Subspace:
 
 
 def principal_angles(S: Subspace, T: Subspace) -> np.ndarray:
-    """Principal angles between two subspaces (``scipy.linalg.subspace_angles``)."""
+    """Principal angles between two subspaces (``scipy.linalg.subspace_angles``).
+
+    Returns ``min(dim S, dim T)`` angles in radians, in descending order (empty when
+    either subspace is zero).  Array arguments are read as spanning columns.
+
+    Examples
+    --------
+    >>> import geomfdi as gf
+    >>> S = gf.Subspace([[1], [0]])
+    >>> T = gf.Subspace([[1], [1]])
+    >>> round(float(gf.principal_angles(S, T)[0]), 6)  # pi / 4
+    0.785398
+    """
+    S = _to_subspace(S, "S")
+    T = _to_subspace(T, "T")
+    if S.n != T.n:
+        raise ShapeError(f"T: subspace of R^{T.n}, expected R^{S.n} (as S)", argument="T")
     if S.dim == 0 or T.dim == 0:
         return np.zeros(0)
     return scipy.linalg.subspace_angles(S.basis, T.basis)

@@ -13,10 +13,12 @@ fault j decoupled from L exists iff ``Im L_j ⊄ S*`` (math.md §3).
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
 
+from ._validation import as_matrix
 from .conditioned_invariant import (
     InvariantSubspace,
     _as_subspace,
@@ -26,8 +28,9 @@ from .conditioned_invariant import (
     is_conditioned_invariant,
     min_conditioned_invariant,
 )
-from .subspace import Subspace, _norm2, kernel, preimage, preimage_in_kernel
-from .tolerance import record_decisions
+from .errors import ShapeError
+from .subspace import Subspace, _norm2, kernel, preimage_in_kernel
+from .tolerance import CloseRankWarning, record_decisions
 
 __all__ = [
     "min_unobservability_subspace",
@@ -88,7 +91,9 @@ def min_unobservability_subspace(
         return _exact.min_unobservability_subspace(A, C, L)  # type: ignore[return-value]
     A, C = _check_AC(A, C)
     n = A.shape[0]
-    W = min_conditioned_invariant(A, C, L)
+    with warnings.catch_warnings():  # W*'s decisions are reported once, with S*'s below
+        warnings.simplefilter("ignore", CloseRankWarning)
+        W = min_conditioned_invariant(A, C, L)
     with record_decisions() as rec:
         Z = Subspace.full(n)
         history = [n]
@@ -109,7 +114,7 @@ def measurement_map(C: Any, S: Any) -> np.ndarray:
 
     (seed 001, step 3.4 (2)①; math.md §4).  May have zero rows (then no residual exists).
     """
-    C = np.asarray(C, dtype=float)
+    C = as_matrix(C, "C", vector_as="row")
     S = _as_subspace(S, C.shape[1], "S")
     scale = _norm2(C)
     ImC = Subspace(C, scale=scale)
@@ -119,15 +124,33 @@ def measurement_map(C: Any, S: Any) -> np.ndarray:
 
 
 def max_invariant_in(A: Any, K: Subspace) -> Subspace:
-    """Largest A-invariant subspace contained in K: ``V_0 = K, V_{k+1} = K ∩ A⁻¹ V_k``."""
-    A = np.asarray(A, dtype=float)
-    V = K
-    for _ in range(A.shape[0] + 1):
-        Vn = K & preimage(A, V)
-        if Vn.dim == V.dim:
-            return Vn
+    """Largest A-invariant subspace contained in K, ``<K | A> = ∩_k A⁻ᵏ K``.
+
+    Computed by the dual recursion (Basile–Marro ``mainco``)::
+
+        V_0 = K^⊥,   V_{k+1} = K^⊥ + Aᵀ V_k,   <K | A> = V_∞^⊥
+
+    since ``(A⁻¹ V)^⊥ = Aᵀ V^⊥``.  Only images are formed, and each sum is rank-decided on
+    ``[Q_{K^⊥}, Aᵀ Q_V / ||A||]`` (the un-normalised product, math.md §3).  The primal
+    recursion ``V_{k+1} = K ∩ A⁻¹ V_k`` amplifies rounding by ``1 / σ_min`` of the
+    restricted map and loses invariant directions when A is nearly singular.
+    """
+    A = as_matrix(A, "A", square=True)
+    n = A.shape[0]
+    if not isinstance(K, Subspace) or K.n != n:
+        raise ShapeError(f"K: expected a Subspace of R^{n}", argument="K")
+    if K.dim in (0, n):
+        return K
+    Kp = K.complement().basis
+    At = A.T / (_norm2(A) or 1.0)
+    V = Subspace.from_orthonormal(Kp)
+    for _ in range(n + 1):
+        Vn = Subspace(np.hstack([Kp, At @ V.basis]), scale=1.0)
+        grew = Vn.dim > V.dim
         V = Vn
-    return V
+        if not grew:
+            break
+    return V.complement()
 
 
 def unobservable_subspace(A: Any, C: Any) -> Subspace:
@@ -142,6 +165,19 @@ def is_unobservability_subspace(A: Any, C: Any, S: Any) -> bool:
     Checked from Definition 3 of seed 001 directly: S must be conditioned invariant;
     with a friend D0 and H from :func:`measurement_map`, S must equal the largest
     ``(A + D0 C)``-invariant subspace in ``Ker(H C)``.
+
+    Notes
+    -----
+    S is ``(A + D0 C)``-invariant and contained in ``Ker(H C) = S + Ker C``, hence in the
+    largest such invariant subspace; equality is therefore decided on the dimensions (a
+    rank decision with a large gap), not by comparing two computed bases whose rounding
+    grows with the conditioning of ``A + D0 C``.  By duality with controllability
+    subspaces (Wonham 1985, Thm 5.5) the test does not depend on the friend chosen.
+
+    The check takes its own rank decisions on ``A + D0 C``: when that matrix has
+    eigenvalues spread over many decades (e.g. columns of A scaled by 1e-6), the largest
+    invariant subspace can be over-estimated and a true unobservability subspace
+    reported as not one.  :func:`min_unobservability_subspace` is not affected.
     """
     A, C = _check_AC(A, C)
     S = _as_subspace(S, A.shape[0], "S")
@@ -150,4 +186,4 @@ def is_unobservability_subspace(A: Any, C: Any, S: Any) -> bool:
     D0 = friend(A, C, S)
     H = measurement_map(C, S)
     K = kernel(H @ C) if H.shape[0] else Subspace.full(A.shape[0])
-    return max_invariant_in(A + D0 @ C, K) == S
+    return max_invariant_in(A + D0 @ C, K).dim == S.dim
