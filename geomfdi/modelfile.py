@@ -25,21 +25,27 @@ A model file has four parts (sensor and input indices are 0-based)::
     step = 0.01
     x0 = [0.5, -0.3, 0.2]
     u = ["sin(0.5*t)", "cos(0.3*t)", "0.2"]   # numbers or expressions of t
+    d = ["0.1*step(t - 3)"]      # disturbance, one entry per column of Bd / Dd (default 0)
     K = [[5, -1.5, 3], [2, 0, 2], [-2, 2.5, -2]]   # state feedback u = u(t) - K x
     threshold = 0.06             # number, list per residual, or {false_alarm_rate, runs}
     window = [8.0, 20.0]         # where the report measures max |r|
-    [simulation.noise]           # optional: measurement, process (std), seed
-    measurement = 0.001
+    [simulation.noise]           # optional: measurement, process (std: one number or
+    measurement = 0.001          # one per sensor / state), seed (integer >= 0)
     seed = 1
 
-    [[scenario]]
+    [[scenario]]                 # optional per scenario: noise (table), d (list)
     name = "sensor 0 gain step"
     [[scenario.faults]]
     type = "gain"                # "gain" (gain, bias), "bias" (bias), "stuck" (value)
     sensor = 0
     start = 8.0
     gain = 1.5                   # number or expression of t
-    bias = 0.02
+    bias = 0.02                  # optional: end = time the fault disappears
+
+Expressions of ``t`` follow the grammar of :mod:`geomfdi.expressions`.  A calibrated
+threshold (``threshold = {false_alarm_rate = 1e-3, runs = 10}``) needs measurement or
+process noise in ``[simulation.noise]``; it is computed from noise-only runs of the
+healthy loop (:func:`geomfdi.decision.calibrate_threshold`).
 
 Every problem raises :class:`~geomfdi.errors.ModelFileError` with a one-line message
 naming the file, the entry and what is wrong (a wrong shape names the matrix and the
@@ -51,6 +57,7 @@ from __future__ import annotations
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from difflib import get_close_matches
 from pathlib import Path
 from typing import Any
 
@@ -61,7 +68,10 @@ from .expressions import compile_expression
 from .faults import ActuatorFault, Fault, SensorFault
 from .plant import Plant
 
-__all__ = ["ModelSpec", "MethodOptions", "Scenario", "load_model", "parse_model"]
+__all__ = ["ModelSpec", "MethodOptions", "Scenario", "load_model", "parse_model", "MAX_SAMPLES"]
+
+MAX_SAMPLES = 10_000_000
+"""Largest simulation grid a model file may ask for."""
 
 _TOP = {"name", "description", "plant", "design", "simulation", "scenario"}
 _PLANT = {"A", "B", "C", "D", "Bd", "Dd", "dt"}
@@ -78,9 +88,9 @@ _DESIGN = {
     "mvw",
 }
 _METHOD = {"poles", "normalize", "filter_pole", "margin"}
-_SIM = {"t_end", "step", "x0", "u", "K", "threshold", "window", "noise", "t_start"}
+_SIM = {"t_end", "step", "x0", "u", "d", "K", "threshold", "window", "noise", "t_start"}
 _NOISE = {"measurement", "process", "seed"}
-_SCEN = {"name", "faults", "noise"}
+_SCEN = {"name", "faults", "noise", "d"}
 _FAULT_KEYS = {
     "gain": {"type", "sensor", "start", "gain", "bias", "end"},
     "bias": {"type", "sensor", "start", "bias", "end"},
@@ -101,11 +111,15 @@ class MethodOptions:
 
 @dataclass
 class Scenario:
-    """One simulation run: a name and its fault signals."""
+    """One simulation run: a name, its fault signals and optional overrides.
+
+    ``noise`` and ``d`` replace the ``[simulation]`` entries for this run when given.
+    """
 
     name: str
     faults: list[Any]
     noise: dict[str, Any] | None = None
+    d: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 @dataclass
@@ -119,6 +133,7 @@ class ModelSpec:
     methods: list[MethodOptions]
     t: np.ndarray | None = None
     u: Callable[[np.ndarray], np.ndarray] | None = None
+    d: Callable[[np.ndarray], np.ndarray] | None = None
     K: np.ndarray | None = None
     x0: np.ndarray | None = None
     threshold: Any = None
@@ -140,20 +155,31 @@ class _Ctx:
             raise self.err(where, f"expected a table, got {type(table).__name__}")
         unknown = sorted(set(table) - allowed)
         if unknown:
+            close = get_close_matches(unknown[0], sorted(allowed), n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
             raise self.err(
-                where, f"unknown key {unknown[0]!r} (allowed: {', '.join(sorted(allowed))})"
+                where,
+                f"unknown key {unknown[0]!r} ({hint}allowed: {', '.join(sorted(allowed))})",
             )
         return table
 
-    def number(self, value: Any, where: str, *, positive: bool = False) -> float:
+    def number(
+        self, value: Any, where: str, *, positive: bool = False, nonnegative: bool = False
+    ) -> float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.err(where, f"expected a number, got {value!r}")
         x = float(value)
-        if not np.isfinite(x) or (positive and x <= 0):
-            raise self.err(
-                where, f"expected a {'positive ' if positive else ''}finite number, got {value!r}"
-            )
+        if not np.isfinite(x) or (positive and x <= 0) or (nonnegative and x < 0):
+            kind = "positive " if positive else "non-negative " if nonnegative else ""
+            raise self.err(where, f"expected a {kind}finite number, got {value!r}")
         return x
+
+    def integer(self, value: Any, where: str, *, minimum: int | None = None) -> int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.err(where, f"expected an integer, got {value!r}")
+        if minimum is not None and value < minimum:
+            raise self.err(where, f"expected an integer >= {minimum}, got {value!r}")
+        return int(value)
 
     def matrix(self, value: Any, where: str, shape: tuple[int | None, int | None]) -> np.ndarray:
         if not isinstance(value, list):
@@ -177,10 +203,41 @@ class _Ctx:
             raise self.err(where, "entries must be finite")
         return arr
 
-    def vector(self, value: Any, where: str, length: int | None = None) -> np.ndarray:
+    def expr(self, value: Any, where: str) -> Callable[[np.ndarray], np.ndarray]:
+        """A number or an expression of t (errors name the file and the entry)."""
+        try:
+            f = compile_expression(value, where)
+        except ModelFileError as exc:
+            raise ModelFileError(f"{self.source}: {exc}", argument=where) from exc
+
+        def g(t: np.ndarray) -> np.ndarray:
+            try:
+                return f(t)
+            except ModelFileError as exc:
+                raise ModelFileError(f"{self.source}: {exc}", argument=where) from exc
+
+        g.__name__ = "f"  # fault labels show "f(t)"
+        g.expression = value  # type: ignore[attr-defined]
+        return g
+
+    def vector(
+        self,
+        value: Any,
+        where: str,
+        length: int | None = None,
+        *,
+        positive: bool = False,
+        nonnegative: bool = False,
+    ) -> np.ndarray:
         if not isinstance(value, list) or any(isinstance(v, list) for v in value):
             raise self.err(where, f"expected a list of numbers, got {value!r}")
-        arr = np.array([self.number(v, f"{where}[{k}]") for k, v in enumerate(value)])
+        arr = np.array(
+            [
+                self.number(v, f"{where}[{k}]", positive=positive, nonnegative=nonnegative)
+                for k, v in enumerate(value)
+            ],
+            dtype=float,
+        )
         if length is not None and arr.size != length:
             raise self.err(where, f"expected {length} entries, got {arr.size}")
         return arr
@@ -284,7 +341,7 @@ def _method_options(ctx: _Ctx, d: dict[str, Any]) -> list[MethodOptions]:
     return out
 
 
-def _fault_signal(ctx: _Ctx, item: Any, where: str, q: int) -> Any:
+def _fault_signal(ctx: _Ctx, item: Any, where: str, q: int, t: np.ndarray) -> Any:
     from .fault_signals import BiasFault, GainFault, StuckFault
 
     if not isinstance(item, dict) or "type" not in item:
@@ -302,10 +359,14 @@ def _fault_signal(ctx: _Ctx, item: Any, where: str, q: int) -> Any:
     start = ctx.number(item["start"], f"{where}.start")
     end = None if "end" not in item else ctx.number(item["end"], f"{where}.end")
 
+    active = t[(t >= start) & (t < (np.inf if end is None else end))]
+
     def value(key: str, default: float) -> Any:
         v = item.get(key, default)
         if isinstance(v, str):
-            return compile_expression(v, f"{where}.{key}")
+            f = ctx.expr(v, f"{where}.{key}")
+            f(active)  # finite wherever the fault acts
+            return f
         return ctx.number(v, f"{where}.{key}")
 
     try:
@@ -327,22 +388,30 @@ def _fault_signal(ctx: _Ctx, item: Any, where: str, q: int) -> Any:
         raise ctx.err(where, str(exc)) from exc
 
 
-def _noise(ctx: _Ctx, table: Any, where: str) -> dict[str, Any]:
+def _noise(ctx: _Ctx, table: Any, where: str, plant: Plant) -> dict[str, Any]:
     t = ctx.keys(table, _NOISE, where)
     out: dict[str, Any] = {}
-    for key in ("measurement", "process"):
+    for key, dim in (("measurement", plant.q), ("process", plant.n)):
         if key in t:
             v = t[key]
             out[key] = (
-                ctx.vector(v, f"{where}.{key}")
+                ctx.vector(v, f"{where}.{key}", dim, nonnegative=True)
                 if isinstance(v, list)
-                else ctx.number(v, f"{where}.{key}")
+                else ctx.number(v, f"{where}.{key}", nonnegative=True)
             )
     if "seed" in t:
-        if isinstance(t["seed"], bool) or not isinstance(t["seed"], int):
-            raise ctx.err(f"{where}.seed", f"expected an integer, got {t['seed']!r}")
-        out["seed"] = t["seed"]
+        out["seed"] = ctx.integer(t["seed"], f"{where}.seed", minimum=0)
     return out
+
+
+def _signals(ctx: _Ctx, value: Any, where: str, length: int, what: str, grid: np.ndarray) -> Any:
+    """A list of ``length`` numbers / expressions of t -> f(t) of shape (length, N)."""
+    if not isinstance(value, list) or len(value) != length:
+        raise ctx.err(where, f"expected a list of {length} entries (one per {what}), got {value!r}")
+    fns = [ctx.expr(v, f"{where}[{k}]") for k, v in enumerate(value)]
+    for f in fns:
+        f(grid)  # finite on the simulation grid
+    return lambda t, fns=fns: np.vstack([f(t) for f in fns])
 
 
 def parse_model(data: dict[str, Any], source: str = "<model>") -> ModelSpec:
@@ -390,16 +459,20 @@ def parse_model(data: dict[str, Any], source: str = "<model>") -> ModelSpec:
         if t_end <= t0:
             raise ctx.err("simulation.t_end", f"must exceed t_start = {t0}")
         N = int(round((t_end - t0) / step)) + 1
+        if N > MAX_SAMPLES:
+            raise ctx.err(
+                "simulation.step",
+                f"the grid would hold {N} samples (at most {MAX_SAMPLES}); use a larger step",
+            )
+        if N < 2:
+            raise ctx.err("simulation.step", f"must be smaller than t_end - t_start, got {step}")
         spec.t = t0 + step * np.arange(N)
         if "u" in s:
-            u = s["u"]
-            if not isinstance(u, list) or len(u) != plant.m:
-                raise ctx.err(
-                    "simulation.u",
-                    f"expected a list of {plant.m} entries (one per input), got {u!r}",
-                )
-            fns = [compile_expression(v, f"simulation.u[{k}]") for k, v in enumerate(u)]
-            spec.u = lambda t, fns=fns: np.vstack([f(t) for f in fns])
+            spec.u = _signals(ctx, s["u"], "simulation.u", plant.m, "input", spec.t)
+        if "d" in s:
+            if plant.nd == 0:
+                raise ctx.err("simulation.d", "the plant has no disturbance (no Bd or Dd)")
+            spec.d = _signals(ctx, s["d"], "simulation.d", plant.nd, "disturbance", spec.t)
         if "K" in s:
             spec.K = ctx.matrix(s["K"], "simulation.K", (plant.m, plant.n))
         if "x0" in s:
@@ -415,16 +488,33 @@ def parse_model(data: dict[str, Any], source: str = "<model>") -> ModelSpec:
                 )
                 if far >= 1:
                     raise ctx.err("simulation.threshold.false_alarm_rate", "must be < 1")
-                spec.threshold = {"false_alarm_rate": far, "runs": int(th.get("runs", 4))}
+                runs = ctx.integer(th.get("runs", 4), "simulation.threshold.runs", minimum=1)
+                spec.threshold = {"false_alarm_rate": far, "runs": runs}
             elif isinstance(th, list):
-                spec.threshold = ctx.vector(th, "simulation.threshold", len(S))
+                spec.threshold = ctx.vector(th, "simulation.threshold", len(S), positive=True)
             else:
                 spec.threshold = ctx.number(th, "simulation.threshold", positive=True)
         if "window" in s:
             w = ctx.vector(s["window"], "simulation.window", 2)
+            if not (w[0] < w[1] and w[0] <= spec.t[-1] and w[1] >= spec.t[0]):
+                raise ctx.err(
+                    "simulation.window",
+                    f"expected [start, stop] with start < stop overlapping "
+                    f"[{spec.t[0]:g}, {spec.t[-1]:g}], got {s['window']!r}",
+                )
             spec.window = (float(w[0]), float(w[1]))
         if "noise" in s:
-            spec.noise = _noise(ctx, s["noise"], "simulation.noise")
+            spec.noise = _noise(ctx, s["noise"], "simulation.noise", plant)
+        if isinstance(spec.threshold, dict) and not any(
+            np.any(np.asarray(v) > 0)
+            for k, v in (spec.noise or {}).items()
+            if k in ("measurement", "process")
+        ):
+            raise ctx.err(
+                "simulation.threshold",
+                "a calibrated threshold needs non-zero measurement or process noise in "
+                "[simulation.noise]",
+            )
     scen = data.get("scenario", [])
     if not isinstance(scen, list):
         raise ctx.err("scenario", "expected an array of tables [[scenario]]")
@@ -436,9 +526,16 @@ def parse_model(data: dict[str, Any], source: str = "<model>") -> ModelSpec:
         fl = sc.get("faults", [])
         if not isinstance(fl, list):
             raise ctx.err(f"{where}.faults", "expected an array of tables")
-        sigs = [_fault_signal(ctx, f, f"{where}.faults[{i}]", plant.q) for i, f in enumerate(fl)]
-        noise = _noise(ctx, sc["noise"], f"{where}.noise") if "noise" in sc else None
-        spec.scenarios.append(Scenario(str(sc.get("name", f"scenario {k}")), sigs, noise))
+        sigs = [
+            _fault_signal(ctx, f, f"{where}.faults[{i}]", plant.q, spec.t) for i, f in enumerate(fl)
+        ]
+        noise = _noise(ctx, sc["noise"], f"{where}.noise", plant) if "noise" in sc else None
+        d = None
+        if "d" in sc:
+            if plant.nd == 0:
+                raise ctx.err(f"{where}.d", "the plant has no disturbance (no Bd or Dd)")
+            d = _signals(ctx, sc["d"], f"{where}.d", plant.nd, "disturbance", spec.t)
+        spec.scenarios.append(Scenario(str(sc.get("name", f"scenario {k}")), sigs, noise, d))
     return spec
 
 
@@ -455,6 +552,8 @@ def load_model(path: str | Path) -> ModelSpec:
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise ModelFileError(f"{p}: cannot read the file ({exc.strerror})") from exc
+    except UnicodeDecodeError as exc:
+        raise ModelFileError(f"{p}: not a UTF-8 text file ({exc.reason})") from exc
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
