@@ -1,0 +1,302 @@
+"""``gf.simulate`` against ``control.forced_response`` on the same composite system.
+
+The scenario is the closed loop of seed 001 (state feedback ``u = v - K x``) with a bias
+fault on sensor 0 at 40 % of the horizon, observed by a bank of ``nb`` residual
+generators (the three hand-built paper generators, padded with random stable third-order
+generators for larger banks).  The bias ramps up over 0.5 s, so that both simulators see
+the same piecewise-linear signal.
+
+* ``forced_response``: the composite system ``[closed-loop plant; all generators]``
+  with inputs ``[v; fault signal]`` and outputs ``r``, simulated by
+  :func:`control.forced_response` (a Python loop over the samples);
+* ``gf.simulate``: the plant once, faults applied to the readings, then the generators,
+  each by the loop-free Schur/``lfilter`` recursion of :mod:`geomfdi.lti_sim`;
+* ``gf.simulate_batch``: many Monte-Carlo runs (measurement-noise seeds) in one call;
+  aggregate throughput = runs x samples / time.
+
+Both simulators use the first-order hold, so their residuals agree to rounding; the
+largest difference is printed.  When ``forced_response`` would take too long at the
+largest sizes it is timed at 10^5 samples and extrapolated linearly (rows marked ``*``).
+
+Times are CPU times (``time.process_time``) of single-threaded runs (BLAS limited to one
+thread), which keeps the comparison stable on a shared machine; ``gf.simulate`` is timed
+as the best of two calls (the first one also pays for the operating system mapping fresh
+memory pages).
+
+Run ``python benchmarks/bench_simulation.py`` (``--quick`` for a smoke run, ``--full`` to
+time ``forced_response`` at every size instead of extrapolating).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+if __name__ == "__main__":
+    # single-threaded BLAS when run as a script: forced_response is a single-threaded
+    # Python loop, and small multithreaded BLAS calls stall on a busy machine
+    for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import geomfdi as gf  # noqa: E402
+
+A = np.array([[1.0, 1, 1], [0, 1, 0], [2, 0, 1]])
+B = np.array([[1.0, 0, 1], [0, 1, 1], [0, 1, 0]])
+C = np.array([[0.0, 1, 0], [0, 0, 1], [1, 0, 2]])
+K = np.array([[5.0, -1.5, 3], [2, 0, 2], [-2, 2.5, -2]])
+P_PAPER = np.array([[0.0, 1, 0], [-2, 2, 1], [-3, 3, 1]])
+
+
+def make_bank(nb: int, seed: int = 0) -> gf.ResidualBank:
+    """The three paper generators (seed 001, F = -2) plus random ones.
+
+    A random generator of order 3 picks a stable ``F``, a ``P`` (3 x 3) and ``M``, then
+    ``E = (F P - P A) C^-1``, ``G = P B``, ``H = M P C^-1``: it satisfies the identities
+    ``F P = P A + E C``, ``M P = H C`` (so its residual is zero on healthy data) and sees
+    every sensor.
+    """
+    Ci = np.linalg.inv(C)
+    rng = np.random.default_rng(seed)
+    gens = []
+    for j in range(nb):
+        if j < 3:
+            P = P_PAPER[j : j + 1]
+            F = np.array([[-2.0]])
+            M = np.eye(1)
+        else:
+            Q = np.linalg.qr(rng.standard_normal((3, 3)))[0]
+            F = Q @ np.diag(-rng.uniform(0.5, 5.0, 3)) @ Q.T
+            P = rng.standard_normal((3, 3))
+            M = rng.standard_normal((1, 3))
+        gens.append(
+            gf.ResidualGenerator(F, (F @ P - P @ A) @ Ci, P @ B, M, M @ P @ Ci, np.zeros((1, 3)))
+        )
+    S = np.zeros((nb, 3), dtype=bool)
+    return gf.ResidualBank(
+        gens, S, S, np.zeros(3, bool), ["ok"] * nb, [gf.SensorFault(i) for i in range(3)]
+    )
+
+
+def composite(bank: gf.ResidualBank):
+    """python-control system: inputs [v; fault on y], states [x; w...], outputs r."""
+    import control
+
+    Acl = A - B @ K
+    gens = bank.generators
+    n, q, m = 3, 3, 3
+    nw = sum(g.order for g in gens)
+    nr = len(gens)
+    As = np.zeros((n + nw, n + nw))
+    Bs = np.zeros((n + nw, m + q))
+    Cs = np.zeros((nr, n + nw))
+    Ds = np.zeros((nr, m + q))
+    As[:n, :n] = Acl
+    Bs[:n, :m] = B
+    i = n
+    for k, g in enumerate(gens):
+        o = g.order
+        # y = C x + f, u = v - K x
+        As[i : i + o, :n] = -g.E @ C - g.G @ K
+        As[i : i + o, i : i + o] = g.F
+        Bs[i : i + o, :m] = g.G
+        Bs[i : i + o, m:] = -g.E
+        Cs[k, :n] = -g.H @ C - g.K @ K
+        Cs[k, i : i + o] = g.M
+        Ds[k, :m] = g.K
+        Ds[k, m:] = -g.H
+        i += o
+    return control.ss(As, Bs, Cs, Ds)
+
+
+def consistent_state(bank: gf.ResidualBank, x0: np.ndarray) -> np.ndarray:
+    """Generator states of gf.simulate's consistent start, for the baseline."""
+    from geomfdi.simulation import consistent_initial_state
+
+    Acl = A - B @ K
+    parts = [x0]
+    for g in bank.generators:
+        Pi, _ = consistent_initial_state(g.F, Acl, -g.E @ C - g.G @ K, g.M, -g.H @ C - g.K @ K)
+        parts.append(Pi @ x0)
+    return np.concatenate(parts)
+
+
+RAMP = 0.5  # seconds for the bias to reach its final value
+
+
+def bias(t_fault: float):
+    """Bias ramping from 0 at the onset to 0.02 after RAMP seconds (continuous, so the
+    first-order hold of forced_response represents it exactly)."""
+    return lambda s: 0.02 * np.clip((s - t_fault) / RAMP, 0.0, 1.0)
+
+
+def inputs(t: np.ndarray, t_fault: float) -> tuple[np.ndarray, np.ndarray]:
+    v = np.vstack([np.sin(0.5 * t), np.cos(0.3 * t), 0.2 * np.ones_like(t)])
+    f = np.zeros((3, t.size))
+    f[0] = bias(t_fault)(t)
+    return v, f
+
+
+def time_gf(bank, t, v, x0, t_fault, repeat=1):
+    best = np.inf
+    plant = gf.Plant(A, B, C)
+    fault = gf.BiasFault(0, t_fault, bias(t_fault))
+    for _ in range(repeat):
+        t0 = time.process_time()
+        res = gf.simulate(plant, bank, t, v, faults=[fault], x0=x0, controller=K)
+        best = min(best, time.process_time() - t0)
+    return best, res.residuals
+
+
+def time_fr(sysc, t, v, f, X0):
+    import control
+
+    t0 = time.process_time()
+    out = control.forced_response(sysc, t, np.vstack([v, f]), X0=X0)
+    return time.process_time() - t0, np.atleast_2d(out.outputs)
+
+
+def bench(
+    sizes=(10**4, 10**5, 10**6),
+    banks=(3, 10, 20),
+    batch_runs=100,
+    batch_samples=10**5,
+    full=False,
+    extrapolate_above=10**5,
+    dt=1e-3,
+) -> list[dict]:
+    x0 = np.array([0.5, -0.3, 0.2])
+    rows = []
+    print(
+        f"{'samples':>9} {'bank':>5} {'forced_response s':>18} {'gf.simulate s':>14} "
+        f"{'ratio':>8} {'max |dr|':>10}"
+    )
+    for nb in banks:
+        bank = make_bank(nb)
+        sysc = composite(bank)
+        X0 = consistent_state(bank, x0)
+        fr_rate = None
+        for N in sizes:
+            t = np.arange(N) * dt
+            t_fault = float(t[int(0.4 * t.size)])
+            v, f = inputs(t, t_fault)
+            tg, rg = time_gf(bank, t, v, x0, t_fault, repeat=2)
+            if N > extrapolate_above and not full:
+                tf = fr_rate * N
+                diff = float("nan")
+                mark = "*"
+            else:
+                tf, rf = time_fr(sysc, t, v, f, X0)
+                fr_rate = tf / N
+                diff = float(np.max(np.abs(rf - rg)))
+                mark = " "
+            row = {
+                "samples": N,
+                "bank": nb,
+                "forced_response": tf,
+                "simulate": tg,
+                "ratio": tf / tg,
+                "extrapolated": mark == "*",
+                "max_diff": diff,
+            }
+            rows.append(row)
+            print(f"{N:>9} {nb:>5} {tf:>17.3f}{mark} {tg:>14.4f} {tf / tg:>8.1f} {diff:>10.2e}")
+    if any(r["extrapolated"] for r in rows):
+        print(
+            f"* forced_response timed at {extrapolate_above} samples and extrapolated "
+            "linearly (it steps through time in a Python loop)"
+        )
+    # ---------------------------------------------------------------- batch
+    bank = make_bank(3)
+    t = np.arange(batch_samples) * dt
+    t_fault = float(t[int(0.4 * t.size)])
+    v, f = inputs(t, t_fault)
+    noise = gf.Noise(measurement=2e-4, seed=1)
+    plant = gf.Plant(A, B, C)
+    fl = [gf.BiasFault(0, t_fault, bias(t_fault))]
+    t0 = time.process_time()
+    batch = gf.simulate_batch(
+        plant,
+        bank,
+        t,
+        v,
+        runs=batch_runs,
+        faults=fl,
+        x0=x0,
+        controller=K,
+        noise=noise,
+        threshold=0.01,
+        progress=False,
+    )
+    tb = time.process_time() - t0
+    n_single = min(batch_runs, 5)
+    t0 = time.process_time()
+    for i in range(n_single):
+        gf.simulate(
+            plant,
+            bank,
+            t,
+            v,
+            faults=fl,
+            x0=x0,
+            controller=K,
+            noise=gf.Noise(measurement=2e-4, seed=batch.seeds[i]),
+            threshold=0.01,
+        )
+    ts = (time.process_time() - t0) / n_single
+    sysc = composite(bank)
+    X0 = consistent_state(bank, x0)
+    m = min(batch_samples, extrapolate_above)
+    tf, _ = time_fr(sysc, t[:m], v[:, :m], f[:, :m], X0)
+    fr_sps = m / tf
+    agg = batch_runs * batch_samples / tb
+    single = batch_samples / ts
+    print()
+    print(
+        f"batch: {batch_runs} Monte-Carlo runs x {batch_samples} samples (bank of 3, "
+        "measurement noise)"
+    )
+    print(f"{'method':<34} {'samples/s':>12} {'vs forced_response':>19}")
+    print(f"{'control.forced_response':<34} {fr_sps:>12.3g} {1.0:>19.1f}")
+    print(f"{'gf.simulate (one run per call)':<34} {single:>12.3g} {single / fr_sps:>19.1f}")
+    print(f"{'gf.simulate_batch (aggregate)':<34} {agg:>12.3g} {agg / fr_sps:>19.1f}")
+    print(
+        f"detection rate {batch.detection_rate():.2f}, false-alarm rate "
+        f"{batch.false_alarm_rate:.3g}"
+    )
+    rows.append(
+        {
+            "batch_runs": batch_runs,
+            "batch_samples": batch_samples,
+            "batch_aggregate": agg,
+            "single": single,
+            "forced_response_rate": fr_sps,
+        }
+    )
+    return rows
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="small smoke run")
+    ap.add_argument("--full", action="store_true", help="time forced_response at every size")
+    args = ap.parse_args(argv)
+    if args.quick:
+        return bench(
+            sizes=(10**3, 10**4),
+            banks=(3, 5),
+            batch_runs=8,
+            batch_samples=2000,
+            extrapolate_above=5000,
+        )
+    return bench(full=args.full)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,164 @@
+"""Thresholds, alarms, isolation from the structure matrix, detection delays."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import geomfdi as gf
+from geomfdi.decision import (
+    AMBIGUOUS,
+    NO_ALARM,
+    UNEXPLAINED,
+    Threshold,
+    as_threshold,
+    decision_statistic,
+    detection_events,
+    isolate,
+)
+from geomfdi.errors import GeomFDIError, ShapeError
+
+
+@given(window=st.integers(1, 12), seed=st.integers(0, 1000))
+@settings(max_examples=25)
+def test_rms_statistic_is_the_causal_moving_rms(window, seed):
+    r = np.random.default_rng(seed).standard_normal((2, 40))
+    s = decision_statistic(r, "rms", window)
+    naive = np.array(
+        [
+            [np.sqrt(np.mean(r[j, max(0, k - window + 1) : k + 1] ** 2)) for k in range(40)]
+            for j in range(2)
+        ]
+    )
+    assert np.allclose(s, naive, rtol=1e-10, atol=1e-12)
+    assert np.array_equal(decision_statistic(r, "abs"), np.abs(r))
+
+
+def test_calibrated_threshold_reaches_the_false_alarm_rate():
+    rng = np.random.default_rng(0)
+    train = rng.standard_normal((3, 200_000)) * np.array([[1.0], [2.0], [0.5]])
+    thr = Threshold.from_residuals(train, 0.01)
+    # Gaussian: |r| > 2.5758 sigma with probability 1 %
+    assert np.allclose(thr.values, 2.5758 * np.array([1.0, 2.0, 0.5]), rtol=0.02)
+    test = rng.standard_normal((3, 200_000)) * np.array([[1.0], [2.0], [0.5]])
+    rate = thr.alarms(test).mean(axis=1)
+    assert np.all(np.abs(rate - 0.01) < 0.0015)
+    # the "any residual" version controls the rate of the union (Bonferroni)
+    thr_any = Threshold.from_residuals(train, 0.01, per="any")
+    union = thr_any.alarms(test).any(axis=0).mean()
+    assert union <= 0.0115 and union > 0.008
+    assert thr_any.info["alpha_per_residual"] == pytest.approx(0.01 / 3)
+
+
+def test_calibration_ignores_dead_rows_and_refuses_too_few_samples():
+    r = np.vstack([np.random.default_rng(1).standard_normal(5000), np.zeros(5000)])
+    thr = Threshold.from_residuals(r, 0.05)
+    assert np.isfinite(thr.values[0]) and thr.values[1] == np.inf
+    with pytest.raises(GeomFDIError, match="false_alarm_rate"):
+        Threshold.from_residuals(r, 1e-5)
+    with pytest.raises(GeomFDIError, match="false_alarm_rate"):
+        Threshold.from_residuals(r, 1.5)
+
+
+def test_rms_threshold_trades_delay_for_noise():
+    rng = np.random.default_rng(2)
+    noise = rng.standard_normal((1, 100_000))
+    t_abs = Threshold.from_residuals(noise, 0.001)
+    t_rms = Threshold.from_residuals(noise, 0.001, statistic="rms", window=50)
+    sig = rng.standard_normal((1, 4000))
+    sig[0, 2000:] += 1.5  # a step of 1.5 sigma
+    a_abs = t_abs.alarms(sig)[0, 2000:].mean()
+    a_rms = t_rms.alarms(sig)[0, 2000:].mean()
+    assert a_rms > 0.9 > 0.3 > a_abs  # averaging detects the small step reliably
+
+
+def test_isolation_decisions():
+    S = np.array([[1, 0, 1, 0], [0, 1, 1, 0], [0, 0, 0, 0]], dtype=bool)
+    S = np.hstack([S, S[:, :1]])  # fault 4 has the same column as fault 0
+    a = np.array(
+        [
+            [0, 0, 1, 1, 1, 0],
+            [0, 1, 0, 1, 1, 0],
+            [0, 0, 0, 0, 1, 1],
+        ],
+        dtype=bool,
+    )
+    iso = isolate(a, S)
+    assert iso.isolated.tolist() == [NO_ALARM, 1, AMBIGUOUS, 2, UNEXPLAINED, UNEXPLAINED]
+    assert iso.candidates[:, 2].tolist() == [True, False, False, False, True]
+    # suspects: non-zero columns covered by the alarm pattern
+    assert iso.suspects[:, 3].tolist() == [True, True, True, False, True]
+    assert not iso.suspects[3].any()  # fault 3 is seen by no residual
+
+
+def test_isolation_vectorised_over_runs():
+    S = np.eye(3, dtype=bool)
+    a = np.zeros((4, 3, 5), dtype=bool)
+    a[1, 2, 3] = True
+    a[2, :, 1] = True
+    iso = isolate(a, S)
+    assert iso.isolated.shape == (4, 5)
+    assert iso.isolated[1, 3] == 2 and iso.isolated[2, 1] == UNEXPLAINED
+    assert np.all(iso.isolated[0] == NO_ALARM)
+
+
+def test_detection_events_delays():
+    t = np.arange(0, 10.01, 0.5)
+    alarms = np.zeros((2, t.size), dtype=bool)
+    alarms[1, 10:] = True  # from 5 s
+    alarms[0, 12:] = True  # from 6 s
+    iso = isolate(alarms, np.array([[1, 0], [1, 1]], dtype=bool)).isolated
+    f0 = gf.BiasFault(0, 4.0, 1.0)
+    f1 = gf.BiasFault(1, 3.0, 1.0)
+    f2 = gf.BiasFault(1, 20.0, 1.0)  # never starts on the grid
+    ev = detection_events(t, alarms, iso, [f0, f1, f2], [0, 1, None])
+    assert len(ev) == 2
+    assert ev[0].onset == 4.0 and ev[0].detection_delay == 1.0
+    assert ev[0].isolation_time == 6.0 and ev[0].isolation_delay == 2.0
+    assert ev[1].isolation_time == 5.0 and ev[1].residuals == (0, 1)
+    assert ev[0].detected and ev[0].isolated
+
+
+def test_as_threshold_conversions():
+    thr = as_threshold(0.06, 3, present=[0, 2])
+    assert thr.values.tolist() == [0.06, np.inf, 0.06]
+    assert as_threshold(None, 3) is None
+    assert as_threshold([0.1, 0.2], 2).values.tolist() == [0.1, 0.2]
+    with pytest.raises(ShapeError, match="threshold"):
+        as_threshold([0.1, 0.2], 3)
+    with pytest.raises(GeomFDIError, match="threshold"):
+        as_threshold(-1.0, 3)
+    with pytest.raises(ShapeError, match="threshold"):
+        as_threshold(Threshold(np.ones(2)), 3)
+    with pytest.raises(GeomFDIError, match="statistic"):
+        decision_statistic(np.ones(3), "max")
+
+
+def test_calibrate_threshold_from_noise_only_simulation():
+    plant = gf.Plant([[-1.0, 0.5], [0.0, -2.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 1.0]])
+    # a generator decoupled from u: F P = P A + E C, M P = H C with P = [1, 0]
+    P = np.array([[1.0, 0.0]])
+    F = np.array([[-3.0]])
+    E = F @ P - P @ plant.A
+    gen = gf.ResidualGenerator(F, E, P @ plant.B, [[1.0]], P, [[0.0]])
+    t = np.arange(0, 20, 0.01)
+    noise = gf.Noise(measurement=0.01, seed=5)
+    thr = gf.calibrate_threshold(
+        plant, gen, t, noise=noise, false_alarm_rate=0.02, runs=4, u=np.sin(t)[None]
+    )
+    assert thr.false_alarm_rate == 0.02 and thr.values[0] > 0
+    fresh = gf.simulate_batch(
+        plant,
+        gen,
+        t,
+        np.sin(t)[None],
+        runs=4,
+        noise=gf.Noise(measurement=0.01, seed=99),
+        threshold=thr,
+        progress=False,
+    )
+    assert abs(fresh.false_alarm_rate - 0.02) < 0.01
+    with pytest.raises(GeomFDIError, match="noise"):
+        gf.calibrate_threshold(plant, gen, t, noise=None, false_alarm_rate=0.02)
