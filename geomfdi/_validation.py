@@ -39,8 +39,12 @@ def _sympy_to_numpy(value: Any) -> Any:
     return value
 
 
-def as_real_array(value: Any, name: str) -> np.ndarray:
-    """Convert ``value`` to a real float64 array (any number of dimensions)."""
+def as_real_array(value: Any, name: str, *, allow_nonfinite: bool = False) -> np.ndarray:
+    """Convert ``value`` to a real float64 array (any number of dimensions).
+
+    ``allow_nonfinite=True`` keeps ``nan``/``inf`` entries (for data streams whose bad
+    samples are reported by the caller instead of rejected).
+    """
     if value is None:
         raise GeomFDIError(f"{name}: a value is required, got None", argument=name)
     value = _sympy_to_numpy(value)
@@ -69,7 +73,8 @@ def as_real_array(value: Any, name: str) -> np.ndarray:
             f"{name}: entries must be real numbers, got dtype {arr.dtype}", argument=name
         )
     arr = np.array(arr, dtype=np.float64)
-    check_finite(arr, name)
+    if not allow_nonfinite:
+        check_finite(arr, name)
     return arr
 
 

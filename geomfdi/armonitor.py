@@ -267,19 +267,7 @@ def _run_lengths(alarm: np.ndarray, carry: int) -> np.ndarray:
 
 def _as_stream(value: Any, name: str) -> np.ndarray:
     """Real float array of 1 or 2 dimensions; non-finite entries are allowed (reported)."""
-    try:
-        arr = np.asarray(value)
-    except Exception as exc:  # ragged nested lists
-        raise ShapeError(f"{name}: cannot be read as an array ({exc})", argument=name) from exc
-    if np.iscomplexobj(arr):
-        if np.any(np.imag(arr) != 0):
-            raise ComplexInputError(f"{name}: must be real, got complex entries", argument=name)
-        arr = np.real(arr)
-    if arr.dtype.kind not in "biuf":
-        raise GeomFDIError(
-            f"{name}: entries must be real numbers, got dtype {arr.dtype}", argument=name
-        )
-    arr = np.array(arr, dtype=np.float64)
+    arr = as_real_array(value, name, allow_nonfinite=True)
     if arr.ndim == 0:
         arr = arr.reshape(1)
     if arr.ndim not in (1, 2) or arr.shape[-1] == 0:
