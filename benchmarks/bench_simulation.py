@@ -189,7 +189,7 @@ def bench(
             tg, rg = time_gf(bank, t, v, x0, t_fault, repeat=2)
             if N > extrapolate_above and not full:
                 tf = fr_rate * N
-                diff = float("nan")
+                diff = None  # no baseline run to compare with
                 mark = "*"
             else:
                 tf, rf = time_fr(sysc, t, v, f, X0)
@@ -206,7 +206,8 @@ def bench(
                 "max_diff": diff,
             }
             rows.append(row)
-            print(f"{N:>9} {nb:>5} {tf:>17.3f}{mark} {tg:>14.4f} {tf / tg:>8.1f} {diff:>10.2e}")
+            dtxt = "-" if diff is None else f"{diff:.2e}"
+            print(f"{N:>9} {nb:>5} {tf:>17.3f}{mark} {tg:>14.4f} {tf / tg:>8.1f} {dtxt:>10}")
     if any(r["extrapolated"] for r in rows):
         print(
             f"* forced_response timed at {extrapolate_above} samples and extrapolated "
