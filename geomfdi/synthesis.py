@@ -25,13 +25,13 @@ import scipy.linalg
 import scipy.signal
 
 from ._validation import as_indices, as_real_array
-from .conditioned_invariant import friend
 from .errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
 from .faults import Fault, SensorFault
 from .generator import ResidualBank, ResidualGenerator
 from .plant import Plant
 from .realization import minimal_realization, reachable_subspace
-from .subspace import Subspace, _norm2
+from .subspace import Subspace, _norm2, pinv
+from .tolerance import rank_decision
 from .transforms import DesignModel, pseudo_actuator_model
 from .unobservability import measurement_map, min_unobservability_subspace
 
@@ -52,57 +52,42 @@ def default_margin(dt: float) -> float:
     """Default stability requirement on the generator's spectrum.
 
     Continuous: every eigenvalue must have ``Re λ ≤ −1``; discrete: ``|λ| ≤ 0.5``.
-    Eigenvalues already inside are kept; the others are moved (see :func:`_default_targets`).
+    Eigenvalues already inside are kept; the others are mirrored across the margin
+    (continuous ``λ → −λ̄ − 2·margin``, discrete ``λ → margin² / λ̄``; see ``_place``).
     """
     return 0.5 if dt > 0 else 1.0
 
 
-def _is_good(lam: complex, dt: float, margin: float) -> bool:
-    return abs(lam) <= margin if dt > 0 else lam.real <= -margin
-
-
-def _default_targets(bad: np.ndarray, dt: float, margin: float) -> np.ndarray:
-    """Where to move eigenvalues that violate the margin.
-
-    Continuous: mirror onto the margin line, ``λ → −max(|Re λ|, margin) + i Im λ``;
-    discrete: pull radially onto the circle ``|λ| = margin`` (0 stays 0).  Nearly real
-    targets are made real and coinciding ones spread by 10 % steps (a single-output
-    pair cannot place a repeated pole).
-    """
-    mus = []
-    for lam in bad:
-        if dt > 0:
-            mu = margin * lam / abs(lam) if abs(lam) > 0 else 0.0
-        else:
-            mu = complex(-max(abs(lam.real), margin), lam.imag)
-        mu = complex(mu)
-        if abs(mu.imag) <= 1e-6 * max(1.0, abs(mu)):
-            mu = complex(mu.real, 0.0)
-        mus.append(mu)
-    reals = [m.real for m in mus if m.imag == 0]
-    uppers = [m for m in mus if m.imag > 0]
-
-    def spread(vals: list, scale) -> list:
-        out: list = []
-        for v in vals:
-            j = sum(1 for w in out if abs(w - v) <= 1e-3 * max(1.0, abs(v)))
-            while any(abs(w - scale(v, j)) <= 1e-3 * max(1.0, abs(v)) for w in out):
-                j += 1
-            out.append(scale(v, j))
-        return out
-
+def _is_good(lam: complex, dt: float, margin: float, slack: float = 0.0) -> bool:
     if dt > 0:
+        return abs(lam) <= margin * (1.0 + slack)
+    return lam.real <= -margin + slack * max(1.0, abs(lam))
 
-        def scale(v, j):
-            return v * (1 - 0.1 * j) if j else v
-    else:
 
-        def scale(v, j):
-            return complex(v.real * (1 + 0.1 * j), v.imag) if j else v
+_SORT_SLACKS = (1e-6, 1e-5, 1e-4, 1e-3)
+"""Relative slacks (tried in turn) within which an eigenvalue on the margin counts as
+meeting it.  Eigenvalues often sit exactly on it (the filter pole ``a = 0.5`` of a
+discrete design, ``−a = −1`` of a continuous one, often repeated): mirroring one of them
+would be singular, and rounding can move it across the boundary during the Schur
+reordering, which LAPACK reports as a failed sort (then the next slack is tried)."""
 
-    reals = [complex(v).real for v in spread([complex(r) for r in reals], scale)]
-    uppers = spread(uppers, scale)
-    return np.array(reals + [u for v in uppers for u in (v, v.conjugate())], dtype=complex)
+
+def _split_schur(At: np.ndarray, dt: float, margin: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """Ordered real Schur form of ``At`` with the eigenvalues meeting the margin first."""
+    for slack in _SORT_SLACKS:
+        try:
+            return scipy.linalg.schur(
+                At,
+                output="real",
+                sort=lambda x, y, sl=slack: _is_good(complex(x, y), dt, margin, sl),
+            )
+        except np.linalg.LinAlgError:
+            continue
+    raise DesignError(
+        f"poles: the spectrum {np.linalg.eigvals(At).tolist()} sits on the stability margin "
+        f"{margin:g} and cannot be split reliably; give the poles explicitly",
+        argument="poles",
+    )
 
 
 def _check_spectrum(poles: Any, k: int, dt: float, row: str) -> np.ndarray:
@@ -130,46 +115,133 @@ def _check_spectrum(poles: Any, k: int, dt: float, row: str) -> np.ndarray:
     return arr
 
 
+class _NumericalDesignError(DesignError):
+    """A construction step failed numerically (ill-conditioned placement or identities).
+
+    Raised as a :class:`DesignError` by :func:`design_residual_generator`; a bank reports
+    the row as missing with the reason instead of failing as a whole.
+    """
+
+
+def _mirror_gain(T22: np.ndarray, B2: np.ndarray, dt: float, margin: float) -> np.ndarray:
+    """Minimum-norm feedback K2 mirroring ``eig(T22)`` across the margin.
+
+    Continuous (every eigenvalue has ``Re λ > −m``): with ``W`` solving
+    ``(T22 + mI) W + W (T22 + mI)ᵀ = B2 B2ᵀ``, ``K2 = B2ᵀ W⁻¹`` gives
+    ``T22 − B2 K2 + mI = −W (T22 + mI)ᵀ W⁻¹``: each λ goes to ``−λ̄ − 2m``.
+    Discrete (``|λ| > m``): with ``Ã = T22 / m``, ``B̃ = B2 / m`` and ``W`` solving the
+    Stein equation ``W − Ã⁻¹ W Ã⁻ᵀ = Ã⁻¹ B̃ B̃ᵀ Ã⁻ᵀ``, ``K2 = B̃ᵀ (W + B̃ B̃ᵀ)⁻¹ Ã`` gives
+    ``Ã − B̃ K2 = W Ã⁻ᵀ W⁻¹``: each λ goes to ``m² / λ̄``.
+    This is the zero-state-weight LQ (Riccati) solution of the shifted problem, the
+    smallest gain that achieves the margin.
+    """
+    nb = T22.shape[0]
+    if dt > 0:
+        At = T22 / margin
+        Bs = B2 / margin
+        Ai = np.linalg.inv(At)
+        AiB = Ai @ Bs
+        W = scipy.linalg.solve_discrete_lyapunov(Ai, AiB @ AiB.T)
+        W = (W + W.T) / 2
+        return Bs.T @ np.linalg.solve(W + Bs @ Bs.T, At)
+    W = scipy.linalg.solve_continuous_lyapunov(T22 + margin * np.eye(nb), B2 @ B2.T)
+    W = (W + W.T) / 2
+    return np.linalg.solve(W, B2).T
+
+
 def _place(
     A0: np.ndarray, M: np.ndarray, poles: np.ndarray | None, dt: float, margin: float
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """D1 with ``eig(A0 + D1 M)`` as requested; only violating eigenvalues when poles=None.
 
     Partial assignment: ordered real Schur form of ``A0ᵀ = U [[T11, T12], [0, T22]] Uᵀ``
-    with the good eigenvalues in T11; feedback acting on the T22 coordinates only moves
-    eig(T22) (scipy.signal.place_poles on (T22, B2)) and keeps eig(T11).
+    with the eigenvalues meeting the margin in T11; feedback acting on the T22
+    coordinates only moves eig(T22) and keeps eig(T11).  Default: T22's eigenvalues are
+    mirrored across the margin (:func:`_mirror_gain`, the minimum-norm choice; far
+    better conditioned than pushing them onto the margin line).  Requested poles:
+    ``scipy.signal.place_poles`` on the whole quotient.  The computed spectrum is
+    checked afterwards; a placement that misses it (a high-order quotient observed
+    through few outputs is intrinsically ill-conditioned) raises.
     """
     k = A0.shape[0]
+    if k == 0:
+        return np.zeros((0, M.shape[0])), {
+            "kept": 0,
+            "moved": 0,
+            "computed_poles": np.zeros(0, dtype=complex),
+        }
     At, Bt = A0.T, M.T
     if poles is not None:
-        targets, U, k1 = poles, np.eye(k), 0
+        U, k1 = np.eye(k), 0
+        T22 = At
     else:
-        T, U, k1 = scipy.linalg.schur(
-            At, output="real", sort=lambda x, y: _is_good(complex(x, y), dt, margin)
-        )
-        bad = np.linalg.eigvals(T[k1:, k1:]) if k1 < k else np.zeros(0)
-        targets = _default_targets(bad, dt, margin)
+        T, U, k1 = _split_schur(At, dt, margin)
+        T22 = T[k1:, k1:]
     nb = k - k1
     info: dict[str, Any] = {"kept": k1, "moved": nb}
     if nb == 0:
         info["computed_poles"] = np.linalg.eigvals(A0)
         return np.zeros((k, M.shape[0])), info
-    Tm = U.T @ At @ U
     B2 = (U.T @ Bt)[k1:]
-    T22 = Tm[k1:, k1:]
+    # act through an orthonormal basis of Im B2ᵀ: place_poles needs full column rank
+    _, sv, Vt = np.linalg.svd(B2, full_matrices=False)
+    rb = rank_decision(sv, _norm2(Bt), max(B2.shape), what="placement input", warn=False).rank
+    Vr = Vt[:rb].T
+    bad_eigs = np.linalg.eigvals(T22)
+    if rb == 0:
+        raise _NumericalDesignError(
+            f"poles: eigenvalues {bad_eigs.tolist()} of the quotient cannot be moved (they are "
+            "unobservable from the residual)",
+            argument="poles",
+        )
     try:
-        res = scipy.signal.place_poles(T22, B2, targets)
+        if poles is None:
+            with np.errstate(all="ignore"):
+                K2 = _mirror_gain(T22, B2 @ Vr, dt, margin)
+            if not np.all(np.isfinite(K2)):
+                raise np.linalg.LinAlgError("singular Gramian")
+            targets = (margin**2 / bad_eigs.conj()) if dt > 0 else (-bad_eigs.conj() - 2 * margin)
+        else:
+            targets = poles
+            K2 = scipy.signal.place_poles(T22, B2 @ Vr, targets).gain_matrix
     except (ValueError, np.linalg.LinAlgError) as exc:
         raise DesignError(
-            f"poles: cannot place {targets.tolist()}: {exc}", argument="poles"
+            f"poles: cannot place {np.asarray(targets if poles is not None else bad_eigs).tolist()}"
+            f": {exc}",
+            argument="poles",
         ) from exc
     K = np.zeros((M.shape[0], k))
-    K[:, k1:] = res.gain_matrix
+    K[:, k1:] = Vr @ K2
     Kt = K @ U.T
     D1 = -Kt.T
-    info["computed_poles"] = np.linalg.eigvals(A0 + D1 @ M)
-    info["requested_poles"] = targets
+    computed = np.linalg.eigvals(A0 + D1 @ M)
+    info["computed_poles"] = computed
+    info["requested_poles"] = np.asarray(targets)
+    info["gain_norm"] = _norm2(D1)
+    _check_placed(computed, poles, dt, margin)
     return D1, info
+
+
+def _check_placed(computed: np.ndarray, poles: np.ndarray | None, dt: float, margin: float) -> None:
+    """The computed spectrum must meet the request (margin, or the poles to 1e-4)."""
+    if poles is None:
+        bad = [lam for lam in computed if not _is_good(complex(lam), dt, margin, _SORT_SLACKS[-1])]
+        if bad:
+            raise _NumericalDesignError(
+                f"poles: placement is ill-conditioned: the computed generator poles "
+                f"{np.round(bad, 6).tolist()} violate the stability margin {margin:g}; give a "
+                "smaller margin or explicit poles",
+                argument="poles",
+            )
+        return
+    miss = max(float(np.min(np.abs(computed - p)) / max(1.0, abs(p))) for p in np.asarray(poles))
+    stable = np.abs(computed) < 1 if dt > 0 else computed.real < 0
+    if miss > 1e-4 or not np.all(stable):
+        raise _NumericalDesignError(
+            f"poles: placement is ill-conditioned: requested {np.asarray(poles).tolist()}, "
+            f"computed {np.round(computed, 6).tolist()}",
+            argument="poles",
+        )
 
 
 # --------------------------------------------------------- construction
@@ -178,19 +250,59 @@ def _rel(x: np.ndarray, *scales: float) -> float:
     return float(np.linalg.norm(x, 2) / s) if x.size else 0.0
 
 
+def _parity_rows(C: np.ndarray, direct: np.ndarray) -> np.ndarray:
+    """Rows of ``(Im C)^⊥`` that see the direct output part ``direct`` of the targets.
+
+    A static relation ``N y`` with ``N C = 0`` is blind to every state-side signal and
+    reads the output part of a fault directly.  With the exact transform the decoupled
+    faults' output parts sit on filtered channels, whose rows of the design C are
+    independent, so ``N`` sees only target feedthrough (and u through K).  Returned as
+    orthonormal rows spanning ``N N^T Im(direct)``; zero rows when C has full row rank
+    or no target has a direct part.
+    """
+    q = C.shape[0]
+    if direct.size == 0 or _norm2(direct) == 0 or q == 0:
+        return np.zeros((0, q))
+    Nb = Subspace(C, scale=_norm2(C)).complement().basis if _norm2(C) > 0 else np.eye(q)
+    if Nb.shape[1] == 0:
+        return np.zeros((0, q))
+    seen = Subspace(Nb @ (Nb.T @ direct), scale=_norm2(direct))
+    return seen.basis.T
+
+
 def _construct(
-    model: DesignModel, S: Subspace, poles: Any, margin: float, row: str
+    model: DesignModel,
+    S: Subspace,
+    poles: Any,
+    margin: float,
+    row: str,
+    target: Sequence[int] = (),
 ) -> dict[str, Any]:
     A, B, C, Du = model.A, model.B, model.C, model.Du
     Q = S.complement().basis
     P = Q.T
-    D0 = friend(A, C, S)
-    H = measurement_map(C, S)
-    M = H @ C @ Q
+    # D0 = −Q Qᵀ A S (C S)⁺ (math.md §4).  Whether S is conditioned invariant is judged
+    # by the identity P (A + D0 C) S = 0 checked below, relative to the data's norms,
+    # not by the subspace-membership test of ``friend``, whose rank decision on
+    # A (S ∩ Ker C) can be close for large n although S* itself was decided with a
+    # wide gap.
+    if S.dim < model.n:
+        Sb = S.basis
+        D0 = -Q @ (Q.T @ A @ Sb @ pinv(C @ Sb, _norm2(C), what="(C S)⁺"))
+    else:
+        D0 = np.zeros((model.n, C.shape[0]))
+    Hobs = measurement_map(C, S)
+    direct = [model.feedthrough[j] for j in target if model.feedthrough]
+    Hpar = _parity_rows(C, np.hstack(direct) if direct else np.zeros((C.shape[0], 0)))
+    Mobs = Hobs @ C @ Q
     A0 = P @ (A + D0 @ C) @ Q
     k = A0.shape[0]
     req = None if poles is None else _check_spectrum(poles, k, model.dt, row)
-    D1, pinfo = _place(A0, M, req, model.dt, margin)
+    D1obs, pinfo = _place(A0, Mobs, req, model.dt, margin)
+    # parity rows: M = H C Q = 0 there, and they take no part in the placement
+    H = np.vstack([Hobs, Hpar])
+    M = np.vstack([Mobs, np.zeros((Hpar.shape[0], k))])
+    D1 = np.hstack([D1obs, np.zeros((k, Hpar.shape[0]))])
     F = A0 + D1 @ M
     D = D0 + Q @ D1 @ H
     E = P @ D
@@ -204,7 +316,7 @@ def _construct(
     }
     bad = {k_: v for k_, v in ident.items() if v > IDENTITY_TOL}
     if bad:
-        raise DesignError(
+        raise _NumericalDesignError(
             f"{row}: construction identities fail ({bad}); the rank decisions behind S* are "
             "probably ill-conditioned",
             argument="plant",
@@ -221,6 +333,7 @@ def _construct(
         "D1": D1,
         "identities": ident,
         "placement": pinfo,
+        "parity_rows": Hpar.shape[0],
     }
 
 
@@ -281,7 +394,11 @@ def _design_transfer_zero(model: DesignModel, c: dict[str, Any], j: int) -> bool
     Dfj = model.feedthrough[j] if model.feedthrough else np.zeros((model.C.shape[0], Lj.shape[1]))
     b = c["P"] @ Lj + c["E"] @ Dfj
     d = c["H"] @ Dfj
-    scale = max(_norm2(c["P"]) * _norm2(Lj) + _norm2(c["E"]) * _norm2(Dfj), 1e-300)
+    # E may itself be rounding (e.g. E = P D0 with P A S ≈ 0): judge E Df against the
+    # size an output injection has in this design, not against ||E|| alone
+    nC = _norm2(model.C)
+    e_scale = max(_norm2(c["E"]), _norm2(c["D1"]), _norm2(model.A) / nC if nC else 0.0)
+    scale = max(_norm2(c["P"]) * _norm2(Lj) + e_scale * _norm2(Dfj), 1e-300)
     if _norm2(d) > 1e-9 * max(_norm2(c["H"]) * _norm2(Dfj), 1e-300):
         return False
     if _norm2(b) <= 1e-9 * scale:
@@ -360,7 +477,16 @@ def _existence(
         if direct:
             reasons.append("")
         elif Lj.size == 0 or _norm2(Lj) == 0:
-            reasons.append(f"fault {j}: L_{j} = 0 (it does not act on the design model)")
+            if model.preimages and model.preimages[j] is not None:
+                step = "(A − I)" if model.dt > 0 else "A"
+                reasons.append(
+                    f"fault {j}: not isolable with method={model.method!r}: its signature "
+                    f"L_{j} = Bf − {step} f_{j} = 0 ({step} f_{j} = 0, e.g. a sensor on an "
+                    "integrator), so the transform makes it invisible; method='exact' does not "
+                    "have this limitation"
+                )
+            else:
+                reasons.append(f"fault {j}: L_{j} = 0 (it does not act on the design model)")
         elif S.dim == n:
             reasons.append(f"fault {j}: dim S* = n = {n}: decoupling the others leaves nothing")
         elif S.contains(Subspace(Lj)):
@@ -388,17 +514,24 @@ def _build(
     model = pseudo_actuator_model(plant, faults, method, decouple=decouple, filter_pole=filter_pole)
     S, reasons = _existence(model, target, decouple)
     why = [r for r in reasons if r]
-    if not why and S.dim == model.n:
-        why = [f"dim S* = n = {model.n}: decoupling faults {list(decouple)} leaves nothing"]
     if why:
         raise NotIsolableError(
             f"{row}: no residual exists: " + "; ".join(why), reason="; ".join(why)
         )
-    c = _construct(model, S, poles, margin, row)
+    c = _construct(model, S, poles, margin, row, target)
+    if c["H"].shape[0] == 0:
+        why = [
+            f"dim S* = n = {model.n} and no parity relation reads the targets: decoupling "
+            f"faults {list(decouple)} leaves nothing"
+        ]
+        raise NotIsolableError(
+            f"{row}: no residual exists: " + "; ".join(why), reason="; ".join(why)
+        )
     unseen = [j for j in target if _design_transfer_zero(model, c, j)]
     if unseen:
         why = [
-            f"fault {j}: not seen (Im L_{j} ⊆ S* and its direct output part is annihilated by H)"
+            f"fault {j}: not isolable from faults {list(decouple)}: Im L_{j} ⊆ S* and its "
+            "direct output part is cancelled (transfer identically zero)"
             for j in unseen
         ]
         raise NotIsolableError(
@@ -439,11 +572,33 @@ def _build(
         method=model.method,
         info=info,
     )
-    from .verification import fault_gains
+    from .verification import LEAK_TOL, fault_gains
 
     gains, dc = fault_gains(g, plant, faults)
+    for j in target:
+        if not gains[j] > LEAK_TOL:  # second opinion: the orthonormal Krylov test
+            gains[j] = fault_gains(g, plant, [faults[j]], method="krylov")[0][0]
     g.info["fault_gain"] = gains
     g.info["dc_gain"] = dc
+    unseen = [j for j in target if not gains[j] > LEAK_TOL]
+    if unseen:  # the delivered generator is blind to a target on the physical model
+        if model.method == "paper":  # the pseudo-actuator model is not the plant
+            why = [
+                f"fault {j}: not seen by the paper-method residual: its transfer is "
+                f"identically zero on the physical model (relative gain {gains[j]:.2g}), "
+                "although the pseudo-actuator model sees it (math.md Erratum 2)"
+                for j in unseen
+            ]
+        else:
+            why = [
+                f"fault {j}: not isolable from faults {list(decouple)}: its transfer to the "
+                f"residual is identically zero on the physical model (relative gain "
+                f"{gains[j]:.2g})"
+                for j in unseen
+            ]
+        raise NotIsolableError(
+            f"{row}: no residual exists: " + "; ".join(why), reason="; ".join(why)
+        )
     return g
 
 
@@ -628,18 +783,30 @@ def design_bank(
             gens.append(None)
             diags.append(f"missing: {exc.reason}")
             continue
+        except _NumericalDesignError as exc:
+            gens.append(None)
+            diags.append(f"missing: design failed numerically: {exc}")
+            continue
         gens.append(g)
         achieved[r] = g.info["fault_gain"] > 1e-8
-        weak = [
-            j
-            for j in tgt
-            if np.isfinite(g.info["dc_gain"][j])
-            and g.info["dc_gain"][j] <= 1e-8 * max(g.info["fault_gain"][j], 1e-300)
-        ]
+        gain, dc = g.info["fault_gain"], g.info["dc_gain"]
+
+        def zero_dc(j: int, gain=gain, dc=dc) -> bool:
+            return bool(np.isfinite(dc[j]) and dc[j] <= 1e-8 * max(gain[j], 1e-300))
+
+        weak = [j for j in tgt if zero_dc(j)]
+        leaks = [j for j in dec if achieved[r, j]]
+        notes = []
         if weak:
-            diags.append("weak: zero DC gain from fault " + ", ".join(map(str, weak)))
-        else:
-            diags.append("ok")
+            notes.append("weak: zero DC gain from fault " + ", ".join(map(str, weak)))
+        if leaks:
+            kind = (
+                "zero DC gain: decoupled in steady state only"
+                if all(zero_dc(j) for j in leaks)
+                else "non-zero DC gain"
+            )
+            notes.append(f"leaks faults {leaks} on the physical model ({kind})")
+        diags.append("; ".join(notes) if notes else "ok")
     cols = [tuple(achieved[:, j]) for j in range(nf)]
     isolable = np.array(
         [any(cols[j]) and all(cols[j] != cols[i] for i in range(nf) if i != j) for j in range(nf)]

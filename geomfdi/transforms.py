@@ -5,11 +5,12 @@ part ``Df`` (sensor faults, general faults, disturbances with ``Dd``) must first
 moved into the state equation:
 
 ``"paper"`` (seed 001, eq. 7–10)
-    solve ``C f = Df`` (minimum-norm f; refuse when ``Df ∉ Im C``), ``L = Bf − A f``.
-    Decouples only constant faults in steady state (math.md Erratum 2).
+    solve ``C f = Df`` (minimum-norm f; refuse when ``Df ∉ Im C``), ``L = Bf − A f``
+    (discrete time: ``L = Bf − (A − I) f``, the same steady-state argument for
+    ``x[k+1]``).  Decouples only constant faults in steady state (math.md Erratum 2).
 ``"mvw"`` (Massoumnia–Verghese–Willsky 1989)
-    two columns per component ``[Bf − A f, f]`` (the signal and its derivative):
-    exact but conservative.
+    two columns per component ``[Bf − A f, f]`` (the signal and its derivative; in
+    discrete time its next sample): exact but conservative.
 ``"exact"`` (default)
     output filter ``z' = −a z + a y_F`` (discrete ``z⁺ = a z + (1 − a) y_F``) appended
     to the plant on the channels F that carry the output part of a fault to be
@@ -113,6 +114,28 @@ def _solve_output(C: np.ndarray, Df: np.ndarray, what: str) -> tuple[np.ndarray,
     s = np.linalg.svd(C, compute_uv=False)
     rank = int(np.count_nonzero(s > get_rtol(max(C.shape)) * scale))
     return f, rank < C.shape[1]
+
+
+def _state_signature(A: np.ndarray, Bf: np.ndarray, f: np.ndarray, discrete: bool) -> np.ndarray:
+    """``Bf − A f`` (discrete time: ``Bf − (A − I) f``), rounding-level columns set to 0.
+
+    Continuous: ``x̄ = x + f m`` gives ``x̄' = A x̄ + (Bf − A f) m + f m'``; discrete:
+    ``x̄[k+1] = A x̄[k] + (Bf − A f) m[k] + f m[k+1]``, i.e. ``(Bf − (A − I) f) m[k]`` plus
+    ``f (m[k+1] − m[k])``.  The paper keeps the first term (exact for constant m); in
+    discrete time the constant-fault term is ``f m[k]``, so the signature of the
+    continuous formula applied to a sampled plant would not even decouple constant
+    faults.  A column at rounding level (relative to ``‖Bf‖ + ‖A‖ ‖f‖``) is set to 0:
+    ``A f = 0`` (a sensor on an integrator; discrete: ``A f = f``) must give an exactly
+    invisible fault, not a direction made of rounding.
+    """
+    Aeff = A - np.eye(A.shape[0]) if discrete else A
+    sig = Bf - Aeff @ f
+    scale = np.linalg.norm(Bf, axis=0) + max(_norm2(A), 1.0 if discrete else 0.0) * np.linalg.norm(
+        f, axis=0
+    )
+    tiny = np.linalg.norm(sig, axis=0) <= get_rtol(max(A.shape[0], 1)) * scale
+    sig[:, tiny] = 0.0
+    return sig
 
 
 def pseudo_actuator_model(
@@ -233,14 +256,15 @@ def pseudo_actuator_model(
                 "was used, and S* may depend on this choice"
             )
         preimages.append(f)
-        sig = Bf - A @ f
+        sig = _state_signature(A, Bf, f, plant.is_discrete)
         Ls.append(np.hstack([sig, f]) if method == "mvw" else sig)
     if np.any(Dd != 0):
         f, _ = _solve_output(C, Dd, "Dd (disturbance)")
-        Ld = np.hstack([Bd - A @ f, f]) if method == "mvw" else Bd - A @ f
+        sig = _state_signature(A, Bd, f, plant.is_discrete)
+        Ld = np.hstack([sig, f]) if method == "mvw" else sig
     else:
         Ld = Bd
-    zeros = [np.zeros((q, Df.shape[1])) for _, Df in sigs]
+    zeros = [np.zeros((q, L.shape[1])) for L in Ls]  # one column per signature column
     return DesignModel(
         A, B, C, D, Ls, Ld, method, None, n, plant.dt, notes, preimages, zeros, tuple(range(q)), ()
     )
