@@ -325,7 +325,9 @@ class VerificationReport:
     tol : float
         Threshold for "zero".
     ok : bool
-        Every decoupling holds, no input leaks, every target is seen (existing rows).
+        Every decoupling holds, no input leaks, every target is seen — over the rows
+        whose generator exists (a bank with missing rows can be ``ok``; see
+        :attr:`complete`).
     """
 
     gain: np.ndarray
@@ -339,6 +341,11 @@ class VerificationReport:
     ok: bool
     method: str = "points"
     details: list[str] = field(default_factory=list)
+
+    @property
+    def complete(self) -> bool:
+        """``ok`` and no row missing: the bank realises the whole requested structure."""
+        return self.ok and not self.missing
 
     def __repr__(self) -> str:
         return (
