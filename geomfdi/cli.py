@@ -125,6 +125,7 @@ def _verify(spec: ModelSpec, bank: ResidualBank, symbolic: bool) -> dict[str, An
     rep = verify(bank, spec.plant)
     out: dict[str, Any] = {
         "ok": bool(rep.ok),
+        "complete": bool(rep.complete),
         "max_leakage": float(np.max(rep.leakage, initial=0.0)),
         "max_input_leakage": float(np.max(rep.input_leakage, initial=0.0)),
         "missing_rows": rep.missing,
