@@ -13,10 +13,29 @@ disturbance), with S = S*(Σ_{i∈decouple} Im L_i + Im L_d) on the design model
 giving ``w' = F w − E y + G u, r = M w − H y + K u`` with the identities
 ``F P = P A + E C``, ``M P = H C`` checked on every design, so that ``e = w − P x``
 obeys ``e' = F e − P L m`` and ``r = M e``.
+
+Beyond the construction of math.md §4:
+
+* **Parity rows.**  With redundant sensors (rank C < q, e.g. a zero or a repeated row
+  of C) a target's direct output part can be read by static relations ``N y``,
+  ``N C = 0``, which ``Im C ⊖ C S`` misses; the rows of ``(Im C)^⊥`` that see the
+  targets' direct part are appended to H (with zero rows in M).  When S* = R^n they
+  are the whole generator (order 0).
+* **Default spectrum.**  Eigenvalues of A0 that violate the margin are *mirrored*
+  across it (continuous ``λ → −λ̄ − 2·margin``, discrete ``λ → margin² / λ̄``) by the
+  minimum-norm output injection (zero-state-weight Riccati solution, one Lyapunov or
+  Stein equation); the others are kept.  Pushing them onto the margin line instead is
+  far worse conditioned for quotients observed through few outputs.
+* **Numerical failure.**  The computed spectrum of A0 + D1 M and the delivered
+  generator's poles are checked; a design whose placement or minimal realization is
+  too ill-conditioned to meet the request, or whose identities fail, raises
+  :class:`~geomfdi.errors.DesignError` (a bank reports the row missing with
+  "design failed numerically") rather than delivering an unstable generator.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -32,7 +51,7 @@ from .plant import Plant
 from .realization import minimal_realization, reachable_subspace
 from .subspace import Subspace, _norm2, pinv
 from .tolerance import rank_decision
-from .transforms import DesignModel, pseudo_actuator_model
+from .transforms import DesignModel, default_filter_pole, pseudo_actuator_model
 from .unobservability import measurement_map, min_unobservability_subspace
 
 __all__ = [
@@ -196,7 +215,10 @@ def _place(
         )
     try:
         if poles is None:
-            with np.errstate(all="ignore"):
+            # an eigenvalue just beyond the margin makes the equation nearly singular;
+            # scipy then warns and perturbs it: the spectrum check below judges the result
+            with np.errstate(all="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
                 K2 = _mirror_gain(T22, B2 @ Vr, dt, margin)
             if not np.all(np.isfinite(K2)):
                 raise np.linalg.LinAlgError("singular Gramian")
@@ -385,6 +407,38 @@ def _deliver(model: DesignModel, c: dict[str, Any], minimal: bool) -> dict[str, 
     }
 
 
+def _check_delivered(
+    F: np.ndarray, model: DesignModel, requested: bool, margin: float, row: str
+) -> None:
+    """The delivered generator's poles: stable, and (default spectrum) meeting the margin.
+
+    Its poles are quotient poles and output-filter poles; the minimal realization of an
+    ill-conditioned design can move them (its rank decisions perturb the dynamics at
+    rounding level, which ill-conditioned eigenvalues amplify), so they are checked
+    again on the matrices the user gets.
+    """
+    if F.size == 0:
+        return
+    lam = np.linalg.eigvals(F)
+    dt = model.dt
+    stable = np.abs(lam) < 1 if dt > 0 else lam.real < 0
+    ok = stable.copy()
+    if not requested:
+        fp = None
+        if model.augmented:
+            fp = model.filter_pole if dt > 0 else -model.filter_pole
+        for i, mu in enumerate(lam):
+            on_filter = fp is not None and abs(mu - fp) <= 1e-6 * max(1.0, abs(fp))
+            ok[i] = ok[i] and (_is_good(complex(mu), dt, margin, _SORT_SLACKS[-1]) or on_filter)
+    if not np.all(ok):
+        raise _NumericalDesignError(
+            f"{row}: the delivered generator has poles {np.round(lam[~ok], 6).tolist()} that "
+            f"violate {'stability' if requested else f'the stability margin {margin:g}'} "
+            "(an ill-conditioned design whose minimal realization moved them)",
+            argument="poles",
+        )
+
+
 def _design_transfer_zero(model: DesignModel, c: dict[str, Any], j: int) -> bool:
     """Is the design-model transfer from fault j identically zero?
 
@@ -538,6 +592,7 @@ def _build(
             f"{row}: no residual exists: " + "; ".join(why), reason="; ".join(why)
         )
     d = _deliver(model, c, minimal)
+    _check_delivered(d["F"], model, poles is not None, margin, row)
     info = {
         "markov_gain": _first_markov(model, c, target[0]),
         "S_dim": S.dim,
@@ -628,7 +683,8 @@ def design_residual_generator(
     poles : sequence, optional
         Spectrum of the quotient observer F (length = its order ``n_design − dim S*``),
         stable and closed under conjugation.  Default: keep the eigenvalues that already
-        satisfy :func:`default_margin` (or ``margin``) and move only the others.
+        satisfy :func:`default_margin` (or ``margin``, to a relative slack of at most
+        1e-3) and mirror the others across it (module Notes).
     method : {"exact", "paper", "mvw"}
         Sensor-fault transform (:mod:`geomfdi.transforms`).
     filter_pole : float, optional
@@ -654,14 +710,18 @@ def design_residual_generator(
         When a target fault cannot be seen while decoupling the others
         (``Im L_j ⊆ S*``, ``dim S* = n`` or ``L_j = 0``).
     DesignError
-        Bad options (poles, method) or a failed construction.
+        Bad options (poles, method; ``argument`` names them) or a construction that
+        failed numerically (identities, placement, or poles of the delivered
+        generator; ``argument`` is ``"plant"`` or ``"poles"``).
 
     Notes
     -----
     Seed 001 §3.4 with math.md Errata 1–2: the generator reads the measured y, and
     with the default exact transform sensor faults are decoupled exactly, including
     transients.  With ``method="paper"`` the decoupling holds only on the paper's
-    pseudo-actuator model; :func:`geomfdi.verify` shows the leakage.
+    pseudo-actuator model; :func:`geomfdi.verify` shows the leakage.  A target whose
+    transfer on the physical model is identically zero (random-point measure, with the
+    orthonormal Krylov test as second opinion) is reported not isolable.
 
     References
     ----------
@@ -744,8 +804,13 @@ def design_bank(
         ``diagnostics[r]``).  ``structure`` is the *achieved* structure on the physical
         model (entry true when the relative gain from fault j exceeds 1e-8), which for
         ``method="paper"`` shows the leakage of Erratum 2.  ``isolable[j]``: fault j's
-        column is non-zero and differs from every other column.  Rows whose target has
-        zero DC gain are reported ``"weak: zero DC gain from fault j"``.
+        column is non-zero and differs from every other column.  ``diagnostics[r]``:
+        ``"ok"``; ``"missing: <reason>"`` (not isolable: ``Im L_j ⊆ S*``, ``dim S* = n``,
+        ``L_j = 0``; or ``"design failed numerically: ..."``); ``"weak: zero DC gain
+        from fault j"`` (seen only transiently); ``"leaks faults [...] on the physical
+        model (...)"`` (paper method, Erratum 2); ``"ill-conditioned: ..."`` (exact or
+        MVW design whose decoupling holds only to the printed relative gain > 1e-8).
+        Several notes are joined with ``"; "``.
     """
     plant = _coerce_plant(plant)
     faults = _coerce_faults(faults)
@@ -761,6 +826,8 @@ def design_bank(
     if not np.all((S == 0) | (S == 1)):
         raise GeomFDIError("structure: entries must be 0 or 1", argument="structure")
     req = S.astype(bool)
+    if filter_pole is None and method == "exact":  # once for all rows (an eigenvalue problem)
+        filter_pole = default_filter_pole(plant)
     model = pseudo_actuator_model(plant, faults, method, filter_pole=filter_pole)
     mg = default_margin(plant.dt) if margin is None else float(margin)
     rows = req.shape[0]
@@ -799,13 +866,19 @@ def design_bank(
         notes = []
         if weak:
             notes.append("weak: zero DC gain from fault " + ", ".join(map(str, weak)))
-        if leaks:
+        if leaks and method == "paper":
             kind = (
                 "zero DC gain: decoupled in steady state only"
                 if all(zero_dc(j) for j in leaks)
                 else "non-zero DC gain"
             )
             notes.append(f"leaks faults {leaks} on the physical model ({kind})")
+        elif leaks:  # exact in theory: what is left is rounding amplified by the design
+            worst = float(max(gain[j] for j in leaks))
+            notes.append(
+                f"ill-conditioned: faults {leaks} leak at relative gain up to {worst:.2g} "
+                "(the decoupling is exact in theory; rounding is amplified by the design)"
+            )
         diags.append("; ".join(notes) if notes else "ok")
     cols = [tuple(achieved[:, j]) for j in range(nf)]
     isolable = np.array(
