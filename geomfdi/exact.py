@@ -283,15 +283,26 @@ def measurement_map(C: sp.Matrix, S: ExactSubspace) -> sp.Matrix:
     return (ImC & perp).basis.T
 
 
+def _exact_pole(p: Any) -> sp.Expr:
+    """A pole as an exact Gaussian rational (floats through their shortest decimal)."""
+    if isinstance(p, sp.Basic):
+        re_, im_ = sp.re(p), sp.im(p)
+    else:
+        z = complex(p)
+        re_, im_ = float(z.real), float(z.imag)
+    return _rational_entry(re_, "poles") + sp.I * _rational_entry(im_, "poles")
+
+
 def _charpoly_coeffs(poles: Sequence[Any]) -> list[sp.Expr]:
+    """Exact rational coefficients of ``Π (s − p)`` (the spectrum must be conjugate-closed)."""
     s = sp.Symbol("s")
-    poly = sp.Poly(sp.expand(sp.prod([s - sp.nsimplify(p) for p in poles])), s)
-    coeffs = poly.all_coeffs()
-    if any(not sp.simplify(c).is_real for c in coeffs):
+    poly = sp.Poly(sp.expand(sp.prod([s - _exact_pole(p) for p in poles])), s)
+    coeffs = [sp.expand(c) for c in poly.all_coeffs()]
+    if any(sp.im(c) != 0 for c in coeffs):
         raise DesignError(
             "poles: the requested spectrum must be closed under conjugation", argument="poles"
         )
-    return [sp.nsimplify(sp.re(c)) for c in coeffs]
+    return [sp.Rational(sp.re(c)) for c in coeffs]
 
 
 def place_observer(A0: sp.Matrix, M: sp.Matrix, poles: Sequence[Any]) -> sp.Matrix:
