@@ -518,56 +518,6 @@ def _exact_poles(values: np.ndarray) -> list[Any]:
     return out
 
 
-def _exact_charpoly(values: np.ndarray) -> list[Any]:
-    """Coefficients (highest first) of ``Π (s − p)`` over the rounded rational poles.
-
-    Built from real factors (``s − p`` and ``s² − 2 Re p s + |p|²`` per conjugate pair)
-    over QQ, so every coefficient is an exact rational.
-    """
-    import sympy as sp
-
-    s = sp.Symbol("s")
-    poly = sp.Poly(1, s, domain="QQ")
-    for p in _exact_poles(values):
-        re, im = sp.re(p), sp.im(p)
-        if im == 0:
-            poly = poly * sp.Poly(s - re, s, domain="QQ")
-        elif im > 0:  # the conjugate (im < 0) is the same factor
-            poly = poly * sp.Poly(s**2 - 2 * re * s + re**2 + im**2, s, domain="QQ")
-    return [sp.Rational(c) for c in poly.all_coeffs()]
-
-
-def _exact_place(A0: Any, M: Any, values: np.ndarray) -> Any:
-    """Exact D1 with ``charpoly(A0 + D1 M)`` = that of the rounded poles (Ackermann).
-
-    As :func:`geomfdi.exact.place_observer`, on one output combination ``w M`` (a row
-    of M, then fixed integer weightings) for which ``(w M, A0)`` is observable; the
-    characteristic polynomial comes from :func:`_exact_charpoly`.
-    """
-    import sympy as sp
-
-    k = A0.rows
-    if k == 0:
-        return sp.zeros(0, M.rows)
-    coeffs = _exact_charpoly(values)
-    if len(coeffs) - 1 != k:
-        raise GeomFDIError(f"poles: expected {k} poles, got {len(coeffs) - 1}", argument="poles")
-    weights = [sp.eye(M.rows)[i, :] for i in range(M.rows)]
-    weights += [sp.Matrix([[sp.Integer(j + 2) ** i for i in range(M.rows)]]) for j in range(4)]
-    for w in weights:
-        c = w * M
-        O = sp.Matrix.vstack(*[c * A0**i for i in range(k)])
-        if O.rank() < k:
-            continue
-        pA = sp.zeros(k, k)
-        for coef in coeffs:
-            pA = pA * A0 + coef * sp.eye(k)
-        ek = sp.zeros(k, 1)
-        ek[k - 1] = 1
-        return -(pA * O.inv() * ek) * w
-    raise GeomFDIError("M: (M, A0) is not observable; cannot place the poles", argument="M")
-
-
 def _exact_parity_rows(C: Any, direct: list[Any]) -> Any:
     """Exact counterpart of ``synthesis._parity_rows``: rows of ``(Im C)^⊥`` seeing ``direct``."""
     import sympy as sp
@@ -659,7 +609,7 @@ def _exact_design(g: ResidualGenerator, plant: Plant, faults: list[Fault]) -> di
     A0 = P * (Ad + D0 * Cd) * R
     cons = g.info.get("construction", {})
     quotient_poles = np.linalg.eigvals(cons["F"]) if "F" in cons else g.poles
-    D1obs = _exact_place(A0, Mobs, quotient_poles)
+    D1obs = ex.place_observer(A0, Mobs, _exact_poles(quotient_poles))
     H = Hobs.col_join(Hpar)
     M = Mobs.col_join(sp.zeros(Hpar.rows, A0.rows))
     D1 = D1obs.row_join(sp.zeros(A0.rows, Hpar.rows))
