@@ -128,6 +128,15 @@ def chi2_threshold(pfa: float, dof: int) -> float:
     return float(stats.chi2.isf(pfa, dof))
 
 
+def _figure_axes(ax: Any, figsize: tuple[float, float]) -> tuple[Any, Any]:
+    """``(figure, axes)``: a new pyplot figure when ``ax`` is None, else ``ax``'s own."""
+    if ax is not None:
+        return ax.figure, ax
+    import matplotlib.pyplot as plt
+
+    return plt.subplots(figsize=figsize)
+
+
 def normal_threshold(pfa: float) -> float:
     """OPT threshold ``u_{1 - pfa/2}`` (two-sided standard normal quantile).
 
@@ -498,12 +507,7 @@ class Seed004Result:
         -------
         matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            fig, ax = plt.subplots(figsize=(8.5, 4.5))
-        else:
-            fig = ax.figure
+        fig, ax = _figure_axes(ax, (8.5, 4.5))
         summ = self.summary()
         x = np.arange(len(self.kinds))
         width = 0.8 / max(len(self.methods), 1)
@@ -1881,12 +1885,7 @@ def plot_rates(curve: RateCurve, ax: Any = None) -> Any:
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(6.5, 4))
-    else:
-        fig = ax.figure
+    fig, ax = _figure_axes(ax, (6.5, 4))
     nonzero = curve.sizes != 0  # at size 0 "correct" means "no alarm": not drawn
     for j, lab in enumerate(curve.correct):
         color = f"C{j}"
