@@ -19,9 +19,9 @@ largest difference is printed.  When ``forced_response`` would take too long at 
 largest sizes it is timed at 10^5 samples and extrapolated linearly (rows marked ``*``).
 
 Times are CPU times (``time.process_time``) of single-threaded runs (BLAS limited to one
-thread), which keeps the comparison stable on a shared machine; ``gf.simulate`` is timed
-as the best of two calls (the first one also pays for the operating system mapping fresh
-memory pages).
+thread), which keeps the comparison stable on a shared machine; they include the system
+time the operating system spends mapping fresh memory pages, a large and variable part of
+``gf.simulate`` at 10^6 samples.  ``gf.simulate`` is timed as the best of three calls.
 
 Run ``python benchmarks/bench_simulation.py`` (``--quick`` for a smoke run, ``--full`` to
 time ``forced_response`` at every size instead of extrapolating).
@@ -186,7 +186,7 @@ def bench(
             t = np.arange(N) * dt
             t_fault = float(t[int(0.4 * t.size)])
             v, f = inputs(t, t_fault)
-            tg, rg = time_gf(bank, t, v, x0, t_fault, repeat=2)
+            tg, rg = time_gf(bank, t, v, x0, t_fault, repeat=3)
             if N > extrapolate_above and not full:
                 tf = fr_rate * N
                 diff = None  # no baseline run to compare with

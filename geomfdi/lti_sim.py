@@ -15,7 +15,9 @@ so the states are obtained by back-substitution from ``i = n-1`` down to ``0``; 
 is a first-order linear recursion over the whole time axis, evaluated by one call of the
 compiled :func:`scipy.signal.lfilter` (and over many Monte-Carlo runs at once, since
 ``lfilter`` filters every row of an ``(runs, N)`` array).  The cost is ``O(n^2 N)`` flops
-in ``n`` compiled calls.
+in ``n`` compiled calls.  For many states :func:`block_recursion` runs the recursion on
+the *lifted* system (blocks of ``M`` samples), which moves most of the work from
+``lfilter`` samples to matrix products.
 
 The ``"foh"`` discretisation is the one of :func:`control.forced_response` for continuous
 systems (linear interpolation of the input between samples, the same block matrix
@@ -176,7 +178,9 @@ def _recursion_inplace(T: np.ndarray, G: np.ndarray, stops: Any = None) -> np.nd
     n, R, N = G.shape
     for i in range(n - 1, -1, -1):
         stop = n if stops is None else int(stops[i])
-        if i < stop - 1:
+        if i == stop - 2:  # one coupling: no temporary product
+            G[i, :, 1:] += T[i, i + 1] * G[i + 1, :, :-1]
+        elif i < stop - 2:
             k = stop - 1 - i
             coup = (T[i, i + 1 : stop] @ G[i + 1 : stop].reshape(k, R * N)).reshape(R, N)
             G[i, :, 1:] += coup[:, :-1]
@@ -249,6 +253,63 @@ class Drive:
         return a
 
 
+_LFILTER_COST = 150.0  # one lfilter sample, in matrix-product multiply-adds (measured)
+_MAX_LIFT = 32
+
+
+def _lift_factor(n_states: int, n_out: int, n_drive: int, complex_: bool) -> int:
+    """Lifting factor ``M`` of :func:`block_recursion` from a flop model.
+
+    Per sample, the lifted scheme costs about ``p nz M`` multiply-adds for the Toeplitz
+    block (``p`` outputs, ``nz`` drive rows) and ``c n / M`` for the ``n`` scalar
+    recursions run at the lifted rate, where ``c`` (about 150) is what one ``lfilter``
+    sample costs in matrix-product multiply-adds (twice that for complex states).  The
+    minimum is at ``M = sqrt(c n / (p nz))``; below 2 lifting does not pay and ``M = 1``
+    (the plain recursion) is used.
+    """
+    c = _LFILTER_COST * (2 if complex_ else 1)
+    m = float(np.sqrt(c * n_states / max(n_out * max(n_drive, 1), 1)))
+    return 1 if m < 2 else int(min(round(m), _MAX_LIFT))
+
+
+def _markov_toeplitz(Ab: np.ndarray, W: np.ndarray, Cb: np.ndarray, M: int) -> np.ndarray:
+    """Lower block-Toeplitz map of the lifted system, ``(p M, nz M)``.
+
+    Rows ``(o, i)``, columns ``(c, j)`` (output / drive index major): the entry is
+    ``(C A^(i-1-j) W)[o, c]`` for ``j < i`` and 0 otherwise.
+    """
+    p, nz = Cb.shape[0], W.shape[1]
+    Gam = np.zeros((p, M, nz, M))
+    P = W
+    for r in range(M - 1):  # the Markov parameter C A^r W links i = j + r + 1 to j
+        Mk = Cb @ P
+        for j in range(M - 1 - r):
+            Gam[:, j + r + 1, :, j] = Mk
+        P = Ab @ P
+    return Gam.reshape(p * M, nz * M)
+
+
+def _blocked_view(arr: np.ndarray, M: int) -> np.ndarray:
+    """A ``(p, R, nb M)`` array seen as ``(p, R, nb, M)`` (its last axis split)."""
+    p, R, L = arr.shape
+    s0, s1, s2 = arr.strides
+    return np.lib.stride_tricks.as_strided(arr, (p, R, L // M, M), (s0, s1, M * s2, s2))
+
+
+def _as_slice(idx: np.ndarray) -> slice | np.ndarray:
+    """A run of consecutive indices as a slice (a view instead of a gather)."""
+    if idx.size and np.array_equal(idx, np.arange(idx[0], idx[0] + idx.size)):
+        return slice(int(idx[0]), int(idx[0]) + idx.size)
+    return idx
+
+
+def _real_product(Mat: np.ndarray, arr: np.ndarray) -> np.ndarray:
+    """``Re(Mat @ arr)`` without forming the complex product."""
+    if np.iscomplexobj(arr):
+        return Mat.real @ arr.real - Mat.imag @ arr.imag
+    return Mat.real @ arr
+
+
 def block_recursion(
     blocks: list[np.ndarray],
     W: np.ndarray,
@@ -260,6 +321,7 @@ def block_recursion(
     chunk: int | None = None,
     direct: tuple[list[np.ndarray], list[list[np.ndarray | None]]] | None = None,
     out: list[list[np.ndarray | None]] | None = None,
+    lift: int | None = None,
 ) -> list[list[np.ndarray]]:
     """Independent subsystems ``x_b[k+1] = A_b x_b[k] + W_b d[k]``, chunked over time.
 
@@ -278,14 +340,17 @@ def block_recursion(
     N : int
         Number of samples.
     chunk : int, optional
-        Samples per time chunk (default: about 2**19 / (states x runs), between 1024 and
-        65536).
+        Samples per time chunk (default: ``M`` times about 2**19 / (states x runs),
+        between 1024 and 65536, with ``M`` the lifting factor).
     direct : (signals, matrices), optional
         Direct feedthrough: ``signals`` is a list of sampled arrays (k_i, R_i, N), and
         ``matrices[b][j]`` (p, sum k_i) or None is added to output ``j`` of block ``b``
         times the stacked signals, sample by sample.
     out : list of list of ndarray or None, optional
         Preallocated (possibly strided) arrays (p, R, N) to write the outputs into.
+    lift : int, optional
+        Lifting factor ``M`` (see Notes); by default chosen by :func:`_lift_factor`
+        from the sizes; 1 runs the plain recursion.
 
     Returns
     -------
@@ -298,6 +363,21 @@ def block_recursion(
     back-substitution couplings stay inside each block.  Time is processed in chunks
     whose arrays stay cache-sized; the state at the end of a chunk starts the next one
     (exactly: the recursion is the same, only split).
+
+    *Lifting* (the lifted system of Khargonekar, Poolla & Tannenbaum, IEEE TAC 1985):
+    with time blocks of ``M`` samples the block-start states obey
+
+        x[(b+1) M] = A^M x[b M] + sum_{j<M} A^(M-1-j) W d[b M + j]
+
+    (one matrix product forms the forcing of every block, then the scalar ``lfilter``
+    recursions run on ``N / M`` samples), and the outputs inside a block follow from the
+    block-start state and the block's drive samples,
+
+        C x[b M + i] = C A^i x[b M] + sum_{j<i} C A^(i-1-j) W d[b M + j],
+
+    one product with the lower block-Toeplitz matrix of Markov parameters.  It is the
+    same recursion regrouped, not an approximation: it trades ``lfilter`` samples, whose
+    cost is mostly per-sample overhead, for matrix-product flops.
     """
     sizes = [b.shape[0] for b in blocks]
     nS = int(sum(sizes))
@@ -311,72 +391,160 @@ def block_recursion(
         Zs.append(Z)
         i += A.shape[0]
         stops += [i] * A.shape[0]
-    Tb = scipy.linalg.block_diag(*Ts) if Ts else np.zeros((0, 0))
     Zb = scipy.linalg.block_diag(*Zs) if Zs else np.zeros((0, 0))
     Zh = Zb.conj().T
-    cplx = np.iscomplexobj(Tb)
+    cplx = any(np.iscomplexobj(T) for T in Ts)
+    dtype = complex if cplx else float
     V = Zh @ W
     col = np.cumsum([0] + [d.arr.shape[0] for d in drives])
     spans = list(zip(col[:-1], col[1:], strict=True))
     nz = int(col[-1])
-    maps = []
-    i = 0
-    for n_b, Z, outs in zip(sizes, Zs, outputs, strict=True):
-        maps.append([(slice(i, i + n_b), C @ Z) for C in outs])
-        i += n_b
-    res = [
-        [
-            (
-                out[b][j]
-                if out is not None and out[b][j] is not None
-                else np.empty((C.shape[0], R, N))
-            )
-            for j, C in enumerate(outs)
-        ]
-        for b, outs in enumerate(outputs)
-    ]
     dsig, dmats = direct if direct is not None else ([], [[None] * len(o) for o in outputs])
     nd = int(sum(a.shape[0] for a in dsig))
-    Rdd = max([a.shape[1] for a in dsig] + [1])
-    z = (Zh @ np.broadcast_to(x0, (nS, x0.shape[1]))).astype(complex if cplx else float)
+    # every output: (block, state slice, C, destination, first row in the output stack)
+    flat = []
+    i = o = 0
+    for b, (n_b, outs) in enumerate(zip(sizes, outputs, strict=True)):
+        for j, C in enumerate(outs):
+            dest = out[b][j] if out is not None and out[b][j] is not None else None
+            if dest is None:
+                dest = np.empty((C.shape[0], R, N))
+            flat.append((b, slice(i, i + n_b), C, dest, o))
+            o += C.shape[0]
+        i += n_b
+    p_tot = o
+    if lift is None:
+        M = _lift_factor(nS, p_tot, nz, cplx) if nz and N >= 64 * _MAX_LIFT else 1
+    else:
+        M = int(lift)
+        if M < 1:
+            raise GeomFDIError(f"lift: must be a positive integer, got {lift!r}", argument="lift")
+    Tb = scipy.linalg.block_diag(*Ts) if Ts else np.zeros((0, 0), dtype=dtype)
+    TbM = np.linalg.matrix_power(Tb, M)  # A^M in Schur coordinates: the lifted transition
+    # Hz[:, (c, j)] = Z^H A^(M-1-j) W[:, c] = T^(M-1-j) V[:, c]
+    Hz = np.empty((nS, nz, M), dtype=dtype)
+    Hj = V.astype(dtype)
+    for j in range(M - 1, -1, -1):
+        Hz[:, :, j] = Hj
+        Hj = Tb @ Hj
+    Hz = Hz.reshape(nS, nz * M)
+    # Markov parameters C A^(i-1-j) W (j < i) map the lifted drive, rows (c, j), to the
+    # lifted outputs, rows (o, i); the feedthrough is applied at the original rate
+    Gam = None
+    if M > 1 and nz:
+        Cb = np.zeros((p_tot, nS))
+        for _, sl, C, _, o0 in flat:
+            Cb[o0 : o0 + C.shape[0], sl] = C
+        Gam = _markov_toeplitz(scipy.linalg.block_diag(*blocks), W, Cb, M)
+    Dall = None
+    if nd:
+        Dall = np.zeros((p_tot, nd))
+        for (_, _, C, _, o0), Dm in zip(flat, (m for ms in dmats for m in ms), strict=True):
+            if Dm is not None:
+                Dall[o0 : o0 + C.shape[0]] = Dm
+    # C A^i Z = C Z T^i on the block-start state, grouped by output and block sizes so
+    # that each group is one stacked product (slices when the group is contiguous)
+    groups: dict[tuple[int, int], list[tuple[slice, int, np.ndarray]]] = {}
+    for b, sl, C, _, o0 in flat:
+        P = [C @ Zs[b]]
+        for _ in range(M - 1):
+            P.append(P[-1] @ Ts[b])
+        Psi = np.stack(P, axis=1).reshape(C.shape[0] * M, -1)  # rows (o, i)
+        groups.setdefault((C.shape[0], sl.stop - sl.start), []).append((sl, o0, Psi))
+    state_maps = []
+    for (p, _), members in groups.items():
+        sidx = np.concatenate([np.arange(sl.start, sl.stop) for sl, _, _ in members])
+        ridx = np.concatenate([np.arange(o0 * M, (o0 + p) * M) for _, o0, _ in members])
+        state_maps.append((_as_slice(sidx), _as_slice(ridx), np.stack([P for _, _, P in members])))
+    z = (Zh @ np.broadcast_to(x0, (nS, x0.shape[1]))).astype(dtype)
     z = np.broadcast_to(z, (nS, R))
-    Lc = chunk or max(1024, min(2**16, 2**19 // max(nS * R, 1)))
+    # chunk: about 2**21 doubles of lifted arrays, between 1024 and 16384 lifted samples
+    # (each lfilter call has an overhead of a few microseconds)
+    # chunk: work arrays of about 2**20 doubles in all, reused from chunk to chunk (fresh
+    # memory costs page faults), between 512 and 16384 lifted samples (each lfilter call
+    # has an overhead of a few microseconds)
+    Rdd = max([a.shape[1] for a in dsig] + [1])
+    per = M * (nz * Rd + 2 * p_tot * R + nd * Rdd + p_tot * Rdd) + (2 if cplx else 1) * nS * R
+    Lb = chunk // M if chunk else max(512, min(2**14, 2**20 // max(per, 1)))
+    Lc = max(Lb, 1) * M
+    pool: dict[str, np.ndarray] = {}
+
+    def work(name: str, shape: tuple[int, ...], dt: Any = float) -> np.ndarray:
+        size = int(np.prod(shape))
+        if name not in pool or pool[name].size < size:
+            pool[name] = np.empty(max(size, 1), dtype=dt)
+        return pool[name][:size].reshape(shape)
+
     s = 0
-    while True:
+    while s < N:
         e = min(s + Lc, N)
-        L = e - s  # samples s .. e-1, steps s .. e-2
-        G = np.empty((nS, R, L), dtype=complex if cplx else float)
+        if e > N - 1 - M or e - s < M:  # the end: whole blocks with data, then the rest
+            e = s + (N - 1 - s) // M * M if N - 1 - s >= M else N
+        L = e - s  # samples s .. e-1 of this chunk
+        nb = -(-L // M)
+        Lp = nb * M  # steps s .. s+Lp-1 (those past N-2 are padded with zeros)
+        G = work("G", (nS, R, nb + 1), dtype)
         G[:, :, 0] = z
-        if L > 1:
-            if nz:  # the chunk's drive stacked, then one product for all states
-                D = np.empty((nz, Rd, L - 1))
-                for (c0, c1), d in zip(spans, drives, strict=True):
-                    D[c0:c1] = d.window(s, L - 1)
-                G[:, :, 1:] = _product(V, D.reshape(nz, Rd * (L - 1))).reshape(nS, Rd, L - 1)
+        Y = None
+        if nz:
+            Lv = max(0, min(Lp, N - 1 - s))
+            Dl = work("Dl", (nz, M, Rd, nb))
+            for (c0, c1), d in zip(spans, drives, strict=True):
+                w = d.window(s, Lv)
+                if Lv < Lp:
+                    pad = np.zeros(w.shape[:2] + (Lp,))
+                    pad[..., :Lv] = w
+                    w = pad
+                Dl[c0:c1] = w.reshape(c1 - c0, w.shape[1], nb, M).transpose(0, 3, 1, 2)
+            D2 = Dl.reshape(nz * M, Rd * nb)
+            if R == 1 and not cplx:  # the product straight into the forcing slots
+                np.matmul(Hz, D2, out=G[:, 0, 1:])
             else:
-                G[:, :, 1:] = 0.0
-        zc = _recursion_inplace(Tb, G, stops)
+                G[:, :, 1:] = _product(Hz, D2).reshape(nS, Rd, nb)
+            if Gam is not None:
+                Y = work("Y", (p_tot * M, Rd, nb))
+                np.matmul(Gam, D2, out=Y.reshape(p_tot * M, Rd * nb))
+        else:
+            G[:, :, 1:] = 0.0
+        zc = _recursion_inplace(TbM, G, stops)
+        if Y is None or Rd < R:
+            Yr = work("Yr", (p_tot * M, R, nb))
+            Yr[...] = 0.0 if Y is None else Y
+            Y = Yr
+        for sidx, ridx, Psi in state_maps:
+            zg = zc[sidx, :, :nb].reshape(len(Psi), -1, R * nb)
+            if np.iscomplexobj(zg):
+                Y[ridx] += _real_product(Psi, zg).reshape(-1, R, nb)
+            else:
+                tmp = work("psi", (len(Psi), Psi.shape[1], R * nb))
+                np.matmul(Psi, zg, out=tmp)
+                Y[ridx] += tmp.reshape(-1, R, nb)
         if nd:
-            Dd = np.empty((nd, Rdd, L))
+            Dd = work("Dd", (nd, Rdd, L))
             i = 0
             for a in dsig:
                 Dd[i : i + a.shape[0]] = a[:, :, s:e]
                 i += a.shape[0]
-            Dd = Dd.reshape(nd, Rdd * L)
-        for blk, bmaps, bdir in zip(res, maps, dmats, strict=True):
-            for arr, (sl, CZ), Dm in zip(blk, bmaps, bdir, strict=True):
-                zk = zc[sl].reshape(-1, R * L)
-                if np.iscomplexobj(zk):
-                    val = (CZ.real @ zk.real - CZ.imag @ zk.imag).reshape(-1, R, L)
-                else:
-                    val = (CZ.real @ zk).reshape(-1, R, L)
+            F = work("F", (p_tot, Rdd, L))
+            np.matmul(Dall, Dd.reshape(nd, Rdd * L), out=F.reshape(p_tot, Rdd * L))
+        for (_, _, C, dest, o0), Dm in zip(flat, (m for ms in dmats for m in ms), strict=True):
+            p = C.shape[0]
+            val4 = Y[o0 * M : (o0 + p) * M].reshape(p, M, R, nb).transpose(0, 2, 3, 1)
+            dst = dest[:, :, s:e]
+            if Lp == L:
                 if Dm is not None and nd:
-                    val += (Dm @ Dd).reshape(-1, Rdd, L)
-                arr[:, :, s:e] = val
-        if e >= N:
-            break
-        z = zc[:, :, -1].copy()
-        s = e - 1  # the next chunk starts from the last state of this one
+                    np.add(val4, _blocked_view(F[o0 : o0 + p], M), out=_blocked_view(dst, M))
+                else:
+                    np.copyto(_blocked_view(dst, M), val4)
+            else:
+                dst[...] = val4.reshape(p, R, Lp)[..., :L]
+                if Dm is not None and nd:
+                    dst += F[o0 : o0 + p]
+        z = zc[:, :, nb].copy()
+        s = e
+    res: list[list[np.ndarray]] = [[] for _ in outputs]
+    for b, _, _, dest, _ in flat:
+        res[b].append(dest)
     return res
 
 

@@ -27,8 +27,9 @@ abrupt gains; the interval mean of ``eta`` for a time-varying gain, an ``O(dt^2)
 approximation) and ``rho_i`` (bias, held value, scaled noise) interpolated with the hold.
 Each gain-faulty sensor adds one extra exact "channel" (one more matrix exponential).
 The whole bank is discretised with one matrix exponential and advanced together (block-
-diagonal Schur form, one ``lfilter`` call per generator state, time processed in
-cache-sized chunks), see :func:`geomfdi.lti_sim.block_recursion`.  A discrete plant
+diagonal Schur form, one ``lfilter`` call per generator state, on the lifted system of
+blocks of ``M`` samples for large banks, time processed in chunks), see
+:func:`geomfdi.lti_sim.block_recursion`.  A discrete plant
 drives its generators with the measured samples directly, which is exact.
 
 *Output feedback.*  The loop sees the faulty readings, so a gain fault changes the loop
@@ -282,9 +283,9 @@ class _Controller:
 def _controller(controller: Any, plant: Plant) -> _Controller:
     if controller is None:
         return _Controller("open")
-    import control
-
-    if isinstance(controller, control.LTI):
+    # an LTI object implies python-control is loaded: no import (about 0.3 s) for a gain
+    control = sys.modules.get("control")
+    if control is not None and isinstance(controller, control.LTI):
         try:
             ss = control.ss(controller)
         except Exception as exc:  # non-proper transfer function, ...
@@ -397,10 +398,36 @@ def consistent_initial_state(
             rhs = np.concatenate([-Sigma.ravel(order="F"), -N_out.ravel(order="F")])
             sol = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
             Pi = sol.reshape((nw, nX), order="F")
+    return Pi, _mismatch(M, Pi, N_out)
+
+
+def _mismatch(M: np.ndarray, Pi: np.ndarray, N_out: np.ndarray) -> float:
+    """``||M Pi + N_out|| / (||M|| ||Pi|| + ||N_out||)`` (0 when both terms vanish)."""
     res = M @ Pi + N_out
     den = np.linalg.norm(M) * np.linalg.norm(Pi) + np.linalg.norm(N_out)
-    mismatch = float(np.linalg.norm(res) / den) if den > 0 else 0.0
-    return Pi, mismatch
+    return float(np.linalg.norm(res) / den) if den > 0 else 0.0
+
+
+def _joint_sylvester(
+    Fs: list[np.ndarray], A_cl: np.ndarray, Sigma: np.ndarray
+) -> np.ndarray | None:
+    """``Pi`` of every generator from one Sylvester equation with ``blockdiag(F_g)``.
+
+    The block-diagonal equation decouples into the generators' own equations, so this is
+    :func:`consistent_initial_state` for the whole bank in one Bartels-Stewart solve.
+    Returns None when some ``F_g`` shares an eigenvalue with ``A_cl`` (then each generator
+    is solved on its own, with the least-squares fallback).
+    """
+    if not Fs or A_cl.shape[0] == 0 or any(F.shape[0] == 0 for F in Fs):
+        return None
+    ea = np.linalg.eigvals(A_cl)
+    na = np.linalg.norm(A_cl)
+    for F in Fs:
+        ef = np.linalg.eigvals(F)
+        scale = max(np.linalg.norm(F), na, 1e-300)
+        if np.min(np.abs(ef[:, None] - ea[None, :])) <= 1e-8 * scale:
+            return None
+    return scipy.linalg.solve_sylvester(scipy.linalg.block_diag(*Fs), -A_cl, -Sigma)
 
 
 def _check_mismatch(k: int, mismatch: float) -> None:
@@ -508,9 +535,15 @@ def _run_static(
         WX, dX = np.hstack([dis.B0, dis.B1]), [Drive(e), Drive(e, 1)]
     else:
         WX, dX = dis.B0, [Drive(e)]
-    X = block_recursion([dis.Ad], WX, dX, x0T, [[np.eye(n)]], N)[0][0]
-    y0c = _sm(Cy0, X) + _sm(Dy0, e)
-    u = _sm(Cu, X) + _sm(Du, e)
+    X, y0c, u = block_recursion(
+        [dis.Ad],
+        WX,
+        dX,
+        x0T,
+        [[np.eye(n), Cy0, Cu]],
+        N,
+        direct=([e], [[None, Dy0, Du]]),
+    )[0]
     y0n = y0c + v.transpose(1, 0, 2) if v is not None else y0c
     # ---- sensor faults on the readings, vectorised (only the sensors they touch)
     t = ctx.t
@@ -595,9 +628,14 @@ def _run_static(
         }
     ctx.info["channels"] = chan
     w0s = {}
+    Pi_all = _joint_sylvester([g.F for _, g in gens], A_X, Sig_all) if ctx.consistent else None
     for (k, g), o0, o1 in zip(gens, offs[:-1], offs[1:], strict=True):
         if ctx.consistent:
-            Pi, mm = consistent_initial_state(g.F, A_X, Sig_all[o0:o1], g.M, -g.H @ Cy0 + g.K @ Cu)
+            N_out = -g.H @ Cy0 + g.K @ Cu
+            if Pi_all is not None:
+                Pi, mm = Pi_all[o0:o1], _mismatch(g.M, Pi_all[o0:o1], N_out)
+            else:
+                Pi, mm = consistent_initial_state(g.F, A_X, Sig_all[o0:o1], g.M, N_out)
             ctx.info.setdefault("init_mismatch", {})[k] = mm
             _check_mismatch(k, mm)
             w0s[k] = Pi @ x0T
@@ -1446,8 +1484,8 @@ def simulate(
         t=ctx.t,
         x=raw.x[0],
         y=raw.y[0],
-        y_healthy=np.broadcast_to(raw.y_healthy, (1, *raw.y_healthy.shape[1:]))[0].copy(),
-        u=np.broadcast_to(raw.u, (1, *raw.u.shape[1:]))[0].copy(),
+        y_healthy=np.ascontiguousarray(raw.y_healthy[0]),
+        u=np.ascontiguousarray(raw.u[0]),
         residuals=res,
         residual_vectors=[first(r) for r in raw.r_vectors],
         alarms=alarms,

@@ -178,7 +178,10 @@ def test_bad_inputs_name_the_argument():
         simulate_lti([[-1.0]], [[1.0]], [[1.0]], None, None, t, x0=[1.0, 2.0])
 
 
-def test_block_recursion_chunks_and_blocks_are_exact():
+@pytest.mark.parametrize("lift", [None, 1, 2, 3, 5, 8, 64])
+def test_block_recursion_chunks_and_blocks_are_exact(lift):
+    """Plain and lifted recursions, whole and chunked (chunk lengths that are and are not
+    multiples of the lifting factor), against the naive loop."""
     from geomfdi.lti_sim import Drive, block_recursion
 
     rng = np.random.default_rng(5)
@@ -191,8 +194,21 @@ def test_block_recursion_chunks_and_blocks_are_exact():
     x0 = rng.standard_normal((5, 3))
     C1 = rng.standard_normal((1, 2))
     outs = [[C1, np.eye(2)], [np.eye(3)]]
-    full = block_recursion([A1, A2], W, drives, x0, outs, 50)
-    chunked = block_recursion([A1, A2], W, drives, x0, outs, 50, chunk=7)
+    full = block_recursion([A1, A2], W, drives, x0, outs, 50, lift=lift)
+    chunked = block_recursion([A1, A2], W, drives, x0, outs, 50, chunk=7, lift=lift)
+    direct = rng.standard_normal((2, 1, 50))
+    Dm = rng.standard_normal((1, 2))
+    with_direct = block_recursion(
+        [A1, A2],
+        W,
+        drives,
+        x0,
+        outs,
+        50,
+        chunk=12,
+        lift=lift,
+        direct=([direct], [[Dm, None], [None]]),
+    )
     # naive loop
     x = x0.copy()
     Ab = np.zeros((5, 5))
@@ -207,6 +223,9 @@ def test_block_recursion_chunks_and_blocks_are_exact():
         assert np.allclose(res[0][1], traj[:2], rtol=1e-12, atol=1e-12)
         assert np.allclose(res[0][0], np.einsum("ij,jrk->irk", C1, traj[:2]), atol=1e-12)
         assert np.allclose(res[1][0], traj[2:], rtol=1e-12, atol=1e-12)
+    expect = np.einsum("ij,jrk->irk", C1, traj[:2]) + np.einsum("ij,jrk->irk", Dm, direct)
+    assert np.allclose(with_direct[0][0], expect, atol=1e-12)
+    assert np.allclose(with_direct[1][0], traj[2:], atol=1e-12)
 
 
 def test_block_recursion_runs_come_from_scales_too():

@@ -419,3 +419,91 @@ def test_generator_states_track_p_x_on_healthy_data(seed001):
     e = res.w[0][0] - P_PAPER[0] @ res.x
     assert np.max(np.abs(e)) < 1e-10  # r1's row p_1 C^-1 ignores sensor 2
     assert gf.simulate(seed001, paper_bank(seed001), T[::10], v_ext).w[0] is None
+
+
+def test_lifted_bank_matches_forced_response():
+    """A bank large enough for the lifted recursion (complex generator poles, state
+    feedback, a bias ramp) against forced_response on the composite system."""
+    import control
+
+    from geomfdi.lti_sim import _lift_factor
+
+    rng = np.random.default_rng(11)
+    A = np.array([[0.0, 1.0, 0.0], [-2.0, -0.5, 1.0], [0.0, 0.0, -1.0]])
+    B = np.array([[0.0], [1.0], [0.5]])
+    C = np.eye(3)
+    K = np.array([[1.0, 0.5, 0.2]])
+    gens = []
+    for _ in range(8):
+        w = rng.uniform(1.0, 4.0)
+        F = np.array([[-rng.uniform(0.5, 3.0), w], [-w, -rng.uniform(0.5, 3.0)]])
+        gens.append(
+            gf.ResidualGenerator(
+                F,
+                rng.standard_normal((2, 3)),
+                rng.standard_normal((2, 1)),
+                rng.standard_normal((1, 2)),
+                rng.standard_normal((1, 3)),
+                rng.standard_normal((1, 1)),
+            )
+        )
+    S = np.zeros((8, 3), dtype=bool)
+    bank = gf.ResidualBank(
+        gens, S, S, np.zeros(3, bool), ["ok"] * 8, [gf.SensorFault(i) for i in range(3)]
+    )
+    # 16 generator states, 8 outputs, 9 drive rows: lifting is chosen
+    assert _lift_factor(16, 8, 9, True) > 1
+    t = np.arange(5003) * 2e-3
+    v = np.sin(t)[None]
+    ramp = lambda s: 0.2 * np.clip(s - 4.0, 0, 1)  # noqa: E731
+    x0 = np.array([0.3, -0.2, 0.1])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gf.InitialStateWarning)  # random generators
+        res = gf.simulate(
+            gf.Plant(A, B, C),
+            bank,
+            t,
+            v,
+            faults=[gf.BiasFault(2, 4.0, ramp)],
+            x0=x0,
+            controller=K,
+            consistent_init=False,
+        )
+    Acl = A - B @ K
+    nw = 16
+    As = np.zeros((3 + nw, 3 + nw))
+    Bs = np.zeros((3 + nw, 4))
+    Cs = np.zeros((8, 3 + nw))
+    Ds = np.zeros((8, 4))
+    As[:3, :3], Bs[:3, :1] = Acl, B
+    for k, g in enumerate(gens):
+        i = 3 + 2 * k
+        As[i : i + 2, :3] = -g.E @ C - g.G @ K
+        As[i : i + 2, i : i + 2] = g.F
+        Bs[i : i + 2, :1], Bs[i : i + 2, 1:] = g.G, -g.E
+        Cs[k, :3] = -g.H @ C - g.K @ K
+        Cs[k, i : i + 2] = g.M
+        Ds[k, :1], Ds[k, 1:] = g.K, -g.H
+    f = np.zeros((3, t.size))
+    f[2] = ramp(t)
+    ref = control.forced_response(
+        control.ss(As, Bs, Cs, Ds), t, np.vstack([v, f]), X0=np.r_[x0, np.zeros(nw)]
+    ).outputs
+    assert np.max(np.abs(res.residual_vectors[3] - ref[3:4])) < 1e-10 * np.max(np.abs(ref))
+    assert np.max(np.abs(res.residuals - ref)) < 1e-10 * np.max(np.abs(ref))
+
+
+def test_state_feedback_gain_does_not_import_python_control():
+    """A gain matrix as controller needs no python-control import (about 0.3 s)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, numpy as np, geomfdi as gf\n"
+        "p = gf.Plant([[-1.0]], [[1.0]], [[1.0]])\n"
+        "g = gf.ResidualGenerator([[-2.0]], [[-1.0]], [[1.0]], [[1.0]], [[1.0]], [[0.0]])\n"
+        "gf.simulate(p, g, np.linspace(0, 4, 401), controller=[[0.5]])\n"
+        "print('control' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
