@@ -221,21 +221,23 @@ def bench(
     noise = gf.Noise(measurement=2e-4, seed=1)
     plant = gf.Plant(A, B, C)
     fl = [gf.BiasFault(0, t_fault, bias(t_fault))]
-    t0 = time.process_time()
-    batch = gf.simulate_batch(
-        plant,
-        bank,
-        t,
-        v,
-        runs=batch_runs,
-        faults=fl,
-        x0=x0,
-        controller=K,
-        noise=noise,
-        threshold=0.01,
-        progress=False,
-    )
-    tb = time.process_time() - t0
+    tb = np.inf
+    for _ in range(2):  # best of two, like the single runs
+        t0 = time.process_time()
+        batch = gf.simulate_batch(
+            plant,
+            bank,
+            t,
+            v,
+            runs=batch_runs,
+            faults=fl,
+            x0=x0,
+            controller=K,
+            noise=noise,
+            threshold=0.01,
+            progress=False,
+        )
+        tb = min(tb, time.process_time() - t0)
     n_single = min(batch_runs, 5)
     t0 = time.process_time()
     for i in range(n_single):
