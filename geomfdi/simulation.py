@@ -386,11 +386,7 @@ def consistent_initial_state(
     if nw == 0 or nX == 0:
         Pi = np.zeros((nw, nX))
     else:
-        ef = np.linalg.eigvals(F)
-        ea = np.linalg.eigvals(A_cl)
-        scale = max(np.linalg.norm(F), np.linalg.norm(A_cl), 1e-300)
-        sep = np.min(np.abs(ef[:, None] - ea[None, :]))
-        if sep > 1e-8 * scale:
+        if _spectra_apart(F, A_cl):
             Pi = scipy.linalg.solve_sylvester(F, -A_cl, -Sigma)
         else:
             Inx, Inw = np.eye(nX), np.eye(nw)
@@ -399,6 +395,16 @@ def consistent_initial_state(
             sol = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
             Pi = sol.reshape((nw, nX), order="F")
     return Pi, _mismatch(M, Pi, N_out)
+
+
+def _spectra_apart(F: np.ndarray, A_cl: np.ndarray, ea: np.ndarray | None = None) -> bool:
+    """No eigenvalue of ``F`` within ``1e-8 max(||F||, ||A_cl||)`` of one of ``A_cl``
+    (``ea``: the eigenvalues of ``A_cl`` when already known): the Sylvester equation
+    ``F Pi - Pi A_cl = -Sigma`` then has a unique, well-posed solution."""
+    ef = np.linalg.eigvals(F)
+    ea = np.linalg.eigvals(A_cl) if ea is None else ea
+    scale = max(np.linalg.norm(F), np.linalg.norm(A_cl), 1e-300)
+    return bool(np.min(np.abs(ef[:, None] - ea[None, :])) > 1e-8 * scale)
 
 
 def _mismatch(M: np.ndarray, Pi: np.ndarray, N_out: np.ndarray) -> float:
@@ -421,12 +427,8 @@ def _joint_sylvester(
     if not Fs or A_cl.shape[0] == 0 or any(F.shape[0] == 0 for F in Fs):
         return None
     ea = np.linalg.eigvals(A_cl)
-    na = np.linalg.norm(A_cl)
-    for F in Fs:
-        ef = np.linalg.eigvals(F)
-        scale = max(np.linalg.norm(F), na, 1e-300)
-        if np.min(np.abs(ef[:, None] - ea[None, :])) <= 1e-8 * scale:
-            return None
+    if not all(_spectra_apart(F, A_cl, ea) for F in Fs):
+        return None
     return scipy.linalg.solve_sylvester(scipy.linalg.block_diag(*Fs), -A_cl, -Sigma)
 
 
@@ -493,12 +495,6 @@ class _Raw:
 
 
 # ===================================================== open loop / state fb
-def _sm(Mat: np.ndarray, arr: np.ndarray) -> np.ndarray:
-    """``Mat @ arr`` on a state-major array (k, R, L) -> (p, R, L), one 2-D product."""
-    k, R, L = arr.shape
-    return (Mat @ arr.reshape(k, R * L)).reshape(Mat.shape[0], R, L)
-
-
 def _run_static(
     ctx: _Context,
     x0: np.ndarray,
