@@ -157,6 +157,28 @@ def schur_form(Ad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return T, Z
 
 
+_MODAL_COND = 100.0  # largest eigenvector-basis condition number for the modal form
+
+
+def _modal_form(A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+    """``A = Z T Z^-1`` with ``T`` diagonal when that is safe, else the Schur form.
+
+    The eigenvector basis (unit columns) is used when its condition number is at most
+    ``_MODAL_COND``: the scalar recursions are then uncoupled, and rounding errors grow
+    by at most that factor.  Otherwise (defective or nearly defective ``A``) the unitary
+    Schur form of :func:`schur_form`, ``Z^-1 = Z^H``.  Returns ``(T, Z, Z^-1, diagonal)``.
+    """
+    n = A.shape[0]
+    if n > 1:
+        lam, V = np.linalg.eig(A)
+        if np.all(np.isfinite(V)) and np.linalg.cond(V) <= _MODAL_COND:
+            if not np.any(lam.imag):
+                lam, V = lam.real, V.real
+            return np.diag(lam), V, np.linalg.inv(V), True
+    T, Z = schur_form(A)
+    return T, Z, Z.conj().T, n <= 1
+
+
 def _product(Mat: np.ndarray, flat: np.ndarray) -> np.ndarray:
     """``Mat @ flat`` for a real ``flat``; a complex ``Mat`` as two real products."""
     if np.iscomplexobj(Mat):
@@ -254,46 +276,102 @@ class Drive:
 
 
 _LFILTER_COST = 150.0  # one lfilter sample, in matrix-product multiply-adds (measured)
+_LIFT_OVERHEAD = 40.0  # per lifted output and drive row and sample: strided layout copies
+_TOEPLITZ_FILL = 0.6  # share of the block-Toeplitz product computed (zero blocks skipped)
+_TOEPLITZ_SPLITS = 4  # row blocks of the block-Toeplitz product
 _MAX_LIFT = 32
+_CHUNK_DOUBLES = 2**20
+_MIN_BLOCKS = 512
 
 
 def _lift_factor(n_states: int, n_out: int, n_drive: int, complex_: bool) -> int:
-    """Lifting factor ``M`` of :func:`block_recursion` from a flop model.
+    """Lifting factor ``M`` of :func:`block_recursion` from a cost model.
 
-    Per sample, the lifted scheme costs about ``p nz M`` multiply-adds for the Toeplitz
-    block (``p`` outputs, ``nz`` drive rows) and ``c n / M`` for the ``n`` scalar
-    recursions run at the lifted rate, where ``c`` (about 150) is what one ``lfilter``
-    sample costs in matrix-product multiply-adds (twice that for complex states).  The
-    minimum is at ``M = sqrt(c n / (p nz))``; below 2 lifting does not pay and ``M = 1``
-    (the plain recursion) is used.
+    Per sample, the plain recursion costs ``c n`` (``n`` scalar recursions, ``c`` about
+    150: what one ``lfilter`` sample costs in matrix-product multiply-adds, twice that for
+    complex states).  The lifted one costs ``c n / M`` for the recursions at the lifted
+    rate, about ``0.6 p nz M`` multiply-adds for the block-Toeplitz product (``p``
+    outputs, ``nz`` drive channels; the zero blocks above the diagonal are mostly
+    skipped) and ``k (p + nz)`` for copying to and from the lifted layout (``k`` about
+    40, measured).  ``M`` minimises that cost over ``1 .. 32``.
     """
     c = _LFILTER_COST * (2 if complex_ else 1)
-    m = float(np.sqrt(c * n_states / max(n_out * max(n_drive, 1), 1)))
-    return 1 if m < 2 else int(min(round(m), _MAX_LIFT))
+    n, p, nz = n_states, n_out, max(n_drive, 1)
+
+    def cost(M: int) -> float:
+        if M == 1:
+            return c * n
+        return c * n / M + _TOEPLITZ_FILL * p * nz * M + _LIFT_OVERHEAD * (p + nz)
+
+    return min(range(1, _MAX_LIFT + 1), key=cost)
 
 
 def _markov_toeplitz(Ab: np.ndarray, W: np.ndarray, Cb: np.ndarray, M: int) -> np.ndarray:
-    """Lower block-Toeplitz map of the lifted system, ``(p M, nz M)``.
+    """Lower block-Toeplitz map of the lifted system, ``(M, p, nz, M)``.
 
-    Rows ``(o, i)``, columns ``(c, j)`` (output / drive index major): the entry is
-    ``(C A^(i-1-j) W)[o, c]`` for ``j < i`` and 0 otherwise.
+    Entry ``[i, o, c, j]`` is ``(C A^(i-1-j) W)[o, c]`` for ``j < i`` and 0 otherwise
+    (output ``o`` at sample ``i`` of a block, drive channel ``c`` at step ``j``).
     """
     p, nz = Cb.shape[0], W.shape[1]
-    Gam = np.zeros((p, M, nz, M))
+    Gam = np.zeros((M, p, nz, M))
     P = W
     for r in range(M - 1):  # the Markov parameter C A^r W links i = j + r + 1 to j
-        Mk = Cb @ P
-        for j in range(M - 1 - r):
-            Gam[:, j + r + 1, :, j] = Mk
+        Gam[np.arange(r + 1, M), :, :, np.arange(M - 1 - r)] = Cb @ P
         P = Ab @ P
-    return Gam.reshape(p * M, nz * M)
+    return Gam
 
 
-def _blocked_view(arr: np.ndarray, M: int) -> np.ndarray:
-    """A ``(p, R, nb M)`` array seen as ``(p, R, nb, M)`` (its last axis split)."""
+@dataclass
+class _Source:
+    """Drive channels read from one array, at one or more shifts.
+
+    Drives of one unscaled array (a first-order hold reads ``u[k]`` and ``u[k+1]``) share
+    their lifted rows: a block needs the ``M + 1`` samples ``u[bM] .. u[bM + M]`` once,
+    not ``2 M``.  ``parts`` holds ``(shift, first W column)`` of every drive.
+    """
+
+    drive: Drive
+    k: int
+    parts: list[tuple[int, int]]
+    smin: int = 0
+    smax: int = 0
+    row0: int = 0  # first channel in the main lifted rows
+    tail0: int = 0  # first extra row (samples past the block)
+
+    def samples(self, s: int, Lw: int, N: int) -> np.ndarray:
+        """Samples ``s + smin .. s + smin + Lw - 1`` (zeros past the data)."""
+        d = self.drive
+        if d.scale is None:
+            a = d.arr[..., s + self.smin : min(N, s + self.smin + Lw)]
+        else:  # one drive: steps s .. (at most N - 2)
+            a = d.window(s, max(0, min(Lw, N - 1 - s)))
+        if a.shape[-1] < Lw:
+            pad = np.zeros(a.shape[:2] + (Lw,))
+            pad[..., : a.shape[-1]] = a
+            a = pad
+        return a
+
+
+def _sources(drives: list[Drive], spans: list[tuple[int, int]]) -> list[_Source]:
+    srcs: dict[Any, _Source] = {}
+    for i, (d, (c0, _)) in enumerate(zip(drives, spans, strict=True)):
+        key = ("array", id(d.arr)) if d.scale is None else ("scaled", i)
+        if key not in srcs:
+            srcs[key] = _Source(d, d.arr.shape[0], [], d.shift, d.shift)
+        src = srcs[key]
+        src.parts.append((d.shift, c0))
+        src.smin, src.smax = min(src.smin, d.shift), max(src.smax, d.shift)
+    return list(srcs.values())
+
+
+def _blocked_view(arr: np.ndarray, M: int, Mw: int | None = None) -> np.ndarray:
+    """A ``(p, R, L)`` array seen as ``(p, R, L // M, Mw)``: blocks of ``M`` samples
+    (overlapping windows of ``Mw > M`` samples when given)."""
     p, R, L = arr.shape
     s0, s1, s2 = arr.strides
-    return np.lib.stride_tricks.as_strided(arr, (p, R, L // M, M), (s0, s1, M * s2, s2))
+    Mw = M if Mw is None else Mw
+    nb = L // M if Mw == M else (L - Mw) // M + 1
+    return np.lib.stride_tricks.as_strided(arr, (p, R, nb, Mw), (s0, s1, M * s2, s2))
 
 
 def _as_slice(idx: np.ndarray) -> slice | np.ndarray:
@@ -383,23 +461,30 @@ def block_recursion(
     nS = int(sum(sizes))
     Rd = max([d.runs for d in drives] + [1])
     R = max(Rd, x0.shape[1])
-    Ts, Zs, stops = [], [], []
+    Ts, Zs, Zis, stops = [], [], [], []
     i = 0
     for A in blocks:
-        T, Z = schur_form(A)
+        T, Z, Zi, diagonal = _modal_form(A)
         Ts.append(T)
         Zs.append(Z)
-        i += A.shape[0]
-        stops += [i] * A.shape[0]
-    Zb = scipy.linalg.block_diag(*Zs) if Zs else np.zeros((0, 0))
-    Zh = Zb.conj().T
+        Zis.append(Zi)
+        n_b = A.shape[0]
+        # state j couples to the states after it up to the end of its block (Schur form)
+        stops += list(range(i + 1, i + n_b + 1)) if diagonal else [i + n_b] * n_b
+        i += n_b
+    Zinv = scipy.linalg.block_diag(*Zis) if Zis else np.zeros((0, 0))
     cplx = any(np.iscomplexobj(T) for T in Ts)
     dtype = complex if cplx else float
-    V = Zh @ W
+    V = Zinv @ W
     col = np.cumsum([0] + [d.arr.shape[0] for d in drives])
     spans = list(zip(col[:-1], col[1:], strict=True))
     nz = int(col[-1])
+    srcs = _sources(drives, spans)
+    nzc = sum(src.k for src in srcs)  # drive channels per sample
     dsig, dmats = direct if direct is not None else ([], [[None] * len(o) for o in outputs])
+    dmats = [[m if m is not None and np.any(m) else None for m in ms] for ms in dmats]
+    if all(m is None for ms in dmats for m in ms):
+        dsig = []
     nd = int(sum(a.shape[0] for a in dsig))
     # every output: (block, state slice, C, destination, first row in the output stack)
     flat = []
@@ -413,59 +498,93 @@ def block_recursion(
             o += C.shape[0]
         i += n_b
     p_tot = o
+    Dms = [m for ms in dmats for m in ms]  # feedthrough of every output, in flat's order
     if lift is None:
-        M = _lift_factor(nS, p_tot, nz, cplx) if nz and N >= 64 * _MAX_LIFT else 1
+        M = _lift_factor(nS, p_tot, nzc, cplx) if nz and N >= 64 * _MAX_LIFT else 1
     else:
         M = int(lift)
         if M < 1:
             raise GeomFDIError(f"lift: must be a positive integer, got {lift!r}", argument="lift")
+    # lifted drive rows: sample j < M of every channel, j-major (row j nzc + channel),
+    # then the samples past the block of sources read at two shifts (forcing only)
+    r0 = t0 = 0
+    for src in srcs:
+        src.row0, src.tail0 = r0, M * nzc + t0
+        r0 += src.k
+        t0 += (src.smax - src.smin) * src.k
+    nL = M * nzc + t0
     Tb = scipy.linalg.block_diag(*Ts) if Ts else np.zeros((0, 0), dtype=dtype)
-    TbM = np.linalg.matrix_power(Tb, M)  # A^M in Schur coordinates: the lifted transition
-    # Hz[:, (c, j)] = Z^H A^(M-1-j) W[:, c] = T^(M-1-j) V[:, c]
-    Hz = np.empty((nS, nz, M), dtype=dtype)
+    TbM = np.linalg.matrix_power(Tb, M)  # A^M in modal coordinates: the lifted transition
+    # Hp[:, c, j] = Z^-1 A^(M-1-j) W[:, c] = T^(M-1-j) V[:, c]: forcing of step j of a block
+    Hp = np.empty((nS, nz, M), dtype=dtype)
     Hj = V.astype(dtype)
     for j in range(M - 1, -1, -1):
-        Hz[:, :, j] = Hj
+        Hp[:, :, j] = Hj
         Hj = Tb @ Hj
-    Hz = Hz.reshape(nS, nz * M)
-    # Markov parameters C A^(i-1-j) W (j < i) map the lifted drive, rows (c, j), to the
-    # lifted outputs, rows (o, i); the feedthrough is applied at the original rate
-    Gam = None
+    # Markov parameters C A^(i-1-j) W (j < i) map the drive steps of a block to its
+    # outputs, rows (i, o); the feedthrough is applied at the original rate
+    Gp = None
     if M > 1 and nz:
         Cb = np.zeros((p_tot, nS))
         for _, sl, C, _, o0 in flat:
             Cb[o0 : o0 + C.shape[0], sl] = C
-        Gam = _markov_toeplitz(scipy.linalg.block_diag(*blocks), W, Cb, M)
+        Gp = _markov_toeplitz(scipy.linalg.block_diag(*blocks), W, Cb, M)
+    # gather the per-drive columns (c, step j) onto the lifted rows of their source
+    Hz = np.zeros((nS, nL), dtype=dtype)
+    Gam = np.zeros((M * p_tot, nL)) if Gp is not None else None
+    for src in srcs:
+        for shift, c0 in src.parts:
+            j = np.arange(M) + shift - src.smin  # sample of step jj within the window
+            ch = np.arange(src.k)[:, None]
+            rows = np.where(
+                j < M, j * nzc + src.row0 + ch, src.tail0 + (j - M) * src.k + ch
+            ).ravel()  # (channel, step) order, distinct within one drive
+            Hz[:, rows] += Hp[:, c0 : c0 + src.k].reshape(nS, src.k * M)
+            if Gam is not None:
+                Gam[:, rows] += Gp[:, :, c0 : c0 + src.k].reshape(M * p_tot, src.k * M)
+    # output rows (i, o) with i in [i0, i1) see steps j < i only, whose lifted rows (all at
+    # sample <= i1 - 1, a step read one sample late included) are the first i1 nzc: the
+    # product is split in row blocks that skip the zero blocks above the diagonal
+    splits = []
+    if Gam is not None:
+        nspl = min(_TOEPLITZ_SPLITS, M - 1)
+        edges = [1 + round(q * (M - 1) / nspl) for q in range(nspl + 1)]
+        splits = [(i0, i1) for i0, i1 in zip(edges[:-1], edges[1:], strict=True) if i1 > i0]
     Dall = None
     if nd:
         Dall = np.zeros((p_tot, nd))
-        for (_, _, C, _, o0), Dm in zip(flat, (m for ms in dmats for m in ms), strict=True):
+        for (_, _, C, _, o0), Dm in zip(flat, Dms, strict=True):
             if Dm is not None:
                 Dall[o0 : o0 + C.shape[0]] = Dm
-    # C A^i Z = C Z T^i on the block-start state, grouped by output and block sizes so
-    # that each group is one stacked product (slices when the group is contiguous)
+    # C A^i Z = C Z T^i on the block-start state, rows (i, o), grouped by output and block
+    # sizes so that each group is one stacked product (slices when the group is contiguous)
     groups: dict[tuple[int, int], list[tuple[slice, int, np.ndarray]]] = {}
+    CZ = []
     for b, sl, C, _, o0 in flat:
         P = [C @ Zs[b]]
+        CZ.append(P[0])
         for _ in range(M - 1):
             P.append(P[-1] @ Ts[b])
-        Psi = np.stack(P, axis=1).reshape(C.shape[0] * M, -1)  # rows (o, i)
-        groups.setdefault((C.shape[0], sl.stop - sl.start), []).append((sl, o0, Psi))
+        groups.setdefault((C.shape[0], sl.stop - sl.start), []).append(
+            (sl, o0, np.stack(P).reshape(M * C.shape[0], -1))
+        )
     state_maps = []
     for (p, _), members in groups.items():
         sidx = np.concatenate([np.arange(sl.start, sl.stop) for sl, _, _ in members])
-        ridx = np.concatenate([np.arange(o0 * M, (o0 + p) * M) for _, o0, _ in members])
-        state_maps.append((_as_slice(sidx), _as_slice(ridx), np.stack([P for _, _, P in members])))
-    z = (Zh @ np.broadcast_to(x0, (nS, x0.shape[1]))).astype(dtype)
+        oidx = np.concatenate([np.arange(o0, o0 + p) for _, o0, _ in members])
+        Psi = np.stack([P for _, _, P in members])
+        state_maps.append((_as_slice(sidx), _as_slice(oidx), p, Psi))
+    z = (Zinv @ np.broadcast_to(x0, (nS, x0.shape[1]))).astype(dtype)
     z = np.broadcast_to(z, (nS, R))
-    # chunk: about 2**21 doubles of lifted arrays, between 1024 and 16384 lifted samples
-    # (each lfilter call has an overhead of a few microseconds)
+    # single run, real states, no lifting: every output is one product written straight
+    # into its destination (then the feedthrough added in place)
+    straight = M == 1 and R == 1 and not cplx
     # chunk: work arrays of about 2**20 doubles in all, reused from chunk to chunk (fresh
     # memory costs page faults), between 512 and 16384 lifted samples (each lfilter call
     # has an overhead of a few microseconds)
     Rdd = max([a.shape[1] for a in dsig] + [1])
-    per = M * (nz * Rd + 2 * p_tot * R + nd * Rdd + p_tot * Rdd) + (2 if cplx else 1) * nS * R
-    Lb = chunk // M if chunk else max(512, min(2**14, 2**20 // max(per, 1)))
+    per = nL * Rd + M * (2 * p_tot * R + nd * Rdd + p_tot * Rdd) + (2 if cplx else 1) * nS * R
+    Lb = chunk // M if chunk else max(_MIN_BLOCKS, min(2**14, _CHUNK_DOUBLES // max(per, 1)))
     Lc = max(Lb, 1) * M
     pool: dict[str, np.ndarray] = {}
 
@@ -482,63 +601,89 @@ def block_recursion(
             e = s + (N - 1 - s) // M * M if N - 1 - s >= M else N
         L = e - s  # samples s .. e-1 of this chunk
         nb = -(-L // M)
-        Lp = nb * M  # steps s .. s+Lp-1 (those past N-2 are padded with zeros)
+        Lp = nb * M  # steps s .. s+Lp-1 (those past N-2 only reach states past the end)
         G = work("G", (nS, R, nb + 1), dtype)
         G[:, :, 0] = z
         Y = None
         if nz:
-            Lv = max(0, min(Lp, N - 1 - s))
-            Dl = work("Dl", (nz, M, Rd, nb))
-            for (c0, c1), d in zip(spans, drives, strict=True):
-                w = d.window(s, Lv)
-                if Lv < Lp:
-                    pad = np.zeros(w.shape[:2] + (Lp,))
-                    pad[..., :Lv] = w
-                    w = pad
-                Dl[c0:c1] = w.reshape(c1 - c0, w.shape[1], nb, M).transpose(0, 3, 1, 2)
-            D2 = Dl.reshape(nz * M, Rd * nb)
+            Dl = work("Dl", (nL, Rd, nb))
+            Dmain = Dl[: M * nzc].reshape(M, nzc, Rd, nb)
+            for src in srcs:
+                ext = src.smax - src.smin
+                win = _blocked_view(src.samples(s, Lp + ext, N), M, M + ext)
+                Dmain[:, src.row0 : src.row0 + src.k] = win[..., :M].transpose(3, 0, 1, 2)
+                if ext:
+                    tail = Dl[src.tail0 : src.tail0 + ext * src.k]
+                    tail.reshape(ext, src.k, Rd, nb)[...] = win[..., M:].transpose(3, 0, 1, 2)
+            D2 = Dl.reshape(nL, Rd * nb)
             if R == 1 and not cplx:  # the product straight into the forcing slots
                 np.matmul(Hz, D2, out=G[:, 0, 1:])
             else:
                 G[:, :, 1:] = _product(Hz, D2).reshape(nS, Rd, nb)
             if Gam is not None:
-                Y = work("Y", (p_tot * M, Rd, nb))
-                np.matmul(Gam, D2, out=Y.reshape(p_tot * M, Rd * nb))
+                Y = work("Y", (M * p_tot, Rd, nb))
+                Y2 = Y.reshape(M * p_tot, Rd * nb)
+                Y2[:p_tot] = 0.0  # the first sample of a block: block-start state only
+                for i0, i1 in splits:
+                    k1 = i1 * nzc
+                    np.matmul(
+                        Gam[i0 * p_tot : i1 * p_tot, :k1], D2[:k1], out=Y2[i0 * p_tot : i1 * p_tot]
+                    )
         else:
             G[:, :, 1:] = 0.0
         zc = _recursion_inplace(TbM, G, stops)
+        if nd:
+            if len(dsig) == 1 and Rdd == 1:  # a strided view is enough for the product
+                Dd = dsig[0][:, 0, s:e]
+            else:
+                Dd = work("Dd", (nd, Rdd, L))
+                i = 0
+                for a in dsig:
+                    Dd[i : i + a.shape[0]] = a[:, :, s:e]
+                    i += a.shape[0]
+                Dd = Dd.reshape(nd, Rdd * L)
+            F = work("F", (p_tot, Rdd, L))
+            np.matmul(Dall, Dd, out=F.reshape(p_tot, Rdd * L))
+        if straight:
+            for (_, sl, C, dest, o0), Dm, CZj in zip(flat, Dms, CZ, strict=True):
+                dst = dest[:, 0, s:e]
+                np.matmul(CZj, zc[sl, 0, :L], out=dst)
+                if Dm is not None:
+                    dst += F[o0 : o0 + C.shape[0], 0]
+            z = zc[:, :, nb].copy()
+            s = e
+            continue
         if Y is None or Rd < R:
-            Yr = work("Yr", (p_tot * M, R, nb))
+            Yr = work("Yr", (M * p_tot, R, nb))
             Yr[...] = 0.0 if Y is None else Y
             Y = Yr
-        for sidx, ridx, Psi in state_maps:
-            zg = zc[sidx, :, :nb].reshape(len(Psi), -1, R * nb)
+        Y3 = Y.reshape(M, p_tot, R * nb)  # rows (i, o)
+        for sidx, oidx, p, Psi in state_maps:
+            nG = len(Psi)
+            zg = zc[sidx, :, :nb].reshape(nG, -1, R * nb)
             if np.iscomplexobj(zg):
-                Y[ridx] += _real_product(Psi, zg).reshape(-1, R, nb)
+                tmp = _real_product(Psi, zg)
             else:
-                tmp = work("psi", (len(Psi), Psi.shape[1], R * nb))
+                tmp = work("psi", (nG, M * p, R * nb))
                 np.matmul(Psi, zg, out=tmp)
-                Y[ridx] += tmp.reshape(-1, R, nb)
-        if nd:
-            Dd = work("Dd", (nd, Rdd, L))
-            i = 0
-            for a in dsig:
-                Dd[i : i + a.shape[0]] = a[:, :, s:e]
-                i += a.shape[0]
-            F = work("F", (p_tot, Rdd, L))
-            np.matmul(Dall, Dd.reshape(nd, Rdd * L), out=F.reshape(p_tot, Rdd * L))
-        for (_, _, C, dest, o0), Dm in zip(flat, (m for ms in dmats for m in ms), strict=True):
+            add = tmp.reshape(nG, M, p, R * nb).transpose(1, 0, 2, 3)
+            if isinstance(oidx, slice):
+                Yv = Y3[:, oidx].reshape(M, nG, p, R * nb)
+                np.add(Yv, add, out=Yv)
+            else:
+                Y3[:, oidx] += add.reshape(M, nG * p, R * nb)
+        for (_, _, C, dest, o0), Dm in zip(flat, Dms, strict=True):
             p = C.shape[0]
-            val4 = Y[o0 * M : (o0 + p) * M].reshape(p, M, R, nb).transpose(0, 2, 3, 1)
+            val4 = Y3[:, o0 : o0 + p].reshape(M, p, R, nb).transpose(1, 2, 3, 0)
             dst = dest[:, :, s:e]
             if Lp == L:
-                if Dm is not None and nd:
+                if Dm is not None:
                     np.add(val4, _blocked_view(F[o0 : o0 + p], M), out=_blocked_view(dst, M))
                 else:
                     np.copyto(_blocked_view(dst, M), val4)
             else:
                 dst[...] = val4.reshape(p, R, Lp)[..., :L]
-                if Dm is not None and nd:
+                if Dm is not None:
                     dst += F[o0 : o0 + p]
         z = zc[:, :, nb].copy()
         s = e

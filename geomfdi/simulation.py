@@ -416,20 +416,32 @@ def _mismatch(M: np.ndarray, Pi: np.ndarray, N_out: np.ndarray) -> float:
 
 def _joint_sylvester(
     Fs: list[np.ndarray], A_cl: np.ndarray, Sigma: np.ndarray
-) -> np.ndarray | None:
-    """``Pi`` of every generator from one Sylvester equation with ``blockdiag(F_g)``.
+) -> list[np.ndarray | None]:
+    """``Pi`` of the generators from one Sylvester equation with ``blockdiag(F_g)``.
 
     The block-diagonal equation decouples into the generators' own equations, so this is
-    :func:`consistent_initial_state` for the whole bank in one Bartels-Stewart solve.
-    Returns None when some ``F_g`` shares an eigenvalue with ``A_cl`` (then each generator
-    is solved on its own, with the least-squares fallback).
+    :func:`consistent_initial_state` for all of them in one Bartels-Stewart solve.  A
+    generator whose ``F_g`` shares an eigenvalue with ``A_cl`` is left out (None: it is
+    solved on its own, with the least-squares fallback).  ``Sigma`` stacks the generators'
+    ``Sigma_g`` row-wise.
     """
-    if not Fs or A_cl.shape[0] == 0 or any(F.shape[0] == 0 for F in Fs):
-        return None
+    out: list[np.ndarray | None] = [None] * len(Fs)
+    if A_cl.shape[0] == 0:
+        return out
     ea = np.linalg.eigvals(A_cl)
-    if not all(_spectra_apart(F, A_cl, ea) for F in Fs):
-        return None
-    return scipy.linalg.solve_sylvester(scipy.linalg.block_diag(*Fs), -A_cl, -Sigma)
+    offs = np.cumsum([0] + [F.shape[0] for F in Fs])
+    keep = [g for g, F in enumerate(Fs) if F.shape[0] and _spectra_apart(F, A_cl, ea)]
+    if not keep:
+        return out
+    rows = np.concatenate([np.arange(offs[g], offs[g + 1]) for g in keep])
+    Pi = scipy.linalg.solve_sylvester(
+        scipy.linalg.block_diag(*[Fs[g] for g in keep]), -A_cl, -Sigma[rows]
+    )
+    o = 0
+    for g in keep:
+        out[g] = Pi[o : o + Fs[g].shape[0]]
+        o += Fs[g].shape[0]
+    return out
 
 
 def _check_mismatch(k: int, mismatch: float) -> None:
@@ -624,12 +636,13 @@ def _run_static(
         }
     ctx.info["channels"] = chan
     w0s = {}
-    Pi_all = _joint_sylvester([g.F for _, g in gens], A_X, Sig_all) if ctx.consistent else None
-    for (k, g), o0, o1 in zip(gens, offs[:-1], offs[1:], strict=True):
+    Pis = _joint_sylvester([g.F for _, g in gens], A_X, Sig_all) if ctx.consistent else []
+    for j, ((k, g), o0, o1) in enumerate(zip(gens, offs[:-1], offs[1:], strict=True)):
         if ctx.consistent:
             N_out = -g.H @ Cy0 + g.K @ Cu
-            if Pi_all is not None:
-                Pi, mm = Pi_all[o0:o1], _mismatch(g.M, Pi_all[o0:o1], N_out)
+            Pi = Pis[j]
+            if Pi is not None:
+                mm = _mismatch(g.M, Pi, N_out)
             else:
                 Pi, mm = consistent_initial_state(g.F, A_X, Sig_all[o0:o1], g.M, N_out)
             ctx.info.setdefault("init_mismatch", {})[k] = mm

@@ -187,10 +187,12 @@ def test_block_recursion_chunks_and_blocks_are_exact(lift):
     rng = np.random.default_rng(5)
     A1 = np.array([[0.9, 0.3], [-0.3, 0.9]])  # complex pair
     A2 = np.array([[0.5, 1.0, 0.0], [0.0, 0.5, 1.0], [0.0, 0.0, 0.5]])  # Jordan block
-    W = rng.standard_normal((5, 2))
+    W = rng.standard_normal((5, 3))
     d = rng.standard_normal((2, 3, 50))  # 3 runs
     scale = rng.standard_normal((1, 3, 49))
-    drives = [Drive(d[:1]), Drive(d[1:], 1, scale)]
+    d0 = d[:1]
+    # d0 at two shifts (a first-order hold: one source, M + 1 samples per block)
+    drives = [Drive(d0), Drive(d[1:], 1, scale), Drive(d0, 1)]
     x0 = rng.standard_normal((5, 3))
     C1 = rng.standard_normal((1, 2))
     outs = [[C1, np.eye(2)], [np.eye(3)]]
@@ -215,7 +217,7 @@ def test_block_recursion_chunks_and_blocks_are_exact(lift):
     Ab[:2, :2], Ab[2:, 2:] = A1, A2
     traj = [x.copy()]
     for k in range(49):
-        f = np.vstack([d[0:1, :, k], scale[0, :, k] * d[1:2, :, k + 1]])
+        f = np.vstack([d[0:1, :, k], scale[0, :, k] * d[1:2, :, k + 1], d[0:1, :, k + 1]])
         x = Ab @ x + W @ f
         traj.append(x.copy())
     traj = np.stack(traj, axis=-1)  # (5, 3, 50)

@@ -421,6 +421,49 @@ def test_generator_states_track_p_x_on_healthy_data(seed001):
     assert gf.simulate(seed001, paper_bank(seed001), T[::10], v_ext).w[0] is None
 
 
+def test_consistent_start_of_a_bank_with_shared_and_distinct_spectra(seed001):
+    """The paper generators (F = -2, an eigenvalue of the closed loop: least-squares
+    start) and generators with spectra apart from it (one joint Sylvester solve) in one
+    bank: every residual starts at rest and stays there until the fault."""
+    A, B, C = seed001.A, seed001.B, seed001.C
+    Ci = np.linalg.inv(C)
+    rng = np.random.default_rng(5)
+    gens = [paper_generator(seed001, j) for j in range(3)]
+    Ps = []
+    for _ in range(3):
+        Q = np.linalg.qr(rng.standard_normal((2, 2)))[0]
+        F = Q @ np.diag(-rng.uniform(3.0, 6.0, 2)) @ Q.T
+        P = rng.standard_normal((2, 3))
+        M = rng.standard_normal((1, 2))
+        gens.append(
+            gf.ResidualGenerator(F, (F @ P - P @ A) @ Ci, P @ B, M, M @ P @ Ci, np.zeros((1, 3)))
+        )
+        Ps.append(P)
+    S = np.ones((6, 3), dtype=bool)
+    bank = gf.ResidualBank(
+        gens, S, S, np.zeros(3, bool), ["ok"] * 6, [gf.SensorFault(i) for i in range(3)]
+    )
+    res = gf.simulate(
+        seed001,
+        bank,
+        T[::10],
+        v_ext,
+        x0=X0,
+        controller=K_FB,
+        faults=[gf.BiasFault(1, 8.0, 0.02)],
+        keep_states=True,
+    )
+    healthy = res.t < 8.0
+    scale = np.max(np.abs(res.x))
+    assert np.max(np.abs(res.residuals[:, healthy])) < 1e-10 * scale
+    for j in range(3):  # w = P x: the invariant subspace of each generator
+        assert np.max(np.abs(res.w[j][0, healthy] - P_PAPER[j] @ res.x[:, healthy])) < 1e-10
+        assert np.max(np.abs(res.w[3 + j][:, healthy] - Ps[j] @ res.x[:, healthy])) < 1e-10
+    # every residual but r1 (decoupled from sensor 2 by design) sees the bias
+    assert np.min(np.max(np.abs(res.residuals[1:, ~healthy]), axis=1)) > 1e-3
+    assert max(res.info["init_mismatch"].values()) < 1e-12
+
+
 def test_lifted_bank_matches_forced_response():
     """A bank large enough for the lifted recursion (complex generator poles, state
     feedback, a bias ramp) against forced_response on the composite system."""
