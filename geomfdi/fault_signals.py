@@ -446,14 +446,24 @@ def fault_profile(
         if last_left and L:
             m[-1] = False
         prev = np.concatenate([full[:1], full[:-1]])[k0:k1]
-        if not (m.any() or prev.any()):
-            continue
-        i = f.sensor
         on = m | prev
-        g = np.ones(L)
-        b = np.zeros(L)
-        g[on] = f.gain_values(tw[on])
-        b[on] = f.bias_values(tw[on])
+        if not on.any():
+            continue
+        # work on the span of samples the fault touches (views, in-place masked updates)
+        a = int(np.argmax(on))
+        b = L - int(np.argmax(on[::-1]))
+        sl = slice(a, b)
+        m, prev, on = m[sl], prev[sl], on[sl]
+        i = f.sensor
+        if on.all():
+            g = f.gain_values(tw[sl])
+            bias = f.bias_values(tw[sl])
+        else:
+            g = np.ones(b - a)
+            bias = np.zeros(b - a)
+            g[on] = f.gain_values(tw[sl][on])
+            bias[on] = f.bias_values(tw[sl][on])
+        g = np.broadcast_to(g, (b - a,))
         if f.holds_reading:
             if pos not in holds:
                 ks = int(np.argmax(full))
@@ -469,13 +479,14 @@ def fault_profile(
             if hold.shape[0] > lam.shape[0]:
                 lam = np.broadcast_to(lam, (hold.shape[0], q, L)).copy()
                 lam_l = np.broadcast_to(lam_l, (hold.shape[0], q, L)).copy()
-            b = b[None, :] + hold[:, None]
+            bias = bias[None, :] + hold[:, None]
         else:
-            b = b[None, :]
-        eta[i] = np.where(m, g * eta[i], eta[i])
-        eta_l[i] = np.where(prev, g * eta_l[i], eta_l[i])
-        lam[:, i] = np.where(m, g * lam[:, i] + b, lam[:, i])
-        lam_l[:, i] = np.where(prev, g * lam_l[:, i] + b, lam_l[:, i])
+            bias = np.broadcast_to(bias, (1, b - a))
+        for ek, lk, mk in ((eta, lam, m), (eta_l, lam_l, prev)):
+            # eta <- g eta and lam <- g lam + bias where the fault is active
+            np.multiply(ek[i, sl], g, out=ek[i, sl], where=mk)
+            np.multiply(lk[:, i, sl], g, out=lk[:, i, sl], where=mk)
+            np.add(lk[:, i, sl], bias, out=lk[:, i, sl], where=mk)
     return FaultProfile(eta, lam, eta_l, lam_l, holds)
 
 
