@@ -26,11 +26,17 @@ residual is therefore zero to rounding, not to ``O(dt^2)``).  A sensor fault ent
 abrupt gains; the interval mean of ``eta`` for a time-varying gain, an ``O(dt^2)``
 approximation) and ``rho_i`` (bias, held value, scaled noise) interpolated with the hold.
 Each gain-faulty sensor adds one extra exact "channel" (one more matrix exponential).
+When every generator has a ``Pi`` with ``F Pi - Pi A_cl = -Sigma`` (below; relative
+residual <= 1e-12), the bank is simulated in the coordinates ``w~ = w - Pi x``, which obey
+``w~' = F w~ + (Gamma - Pi B_cl) e - E rho``: the plant state drops out of the drive (an
+exact change of state, fewer drive channels) and comes back in the output through
+``M Pi x``.  Otherwise the composite ``[plant; bank]`` is discretised and the plant state
+samples drive the bank.  ``res.info["plant_state_decoupled"]`` says which was used.
 The whole bank is discretised with one matrix exponential and advanced together (block-
-diagonal Schur form, one ``lfilter`` call per generator state, on the lifted system of
-blocks of ``M`` samples for large banks, time processed in chunks), see
-:func:`geomfdi.lti_sim.block_recursion`.  A discrete plant
-drives its generators with the measured samples directly, which is exact.
+diagonal modal or Schur form, one ``lfilter`` call per generator state, on the lifted
+system of blocks of ``M`` samples for large banks, time processed in chunks), see
+:func:`geomfdi.lti_sim.block_recursion`.  A discrete plant drives its generators with the
+measured samples directly, which is exact.
 
 *Output feedback.*  The loop sees the faulty readings, so a gain fault changes the loop
 dynamics.  For abrupt faults the closed loop is piecewise LTI: the horizon is cut at
@@ -444,6 +450,19 @@ def _joint_sylvester(
     return out
 
 
+_DECOUPLE_TOL = 1e-12  # relative Sylvester residual below which w - Pi x is decoupled
+
+
+def _sylvester_residual(
+    F: np.ndarray, A_cl: np.ndarray, Sigma: np.ndarray, Pi: np.ndarray
+) -> float:
+    """``||F Pi - Pi A_cl + Sigma|| / (||F|| ||Pi|| + ||Pi|| ||A_cl|| + ||Sigma||)``."""
+    res = F @ Pi - Pi @ A_cl + Sigma
+    nPi = np.linalg.norm(Pi)
+    den = (np.linalg.norm(F) + np.linalg.norm(A_cl)) * nPi + np.linalg.norm(Sigma)
+    return float(np.linalg.norm(res) / den) if den > 0 else 0.0
+
+
 def _check_mismatch(k: int, mismatch: float) -> None:
     if mismatch > _MISMATCH_WARN:
         warnings.warn(
@@ -578,12 +597,32 @@ def _run_static(
             y[i] = eta[i] * y0n[i] + lam[i]
     else:
         y = y0n
-    # ---- drive signals of the generators, stacked once for the whole bank; the first
-    # time column is left at zero (it carries the initial states, see _bank_recursion)
     gens = [(k, g) for k, g in enumerate(ctx.view.generators) if g is not None]
     offs = np.cumsum([0] + [g.order for _, g in gens])
     Sig_all = np.vstack([-g.E @ Cy0 + g.G @ Cu for _, g in gens])
     E_all = np.vstack([g.E for _, g in gens])
+    # ---- Pi with F Pi - Pi A_X = -Sigma per generator: the consistent start w = Pi x,
+    # and (when every generator has one) the change of state w~ = w - Pi x that removes
+    # the coupling to the plant state from the generators' equations
+    Pis = _joint_sylvester([g.F for _, g in gens], A_X, Sig_all)
+    w0s = {}
+    for j, ((k, g), o0, o1) in enumerate(zip(gens, offs[:-1], offs[1:], strict=True)):
+        if ctx.consistent:
+            N_out = -g.H @ Cy0 + g.K @ Cu
+            if Pis[j] is not None:
+                mm = _mismatch(g.M, Pis[j], N_out)
+            else:
+                Pis[j], mm = consistent_initial_state(g.F, A_X, Sig_all[o0:o1], g.M, N_out)
+            ctx.info.setdefault("init_mismatch", {})[k] = mm
+            _check_mismatch(k, mm)
+            w0s[k] = Pis[j] @ x0T
+        else:
+            w0s[k] = np.zeros((g.order, 1))
+    decoupled = not ctx.discrete and all(
+        Pi is not None and _sylvester_residual(g.F, A_X, Sig_all[o0:o1], Pi) <= _DECOUPLE_TOL
+        for Pi, (_, g), o0, o1 in zip(Pis, gens, offs[:-1], offs[1:], strict=True)
+    )
+    # ---- drive signals of the generators, stacked once for the whole bank
     chan: list[int] = []
     if ctx.discrete:
         # exact: w[k+1] = F w[k] - E y[k] + G u[k] with the measured samples
@@ -601,23 +640,32 @@ def _run_static(
             chan = [i for j, i in enumerate(sens) if np.any(delta[j] != 1)]
         Gam_all = np.vstack([-g.E @ Dy0 + g.G @ Du for _, g in gens])
         nwt = int(offs[-1])
+        F_all = scipy.linalg.block_diag(*[g.F for _, g in gens])
         Ac = np.zeros((n + nwt, n + nwt))
         Ac[:n, :n] = A_X
         Ac[n:, :n] = Sig_all
-        Ac[n:, n:] = scipy.linalg.block_diag(*[g.F for _, g in gens])
-        Bc = np.block([[B_X, np.zeros((n, q))], [Gam_all, -E_all]])
-        dc = ctx.discretize(Ac, Bc)  # one matrix exponential for the whole bank
-        drives = [Drive(X), Drive(e)]
-        cols = [dc.Ad[n:, :n], dc.B0[n:, :ne]]
+        Ac[n:, n:] = F_all
+        if decoupled:
+            # w~' = F w~ + (Gamma - Pi B_X) e - E rho: the plant state drops out (exact)
+            Pi_all = np.vstack(Pis)
+            dc = ctx.discretize(F_all, np.hstack([Gam_all - Pi_all @ B_X, -E_all]))
+            r0, drives, cols = 0, [], []
+            for (k, _), Pi in zip(gens, Pis, strict=True):
+                w0s[k] = w0s[k] - Pi @ x0T
+        else:  # one matrix exponential of the plant and the whole bank
+            dc = ctx.discretize(Ac, np.block([[B_X, np.zeros((n, q))], [Gam_all, -E_all]]))
+            r0, drives, cols = n, [Drive(X)], [dc.Ad[n:, :n]]
+        drives.append(Drive(e))
+        cols.append(dc.B0[r0:, :ne])
         if foh:
             drives.append(Drive(e, 1))
-            cols.append(dc.B1[n:, :ne])
+            cols.append(dc.B1[r0:, :ne])
         if sens:
             drives.append(Drive(rhoL))
-            cols.append(dc.B0[n:, [ne + i for i in sens]])
+            cols.append(dc.B0[r0:, [ne + i for i in sens]])
             if foh:
                 drives.append(Drive(rhoR))
-                cols.append(dc.B1[n:, [ne + i for i in sens]])
+                cols.append(dc.B1[r0:, [ne + i for i in sens]])
         for i in chan:  # exact coupling of a gain-faulty sensor: one more exponential each
             Aci = Ac.copy()
             Aci[n:, :n] = -E_all[:, i : i + 1] @ Cy0[i : i + 1]
@@ -631,36 +679,28 @@ def _run_static(
                 cols.append(di.B1[n:])
         W_all = np.hstack(cols)
         Fd = {
-            k: dc.Ad[n + o0 : n + o1, n + o0 : n + o1]
+            k: dc.Ad[r0 + o0 : r0 + o1, r0 + o0 : r0 + o1]
             for (k, _), o0, o1 in zip(gens, offs[:-1], offs[1:], strict=True)
         }
     ctx.info["channels"] = chan
-    w0s = {}
-    Pis = _joint_sylvester([g.F for _, g in gens], A_X, Sig_all) if ctx.consistent else []
-    for j, ((k, g), o0, o1) in enumerate(zip(gens, offs[:-1], offs[1:], strict=True)):
-        if ctx.consistent:
-            N_out = -g.H @ Cy0 + g.K @ Cu
-            Pi = Pis[j]
-            if Pi is not None:
-                mm = _mismatch(g.M, Pi, N_out)
-            else:
-                Pi, mm = consistent_initial_state(g.F, A_X, Sig_all[o0:o1], g.M, N_out)
-            ctx.info.setdefault("init_mismatch", {})[k] = mm
-            _check_mismatch(k, mm)
-            w0s[k] = Pi @ x0T
-        else:
-            w0s[k] = np.zeros((g.order, 1))
-    # residual rows are written in place, with the direct feedthrough -H y + K u added
-    # chunk by chunk (no full-length temporaries)
+    ctx.info["plant_state_decoupled"] = decoupled
+    # residual rows are written in place, with the direct feedthrough -H y + K u (and
+    # M Pi x, w = w~ + Pi x, for decoupled states) added chunk by chunk
     R = max([d.runs for d in drives] + [x0T.shape[1]])
     rows = np.zeros((R, len(ctx.view.generators), N))
     outs, dests, dmats = [], [], []
-    for k, g in gens:
-        outs.append([g.M, np.eye(g.order)] if ctx.keep_states else [g.M])
+    for (k, g), Pi in zip(gens, Pis, strict=True):
         view = rows[:, k : k + 1].transpose(1, 0, 2) if g.n_outputs == 1 else None
-        dests.append([view, None] if ctx.keep_states else [view])
-        Dm = np.hstack([-g.H, g.K])
-        dmats.append([Dm, None] if ctx.keep_states else [Dm])
+        Dm = np.hstack([-g.H, g.K] + ([g.M @ Pi] if decoupled else []))
+        if ctx.keep_states:
+            Dw = np.hstack([np.zeros((g.order, q + m)), Pi]) if decoupled else None
+            outs.append([g.M, np.eye(g.order)])
+            dests.append([view, None])
+            dmats.append([Dm, Dw])
+        else:
+            outs.append([g.M])
+            dests.append([view])
+            dmats.append([Dm])
     res = block_recursion(
         [Fd[k] for k, _ in gens],
         W_all,
@@ -668,7 +708,7 @@ def _run_static(
         np.vstack([np.broadcast_to(w0s[k], (g.order, x0T.shape[1])) for k, g in gens]),
         outs,
         N,
-        direct=([y, u], dmats),
+        direct=([y, u, X] if decoupled else [y, u], dmats),
         out=dests,
     )
     r_vectors: list[np.ndarray | None] = [None] * len(ctx.view.generators)

@@ -179,14 +179,21 @@ def test_exact_design_leakage_is_rounding(seed001, sensor):
     assert res.events[0].isolation_time is not None  # exact bank isolates every sensor
 
 
-def test_open_loop_matches_forced_response_of_composite(seed001):
+@pytest.mark.parametrize(
+    "F, decoupled",
+    [
+        ([[-3.0, 1.0], [0.0, -0.5]], True),  # simulated as w - Pi x, driven by u and f only
+        ([[-1.0, 2.0], [-2.0, -1.0]], False),  # the plant's poles: no Pi, driven by x too
+    ],
+)
+def test_open_loop_matches_forced_response_of_composite(F, decoupled):
     """Open loop, a bias fault: the composite [plant; generator] through forced_response."""
     import control
 
     plant = gf.Plant([[-1.0, 2.0], [-2.0, -1.0]], [[1.0], [0.5]], [[1.0, 0.0], [1.0, 1.0]])
     rng = np.random.default_rng(4)
     g = gf.ResidualGenerator(
-        [[-3.0, 1.0], [0.0, -0.5]],
+        F,
         rng.standard_normal((2, 2)),
         rng.standard_normal((2, 1)),
         rng.standard_normal((1, 2)),
@@ -218,6 +225,7 @@ def test_open_loop_matches_forced_response_of_composite(seed001):
         control.ss(As, Bs, Cs, Ds), t, np.vstack([u, f]), X0=[1.0, -1.0, 0.0, 0.0]
     )
     assert np.max(np.abs(res.residuals[0] - ref.outputs)) < 1e-10 * np.max(np.abs(ref.outputs))
+    assert res.info["plant_state_decoupled"] is decoupled
 
 
 def test_zoh_hold_differs_from_foh_by_order_dt(seed001):
