@@ -296,13 +296,21 @@ def isolate(alarms: Any, structure: Any) -> Isolation:
     nf = S.shape[1]
     lead = a.shape[:-2]
     N = a.shape[-1]
-    cand = np.zeros((*lead, nf, N), dtype=bool)
+    # candidate j: the alarm pattern equals column j; suspect j: every residual of column
+    # j alarms.  Accumulated residual by residual in place (no (n_residuals, N) temporaries)
+    cand = np.ones((*lead, nf, N), dtype=bool)
     sus = np.zeros((*lead, nf, N), dtype=bool)
     for j in range(nf):
-        col = S[:, j][:, None]
-        cand[..., j, :] = np.all(a == col, axis=-2)
-        if col.any():
-            sus[..., j, :] = np.all(a | ~col, axis=-2)
+        c, s = cand[..., j, :], sus[..., j, :]
+        if S[:, j].any():
+            s[...] = True
+        for r in range(S.shape[0]):
+            ar = a[..., r, :]
+            if S[r, j]:
+                np.logical_and(c, ar, out=c)
+                np.logical_and(s, ar, out=s)
+            else:
+                np.less(ar, c, out=c)  # c and not ar
     any_alarm = a.any(axis=-2)
     n_cand = cand.sum(axis=-2)
     first = np.argmax(cand, axis=-2) if nf else np.zeros((*lead, N), dtype=int)

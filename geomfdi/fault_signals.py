@@ -403,6 +403,7 @@ def fault_profile(
     k1: int | None = None,
     holds: dict[int, np.ndarray] | None = None,
     last_left: bool = False,
+    sensors: Sequence[int] | None = None,
 ) -> FaultProfile:
     """Compose ``faults`` on the samples ``k0 <= k < k1`` of the grid ``t``.
 
@@ -426,19 +427,28 @@ def fault_profile(
         Only the left limit is wanted at the last sample of the window (a simulator's
         segment end): ``eta``/``lam`` there then ignore faults starting at that sample,
         whose held readings are not known yet.
+    sensors : sequence of int, optional
+        Compute the rows of these sensors only (in this order; every fault must be on one
+        of them): the other rows are ``eta = 1, lam = 0`` and need no memory.
 
     Returns
     -------
     FaultProfile
+        With ``len(sensors)`` rows instead of ``q`` when ``sensors`` is given.
     """
     N = t.shape[0]
     k1 = N if k1 is None else k1
     L = k1 - k0
     holds = {} if holds is None else holds
-    eta = np.ones((q, L))
-    eta_l = np.ones((q, L))
-    lam = np.zeros((1, q, L))
-    lam_l = np.zeros((1, q, L))
+    rows = list(range(q)) if sensors is None else [int(i) for i in sensors]
+    where = {s: j for j, s in enumerate(rows)}
+    if any(f.sensor not in where for f in faults):
+        raise GeomFDIError(f"sensors: {rows} must include every faulty sensor", argument="sensors")
+    nq = len(rows)
+    eta = np.ones((nq, L))
+    eta_l = np.ones((nq, L))
+    lam = np.zeros((1, nq, L))
+    lam_l = np.zeros((1, nq, L))
     tw = t[k0:k1]
     for pos, f in enumerate(faults):
         full = f.mask(t)
@@ -454,7 +464,7 @@ def fault_profile(
         b = L - int(np.argmax(on[::-1]))
         sl = slice(a, b)
         m, prev, on = m[sl], prev[sl], on[sl]
-        i = f.sensor
+        i = where[f.sensor]
         if on.all():
             g = f.gain_values(tw[sl])
             bias = f.bias_values(tw[sl])
@@ -474,11 +484,11 @@ def fault_profile(
                         argument="faults",
                     )
                 j = ks - k0
-                holds[pos] = eta[i, j] * y0[:, i, ks] + lam[:, i, j]
+                holds[pos] = eta[i, j] * y0[:, f.sensor, ks] + lam[:, i, j]
             hold = holds[pos]
             if hold.shape[0] > lam.shape[0]:
-                lam = np.broadcast_to(lam, (hold.shape[0], q, L)).copy()
-                lam_l = np.broadcast_to(lam_l, (hold.shape[0], q, L)).copy()
+                lam = np.broadcast_to(lam, (hold.shape[0], nq, L)).copy()
+                lam_l = np.broadcast_to(lam_l, (hold.shape[0], nq, L)).copy()
             bias = bias[None, :] + hold[:, None]
         else:
             bias = np.broadcast_to(bias, (1, b - a))

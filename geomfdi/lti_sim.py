@@ -799,7 +799,8 @@ def uniform_step(t: Any, name: str = "t") -> tuple[np.ndarray, float]:
     step = (t[-1] - t[0]) / (t.size - 1)
     if not step > 0:
         raise GeomFDIError(f"{name}: must be increasing", argument=name)
-    if np.max(np.abs(np.diff(t) - step)) > 1e-6 * step:
+    dt = np.diff(t)
+    if max(float(dt.max()) - step, step - float(dt.min())) > 1e-6 * step:
         raise GeomFDIError(f"{name}: time values must be equally spaced", argument=name)
     return t, float(step)
 

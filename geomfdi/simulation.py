@@ -575,14 +575,20 @@ def _run_static(
     # ---- sensor faults on the readings, vectorised (only the sensors they touch)
     t = ctx.t
     touched = sorted({f.sensor for fl in fault_lists for f in fl if f.mask(t).any()})
+    # profile rows: the sensors with faults, or every sensor when noise enters them all
+    # (row[i]: the row of sensor i)
+    need = sorted({f.sensor for fl in fault_lists for f in fl})
+    if v is not None and not ctx.discrete:
+        need = list(range(q))
+    row = {i: j for j, i in enumerate(need)}
     if shared:
-        prof = fault_profile(fault_lists[0], t, y0n.transpose(1, 0, 2), q=q)
+        prof = fault_profile(fault_lists[0], t, y0n.transpose(1, 0, 2), q=q, sensors=need)
         eta, eta_l = prof.eta[:, None, :], prof.eta_left[:, None, :]
         lam, lam_l = prof.lam.transpose(1, 0, 2), prof.lam_left.transpose(1, 0, 2)
     else:
         y0r = y0n.transpose(1, 0, 2)
         profs = [
-            fault_profile(fl, t, y0r[r : r + 1] if y0r.shape[0] > 1 else y0r, q=q)
+            fault_profile(fl, t, y0r[r : r + 1] if y0r.shape[0] > 1 else y0r, q=q, sensors=need)
             for r, fl in enumerate(fault_lists)
         ]
         eta = np.stack([pr.eta for pr in profs], axis=1)
@@ -594,7 +600,7 @@ def _run_static(
         y = np.empty((q, R, N))
         y[:] = y0n
         for i in touched:
-            y[i] = eta[i] * y0n[i] + lam[i]
+            y[i] = eta[row[i]] * y0n[i] + lam[row[i]]
     else:
         y = y0n
     gens = [(k, g) for k, g in enumerate(ctx.view.generators) if g is not None]
@@ -633,9 +639,10 @@ def _run_static(
         # y_i = delta_i y0c_i + rho_i over each interval (module docstring)
         sens = list(range(q)) if v is not None else touched
         if sens:
-            delta = 0.5 * (eta[sens, :, :-1] + eta_l[sens, :, 1:]) if foh else eta[sens, :, :-1]
+            prow = [row[i] for i in sens]
+            delta = 0.5 * (eta[prow, :, :-1] + eta_l[prow, :, 1:]) if foh else eta[prow, :, :-1]
             rhoL = y[sens, :, :-1] - delta * y0c[sens, :, :-1]
-            rhoR = eta_l[sens, :, 1:] * y0n[sens, :, 1:] + lam_l[sens, :, 1:]
+            rhoR = eta_l[prow, :, 1:] * y0n[sens, :, 1:] + lam_l[prow, :, 1:]
             rhoR -= delta * y0c[sens, :, 1:]
             chan = [i for j, i in enumerate(sens) if np.any(delta[j] != 1)]
         Gam_all = np.vstack([-g.E @ Dy0 + g.G @ Du for _, g in gens])

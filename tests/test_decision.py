@@ -104,6 +104,31 @@ def test_isolation_vectorised_over_runs():
     assert np.all(iso.isolated[0] == NO_ALARM)
 
 
+@given(seed=st.integers(0, 10_000), nr=st.integers(1, 6), nf=st.integers(1, 5))
+@settings(max_examples=60, deadline=None)
+def test_isolation_matches_the_per_sample_definition(seed, nr, nf):
+    """Candidates: fault columns equal to the alarm pattern; suspects: non-zero columns
+    covered by it; the decision: the single candidate, else ambiguous / unexplained."""
+    rng = np.random.default_rng(seed)
+    S = rng.random((nr, nf)) < 0.5
+    a = rng.random((2, nr, 9)) < 0.4
+    iso = isolate(a, S)
+    for r in range(2):
+        for k in range(9):
+            pat = a[r, :, k]
+            cand = [bool(np.array_equal(pat, S[:, j]) and pat.any()) for j in range(nf)]
+            sus = [bool(S[:, j].any() and np.all(pat[S[:, j]])) for j in range(nf)]
+            assert iso.candidates[r, :, k].tolist() == cand
+            assert iso.suspects[r, :, k].tolist() == sus
+            if not pat.any():
+                expect = NO_ALARM
+            elif sum(cand) == 1:
+                expect = cand.index(True)
+            else:
+                expect = AMBIGUOUS if sum(cand) > 1 else UNEXPLAINED
+            assert iso.isolated[r, k] == expect
+
+
 def test_detection_events_delays():
     t = np.arange(0, 10.01, 0.5)
     alarms = np.zeros((2, t.size), dtype=bool)

@@ -99,6 +99,27 @@ def test_left_limits_switch_at_the_sample():
     assert prof.lam_left[0, 0, k + 1] == 1.0
 
 
+def test_profile_of_selected_sensors_equals_those_rows():
+    """``sensors=`` computes only some rows (in the given order), identical to the full
+    profile's; a faulty sensor left out is an error."""
+    rng = np.random.default_rng(2)
+    y0 = rng.standard_normal((2, 4, T.size))  # 2 runs, 4 sensors
+    faults = [
+        gf.GainFault(2, 3.0, lambda t: 1 + 0.1 * t, end=8.0),
+        gf.BiasFault(0, 5.0, 0.3),
+        gf.StuckFault(2, 6.0),
+        gf.GainFault(0, 7.5, 0.5),
+    ]
+    full = fault_profile(faults, T, y0, q=4)
+    part = fault_profile(faults, T, y0, q=4, sensors=[2, 0])
+    for name in ("eta", "eta_left"):
+        assert np.array_equal(getattr(part, name), getattr(full, name)[[2, 0]])
+    for name in ("lam", "lam_left"):
+        assert np.array_equal(getattr(part, name), getattr(full, name)[:, [2, 0]])
+    with pytest.raises(GeomFDIError, match="sensors"):
+        fault_profile(faults, T, y0, q=4, sensors=[2])
+
+
 @given(
     gain=st.floats(-3, 3, allow_nan=False),
     bias=st.floats(-2, 2, allow_nan=False),
