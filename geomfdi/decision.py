@@ -312,10 +312,13 @@ def isolate(alarms: Any, structure: Any) -> Isolation:
             else:
                 np.less(ar, c, out=c)  # c and not ar
     any_alarm = a.any(axis=-2)
-    n_cand = cand.sum(axis=-2)
-    first = np.argmax(cand, axis=-2) if nf else np.zeros((*lead, N), dtype=int)
-    iso = np.where(n_cand == 1, first, np.where(n_cand > 1, AMBIGUOUS, UNEXPLAINED))
-    iso = np.where(any_alarm, iso, NO_ALARM).astype(int)
+    n_cand = np.add.reduce(cand, axis=-2, dtype=np.int32)
+    iso = np.full((*lead, N), UNEXPLAINED, dtype=int)
+    np.copyto(iso, AMBIGUOUS, where=n_cand > 1)
+    single = n_cand == 1
+    for j in range(nf):
+        np.copyto(iso, j, where=cand[..., j, :] & single)
+    np.copyto(iso, NO_ALARM, where=~any_alarm)
     cand &= any_alarm[..., None, :]
     return Isolation(iso, cand, sus)
 

@@ -546,7 +546,7 @@ def _run_static(
     Dy0 = np.hstack([p.D, p.Dd, np.zeros((q, nwp))])
     Cu = -K
     Du = np.hstack([np.eye(m), np.zeros((m, nd + nwp))])
-    es = np.vstack([ctx.u_ext, ctx.d])
+    es = np.vstack([ctx.u_ext, ctx.d]) if ctx.d.shape[0] else ctx.u_ext
     if wp is not None:
         e = np.empty((es.shape[0] + nwp, wp.shape[0], N))
         e[: es.shape[0]] = es[:, None, :]
