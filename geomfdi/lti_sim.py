@@ -35,6 +35,7 @@ axis holds Monte-Carlo runs: ``u`` is ``(m, N)`` or ``(runs, m, N)``, ``x`` come
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from typing import Any
 
@@ -286,6 +287,22 @@ _TOEPLITZ_SPLITS = 4  # row blocks of the block-Toeplitz product
 _MAX_LIFT = 32
 _CHUNK_DOUBLES = 2**20
 _MIN_BLOCKS = 512
+_WORKSPACE_BYTES = 64 * 2**20  # work arrays kept per thread between calls, at most
+_LOCAL = threading.local()
+
+
+def _workspace() -> dict[tuple[str, str], np.ndarray]:
+    """The calling thread's work arrays of :func:`block_recursion`, kept between calls.
+
+    Fresh memory costs a page fault per page on first use, a sizeable share of a
+    simulation's time; the chunk-sized work arrays (about ``8 * _CHUNK_DOUBLES`` bytes)
+    are therefore reused from call to call instead (dropped when they outgrow
+    ``_WORKSPACE_BYTES``).  Results never live in them.
+    """
+    pool = getattr(_LOCAL, "pool", None)
+    if pool is None:
+        pool = _LOCAL.pool = {}
+    return pool
 
 
 def _lift_factor(n_states: int, n_out: int, n_drive: int, complex_: bool) -> int:
@@ -588,20 +605,21 @@ def block_recursion(
     # single run, real states, no lifting: every output is one product written straight
     # into its destination (then the feedthrough added in place)
     straight = M == 1 and R == 1 and not cplx
-    # chunk: work arrays of about 2**20 doubles in all, reused from chunk to chunk (fresh
-    # memory costs page faults), between 512 and 16384 lifted samples (each lfilter call
-    # has an overhead of a few microseconds)
+    # chunk: work arrays of about 2**20 doubles in all, reused from chunk to chunk and
+    # from call to call (fresh memory costs page faults), between 512 and 16384 lifted
+    # samples (each lfilter call has an overhead of a few microseconds)
     Rdd = max([a.shape[1] for a in dsig] + [1])
     per = nL * Rd + M * (2 * p_tot * R + nd * Rdd + p_tot * Rdd) + (2 if cplx else 1) * nS * R
     Lb = chunk // M if chunk else max(_MIN_BLOCKS, min(2**14, _CHUNK_DOUBLES // max(per, 1)))
     Lc = max(Lb, 1) * M
-    pool: dict[str, np.ndarray] = {}
+    pool = _workspace()
 
     def work(name: str, shape: tuple[int, ...], dt: Any = float) -> np.ndarray:
         size = int(np.prod(shape))
-        if name not in pool or pool[name].size < size:
-            pool[name] = np.empty(max(size, 1), dtype=dt)
-        return pool[name][:size].reshape(shape)
+        key = (name, np.dtype(dt).char)
+        if key not in pool or pool[key].size < size:
+            pool[key] = np.empty(max(size, 1), dtype=dt)
+        return pool[key][:size].reshape(shape)
 
     s = 0
     while s < N:
@@ -696,6 +714,8 @@ def block_recursion(
                     dst += F[o0 : o0 + p]
         z = zc[:, :, nb].copy()
         s = e
+    if sum(a.nbytes for a in pool.values()) > _WORKSPACE_BYTES:
+        pool.clear()
     res: list[list[np.ndarray]] = [[] for _ in outputs]
     for b, _, _, dest, _ in flat:
         res[b].append(dest)
