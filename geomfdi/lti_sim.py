@@ -576,12 +576,21 @@ def block_recursion(
         nspl = min(_TOEPLITZ_SPLITS, M - 1)
         edges = [1 + round(q * (M - 1) / nspl) for q in range(nspl + 1)]
         splits = [(i0, i1) for i0, i1 in zip(edges[:-1], edges[1:], strict=True) if i1 > i0]
-    Dall = None
+    # feedthrough: signals of every run, then the signals shared by all runs (their
+    # product computed once and added to every run)
+    Rdd = max([a.shape[1] for a in dsig] + [1])
+    feeds = []
     if nd:
         Dall = np.zeros((p_tot, nd))
         for (_, _, C, _, o0), Dm in zip(flat, Dms, strict=True):
             if Dm is not None:
                 Dall[o0 : o0 + C.shape[0]] = Dm
+        cstart = np.cumsum([0] + [a.shape[0] for a in dsig])
+        for shared in (False, True):
+            sel = [i for i, a in enumerate(dsig) if (a.shape[1] < Rdd) == shared]
+            if sel:
+                cols = np.concatenate([np.arange(cstart[i], cstart[i + 1]) for i in sel])
+                feeds.append(([dsig[i] for i in sel], np.ascontiguousarray(Dall[:, cols])))
     # C A^i Z = C Z T^i on the block-start state, rows (i, o), grouped by output and block
     # sizes so that each group is one stacked product (slices when the group is contiguous)
     groups: dict[tuple[int, int], list[tuple[slice, int, np.ndarray]]] = {}
@@ -602,13 +611,12 @@ def block_recursion(
         state_maps.append((_as_slice(sidx), _as_slice(oidx), p, Psi))
     z = (Zinv @ np.broadcast_to(x0, (nS, x0.shape[1]))).astype(dtype)
     z = np.broadcast_to(z, (nS, R))
-    # single run, real states, no lifting: every output is one product written straight
-    # into its destination (then the feedthrough added in place)
-    straight = M == 1 and R == 1 and not cplx
+    # real states, no lifting: every output is one product (per run) written straight
+    # into its destination, then the feedthrough added in place
+    straight = M == 1 and not cplx
     # chunk: work arrays of about 2**20 doubles in all, reused from chunk to chunk and
     # from call to call (fresh memory costs page faults), between 512 and 16384 lifted
     # samples (each lfilter call has an overhead of a few microseconds)
-    Rdd = max([a.shape[1] for a in dsig] + [1])
     per = nL * Rd + M * (2 * p_tot * R + nd * Rdd + p_tot * Rdd) + (2 if cplx else 1) * nS * R
     Lb = chunk // M if chunk else max(_MIN_BLOCKS, min(2**14, _CHUNK_DOUBLES // max(per, 1)))
     Lc = max(Lb, 1) * M
@@ -660,23 +668,29 @@ def block_recursion(
             G[:, :, 1:] = 0.0
         zc = _recursion_inplace(TbM, G, stops)
         if nd:
-            if len(dsig) == 1 and Rdd == 1:  # a strided view is enough for the product
-                Dd = dsig[0][:, 0, s:e]
-            else:
-                Dd = work("Dd", (nd, Rdd, L))
-                i = 0
-                for a in dsig:
-                    Dd[i : i + a.shape[0]] = a[:, :, s:e]
-                    i += a.shape[0]
-                Dd = Dd.reshape(nd, Rdd * L)
             F = work("F", (p_tot, Rdd, L))
-            np.matmul(Dall, Dd, out=F.reshape(p_tot, Rdd * L))
+            for fi, (sigs, Dq) in enumerate(feeds):
+                if len(sigs) == 1:  # a strided view is enough for the product
+                    Dd = sigs[0][:, :, s:e]
+                else:
+                    Dd = work(f"Dd{fi}", (Dq.shape[1], sigs[0].shape[1], L))
+                    i = 0
+                    for a in sigs:
+                        Dd[i : i + a.shape[0]] = a[:, :, s:e]
+                        i += a.shape[0]
+                if fi == 0:  # runs as the batch axis, straight into F
+                    np.matmul(Dq, Dd.transpose(1, 0, 2), out=F.transpose(1, 0, 2))
+                else:  # shared by all runs
+                    F += (Dq @ Dd[:, 0])[:, None, :]
         if straight:
             for (_, sl, C, dest, o0), Dm, CZj in zip(flat, Dms, CZ, strict=True):
-                dst = dest[:, 0, s:e]
-                np.matmul(CZj, zc[sl, 0, :L], out=dst)
+                dst = dest[:, :, s:e]
+                if R == 1:
+                    np.matmul(CZj, zc[sl, 0, :L], out=dst[:, 0])
+                else:  # one product per run (runs as the batch axis)
+                    np.matmul(CZj, zc[sl, :, :L].transpose(1, 0, 2), out=dst.transpose(1, 0, 2))
                 if Dm is not None:
-                    dst += F[o0 : o0 + C.shape[0], 0]
+                    dst += F[o0 : o0 + C.shape[0]]
             z = zc[:, :, nb].copy()
             s = e
             continue
