@@ -585,6 +585,11 @@ def block_recursion(
         for (_, _, C, _, o0), Dm in zip(flat, Dms, strict=True):
             if Dm is not None:
                 Dall[o0 : o0 + C.shape[0]] = Dm
+        if any(a.shape[1] not in (1, Rdd) for a in dsig):
+            raise ShapeError(
+                f"direct: signals with {sorted({a.shape[1] for a in dsig})} runs do not broadcast",
+                argument="direct",
+            )
         cstart = np.cumsum([0] + [a.shape[0] for a in dsig])
         for shared in (False, True):
             sel = [i for i, a in enumerate(dsig) if (a.shape[1] < Rdd) == shared]
