@@ -9,8 +9,9 @@ the same piecewise-linear signal.
 * ``forced_response``: the composite system ``[closed-loop plant; all generators]``
   with inputs ``[v; fault signal]`` and outputs ``r``, simulated by
   :func:`control.forced_response` (a Python loop over the samples);
-* ``gf.simulate``: the plant once, faults applied to the readings, then the generators,
-  each by the loop-free Schur/``lfilter`` recursion of :mod:`geomfdi.lti_sim`;
+* ``gf.simulate``: the plant once, faults applied to the readings, then the generators
+  (in the coordinates ``w - Pi x``, which the plant state does not drive) by the
+  loop-free modal/``lfilter`` recursion of :mod:`geomfdi.lti_sim` on the lifted system;
 * ``gf.simulate_batch``: many Monte-Carlo runs (measurement-noise seeds) in one call;
   aggregate throughput = runs x samples / time.
 

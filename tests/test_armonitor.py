@@ -126,7 +126,11 @@ def test_blockwise_cumsums_keep_accuracy_after_a_huge_fault():
     m, n = 60, 5
     x = gf.synthetic_innovations(200_000, fault="step", size=1e6, start=100, stop=200, rng=3)
     mon = gf.ARMonitor(n, m, reset_after=None)
-    out = mon.fit(gf.synthetic_innovations(m, n_series=20, rng=4)).run(x)
+    with warnings.catch_warnings():
+        # the windows that span the fault are rank-deficient in floating point (reported
+        # by an ARMonitorWarning); this test is about the windows long after it
+        warnings.simplefilter("ignore", gf.ARMonitorWarning)
+        out = mon.fit(gf.synthetic_innovations(m, n_series=20, rng=4)).run(x)
     ends = np.arange(150_000, 200_000, 997)
     ref = np.array([lstsq_phi(x[e - m + 1 : e + 1], n) for e in ends])
     assert rel_err(out.coefficients[ends], ref) < 1e-9

@@ -409,17 +409,22 @@ def test_bad_arguments_name_themselves(seed001):
         gf.simulate(seed001, d, T)
 
 
-def test_generator_states_track_p_x_on_healthy_data(seed001):
-    res = gf.simulate(
-        seed001,
-        paper_bank(seed001),
+def closed_loop_with_states(plant, bank, sensor):
+    """The paper's closed loop, a bias on ``sensor`` at 8 s, generator states kept."""
+    return gf.simulate(
+        plant,
+        bank,
         T[::10],
         v_ext,
         x0=X0,
         controller=K_FB,
-        faults=[gf.BiasFault(2, 8.0, 0.02)],
+        faults=[gf.BiasFault(sensor, 8.0, 0.02)],
         keep_states=True,
     )
+
+
+def test_generator_states_track_p_x_on_healthy_data(seed001):
+    res = closed_loop_with_states(seed001, paper_bank(seed001), 2)
     healthy = res.t < 8.0
     for j in range(3):
         assert np.allclose(res.w[j][0, healthy], P_PAPER[j] @ res.x[:, healthy], atol=1e-10)
@@ -451,16 +456,7 @@ def test_consistent_start_of_a_bank_with_shared_and_distinct_spectra(seed001):
     bank = gf.ResidualBank(
         gens, S, S, np.zeros(3, bool), ["ok"] * 6, [gf.SensorFault(i) for i in range(3)]
     )
-    res = gf.simulate(
-        seed001,
-        bank,
-        T[::10],
-        v_ext,
-        x0=X0,
-        controller=K_FB,
-        faults=[gf.BiasFault(1, 8.0, 0.02)],
-        keep_states=True,
-    )
+    res = closed_loop_with_states(seed001, bank, 1)
     healthy = res.t < 8.0
     scale = np.max(np.abs(res.x))
     assert np.max(np.abs(res.residuals[:, healthy])) < 1e-10 * scale
