@@ -1559,13 +1559,20 @@ class ParityFDI:
             first.detected, faults, first.statistic, first.threshold, method, pfa, unresolved
         )
 
-    def _search(self, Z: np.ndarray, pfa: float, mf: int) -> ParityDiagnosis:
-        N, s = Z.shape[0], self.s
+    def _detect(
+        self, Z: np.ndarray, pfa: float
+    ) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+        """Projections ``a``, the detection statistic ``FD``, its threshold and the
+        detections: the start of every multiple-fault search."""
         a = self._a(Z)
         FD = self._fd(Z)
         self._check_fd(FD)
-        T0 = chi2_threshold(pfa, s)
-        det = FD >= T0
+        T0 = chi2_threshold(pfa, self.s)
+        return a, FD, T0, FD >= T0
+
+    def _search(self, Z: np.ndarray, pfa: float, mf: int) -> ParityDiagnosis:
+        N, s = Z.shape[0], self.s
+        a, FD, T0, det = self._detect(Z, pfa)
         FI = self._fi_from_a(a)
         k1 = np.argmax(FI, axis=1)
         faults = np.full((N, mf), -1, dtype=np.intp)
@@ -1619,11 +1626,7 @@ class ParityFDI:
 
     def _glr(self, Z: np.ndarray, pfa: float, mf: int) -> ParityDiagnosis:
         N, s = Z.shape[0], self.s
-        a = self._a(Z)
-        FD = self._fd(Z)
-        self._check_fd(FD)
-        T0 = chi2_threshold(pfa, s)
-        det = FD >= T0
+        a, FD, T0, det = self._detect(Z, pfa)
         faults = np.full((N, mf), -1, dtype=np.intp)
         unresolved = np.zeros(N, dtype=bool)
         pend = det.copy()
