@@ -11,7 +11,7 @@ the same piecewise-linear signal.
   :func:`control.forced_response` (a Python loop over the samples);
 * ``gf.simulate``: the plant once, faults applied to the readings, then the generators
   (in the coordinates ``w - Pi x``, which the plant state does not drive) by the
-  loop-free modal/``lfilter`` recursion of :mod:`geomfdi.lti_sim` on the lifted system;
+  loop-free modal/``lfilter`` recursion of :mod:`geomfdi.simulation.lti` on the lifted system;
 * ``gf.simulate_batch``: many Monte-Carlo runs (measurement-noise seeds) in one call;
   aggregate throughput = runs x samples / time.
 
@@ -118,7 +118,7 @@ def composite(bank: gf.ResidualBank):
 
 def consistent_state(bank: gf.ResidualBank, x0: np.ndarray) -> np.ndarray:
     """Generator states of gf.simulate's consistent start, for the baseline."""
-    from geomfdi.simulation import consistent_initial_state
+    from geomfdi.simulation.simulate import consistent_initial_state
 
     Acl = A - B @ K
     parts = [x0]

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import ComplexInputError, GeomFDIError, NonFiniteError, ShapeError
+from geomfdi.errors import ComplexInputError, GeomFDIError, NonFiniteError, ShapeError
 
 __all__ = [
     "as_matrix",

@@ -68,7 +68,7 @@ def set_rtol(rtol: float | None) -> None:
     if rtol is not None:
         rtol = float(rtol)
         if not (0.0 < rtol < 1.0) or not np.isfinite(rtol):
-            from .errors import GeomFDIError
+            from geomfdi.errors import GeomFDIError
 
             raise GeomFDIError(f"rtol: must lie in (0, 1), got {rtol}", argument="rtol")
     _RTOL = rtol

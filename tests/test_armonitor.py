@@ -16,8 +16,8 @@ from numpy.lib.stride_tricks import sliding_window_view
 from scipy.stats import chi2
 
 import geomfdi as gf
-from geomfdi.armonitor import _moving_sums
 from geomfdi.errors import GeomFDIError, NonFiniteError, RankDeficientError, ShapeError
+from geomfdi.monitoring.ar import _moving_sums
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_AR = [-0.3]  # coloured innovations reproducing the paper's mu = -0.31 (seed 003)

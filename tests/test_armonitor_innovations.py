@@ -1,4 +1,4 @@
-"""Synthetic innovation generator (geomfdi.innovations) for the AR-model monitor."""
+"""Synthetic innovation generator (geomfdi.monitoring.innovations) for the AR-model monitor."""
 
 from __future__ import annotations
 

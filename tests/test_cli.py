@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geomfdi import cli
 from geomfdi.errors import ModelFileError
-from geomfdi.modelfile import load_model, parse_model
+from geomfdi.io import cli
+from geomfdi.io.modelfile import load_model, parse_model
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
@@ -27,7 +27,7 @@ SEED001_PAPER_PEAKS = (0.145, 0.213, 0.319)
 
 def _run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "geomfdi.cli", *args],
+        [sys.executable, "-m", "geomfdi.io.cli", *args],
         capture_output=True,
         text=True,
         cwd=cwd,

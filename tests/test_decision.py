@@ -8,7 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import geomfdi as gf
-from geomfdi.decision import (
+from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.evaluation.decision import (
     AMBIGUOUS,
     NO_ALARM,
     UNEXPLAINED,
@@ -18,7 +19,6 @@ from geomfdi.decision import (
     detection_events,
     isolate,
 )
-from geomfdi.errors import GeomFDIError, ShapeError
 
 
 @given(window=st.integers(1, 12), seed=st.integers(0, 1000))

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from scipy import stats
 
 import geomfdi as gf
-import geomfdi.diagnosability as diag
+import geomfdi.diagnosability.window as diag
 from geomfdi.errors import DesignError, GeomFDIError, RankDeficientError, ShapeError
 
 PATHS = ("structured", "direct")

@@ -1,4 +1,4 @@
-"""The safe expression evaluator of model files (geomfdi.expressions)."""
+"""The safe expression evaluator of model files (geomfdi.io.expressions)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from geomfdi.errors import ModelFileError
-from geomfdi.expressions import ARITY, FUNCTIONS, MAX_LENGTH, compile_expression
+from geomfdi.io.expressions import ARITY, FUNCTIONS, MAX_LENGTH, compile_expression
 
 T = np.linspace(0.0, 10.0, 41)
 

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 import geomfdi as gf
 from geomfdi.errors import GeomFDIError, ShapeError
-from geomfdi.fault_signals import fault_profile
+from geomfdi.simulation.signals import fault_profile
 
 T = np.arange(0.0, 10.0001, 0.5)  # 21 samples, 8 s is sample 16
 

@@ -8,11 +8,11 @@ import importlib
 import pytest
 
 MODULES = [
-    "geomfdi.subspace",
-    "geomfdi.conditioned_invariant",
-    "geomfdi.unobservability",
-    "geomfdi.exact",
-    "geomfdi.plant",
+    "geomfdi.geometry.subspace",
+    "geomfdi.geometry.conditioned_invariant",
+    "geomfdi.geometry.unobservability",
+    "geomfdi.geometry.exact",
+    "geomfdi.model.plant",
 ]
 
 

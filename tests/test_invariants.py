@@ -21,7 +21,7 @@ from hypothesis.extra import numpy as hnp
 
 import geomfdi as gf
 from geomfdi.errors import DesignError, GeomFDIError
-from geomfdi.unobservability import measurement_map
+from geomfdi.geometry.unobservability import measurement_map
 
 # --------------------------------------------------------------------------- helpers
 RCOND = 1e-8  # threshold of the independent constructions below (not geomfdi's policy)

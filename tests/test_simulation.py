@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import geomfdi as gf
-from geomfdi.decision import NO_ALARM
 from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.evaluation.decision import NO_ALARM
 
 K_FB = np.array([[5, -1.5, 3], [2, 0, 2], [-2, 2.5, -2]])
 X0 = np.array([0.5, -0.3, 0.2])
@@ -473,7 +473,7 @@ def test_lifted_bank_matches_forced_response():
     feedback, a bias ramp) against forced_response on the composite system."""
     import control
 
-    from geomfdi.lti_sim import _lift_factor
+    from geomfdi.simulation.lti import _lift_factor
 
     rng = np.random.default_rng(11)
     A = np.array([[0.0, 1.0, 0.0], [-2.0, -0.5, 1.0], [0.0, 0.0, -1.0]])

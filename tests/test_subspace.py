@@ -1,4 +1,4 @@
-"""Subspace algebra (geomfdi.subspace) against independent constructions.
+"""Subspace algebra (geomfdi.geometry.subspace) against independent constructions.
 
 Every operation is compared with a construction that does not go through geomfdi:
 ``scipy.linalg.orth`` / ``null_space``, exact ranks from sympy, dimension formulas,

@@ -21,7 +21,7 @@ from geomfdi.errors import (
     NonFiniteError,
     ShapeError,
 )
-from geomfdi.unobservability import measurement_map
+from geomfdi.geometry.unobservability import measurement_map
 
 NAN, INF = float("nan"), float("inf")
 A3 = np.eye(3) + np.diag([1.0, 1.0], 1)

@@ -1,0 +1,5 @@
+"""``python -m geomfdi``: the command line."""
+
+from geomfdi.io.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,486 @@
+"""Decision logic: thresholds, alarms, isolation from the structure matrix, delays.
+
+A residual ``r_j`` raises an alarm at sample ``k`` when its *test statistic* exceeds the
+residual's threshold::
+
+    alarm[j, k] = s_j[k] > threshold_j
+
+with the statistic ``s = |r|`` (``statistic="abs"``, the paper's rule ``|r| > epsilon``)
+or the causal moving root mean square over the last ``window`` samples
+(``statistic="rms"``, which trades detection delay for a lower noise level).
+
+Isolation compares the alarm pattern of a sample (one boolean per residual) with the
+columns of the *achieved* structure matrix of the bank (rows: residuals, columns:
+faults; seed 001, Definition 4): fault ``j`` is a **candidate** when its column equals
+the pattern.  Per sample the decision is
+
+* the fault index when exactly one fault is a candidate,
+* :data:`NO_ALARM` (-1) when no residual alarms,
+* :data:`UNEXPLAINED` (-2) when the pattern matches no column (several faults at once,
+  or a false alarm on some residual),
+* :data:`AMBIGUOUS` (-3) when several faults share the matching column (they are not
+  isolable from each other).
+
+For several simultaneous faults, :func:`isolate` also returns **suspects**: faults with
+a non-zero column contained in the alarm pattern (every residual that should react to
+them does).
+"""
+
+from __future__ import annotations
+
+import numbers
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from geomfdi._validation import as_int, as_probability, as_real_array, as_vector
+from geomfdi.errors import GeomFDIError, ShapeError
+
+__all__ = [
+    "NO_ALARM",
+    "UNEXPLAINED",
+    "AMBIGUOUS",
+    "STATISTICS",
+    "Threshold",
+    "as_threshold",
+    "decision_statistic",
+    "isolate",
+    "Isolation",
+    "FaultEvent",
+    "detection_events",
+    "calibrate_threshold",
+]
+
+NO_ALARM = -1
+UNEXPLAINED = -2
+AMBIGUOUS = -3
+STATISTICS = ("abs", "rms")
+
+
+def decision_statistic(residuals: Any, statistic: str = "abs", window: int = 1) -> np.ndarray:
+    """The decision statistic of residual signals, time on the last axis.
+
+    Parameters
+    ----------
+    residuals : array_like, (..., N)
+    statistic : {"abs", "rms"}
+        ``"abs"``: ``|r[k]|``.  ``"rms"``: ``sqrt(mean(r[k-window+1 .. k]^2))``, causal;
+        the first ``window - 1`` samples average over the samples available.
+    window : int
+        Window length in samples for ``"rms"`` (ignored for ``"abs"``).
+
+    Returns
+    -------
+    ndarray, same shape as ``residuals``
+    """
+    r = np.asarray(residuals, dtype=float)
+    if statistic not in STATISTICS:
+        raise GeomFDIError(
+            f"statistic: must be one of {STATISTICS}, got {statistic!r}", argument="statistic"
+        )
+    if statistic == "abs" or window == 1:
+        return np.abs(r)
+    window = as_int(window, "window", minimum=1)
+    sq = r * r
+    c = np.cumsum(sq, axis=-1)
+    out = c.copy()
+    out[..., window:] = c[..., window:] - c[..., :-window]
+    count = np.minimum(np.arange(1, r.shape[-1] + 1), window)
+    # cumulative-sum differences can dip below zero by rounding on a flat stretch
+    return np.sqrt(np.maximum(out, 0.0) / count)
+
+
+@dataclass(frozen=True)
+class Threshold:
+    """Per-residual thresholds on a test statistic.
+
+    Attributes
+    ----------
+    values : ndarray, (n_residuals,)
+        ``+inf`` disables a residual (used for rows whose generator is missing).
+    statistic : {"abs", "rms"}
+        See :func:`decision_statistic`.
+    window : int
+        Window (samples) of the ``"rms"`` statistic.
+    false_alarm_rate : float or None
+        The per-sample false-alarm rate the thresholds were calibrated for, if any.
+    source : str
+        How the values were obtained (``"fixed"``, ``"calibrated ..."``).
+    """
+
+    values: np.ndarray
+    statistic: str = "abs"
+    window: int = 1
+    false_alarm_rate: float | None = None
+    source: str = "fixed"
+    info: dict[str, Any] = field(default_factory=dict)
+
+    def statistic_of(self, residuals: Any) -> np.ndarray:
+        """The test statistic of ``residuals`` (``(..., n_residuals, N)``)."""
+        return decision_statistic(residuals, self.statistic, self.window)
+
+    def alarms(self, residuals: Any) -> np.ndarray:
+        """Boolean alarms, same shape as ``residuals`` (``(..., n_residuals, N)``)."""
+        r = np.asarray(residuals, dtype=float)
+        if r.shape[-2] != self.values.shape[0]:
+            raise ShapeError(
+                f"residuals: {r.shape[-2]} rows, the threshold has {self.values.shape[0]}",
+                argument="residuals",
+            )
+        v = self.values[:, None]
+        if self.statistic == "abs" or self.window == 1:
+            return (r > v) | (r < -v)  # |r| > v without a float temporary
+        return self.statistic_of(r) > v
+
+    @classmethod
+    def from_residuals(
+        cls,
+        residuals: Any,
+        false_alarm_rate: float,
+        *,
+        statistic: str = "abs",
+        window: int = 1,
+        per: str = "residual",
+        skip: int = 0,
+    ) -> Threshold:
+        """Thresholds from noise-only residuals at a chosen false-alarm rate.
+
+        Parameters
+        ----------
+        residuals : array_like, (n_residuals, N) or (runs, n_residuals, N)
+            Residuals of fault-free runs (noise only).
+        false_alarm_rate : float
+            Target probability ``alpha`` that a healthy sample raises an alarm.
+        statistic, window
+            See :func:`decision_statistic`.
+        per : {"residual", "any"}
+            ``"residual"``: each residual alarms with rate ``alpha``.  ``"any"``: the
+            rate of "some residual alarms" is at most ``alpha``, by the Bonferroni split
+            ``alpha / n`` over the ``n`` monitored residuals (conservative when the
+            residuals are correlated).
+        skip : int
+            Leading samples to ignore (a transient at the start of the calibration run).
+
+        Returns
+        -------
+        Threshold
+            ``values[j]`` = empirical ``1 - alpha_j`` quantile of the statistic of
+            residual ``j`` over all samples and runs (numpy's default linear
+            interpolation).  Rows that are identically zero get ``+inf``.
+
+        Notes
+        -----
+        An empirical quantile needs many more than ``1 / alpha`` samples to be accurate;
+        fewer than ``1 / alpha`` is refused.  The quantile is taken over dependent
+        samples (residuals are coloured), so the realised rate has a larger spread than
+        the binomial one; calibrate on several runs for small ``alpha``.
+        """
+        alpha = as_probability(false_alarm_rate, "false_alarm_rate")
+        r = as_real_array(residuals, "residuals")
+        if r.ndim == 2:
+            r = r[None]
+        if r.ndim != 3:
+            raise ShapeError(
+                f"residuals: expected (n_residuals, N) or (runs, n_residuals, N), got {r.shape}",
+                argument="residuals",
+            )
+        skip = as_int(skip, "skip", minimum=0)
+        if per not in ("residual", "any"):
+            raise GeomFDIError(f"per: must be 'residual' or 'any', got {per!r}", argument="per")
+        s = decision_statistic(r, statistic, window)[..., skip:]
+        nres = s.shape[1]
+        samples = s.shape[0] * s.shape[2]
+        live = np.array([np.any(s[:, j] != 0) for j in range(nres)])
+        n_live = max(int(live.sum()), 1)
+        a = alpha / n_live if per == "any" else alpha
+        if samples * a < 1:
+            raise GeomFDIError(
+                f"false_alarm_rate: {alpha:g} needs at least {int(np.ceil(1 / a))} noise samples "
+                f"per residual, got {samples}",
+                argument="false_alarm_rate",
+            )
+        values = np.full(nres, np.inf)
+        for j in np.flatnonzero(live):
+            values[j] = float(np.quantile(s[:, j].ravel(), 1.0 - a))
+        return cls(
+            values,
+            statistic=statistic,
+            window=int(window),
+            false_alarm_rate=alpha,
+            source=f"calibrated on {samples} noise-only samples per residual ({per})",
+            info={"per": per, "samples": samples, "alpha_per_residual": a},
+        )
+
+
+def as_threshold(threshold: Any, n_residuals: int, present: Sequence[int] | None = None) -> Any:
+    """Convert ``threshold`` (None, number, per-residual vector or :class:`Threshold`).
+
+    Rows not in ``present`` (missing generators) get ``+inf``.
+    """
+    if threshold is None:
+        return None
+    if isinstance(threshold, Threshold):
+        if threshold.values.shape != (n_residuals,):
+            raise ShapeError(
+                f"threshold: has {threshold.values.shape[0]} values, the bank has "
+                f"{n_residuals} residuals",
+                argument="threshold",
+            )
+        return threshold
+    if isinstance(threshold, numbers.Real) and not isinstance(threshold, bool):
+        values = np.full(n_residuals, float(threshold))
+    else:
+        values = as_vector(threshold, "threshold", length=n_residuals).copy()
+    if np.any(values <= 0) or np.any(~np.isfinite(values)):
+        raise GeomFDIError(
+            f"threshold: values must be finite and > 0, got {values.tolist()}",
+            argument="threshold",
+        )
+    if present is not None:
+        missing = np.setdiff1d(np.arange(n_residuals), np.asarray(present, dtype=int))
+        values[missing] = np.inf
+    return Threshold(values)
+
+
+@dataclass
+class Isolation:
+    """Per-sample isolation decisions (see the module docstring).
+
+    Attributes
+    ----------
+    isolated : ndarray of int, (..., N)
+        Fault index, or ``NO_ALARM`` / ``UNEXPLAINED`` / ``AMBIGUOUS``.
+    candidates : ndarray of bool, (..., n_faults, N)
+        Faults whose structure column equals the alarm pattern.
+    suspects : ndarray of bool, (..., n_faults, N)
+        Faults with a non-zero column contained in the alarm pattern.
+    """
+
+    isolated: np.ndarray
+    candidates: np.ndarray
+    suspects: np.ndarray
+
+
+def isolate(alarms: Any, structure: Any) -> Isolation:
+    """Isolation decisions from alarms and the achieved structure matrix.
+
+    Parameters
+    ----------
+    alarms : array_like of bool, (..., n_residuals, N)
+    structure : array_like of bool, (n_residuals, n_faults)
+        Achieved structure (rows of missing generators all False).
+
+    Returns
+    -------
+    Isolation
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from geomfdi.evaluation.decision import isolate
+    >>> S = np.eye(3, dtype=bool)
+    >>> a = np.array([[0, 1, 0, 1], [0, 0, 0, 1], [0, 0, 0, 0]], dtype=bool)
+    >>> isolate(a, S).isolated.tolist()
+    [-1, 0, -1, -2]
+    """
+    a = np.asarray(alarms, dtype=bool)
+    S = np.asarray(structure, dtype=bool)
+    if S.ndim != 2 or a.ndim < 2 or a.shape[-2] != S.shape[0]:
+        raise ShapeError(
+            f"alarms: expected (..., {S.shape[0]}, N) for a structure of shape {S.shape}, got "
+            f"{a.shape}",
+            argument="alarms",
+        )
+    nf = S.shape[1]
+    lead = a.shape[:-2]
+    N = a.shape[-1]
+    # candidate j: the alarm pattern equals column j; suspect j: every residual of column
+    # j alarms.  Accumulated residual by residual in place (no (n_residuals, N) temporaries)
+    cand = np.ones((*lead, nf, N), dtype=bool)
+    sus = np.zeros((*lead, nf, N), dtype=bool)
+    for j in range(nf):
+        c, s = cand[..., j, :], sus[..., j, :]
+        if S[:, j].any():
+            s[...] = True
+        for r in range(S.shape[0]):
+            ar = a[..., r, :]
+            if S[r, j]:
+                np.logical_and(c, ar, out=c)
+                np.logical_and(s, ar, out=s)
+            else:
+                np.less(ar, c, out=c)  # c and not ar
+    any_alarm = a.any(axis=-2)
+    n_cand = np.add.reduce(cand, axis=-2, dtype=np.int32)
+    iso = np.full((*lead, N), UNEXPLAINED, dtype=int)
+    np.copyto(iso, AMBIGUOUS, where=n_cand > 1)
+    single = n_cand == 1
+    for j in range(nf):
+        np.copyto(iso, j, where=cand[..., j, :] & single)
+    np.copyto(iso, NO_ALARM, where=~any_alarm)
+    cand &= any_alarm[..., None, :]
+    return Isolation(iso, cand, sus)
+
+
+@dataclass(frozen=True)
+class FaultEvent:
+    """Detection and isolation of one simulated fault.
+
+    Attributes
+    ----------
+    fault : object
+        The fault signal (``GainFault`` ...).
+    index : int or None
+        Column of the bank's structure matrix that models this fault (the design fault
+        on the same sensor), or ``None`` when the bank has none.
+    onset : float
+        First sample time with the fault active.
+    detection_time, detection_delay : float or None
+        First sample at or after the onset where any residual alarms; ``None``: never.
+    isolation_time, isolation_delay : float or None
+        First sample at or after the onset where the isolation decision equals
+        ``index``; ``None``: never (or ``index`` is ``None``).
+    residuals : tuple of int
+        Residuals that alarm at some sample at or after the onset.
+    """
+
+    fault: Any
+    index: int | None
+    onset: float
+    detection_time: float | None
+    detection_delay: float | None
+    isolation_time: float | None
+    isolation_delay: float | None
+    residuals: tuple[int, ...]
+
+    @property
+    def detected(self) -> bool:
+        return self.detection_time is not None
+
+    @property
+    def isolated(self) -> bool:
+        return self.isolation_time is not None
+
+
+def detection_events(
+    t: np.ndarray,
+    alarms: np.ndarray,
+    isolated: np.ndarray,
+    faults: Sequence[Any],
+    indices: Sequence[int | None],
+) -> list[FaultEvent]:
+    """Detection and isolation times of each fault signal (one run).
+
+    Parameters
+    ----------
+    t : ndarray, (N,)
+    alarms : ndarray of bool, (n_residuals, N)
+    isolated : ndarray of int, (N,)
+    faults : sequence of fault signals (with ``.mask(t)``)
+    indices : sequence of int or None
+        Structure column of each fault signal.
+
+    Returns
+    -------
+    list of FaultEvent
+        One per fault whose onset lies on the grid (faults starting after the end are
+        skipped).
+    """
+    any_alarm = alarms.any(axis=0)
+    out = []
+    for f, j in zip(faults, indices, strict=True):
+        m = f.mask(t)
+        if not m.any():
+            continue
+        ks = int(np.argmax(m))
+        onset = float(t[ks])
+        hits = np.flatnonzero(any_alarm[ks:])
+        det = float(t[ks + hits[0]]) if hits.size else None
+        iso_t = None
+        if j is not None:
+            ih = np.flatnonzero(isolated[ks:] == j)
+            iso_t = float(t[ks + ih[0]]) if ih.size else None
+        rows = tuple(int(r) for r in np.flatnonzero(alarms[:, ks:].any(axis=1)))
+        out.append(
+            FaultEvent(
+                f,
+                j,
+                onset,
+                det,
+                None if det is None else det - onset,
+                iso_t,
+                None if iso_t is None else iso_t - onset,
+                rows,
+            )
+        )
+    return out
+
+
+def calibrate_threshold(
+    plant: Any,
+    bank: Any,
+    t: Any,
+    *,
+    noise: Any,
+    false_alarm_rate: float,
+    runs: int = 1,
+    statistic: str = "abs",
+    window: int = 1,
+    per: str = "residual",
+    skip: float = 0.0,
+    **simulate_options: Any,
+) -> Threshold:
+    """Thresholds from noise-only simulations at a chosen false-alarm rate.
+
+    Runs :func:`geomfdi.simulation.simulate_batch` without faults (``runs`` seeds
+    derived from ``noise.seed``) and calls :meth:`Threshold.from_residuals`.
+
+    Parameters
+    ----------
+    plant, bank, t
+        As for :func:`geomfdi.simulate`.
+    noise : Noise
+        Must contain measurement and/or process noise.
+    false_alarm_rate : float
+        Per-sample false-alarm rate ``alpha``.
+    runs : int
+        Number of noise-only runs pooled.
+    statistic, window, per
+        See :meth:`Threshold.from_residuals`.
+    skip : float
+        Seconds at the start of each run left out of the quantile.
+    **simulate_options
+        Passed on (``u``, ``controller``, ``x0``, ``d``, ``hold``).
+
+    Returns
+    -------
+    Threshold
+    """
+    from geomfdi.simulation.simulate import simulate_batch
+
+    if noise is None or (noise.measurement is None and noise.process is None):
+        raise GeomFDIError(
+            "noise: a noise-only calibration needs measurement or process noise",
+            argument="noise",
+        )
+    runs = as_int(runs, "runs", minimum=1)
+    batch = simulate_batch(
+        plant,
+        bank,
+        t,
+        runs=runs,
+        noise=noise,
+        store="residuals",
+        progress=False,
+        **simulate_options,
+    )
+    k_skip = int(np.searchsorted(batch.t - batch.t[0], float(skip) - 1e-12))
+    return Threshold.from_residuals(
+        batch.residuals,
+        false_alarm_rate,
+        statistic=statistic,
+        window=window,
+        per=per,
+        skip=k_skip,
+    )

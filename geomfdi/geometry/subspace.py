@@ -1,0 +1,299 @@
+"""Subspace algebra on orthonormal bases (math.md §3).
+
+Every subspace of R^n is stored as an orthonormal basis (n x k) obtained from an SVD.
+Each operation is a small function, in the manner of the Basile–Marro toolbox
+(``ima``, ``ker``, ``sums``, ``ints``, ``invt``), so that the invariant-subspace
+algorithms in :mod:`geomfdi.geometry.conditioned_invariant` and
+:mod:`geomfdi.geometry.unobservability` read like the recursions they implement.
+
+All rank decisions go through :func:`geomfdi.tolerance.rank_decision`: a singular value
+counts when it exceeds ``rtol * scale`` where ``scale`` is the norm of the operator that
+produced the matrix (``||A||`` for ``A Z``, ``||C||`` for ``C Z``, 1 for stacks of
+orthonormal bases).  Decisions are taken on the un-normalised product, never on a
+re-orthonormalised one.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+
+from geomfdi._validation import as_matrix
+from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.tolerance import rank_decision
+
+__all__ = [
+    "Subspace",
+    "image",
+    "kernel",
+    "preimage",
+    "apply",
+    "intersect_kernel",
+    "preimage_in_kernel",
+    "principal_angles",
+    "pinv",
+]
+
+
+def _norm2(M: np.ndarray) -> float:
+    return float(np.linalg.norm(M, 2)) if M.size else 0.0
+
+
+def _range_basis(M: np.ndarray, scale: float, what: str) -> np.ndarray:
+    """Orthonormal basis of Im M; rank decided against ``rtol * scale``."""
+    n = M.shape[0]
+    if M.size == 0:
+        return np.zeros((n, 0))
+    U, s, _ = np.linalg.svd(M, full_matrices=False)
+    r = rank_decision(s, scale, n, what=what).rank
+    return U[:, :r]
+
+
+def _null_basis(M: np.ndarray, scale: float, what: str) -> np.ndarray:
+    """Orthonormal basis of Ker M (columns); rank decided against ``rtol * scale``."""
+    rows, cols = M.shape
+    if cols == 0:
+        return np.zeros((0, 0))
+    if rows == 0:
+        return np.eye(cols)
+    _, s, Vt = np.linalg.svd(M, full_matrices=True)
+    r = rank_decision(s, scale, max(rows, cols), what=what).rank
+    return Vt[r:].T.conj()
+
+
+class Subspace:
+    """A subspace of R^n, the span of the columns of ``M``.
+
+    Parameters
+    ----------
+    M : array_like, (n, k)
+        Spanning vectors as columns (``k`` may be 0: the zero subspace).  A 1-D array is
+        read as one column.
+    scale : float, optional
+        Norm of the data that produced ``M`` for the rank decision (default ``||M||_2``).
+
+    Attributes
+    ----------
+    basis : ndarray, (n, dim)
+        Orthonormal basis.
+    dim, n : int
+        Dimension and ambient dimension.
+
+    Notes
+    -----
+    Operators: ``S + T`` (sum), ``S & T`` (intersection), ``S == T`` (equality),
+    ``S <= T`` (inclusion, same as ``T.contains(S)``).
+
+    Examples
+    --------
+    >>> import geomfdi as gf
+    >>> S = gf.Subspace([[1, 0], [0, 1], [0, 0]])
+    >>> T = gf.Subspace([[0], [1], [1]])
+    >>> (S + T).dim, (S & T).dim
+    (3, 0)
+    """
+
+    def __init__(self, M: Any, *, scale: float | None = None) -> None:
+        arr = as_matrix(M, "M", allow_empty=True, vector_as="column")
+        if arr.shape[0] == 0:
+            raise ShapeError("M: the ambient dimension must be at least 1", argument="M")
+        sc = _norm2(arr) if scale is None else float(scale)
+        self.basis = _range_basis(arr, sc, "Subspace")
+        self.n = arr.shape[0]
+
+    # ------------------------------------------------------------ builders
+    @classmethod
+    def from_orthonormal(cls, Q: np.ndarray) -> Subspace:
+        """Wrap an (already orthonormal) basis without any rank decision."""
+        obj = cls.__new__(cls)
+        obj.basis = np.asarray(Q, dtype=float)
+        obj.n = obj.basis.shape[0]
+        return obj
+
+    @classmethod
+    def full(cls, n: int) -> Subspace:
+        """The whole space R^n."""
+        return cls.from_orthonormal(np.eye(n))
+
+    @classmethod
+    def zero(cls, n: int) -> Subspace:
+        """The zero subspace of R^n."""
+        return cls.from_orthonormal(np.zeros((n, 0)))
+
+    # --------------------------------------------------------------- sizes
+    @property
+    def dim(self) -> int:
+        return self.basis.shape[1]
+
+    @property
+    def codim(self) -> int:
+        return self.n - self.dim
+
+    # ----------------------------------------------------------- operations
+    def _check_same(self, other: Subspace, op: str) -> None:
+        if not isinstance(other, Subspace):
+            raise GeomFDIError(
+                f"other: {op} expects a Subspace, got {type(other).__name__}", argument="other"
+            )
+        if other.n != self.n:
+            raise ShapeError(
+                f"other: {op} of subspaces of R^{self.n} and R^{other.n}", argument="other"
+            )
+
+    def __add__(self, other: Subspace) -> Subspace:
+        """Sum ``S + T`` = Im [Q_S, Q_T]."""
+        self._check_same(other, "sum")
+        return Subspace(np.hstack([self.basis, other.basis]), scale=1.0)
+
+    def __and__(self, other: Subspace) -> Subspace:
+        """Intersection ``S & T`` = Q_S · null([Q_S, -Q_T])."""
+        self._check_same(other, "intersection")
+        if self.dim == 0 or other.dim == 0:
+            return Subspace.zero(self.n)
+        N = _null_basis(np.hstack([self.basis, -other.basis]), 1.0, "intersection")
+        return Subspace(self.basis @ N[: self.dim], scale=1.0)
+
+    def contains(self, other: Subspace | Any) -> bool:
+        """Inclusion test ``other ⊆ self``: ``(I - Q Qᵀ) Q_other`` has rank 0."""
+        if not isinstance(other, Subspace):
+            other = _to_subspace(other, "other")
+        self._check_same(other, "contains")
+        if other.dim == 0:
+            return True
+        R = other.basis - self.basis @ (self.basis.T @ other.basis)
+        s = np.linalg.svd(R, compute_uv=False)
+        return rank_decision(s, 1.0, self.n, what="inclusion").rank == 0
+
+    def __le__(self, other: Subspace) -> bool:
+        return other.contains(self)
+
+    def __ge__(self, other: Subspace) -> bool:
+        return self.contains(other)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Subspace) or other.n != self.n:
+            return NotImplemented if not isinstance(other, Subspace) else False
+        return self.dim == other.dim and self.contains(other)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def complement(self) -> Subspace:
+        """Orthogonal complement S^⊥."""
+        if self.dim == 0:
+            return Subspace.full(self.n)
+        U, _, _ = np.linalg.svd(self.basis, full_matrices=True)
+        return Subspace.from_orthonormal(U[:, self.dim :])
+
+    def projector(self) -> np.ndarray:
+        """Orthogonal projector ``Q Qᵀ`` onto S."""
+        return self.basis @ self.basis.T
+
+    def angles(self, other: Subspace) -> np.ndarray:
+        """Principal angles (radians, descending) between S and ``other``."""
+        return principal_angles(self, other)
+
+    def __repr__(self) -> str:
+        return f"Subspace(dim={self.dim}, n={self.n})"
+
+
+# ------------------------------------------------------------ free functions
+def _to_subspace(value: Any, name: str) -> Subspace:
+    """``value`` if it is a Subspace, else the span of its columns (errors name ``name``)."""
+    if isinstance(value, Subspace):
+        return value
+    arr = as_matrix(value, name, allow_empty=True, vector_as="column")
+    if arr.shape[0] == 0:
+        raise ShapeError(f"{name}: the ambient dimension must be at least 1", argument=name)
+    return Subspace(arr)
+
+
+def image(M: Any) -> Subspace:
+    """``Im M``, the column space of ``M``."""
+    return Subspace(M)
+
+
+def kernel(M: Any) -> Subspace:
+    """``Ker M`` = {x : M x = 0}; rank decided against ``rtol * ||M||``."""
+    arr = as_matrix(M, "M", allow_empty=True, vector_as="row")
+    if arr.shape[1] == 0:
+        raise ShapeError("M: must have at least one column", argument="M")
+    return Subspace.from_orthonormal(_null_basis(arr, _norm2(arr), "kernel"))
+
+
+def apply(A: Any, S: Subspace) -> Subspace:
+    """``A S`` = Im(A Q_S), rank decided on the un-normalised product against ``||A||``."""
+    S = _to_subspace(S, "S")
+    A = as_matrix(A, "A", cols=S.n, allow_empty=True)
+    if A.shape[0] == 0:
+        raise ShapeError(f"A: must have at least one row, got shape {A.shape}", argument="A")
+    return Subspace(A @ S.basis, scale=_norm2(A))
+
+
+def preimage(A: Any, S: Subspace) -> Subspace:
+    """``A⁻¹ S`` = {x : A x ∈ S} = Ker(Q_⊥ᵀ A) (A need not be invertible)."""
+    arr = as_matrix(A, "A", allow_empty=True)
+    S = _to_subspace(S, "S")
+    if arr.shape[1] == 0:
+        raise ShapeError(f"A: must have at least one column, got shape {arr.shape}", argument="A")
+    if arr.shape[0] != S.n:
+        raise ShapeError(
+            f"A: expected {S.n} rows to map into R^{S.n}, got shape {arr.shape}", argument="A"
+        )
+    Qp = S.complement().basis
+    return Subspace.from_orthonormal(_null_basis(Qp.T @ arr, _norm2(arr), "preimage"))
+
+
+def intersect_kernel(S: Subspace, C: np.ndarray) -> Subspace:
+    """``S ∩ Ker C`` = Q_S · null(C Q_S), rank decided against ``||C||``."""
+    if S.dim == 0:
+        return S
+    N = _null_basis(C @ S.basis, _norm2(C), "S ∩ Ker C")
+    return Subspace.from_orthonormal(S.basis @ N) if N.shape[1] else Subspace.zero(S.n)
+
+
+def preimage_in_kernel(A: np.ndarray, S: Subspace, C: np.ndarray) -> Subspace:
+    """``A⁻¹(S) ∩ Ker C`` = null([Q_⊥ᵀ A / ||A||; C / ||C||]) (math.md §3)."""
+    n = A.shape[0]
+    Qp = S.complement().basis
+    na, nc = _norm2(A) or 1.0, _norm2(C) or 1.0
+    stacked = np.vstack([Qp.T @ A / na, C / nc])
+    return Subspace.from_orthonormal(_null_basis(stacked, 1.0, "A⁻¹(S) ∩ Ker C").reshape(n, -1))
+
+
+def principal_angles(S: Subspace, T: Subspace) -> np.ndarray:
+    """Principal angles between two subspaces (``scipy.linalg.subspace_angles``).
+
+    Returns ``min(dim S, dim T)`` angles in radians, in descending order (empty when
+    either subspace is zero).  Array arguments are read as spanning columns.
+
+    Examples
+    --------
+    >>> import geomfdi as gf
+    >>> S = gf.Subspace([[1], [0]])
+    >>> T = gf.Subspace([[1], [1]])
+    >>> round(float(gf.principal_angles(S, T)[0]), 6)  # pi / 4
+    0.785398
+    """
+    S = _to_subspace(S, "S")
+    T = _to_subspace(T, "T")
+    if S.n != T.n:
+        raise ShapeError(f"T: subspace of R^{T.n}, expected R^{S.n} (as S)", argument="T")
+    if S.dim == 0 or T.dim == 0:
+        return np.zeros(0)
+    return scipy.linalg.subspace_angles(S.basis, T.basis)
+
+
+def pinv(M: np.ndarray, scale: float | None = None, *, what: str = "pseudo-inverse") -> np.ndarray:
+    """Moore–Penrose pseudo-inverse with the rank decided by the tolerance policy.
+
+    Singular values at or below ``rtol * scale`` (default ``scale = ||M||``) are treated
+    as zero, as everywhere else in geomfdi.
+    """
+    rows, cols = M.shape
+    if M.size == 0:
+        return np.zeros((cols, rows))
+    U, s, Vt = np.linalg.svd(M, full_matrices=False)
+    r = rank_decision(s, _norm2(M) if scale is None else scale, max(rows, cols), what=what).rank
+    return (Vt[:r].T / s[:r]) @ U[:, :r].T

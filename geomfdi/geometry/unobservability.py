@@ -1,0 +1,189 @@
+"""S*: the minimal unobservability subspace containing L (seed 001, Algorithm 2).
+
+An *unobservability subspace* (UOS) of (C, A) is ``S = <Ker HC | A + DC>``, the largest
+``(A + DC)``-invariant subspace in ``Ker HC`` for some output injection D and
+measurement mixing H (seed 001, Definition 3).  The minimal one containing L is
+(seed 001, eq. 15, with the typo "S* = Z_{k+1}" corrected to the limit)::
+
+    Z_0 = R^n,    Z_k = W* + (A⁻¹ Z_{k-1}) ∩ Ker C,    stop when dim Z_k stops shrinking
+
+with W* from :func:`geomfdi.min_conditioned_invariant`.  The residual generator of a
+fault j decoupled from L exists iff ``Im L_j ⊄ S*`` (math.md §3).
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import numpy as np
+
+from geomfdi._validation import as_matrix
+from geomfdi.errors import ShapeError
+from geomfdi.geometry.conditioned_invariant import (
+    InvariantSubspace,
+    _as_subspace,
+    _check_AC,
+    _is_exact,
+    friend,
+    is_conditioned_invariant,
+    min_conditioned_invariant,
+)
+from geomfdi.geometry.subspace import Subspace, _norm2, kernel, preimage_in_kernel
+from geomfdi.tolerance import CloseRankWarning, record_decisions
+
+__all__ = [
+    "min_unobservability_subspace",
+    "measurement_map",
+    "max_invariant_in",
+    "unobservable_subspace",
+    "is_unobservability_subspace",
+]
+
+
+def min_unobservability_subspace(
+    A: Any, C: Any, L: Any, *, exact: bool = False
+) -> InvariantSubspace:
+    """S*: the minimal (C, A)-unobservability subspace containing Im L.
+
+    Parameters
+    ----------
+    A : array_like, (n, n)
+    C : array_like, (q, n)
+    L : array_like (n, k) or Subspace
+        Signatures to be made unobservable (faults to decouple, disturbances).
+    exact : bool
+        Exact rational arithmetic (sympy); automatic when any argument is a sympy
+        Matrix.  See :func:`geomfdi.exact.min_unobservability_subspace`.
+
+    Returns
+    -------
+    InvariantSubspace
+        Orthonormal basis of S*; ``history`` holds ``dim Z_k``; ``S.W`` is W*.
+
+    Notes
+    -----
+    Seed 001, Algorithm 2 (eq. 15)::
+
+        Z_0 = R^n,   Z_k = W* + (A⁻¹ Z_{k-1}) ∩ Ker C
+
+    non-increasing, at most n steps.  ``A⁻¹(Z) ∩ Ker C`` is computed as
+    ``null([Q_⊥ᵀ A / ||A||; C / ||C||])`` with ``Q_⊥`` a basis of ``Z^⊥`` (math.md §3).
+    The paper states ``S* = Z_{k+1}``; the limit ``Z_k = Z_{k+1}`` is meant.
+
+    References
+    ----------
+    Hou, Wen, Chen (2011), §3.2; Massoumnia (1986), "A geometric approach to the
+    synthesis of failure detection filters", IEEE TAC 31(9).
+
+    Examples
+    --------
+    >>> import geomfdi as gf
+    >>> A = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]
+    >>> C = [[0, 1, 0], [0, 0, 1], [1, 0, 2]]
+    >>> S = gf.min_unobservability_subspace(A, C, [[1, 1], [0, 0], [3, 2]])
+    >>> S.dim, S.history
+    (2, [3, 2, 2])
+    """
+    if exact or _is_exact(A, C, L):
+        from geomfdi.geometry import exact as _exact
+
+        return _exact.min_unobservability_subspace(A, C, L)  # type: ignore[return-value]
+    A, C = _check_AC(A, C)
+    n = A.shape[0]
+    with warnings.catch_warnings():  # W*'s decisions are reported once, with S*'s below
+        warnings.simplefilter("ignore", CloseRankWarning)
+        W = min_conditioned_invariant(A, C, L)
+    with record_decisions() as rec:
+        Z = Subspace.full(n)
+        history = [n]
+        for _ in range(n + 1):
+            Znew = W + preimage_in_kernel(A, Z, C)
+            history.append(Znew.dim)
+            shrank = Znew.dim < Z.dim
+            Z = Znew
+            if not shrank:
+                break
+    S = InvariantSubspace._wrap(Z, history, [*W.decisions, *rec], "min_unobservability_subspace")
+    S.W = W
+    return S
+
+
+def measurement_map(C: Any, S: Any) -> np.ndarray:
+    """H with ``Ker(H C) = Ker C + S``: rows = orthonormal basis of ``Im C ⊖ C S``.
+
+    (seed 001, step 3.4 (2)①; math.md §4).  May have zero rows (then no residual exists).
+    """
+    C = as_matrix(C, "C", vector_as="row")
+    S = _as_subspace(S, C.shape[1], "S")
+    scale = _norm2(C)
+    ImC = Subspace(C, scale=scale)
+    CS = Subspace(C @ S.basis, scale=scale) if S.dim else Subspace.zero(C.shape[0])
+    H = (ImC & CS.complement()).basis.T
+    return H
+
+
+def max_invariant_in(A: Any, K: Subspace) -> Subspace:
+    """Largest A-invariant subspace contained in K, ``<K | A> = ∩_k A⁻ᵏ K``.
+
+    Computed by the dual recursion (Basile–Marro ``mainco``)::
+
+        V_0 = K^⊥,   V_{k+1} = K^⊥ + Aᵀ V_k,   <K | A> = V_∞^⊥
+
+    since ``(A⁻¹ V)^⊥ = Aᵀ V^⊥``.  Only images are formed, and each sum is rank-decided on
+    ``[Q_{K^⊥}, Aᵀ Q_V / ||A||]`` (the un-normalised product, math.md §3).  The primal
+    recursion ``V_{k+1} = K ∩ A⁻¹ V_k`` amplifies rounding by ``1 / σ_min`` of the
+    restricted map and loses invariant directions when A is nearly singular.
+    """
+    A = as_matrix(A, "A", square=True)
+    n = A.shape[0]
+    if not isinstance(K, Subspace) or K.n != n:
+        raise ShapeError(f"K: expected a Subspace of R^{n}", argument="K")
+    if K.dim in (0, n):
+        return K
+    Kp = K.complement().basis
+    At = A.T / (_norm2(A) or 1.0)
+    V = Subspace.from_orthonormal(Kp)
+    for _ in range(n + 1):
+        Vn = Subspace(np.hstack([Kp, At @ V.basis]), scale=1.0)
+        grew = Vn.dim > V.dim
+        V = Vn
+        if not grew:
+            break
+    return V.complement()
+
+
+def unobservable_subspace(A: Any, C: Any) -> Subspace:
+    """The unobservable subspace of (C, A): the largest A-invariant subspace in Ker C."""
+    A, C = _check_AC(A, C)
+    return max_invariant_in(A, kernel(C))
+
+
+def is_unobservability_subspace(A: Any, C: Any, S: Any) -> bool:
+    """True when S is a (C, A)-unobservability subspace.
+
+    Checked from Definition 3 of seed 001 directly: S must be conditioned invariant;
+    with a friend D0 and H from :func:`measurement_map`, S must equal the largest
+    ``(A + D0 C)``-invariant subspace in ``Ker(H C)``.
+
+    Notes
+    -----
+    S is ``(A + D0 C)``-invariant and contained in ``Ker(H C) = S + Ker C``, hence in the
+    largest such invariant subspace; equality is therefore decided on the dimensions (a
+    rank decision with a large gap), not by comparing two computed bases whose rounding
+    grows with the conditioning of ``A + D0 C``.  By duality with controllability
+    subspaces (Wonham 1985, Thm 5.5) the test does not depend on the friend chosen.
+
+    The check takes its own rank decisions on ``A + D0 C``: when that matrix has
+    eigenvalues spread over many decades (e.g. columns of A scaled by 1e-6), the largest
+    invariant subspace can be over-estimated and a true unobservability subspace
+    reported as not one.  :func:`min_unobservability_subspace` is not affected.
+    """
+    A, C = _check_AC(A, C)
+    S = _as_subspace(S, A.shape[0], "S")
+    if not is_conditioned_invariant(A, C, S):
+        return False
+    D0 = friend(A, C, S)
+    H = measurement_map(C, S)
+    K = kernel(H @ C) if H.shape[0] else Subspace.full(A.shape[0])
+    return max_invariant_in(A + D0 @ C, K).dim == S.dim

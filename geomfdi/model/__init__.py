@@ -1,0 +1,10 @@
+"""Plant models and fault descriptions: the input of every design.
+
+* :mod:`~geomfdi.model.plant` -- :class:`Plant` (A, B, C, D, disturbances, sampling period).
+* :mod:`~geomfdi.model.faults` -- :class:`SensorFault`, :class:`ActuatorFault`, :class:`Fault`.
+"""
+
+from geomfdi.model.faults import ActuatorFault, Fault, SensorFault, fault_matrices
+from geomfdi.model.plant import Plant
+
+__all__ = ["Plant", "SensorFault", "ActuatorFault", "Fault", "fault_matrices"]

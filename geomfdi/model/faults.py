@@ -1,0 +1,146 @@
+"""Fault descriptions for design: where a fault enters the plant (math.md §1–2).
+
+A fault is an additive signal ``f`` entering as ``x' = ... + Bf f`` and
+``y = ... + Df f``.  A sensor fault on output ``i`` is ``Bf = 0``, ``Df = e_i``: by
+Erratum 1 of math.md every gain, bias or stuck fault is such an additive output fault
+``phi_i = (eta_i - 1) C_i x + lambda_i`` on the *measured* y.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from geomfdi._validation import as_index, as_matrix
+from geomfdi.errors import GeomFDIError, ShapeError
+
+__all__ = ["Fault", "SensorFault", "ActuatorFault", "fault_matrices"]
+
+
+class Fault:
+    """General additive fault ``x' = ... + Bf f``, ``y = ... + Df f``.
+
+    Parameters
+    ----------
+    Bf : array_like, (n, k) or None
+        State-side signature (``None``: zero).
+    Df : array_like, (q, k) or None
+        Output-side signature (``None``: zero).
+    name : str, optional
+        Label used in reports and plots.
+    """
+
+    def __init__(self, Bf: Any = None, Df: Any = None, *, name: str | None = None) -> None:
+        if Bf is None and Df is None:
+            raise GeomFDIError("Bf, Df: at least one must be given", argument="Bf")
+        self._Bf = None if Bf is None else as_matrix(Bf, "Bf", vector_as="column")
+        self._Df = None if Df is None else as_matrix(Df, "Df", vector_as="column")
+        if self._Bf is not None and self._Df is not None and self._Bf.shape[1] != self._Df.shape[1]:
+            raise ShapeError(
+                f"Df: expected {self._Bf.shape[1]} columns (as many as Bf), got {self._Df.shape}",
+                argument="Df",
+            )
+        self.name = name or "fault"
+
+    @property
+    def k(self) -> int:
+        """Number of fault signal components."""
+        return (self._Bf if self._Bf is not None else self._Df).shape[1]
+
+    def signatures(
+        self, n: int, q: int, *, argument: str = "fault"
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(Bf, Df)`` as (n, k) and (q, k) arrays, checked against the plant's sizes."""
+        k = self.k
+        Bf = np.zeros((n, k)) if self._Bf is None else self._Bf
+        Df = np.zeros((q, k)) if self._Df is None else self._Df
+        if Bf.shape[0] != n:
+            raise ShapeError(
+                f"{argument}: state signature has {Bf.shape[0]} rows, the plant has {n} states",
+                argument=argument,
+            )
+        if Df.shape[0] != q:
+            raise ShapeError(
+                f"{argument}: output signature has {Df.shape[0]} rows, the plant has {q} outputs",
+                argument=argument,
+            )
+        return Bf, Df
+
+    @property
+    def has_output_part(self) -> bool:
+        return self._Df is not None and bool(np.any(self._Df != 0))
+
+    def __repr__(self) -> str:
+        return f"Fault(name={self.name!r}, k={self.k})"
+
+
+class SensorFault(Fault):
+    """Additive fault on sensor (output) ``i`` (0-based): ``Bf = 0``, ``Df = e_i``."""
+
+    def __init__(self, i: int, *, name: str | None = None) -> None:
+        if isinstance(i, bool) or not isinstance(i, int | np.integer) or i < 0:
+            raise GeomFDIError(f"i: sensor index must be an integer >= 0, got {i!r}", argument="i")
+        self.i = int(i)
+        self.name = name or f"sensor {self.i}"
+        self._Bf = None
+        self._Df = None
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, SensorFault) and other.i == self.i
+
+    def __hash__(self) -> int:
+        return hash(("SensorFault", self.i))
+
+    @property
+    def k(self) -> int:
+        return 1
+
+    def signatures(
+        self, n: int, q: int, *, argument: str = "fault"
+    ) -> tuple[np.ndarray, np.ndarray]:
+        as_index(self.i, f"{argument}.i", q)
+        Df = np.zeros((q, 1))
+        Df[self.i, 0] = 1.0
+        return np.zeros((n, 1)), Df
+
+    @property
+    def has_output_part(self) -> bool:
+        return True
+
+    def __repr__(self) -> str:
+        return f"SensorFault({self.i})"
+
+
+class ActuatorFault(Fault):
+    """Additive state-side fault with signature ``b`` ((n,) or (n, k))."""
+
+    def __init__(self, b: Any, *, name: str | None = None) -> None:
+        super().__init__(as_matrix(b, "b", vector_as="column"), None, name=name or "actuator")
+
+    def __repr__(self) -> str:
+        return f"ActuatorFault(k={self.k}, name={self.name!r})"
+
+
+def fault_matrices(
+    faults: Any, n: int, q: int, *, argument: str = "faults"
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Validate a list of faults and return their ``(Bf, Df)`` signatures."""
+    if isinstance(faults, Fault):
+        faults = [faults]
+    try:
+        items = list(faults)
+    except TypeError as exc:
+        raise GeomFDIError(
+            f"{argument}: must be a list of SensorFault / ActuatorFault / Fault", argument=argument
+        ) from exc
+    out = []
+    for k, f in enumerate(items):
+        if not isinstance(f, Fault):
+            raise GeomFDIError(
+                f"{argument}[{k}]: expected SensorFault, ActuatorFault or Fault, got "
+                f"{type(f).__name__}",
+                argument=argument,
+            )
+        out.append(f.signatures(n, q, argument=f"{argument}[{k}]"))
+    return out

@@ -1,0 +1,156 @@
+"""Redundant single-axis sensor configurations (measurement matrices ``H``).
+
+Each function returns the ``m x 3`` matrix whose rows are the unit sensing axes of ``m``
+single-axis sensors (gyros or accelerometers) measuring a 3-vector, so that the
+measurement model is ``Z = H x + eps`` (math.md §6).  They are re-exported by
+:mod:`geomfdi.parity.fdi` (``gf.parity.dodecahedron()``).
+
+References
+----------
+Qin Yongyuan, Niu Huifang, "Soft fault detection and isolation to ensure the entire
+attitude measuring of a strapdown inertial navigation system", Journal of Astronautics,
+1999 (seed 004), §4: six gyros along the normals of a regular dodecahedron.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from geomfdi._validation import as_int, as_positive
+from geomfdi.errors import GeomFDIError
+
+__all__ = ["dodecahedron", "cone", "tetrahedron", "MAGIC_HALF_ANGLE", "axis_cosines"]
+
+MAGIC_HALF_ANGLE = float(np.arccos(1.0 / np.sqrt(3.0)))
+"""Cone half-angle ``arccos(1/sqrt 3)`` (54.7356 deg) for which ``H^T H = (m/3) I``."""
+
+
+def dodecahedron() -> np.ndarray:
+    """Six sensing axes along the face normals of a regular dodecahedron.
+
+    Returns
+    -------
+    H : ndarray, shape (6, 3)
+        Unit rows ``(a, 0, b), (-a, 0, b), (b, a, 0), (b, -a, 0), (0, b, a), (0, b, -a)``
+        with ``a = sin(alpha)``, ``b = cos(alpha)`` and ``2 alpha = arccos(1/sqrt 5)``
+        (63.43 deg, the angle between any two axes).
+
+    Notes
+    -----
+    Every pair of axes satisfies ``|cos| = 1/sqrt 5``, ``H^T H = 2 I`` and the parity
+    projector ``W = I - H (H^T H)^{-1} H^T`` has ``w_ii = 1/2`` (math.md §6).  The sensor
+    numbering is the one of seed 004 (its reference [8], p. 92): with this ordering the
+    gyro pairs that seed 004's Table 1 reports for the noise-free single-fault
+    statistics ``D+_ij`` and ``D-_ij`` are maximisers of those statistics (the
+    configuration is so symmetric that the maximisers are ties; the test suite checks
+    that all twelve reported pairs are among them).
+
+    References
+    ----------
+    Seed 004, §4 and Table 1.
+
+    Examples
+    --------
+    >>> import numpy as np, geomfdi as gf
+    >>> H = gf.parity.dodecahedron()
+    >>> np.allclose(H.T @ H, 2 * np.eye(3))
+    True
+    """
+    cos2a = 1.0 / np.sqrt(5.0)
+    a = np.sqrt((1.0 - cos2a) / 2.0)
+    b = np.sqrt((1.0 + cos2a) / 2.0)
+    return np.array(
+        [
+            [a, 0.0, b],
+            [-a, 0.0, b],
+            [b, a, 0.0],
+            [b, -a, 0.0],
+            [0.0, b, a],
+            [0.0, b, -a],
+        ]
+    )
+
+
+def cone(m: int, half_angle: float = MAGIC_HALF_ANGLE, *, degrees: bool = False) -> np.ndarray:
+    """``m`` sensing axes equally spaced in azimuth on a cone around the z axis.
+
+    Parameters
+    ----------
+    m : int
+        Number of sensors, ``m >= 3``.
+    half_angle : float
+        Angle between each axis and the cone axis z, in ``(0, pi/2)`` (radians unless
+        ``degrees``).  Default ``arccos(1/sqrt 3)`` (54.74 deg), for which
+        ``H^T H = (m/3) I``: every direction is measured equally well.
+    degrees : bool
+        Read ``half_angle`` in degrees.
+
+    Returns
+    -------
+    H : ndarray, shape (m, 3)
+        Rows ``(sin t cos phi_k, sin t sin phi_k, cos t)``, ``phi_k = 2 pi k / m``.
+
+    Notes
+    -----
+    A cone of ``m = 5`` or ``m = 6`` sensors is the classic skewed gyro or accelerometer
+    array.  ``m = 3`` has no redundancy (a :class:`~geomfdi.parity.ParityFDI` on it
+    raises); ``m = 4`` detects a single fault but cannot isolate it.
+
+    Examples
+    --------
+    >>> import numpy as np, geomfdi as gf
+    >>> H = gf.parity.cone(5)
+    >>> np.allclose(H.T @ H, 5 / 3 * np.eye(3))
+    True
+    """
+    m = as_int(m, "m", minimum=3)
+    t = as_positive(half_angle, "half_angle")
+    if degrees:
+        t = np.deg2rad(t)
+    if not t < np.pi / 2:
+        raise GeomFDIError(
+            f"half_angle: must lie in (0, pi/2) rad (0 to 90 deg), got {half_angle}",
+            argument="half_angle",
+        )
+    phi = 2.0 * np.pi * np.arange(m) / m
+    return np.column_stack(
+        [np.sin(t) * np.cos(phi), np.sin(t) * np.sin(phi), np.full(m, np.cos(t))]
+    )
+
+
+def tetrahedron() -> np.ndarray:
+    """Four sensing axes along the face normals of a regular tetrahedron.
+
+    Returns
+    -------
+    H : ndarray, shape (4, 3)
+        Rows ``(1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1)`` divided by ``sqrt 3``;
+        ``H^T H = (4/3) I``, pairwise ``|cos| = 1/3``.
+
+    Notes
+    -----
+    With ``m - n = 1`` parity equation the configuration detects a single fault but
+    cannot isolate it: every column of ``V`` is parallel to every other.
+
+    Examples
+    --------
+    >>> import numpy as np, geomfdi as gf
+    >>> np.allclose(gf.parity.tetrahedron().T @ gf.parity.tetrahedron(), 4 / 3 * np.eye(3))
+    True
+    """
+    return np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=float) / np.sqrt(3.0)
+
+
+def axis_cosines(H: np.ndarray) -> np.ndarray:
+    """Cosines of the angles between the sensing axes (rows of ``H``), shape (m, m).
+
+    Zero rows (sensors that measure nothing) get cosine 0 with every other axis.
+    """
+    H = np.asarray(H, dtype=float)
+    norms = np.linalg.norm(H, axis=1)
+    safe = np.where(norms > 0, norms, 1.0)
+    U = H / safe[:, None]
+    C = U @ U.T
+    C[norms == 0, :] = 0.0
+    C[:, norms == 0] = 0.0
+    return np.clip(C, -1.0, 1.0)
