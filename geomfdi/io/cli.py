@@ -120,7 +120,7 @@ def _design_table(name: str, bank: ResidualBank) -> list[str]:
 
 
 def _verify(spec: ModelSpec, bank: ResidualBank, symbolic: bool) -> dict[str, Any]:
-    from geomfdi.verification.numeric import verify, verify_symbolic
+    from geomfdi.verification import verify, verify_symbolic
 
     rep = verify(bank, spec.plant)
     out: dict[str, Any] = {
