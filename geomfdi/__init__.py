@@ -72,13 +72,8 @@ _register(
 )
 _register("geomfdi.synthesis.generator", "ResidualBank", "ResidualGenerator")
 _register("geomfdi.synthesis.transforms", "pseudo_actuator_model")
-_register(
-    "geomfdi.verification.numeric",
-    "SymbolicReport",
-    "VerificationReport",
-    "verify",
-    "verify_symbolic",
-)
+_register("geomfdi.verification.numeric", "VerificationReport", "verify")
+_register("geomfdi.verification.symbolic", "SymbolicReport", "verify_symbolic")
 _register(
     "geomfdi.evaluation.decision", "FaultEvent", "Threshold", "calibrate_threshold", "isolate"
 )
