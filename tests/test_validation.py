@@ -349,3 +349,22 @@ def test_disturbance_only_on_one_side():
     assert p.nd == 1 and np.array_equal(p.Bd, np.zeros((3, 1)))
     p = gf.Plant(A3, None, C3, Bd=L3)
     assert p.nd == 1 and np.array_equal(p.Dd, np.zeros((2, 1)))
+
+
+def test_statespace_accepted_by_design_verify_and_simulate():
+    import control
+
+    A = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]
+    B = [[1, 0, 1], [0, 1, 1], [0, 1, 0]]
+    C = [[0, 1, 0], [0, 0, 1], [1, 0, 2]]
+    sys = control.ss(A, B, C, 0)
+    plant = gf.Plant(A, B, C)
+    bank = gf.design_sensor_bank(sys)
+    assert gf.verify(bank, sys).ok == gf.verify(bank, plant).ok
+    assert gf.verify_symbolic(bank, sys).ok
+    t = np.linspace(0, 1, 101)
+    r_ss = gf.simulate(sys, bank, t, x0=[0.1, 0, 0]).residuals
+    r_p = gf.simulate(plant, bank, t, x0=[0.1, 0, 0]).residuals
+    np.testing.assert_array_equal(r_ss, r_p)
+    with pytest.raises(gf.errors.GeomFDIError, match="plant"):
+        gf.verify(bank, "not a plant")

@@ -201,3 +201,28 @@ class Plant:
     def __repr__(self) -> str:
         kind = f"dt={self.dt:g}" if self.is_discrete else "continuous"
         return f"Plant(n={self.n}, m={self.m}, q={self.q}, nd={self.nd}, {kind})"
+
+
+def as_plant(plant: Any, name: str = "plant") -> Plant:
+    """Return ``plant`` as a :class:`Plant`; a python-control ``StateSpace`` is converted.
+
+    Every public function that takes a plant accepts either form (the ``StateSpace`` inputs
+    are all taken as control inputs; use :meth:`Plant.from_statespace` with
+    ``n_disturbances`` to mark trailing inputs as disturbances).
+
+    Raises
+    ------
+    GeomFDIError
+        Naming ``name`` when ``plant`` is neither.
+    """
+    if isinstance(plant, Plant):
+        return plant
+    if type(plant).__module__.split(".")[0] == "control":
+        import control
+
+        if isinstance(plant, control.StateSpace):
+            return Plant.from_statespace(plant)
+    raise GeomFDIError(
+        f"{name}: expected a gf.Plant or control.StateSpace, got {type(plant).__name__}",
+        argument=name,
+    )

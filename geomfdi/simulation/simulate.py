@@ -100,7 +100,7 @@ from geomfdi.evaluation.decision import (
     isolate,
 )
 from geomfdi.model.faults import SensorFault
-from geomfdi.model.plant import Plant
+from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.lti import (
     HOLDS,
     Discretization,
@@ -1321,10 +1321,7 @@ def _prepare(
     consistent_init: bool,
     progress: Any,
 ) -> _Context:
-    if not isinstance(plant, Plant):
-        raise GeomFDIError(
-            f"plant: expected a geomfdi Plant, got {type(plant).__name__}", argument="plant"
-        )
+    plant = as_plant(plant)
     view = _bank_view(bank, plant)
     ctrl = _controller(controller, plant)
     t, step = uniform_step(t)
@@ -1519,6 +1516,7 @@ def simulate(
     >>> bool(res.max_abs(stop=1.99)[0] < 1e-12), res.events[0].detection_delay
     (True, 0.0)
     """
+    plant = as_plant(plant)
     ctx = _prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
     ctx.keep_states = bool(keep_states)
     fl = validate_faults(faults, plant.q)
@@ -1618,6 +1616,7 @@ def simulate_batch(
     shared fault list are vectorised; per-run fault lists are simulated one run at a time
     (the loop dynamics differ between runs).
     """
+    plant = as_plant(plant)
     ctx = _prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
     q = plant.q
     per_run = (

@@ -48,7 +48,7 @@ from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeErr
 from geomfdi.geometry.subspace import Subspace, _norm2, pinv
 from geomfdi.geometry.unobservability import measurement_map, min_unobservability_subspace
 from geomfdi.model.faults import Fault, SensorFault
-from geomfdi.model.plant import Plant
+from geomfdi.model.plant import Plant, as_plant
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 from geomfdi.synthesis.realization import minimal_realization, reachable_subspace
 from geomfdi.synthesis.transforms import DesignModel, default_filter_pole, pseudo_actuator_model
@@ -463,19 +463,7 @@ def _design_transfer_zero(model: DesignModel, c: dict[str, Any], j: int) -> bool
 
 # ------------------------------------------------------------ front ends
 def _coerce_plant(plant: Any) -> Plant:
-    if isinstance(plant, Plant):
-        return plant
-    try:
-        import control
-
-        if isinstance(plant, control.StateSpace):
-            return Plant.from_statespace(plant)
-    except ImportError:  # pragma: no cover
-        pass
-    raise GeomFDIError(
-        f"plant: expected a gf.Plant or control.StateSpace, got {type(plant).__name__}",
-        argument="plant",
-    )
+    return as_plant(plant)
 
 
 def _coerce_faults(faults: Any) -> list[Fault]:

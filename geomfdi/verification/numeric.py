@@ -26,7 +26,7 @@ import scipy.linalg
 from geomfdi.errors import GeomFDIError
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
-from geomfdi.model.plant import Plant
+from geomfdi.model.plant import Plant, as_plant
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 from geomfdi.synthesis.realization import reachable_subspace
 
@@ -373,10 +373,7 @@ def _unpack(obj: Any, plant: Plant, faults: Any):
             f"{type(obj).__name__}",
             argument="bank_or_generator",
         )
-    if not isinstance(plant, Plant):
-        raise GeomFDIError(
-            f"plant: expected a gf.Plant, got {type(plant).__name__}", argument="plant"
-        )
+    plant = as_plant(plant)
     if req.shape[1] != len(faults):
         raise GeomFDIError(
             f"faults: the design has {req.shape[1]} faults, got {len(faults)}", argument="faults"
@@ -429,6 +426,7 @@ def verify(
         raise GeomFDIError(
             f"method: must be 'points' or 'krylov', got {method!r}", argument="method"
         )
+    plant = as_plant(plant)
     gens, faults, req = _unpack(bank_or_generator, plant, faults)
     rows, nf = req.shape
     gain = np.zeros((rows, nf))

@@ -13,7 +13,7 @@ import numpy as np
 
 from geomfdi.errors import GeomFDIError
 from geomfdi.model.faults import Fault, fault_matrices
-from geomfdi.model.plant import Plant
+from geomfdi.model.plant import Plant, as_plant
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 from geomfdi.verification.numeric import _unpack
 
@@ -260,6 +260,7 @@ def verify_symbolic(
     """
     import sympy as sp
 
+    plant = as_plant(plant)
     gens, faults, req = _unpack(bank_or_generator, plant, faults)
     var = sp.Symbol("z" if plant.dt > 0 else "s")
     lines, zero_rows, in_lines, rows, exact_gens, details = [], [], [], [], [], []
