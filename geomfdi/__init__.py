@@ -96,7 +96,8 @@ _register(
     "simulate",
     "simulate_batch",
 )
-_register("geomfdi.parity.fdi", "ParityDiagnosis", "ParityFDI")
+_register("geomfdi.parity.model", "ParityFDI")
+_register("geomfdi.parity.results", "ParityDiagnosis")
 _register(
     "geomfdi.diagnosability.window",
     "ApplicabilityReport",
@@ -221,7 +222,8 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         plot_ar_monitor,
     )
     from geomfdi.monitoring.innovations import innovation_fault, synthetic_innovations  # noqa: F401
-    from geomfdi.parity.fdi import ParityDiagnosis, ParityFDI  # noqa: F401
+    from geomfdi.parity.model import ParityFDI  # noqa: F401
+    from geomfdi.parity.results import ParityDiagnosis  # noqa: F401
     from geomfdi.plotting.residuals import plot_residuals, plot_structure, save_png  # noqa: F401
     from geomfdi.simulation.lti import simulate_lti  # noqa: F401
     from geomfdi.simulation.signals import (  # noqa: F401

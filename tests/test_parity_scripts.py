@@ -45,7 +45,9 @@ def test_example_reproduces_the_seed_004_experiment(tmp_path, capsys):
     assert summ["single fault, +/-0.01"]["two-fault GLR"]["mean"] > 0.97
 
 
-@pytest.mark.parametrize("module", [gf.parity.fdi, gf.parity.configs])
+@pytest.mark.parametrize(
+    "module", [gf.parity.model, gf.parity.thresholds, gf.parity.capability, gf.parity.configs]
+)
 def test_docstring_examples(module):
     result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert result.attempted > 0

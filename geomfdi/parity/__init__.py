@@ -1,28 +1,36 @@
 """Parity-space FDI for redundant sensors (GLT, optimal parity vectors, two-fault isolation).
 
-* :mod:`~geomfdi.parity.fdi` -- :class:`ParityFDI` and the Monte-Carlo rates.
-* :mod:`~geomfdi.parity.configs` -- sensor configurations (dodecahedron, cones, ...).
+* :mod:`~geomfdi.parity.model` -- :class:`ParityFDI`, the model object;
+* :mod:`~geomfdi.parity.glt`, :mod:`~geomfdi.parity.opt`, :mod:`~geomfdi.parity.multiple`
+  -- the statistics; :mod:`~geomfdi.parity.decision` -- per-sample decisions;
+* :mod:`~geomfdi.parity.capability` -- isolation capability of a configuration;
+* :mod:`~geomfdi.parity.montecarlo`, :mod:`~geomfdi.parity.seed004` -- Monte-Carlo rates;
+* :mod:`~geomfdi.parity.configs` -- sensor configurations (dodecahedron, cones, ...);
+* figures in :mod:`geomfdi.plotting.parity`.
+
+See the user guide, *Theory: parity space* (``docs/theory/parity-space.md``).
 """
 
 from geomfdi.parity.configs import MAGIC_HALF_ANGLE, axis_cosines, cone, dodecahedron, tetrahedron
-from geomfdi.parity.fdi import (
+from geomfdi.parity.decision import METHODS
+from geomfdi.parity.model import ParityFDI
+from geomfdi.parity.montecarlo import (
+    correct_isolation_rate,
+    false_alarm_rate,
+    rates_vs_fault_size,
+    simulate,
+)
+from geomfdi.parity.results import (
     ConfigurationCapability,
     IsolationRates,
     ParityDiagnosis,
-    ParityFDI,
     RateCurve,
     RateEstimate,
     Seed004Result,
-    chi2_threshold,
-    correct_isolation_rate,
-    false_alarm_rate,
-    normal_threshold,
-    opt_false_alarm_bound,
-    plot_rates,
-    rates_vs_fault_size,
-    seed004_experiment,
-    simulate,
 )
+from geomfdi.parity.seed004 import seed004_experiment
+from geomfdi.parity.thresholds import chi2_threshold, normal_threshold, opt_false_alarm_bound
+from geomfdi.plotting.parity import plot_rates, plot_seed004
 
 __all__ = [
     "ParityFDI",
@@ -40,6 +48,8 @@ __all__ = [
     "correct_isolation_rate",
     "rates_vs_fault_size",
     "plot_rates",
+    "plot_seed004",
+    "METHODS",
     "seed004_experiment",
     "dodecahedron",
     "cone",
