@@ -57,9 +57,12 @@ def _potter_suman(W: np.ndarray, s: int) -> tuple[np.ndarray, np.ndarray]:
     column pivoting chooses the columns instead.
     """
     m = W.shape[0]
-    lead = W[:, :s]
-    if np.linalg.svd(lead, compute_uv=False)[-1] > _POTTER_MIN_SV:
-        Q, R = np.linalg.qr(lead)
+    Q, R = np.linalg.qr(W[:, :s])
+    # sigma_min(lead) = sigma_min(R) >= 1 / (sqrt(s) ||R^-1||_1); LAPACK's trcon estimates
+    # ||R^-1||_1 in O(s^2) (an SVD of the m x s block would cost as much as the QR)
+    rcond = float(sla.lapack.dtrcon(R, norm="1", uplo="U", diag="N")[0]) if s else 1.0
+    norm1 = float(np.abs(R).sum(axis=0).max()) if s else 1.0
+    if rcond * norm1 / np.sqrt(max(s, 1)) > _POTTER_MIN_SV:
         order = np.arange(m)
     else:
         Qf, Rf, order = sla.qr(W, pivoting=True)
@@ -253,20 +256,22 @@ class ParityFDI:
             self.D = Dm
         self._Dm = Dm
         self.k = Dm.shape[1]
-        G = T @ Dm
+        plain = D is None and F is None  # V^T V = W: skip the m x m x m products
+        G = T if D is None else T @ Dm
         self._G = G
-        self._Omega = G.T @ G
-        self._scaleG = max(float(np.linalg.norm(T, 2) * np.linalg.norm(Dm, 2)), 1e-300)
+        self._Omega = self.W if plain else G.T @ G
+        norm_t = 1.0 if F is None else float(np.linalg.norm(T, 2))
+        norm_d = 1.0 if D is None else float(np.linalg.norm(Dm, 2))
+        self._scaleG = max(norm_t * norm_d, 1e-300)
         gnorm = np.linalg.norm(G, axis=0)
         tolG = get_rtol(m) * self._scaleG
         self.detectable = gnorm > tolG
-        w = np.where(self.detectable, np.diag(self._Omega), 0.0)
+        w = np.where(self.detectable, gnorm**2, 0.0)
         self._w = w
+        TtG = self.W if plain else T.T @ G
+        self._B = TtG / self.sigma  # Z @ _B = a, a_i = q^T G_i / sigma
         self._Bn = np.zeros((m, self.k))  # Z @ _Bn = sqrt(FI) with sign
-        self._Bn[:, self.detectable] = (T.T @ G[:, self.detectable]) / (
-            self.sigma * np.sqrt(w[self.detectable])
-        )
-        self._B = (T.T @ G) / self.sigma  # Z @ _B = a, a_i = q^T G_i / sigma
+        self._Bn[:, self.detectable] = self._B[:, self.detectable] / np.sqrt(w[self.detectable])
         self._subset_cache: dict[int, dict[str, np.ndarray]] = {}
         self._reduced_cache: dict[tuple[int, ...], ParityFDI] = {}
         self._opt: dict[str, np.ndarray] | None = None
