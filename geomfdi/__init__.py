@@ -98,16 +98,16 @@ _register(
 )
 _register("geomfdi.parity.model", "ParityFDI")
 _register("geomfdi.parity.results", "ParityDiagnosis")
+_register("geomfdi.diagnosability.model", "WindowModel")
 _register(
-    "geomfdi.diagnosability.window",
+    "geomfdi.diagnosability.results",
     "ApplicabilityReport",
     "DiagnosabilityTable",
     "FaultApplicability",
     "StackedWindow",
-    "WindowModel",
-    "diagnosability_table",
-    "plot_isolability",
 )
+_register("geomfdi.diagnosability.tables", "diagnosability_table")
+_register("geomfdi.plotting.diagnosability", "plot_isolability")
 _register(
     "geomfdi.monitoring.ar",
     "ARMonitor",
@@ -175,15 +175,14 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi import errors, tolerance  # noqa: F401
-    from geomfdi.diagnosability.window import (  # noqa: F401
+    from geomfdi.diagnosability.model import WindowModel  # noqa: F401
+    from geomfdi.diagnosability.results import (  # noqa: F401
         ApplicabilityReport,
         DiagnosabilityTable,
         FaultApplicability,
         StackedWindow,
-        WindowModel,
-        diagnosability_table,
-        plot_isolability,
     )
+    from geomfdi.diagnosability.tables import diagnosability_table  # noqa: F401
     from geomfdi.evaluation.decision import (  # noqa: F401
         FaultEvent,
         Threshold,
@@ -224,6 +223,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.monitoring.innovations import innovation_fault, synthetic_innovations  # noqa: F401
     from geomfdi.parity.model import ParityFDI  # noqa: F401
     from geomfdi.parity.results import ParityDiagnosis  # noqa: F401
+    from geomfdi.plotting.diagnosability import plot_isolability  # noqa: F401
     from geomfdi.plotting.residuals import plot_residuals, plot_structure, save_png  # noqa: F401
     from geomfdi.simulation.lti import simulate_lti  # noqa: F401
     from geomfdi.simulation.signals import (  # noqa: F401

@@ -515,3 +515,45 @@ def test_noise_free_residual_and_short_window():
     assert exc2.value.argument == "window"
     with pytest.raises(ShapeError):
         gf.WindowModel([[1, 1], [0, 1]], None, [[1, 0, 0]], Bf=[[1], [0]], Qw=1, Rv=1)
+
+
+# ------------------------------------------------------------------ numerics at extreme sizes
+@pytest.mark.parametrize("size", [1e-150, 1e-20, 1e10, 1e100, 1e150])
+def test_indices_scale_exactly_with_the_fault_size(size):
+    dm = model23()
+    ref = gf.diagnosability_table(dm, THETA, "kl").values
+    big = gf.diagnosability_table(dm, np.asarray(THETA) * size, "kl").values
+    assert np.allclose(big, ref * size**2, rtol=1e-12, atol=0)
+    # the directional isolability depends on directions only; the probabilities saturate
+    dref = gf.diagnosability_table(dm, THETA, "directional").isolability
+    dbig = gf.diagnosability_table(dm, np.asarray(THETA) * size, "directional").isolability
+    assert np.allclose(dref, dbig, rtol=1e-12, atol=1e-15)
+    prob = gf.diagnosability_table(dm, np.asarray(THETA) * size, "probability").values
+    assert np.isfinite(prob).all() and np.all(prob >= 0.01 - 1e-15) and np.all(prob <= 1)
+    if size >= 1e10:
+        assert prob[2, 0] == pytest.approx(1.0) and prob[3, 1 + 2] == pytest.approx(1.0)
+    if size <= 1e-20:
+        assert np.allclose(prob, 0.01, atol=1e-12)
+
+
+@pytest.mark.parametrize("size", [1e155, 1e-170])
+def test_kl_index_outside_the_float_range_is_a_named_error(size):
+    with pytest.raises(GeomFDIError, match="theta"):
+        gf.diagnosability_table(model23(), np.asarray(THETA) * size, "kl")
+    # the other indices stay meaningful: directional by direction, probability saturates
+    prob = gf.diagnosability_table(model23(), np.asarray(THETA) * size, "probability")
+    assert np.isfinite(prob.values).all()
+
+
+@pytest.mark.parametrize("window", [0, -1, 2.5, "x"])
+def test_bad_window_is_a_named_error(window):
+    with pytest.raises(GeomFDIError, match="window"):
+        gf.WindowModel(
+            [[1, 1], [-1, 1]],
+            [[0], [1]],
+            [[1, 0], [1, 0]],
+            Bf=[[0], [1]],
+            Qw=0.1,
+            Rv=1,
+            window=window,
+        )

@@ -1,14 +1,25 @@
-"""Quantitative diagnosability: KL-divergence and directional-similarity indices."""
+"""Quantitative diagnosability: KL-divergence, directional-similarity and probability indices.
 
-from geomfdi.diagnosability.window import (
+* :mod:`~geomfdi.diagnosability.model` -- :class:`WindowModel`, the window model object;
+* :mod:`~geomfdi.diagnosability.stacking` -- stacked window, ``N_H``, whitened fault maps;
+* :mod:`~geomfdi.diagnosability.indices` -- the indices of one fault or pair;
+* :mod:`~geomfdi.diagnosability.tables` -- the paper-like tables;
+* :mod:`~geomfdi.diagnosability.applicability` -- Theorems 1-2 of Li, Wang & Liu (2015);
+* :mod:`~geomfdi.diagnosability.bank` -- diagnosability of a designed residual bank;
+* figures in :mod:`geomfdi.plotting.diagnosability`.
+
+See the user guide, *Theory: diagnosability* (``docs/theory/diagnosability.md``).
+"""
+
+from geomfdi.diagnosability.model import WindowModel
+from geomfdi.diagnosability.results import (
     ApplicabilityReport,
     DiagnosabilityTable,
     FaultApplicability,
     StackedWindow,
-    WindowModel,
-    diagnosability_table,
-    plot_isolability,
 )
+from geomfdi.diagnosability.tables import diagnosability_table
+from geomfdi.plotting.diagnosability import plot_isolability
 
 __all__ = [
     "WindowModel",
