@@ -108,14 +108,9 @@ _register(
 )
 _register("geomfdi.diagnosability.tables", "diagnosability_table")
 _register("geomfdi.plotting.diagnosability", "plot_isolability")
-_register(
-    "geomfdi.monitoring.ar",
-    "ARMonitor",
-    "ARMonitorResult",
-    "ARMonitorWarning",
-    "ARStep",
-    "plot_ar_monitor",
-)
+_register("geomfdi.monitoring.monitor", "ARMonitor")
+_register("geomfdi.monitoring.results", "ARMonitorResult", "ARMonitorWarning", "ARStep")
+_register("geomfdi.plotting.monitoring", "plot_ar_monitor")
 _register("geomfdi.monitoring.innovations", "innovation_fault", "synthetic_innovations")
 
 # public modules (``gf.parity.dodecahedron()``, ``gf.exact.kernel(...)``); the old flat
@@ -213,17 +208,13 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     )
     from geomfdi.model.faults import ActuatorFault, Fault, SensorFault  # noqa: F401
     from geomfdi.model.plant import Plant  # noqa: F401
-    from geomfdi.monitoring.ar import (  # noqa: F401
-        ARMonitor,
-        ARMonitorResult,
-        ARMonitorWarning,
-        ARStep,
-        plot_ar_monitor,
-    )
+    from geomfdi.monitoring.monitor import ARMonitor  # noqa: F401
+    from geomfdi.monitoring.results import ARMonitorResult, ARMonitorWarning, ARStep  # noqa: F401
     from geomfdi.monitoring.innovations import innovation_fault, synthetic_innovations  # noqa: F401
     from geomfdi.parity.model import ParityFDI  # noqa: F401
     from geomfdi.parity.results import ParityDiagnosis  # noqa: F401
     from geomfdi.plotting.diagnosability import plot_isolability  # noqa: F401
+    from geomfdi.plotting.monitoring import plot_ar_monitor  # noqa: F401
     from geomfdi.plotting.residuals import plot_residuals, plot_structure, save_png  # noqa: F401
     from geomfdi.simulation.lti import simulate_lti  # noqa: F401
     from geomfdi.simulation.signals import (  # noqa: F401

@@ -17,7 +17,7 @@ from scipy.stats import chi2
 
 import geomfdi as gf
 from geomfdi.errors import GeomFDIError, NonFiniteError, RankDeficientError, ShapeError
-from geomfdi.monitoring.ar import _moving_sums
+from geomfdi.monitoring._kernels import _moving_sums
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_AR = [-0.3]  # coloured innovations reproducing the paper's mu = -0.31 (seed 003)
@@ -511,3 +511,18 @@ def test_example_script_runs(tmp_path, capsys):
     assert 61 <= no_reset["first_alarm_s"] <= 70
     assert with_reset["alarm_fraction_during_fault"] > 2 * no_reset["alarm_fraction_during_fault"]
     assert "first alarm" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("training", [[], np.zeros((0, 60)), np.zeros((1, 60)), [[]]])
+def test_fit_on_empty_or_single_window_is_a_named_error(training):
+    with pytest.raises(GeomFDIError, match="training"):
+        gf.ARMonitor().fit(training)
+
+
+def test_module_docstring_examples_run():
+    import doctest
+
+    import geomfdi.monitoring.monitor as mod
+
+    res = doctest.testmod(mod, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert res.attempted > 0 and res.failed == 0

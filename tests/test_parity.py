@@ -699,3 +699,50 @@ def test_min_detectable_fault(dodeca):
     np.testing.assert_allclose(stats.ncx2.sf(T, 3, lam), 0.9, rtol=1e-6)
     pf = gf.ParityFDI([[1, 0], [0, 1], [0, 1], [0, 1]])
     assert np.isinf(pf.min_detectable_fault(0.01)[0])
+
+
+# ------------------------------------------------------------------ construction, labels
+def test_isolability_matches_a_pairwise_rank_check():
+    rng = np.random.default_rng(5)
+    H = rng.standard_normal((7, 3))
+    # five sensors in the x-y plane: only sensors 5 and 6 see z, so a z-error on them is
+    # consistent with a state change and their parity signatures are parallel
+    H[:5, 2] = 0.0
+    pf = gf.ParityFDI(H)
+    G = pf.fault_signatures
+    brute = np.zeros(7, dtype=bool)
+    for i in range(7):
+        for j in range(7):
+            if i != j:
+                sv = np.linalg.svd(G[:, [i, j]], compute_uv=False)
+                brute[i] |= sv[1] <= 1e-10 * sv[0]
+    assert brute.tolist() == [False] * 5 + [True, True]
+    assert pf.isolable.tolist() == (~brute).tolist()
+    assert not gf.ParityFDI(gf.parity.tetrahedron()).isolable.any()
+
+
+def test_large_configuration_statistics_match_the_projector():
+    rng = np.random.default_rng(6)
+    H = rng.standard_normal((400, 3))
+    pf = gf.ParityFDI(H, sigma=0.5)
+    Z = rng.standard_normal((3, 400))
+    W = np.eye(400) - H @ np.linalg.solve(H.T @ H, H.T)
+    fd = np.einsum("ij,jk,ik->i", Z, W, Z) / 0.25
+    assert np.allclose(pf.detection_statistic(Z), fd, rtol=1e-9)
+    fi = (Z @ W) ** 2 / np.diag(W) / 0.25
+    assert np.allclose(pf.isolation_statistics(Z), fi, rtol=1e-9)
+    assert pf.isolable.all()
+
+
+@pytest.mark.parametrize(
+    "labels, match",
+    [
+        ([0, 1, 2, 3, 4, 4], "distinct"),
+        ([0, 1, 2, 3, 4], "6 labels"),
+        ([0, 1, 2, 3, 4, -1], "non-negative"),
+        ([0, 1, 2, 3, 4, 0.5], "integers"),
+    ],
+)
+def test_sensor_labels_are_validated(labels, match):
+    with pytest.raises(GeomFDIError, match=match):
+        gf.ParityFDI(gf.parity.dodecahedron(), sensors=labels)

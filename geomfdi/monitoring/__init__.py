@@ -1,13 +1,21 @@
-"""AR-model innovation monitoring (sliding-window AR fits with a chi-square test)."""
+"""AR-model innovation monitoring (sliding-window AR fits with a chi-square test) and
+baselines on the same innovations (chi-square, CUSUM, GLR of the mean, joint T^2).
 
-from geomfdi.monitoring.ar import (
-    ARMonitor,
-    ARMonitorResult,
-    ARMonitorWarning,
-    ARStep,
-    plot_ar_monitor,
-)
+* :mod:`~geomfdi.monitoring.monitor` -- :class:`ARMonitor`;
+* :mod:`~geomfdi.monitoring.training`, :mod:`~geomfdi.monitoring.batch`,
+  :mod:`~geomfdi.monitoring.streaming` -- its training, batch and streaming functions;
+* :mod:`~geomfdi.monitoring.baselines` -- innovation tests and alarm latching;
+* :mod:`~geomfdi.monitoring.kalman` -- innovations of a Kalman filter in the loop;
+* :mod:`~geomfdi.monitoring.innovations` -- synthetic innovation sequences;
+* the figure in :mod:`geomfdi.plotting.monitoring`.
+
+See the user guide, *Theory: AR monitoring* (``docs/theory/ar-monitoring.md``).
+"""
+
 from geomfdi.monitoring.innovations import innovation_fault, synthetic_innovations
+from geomfdi.monitoring.monitor import ARMonitor
+from geomfdi.monitoring.results import ARMonitorResult, ARMonitorWarning, ARStep
+from geomfdi.plotting.monitoring import plot_ar_monitor
 
 __all__ = [
     "ARMonitor",

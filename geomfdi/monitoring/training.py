@@ -1,0 +1,124 @@
+"""Training the AR monitor: AR fits of normal windows, ``mu`` and ``delta`` of ``phi_c``.
+
+See the user guide, *Theory: AR monitoring* (``docs/theory/ar-monitoring.md``).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from geomfdi._validation import as_int, as_real_array
+from geomfdi.errors import GeomFDIError, RankDeficientError, ShapeError
+from geomfdi.monitoring._kernels import _gram_map, _normal_equations, _rows_fit, _solve
+
+if TYPE_CHECKING:
+    from geomfdi.monitoring.monitor import ARMonitor
+
+__all__ = ["window_coefficients", "fit"]
+
+
+def window_coefficients(mon: ARMonitor, windows: Any) -> np.ndarray:
+    """AR(order) least-squares coefficients of each row of ``windows``.
+
+    Parameters
+    ----------
+    windows : array_like, (N, L) or (L,)
+        Finite samples; each row is one window (``L >= 2 * order``, any length).
+
+    Returns
+    -------
+    ndarray, (N, order) or (order,)
+        ``(phi_1, ..., phi_n)`` per row; NaN rows for rank-deficient windows.
+    """
+    w = as_real_array(windows, "windows")
+    one = w.ndim == 1
+    if one:
+        w = w[None, :]
+    if w.ndim != 2:
+        raise ShapeError(f"windows: expected 1-D or 2-D, got shape {w.shape}", argument="windows")
+    if w.shape[1] < 2 * mon.order:
+        raise GeomFDIError(
+            f"windows: AR({mon.order}) needs rows of at least {2 * mon.order} samples, "
+            f"got {w.shape[1]}",
+            argument="windows",
+        )
+    phi, _ = _rows_fit(w, mon.order)
+    return phi[0] if one else phi
+
+
+def fit(mon: ARMonitor, training: Any, *, step: int = 1, normal: Any = None) -> ARMonitor:
+    """Learn ``mu`` and ``delta`` of ``phi_c`` from fault-free innovations.
+
+    Parameters
+    ----------
+    training : array_like, (N, window) or (L,)
+        ``N >= 2`` normal windows (rows), or one long normal sequence whose windows
+        (every ``step``-th one) are used.  Must be finite.
+    step : int
+        Spacing of the windows taken from a 1-D sequence (1: all sliding windows;
+        ``window``: non-overlapping, independent windows as in the paper).
+    normal : array_like, (window - 1,), optional
+        Normal innovations stored for ``prefill`` and the reset strategy (default: the
+        last ``window - 1`` training samples).
+
+    Returns
+    -------
+    ARMonitor
+        ``mon``, trained.
+    """
+    m, n = mon.window, mon.order
+    tr = as_real_array(training, "training")
+    step = as_int(step, "step", minimum=1)
+    if tr.ndim == 2:
+        if tr.shape[1] != m:
+            raise ShapeError(
+                f"training: expected windows of {m} samples (columns), got shape {tr.shape}",
+                argument="training",
+            )
+        if tr.shape[0] < 2:
+            raise GeomFDIError(
+                f"training: at least 2 windows are needed to estimate delta, got {tr.shape[0]}",
+                argument="training",
+            )
+        phi, sing = _rows_fit(tr, n)
+        last = tr[-1]
+    elif tr.ndim == 1:
+        if tr.shape[0] < m:
+            raise GeomFDIError(
+                f"training: a sequence of at least {m} samples (one window) is needed, "
+                f"got {tr.shape[0]}",
+                argument="training",
+            )
+        gram, _ = _normal_equations(tr, n, m)
+        phi, sing = _solve(_gram_map(gram, lambda a: a[..., ::step]), n)
+        last = tr
+    else:
+        raise ShapeError(
+            f"training: expected (N, window) windows or a 1-D sequence, got shape {tr.shape}",
+            argument="training",
+        )
+    if phi.shape[0] < 2:
+        raise GeomFDIError(
+            f"training: at least 2 windows are needed to estimate delta, got {phi.shape[0]}",
+            argument="training",
+        )
+    if np.any(sing):
+        raise RankDeficientError(
+            f"training: {int(sing.sum())} of {sing.size} windows have rank-deficient "
+            f"AR({n}) regressors (first: {int(np.argmax(sing))})",
+            argument="training",
+        )
+    c = phi[:, mon.coefficient]
+    mu = float(np.mean(c))
+    delta = float(np.std(c, ddof=1))
+    if not delta > 0:
+        raise GeomFDIError(
+            f"training: phi_{mon.coefficient + 1} does not vary over the training windows",
+            argument="training",
+        )
+    mon.mu, mon.delta = mu, delta
+    mon.training_coefficients = phi
+    mon.set_normal(last[-(m - 1) :] if normal is None else normal)
+    return mon
