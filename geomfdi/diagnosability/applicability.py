@@ -22,7 +22,7 @@ __all__ = ["applicability"]
 
 
 def applicability(model: WindowModel, theta: Any = None) -> ApplicabilityReport:
-    """Theorems 1-2 of seed 002 as a report (when the KL indices apply).
+    """Theorems 1-2 of Li, Wang & Liu (2015) as a report (when the KL indices apply).
 
     Parameters
     ----------

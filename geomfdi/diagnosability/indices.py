@@ -53,7 +53,7 @@ def _half_square(x: np.ndarray, scale: float) -> float:
 
 
 def kl_detectability(model, i: int, theta: Any, *, method: NullSpaceMethod | None = None) -> float:
-    """KL detectability ``FD(f_i) = 1/2 ||q_i||^2`` (seed 002, eq. 8, upper).
+    """KL detectability ``FD(f_i) = 1/2 ||q_i||^2`` (Li, Wang & Liu (2015), eq. 8, upper).
 
     Parameters
     ----------
@@ -72,8 +72,8 @@ def kl_detectability(model, i: int, theta: Any, *, method: NullSpaceMethod | Non
 
     Notes
     -----
-    Eriksson-Frisk-Krysander (2013) convention: the residual is whitened after the
-    projection, ``q_i = Gamma N_H F_i theta`` (math.md §7).  Reproduces Table 1.
+    Eriksson, Frisk & Krysander (2013) convention: the residual is whitened after the
+    projection, ``q_i = Gamma N_H F_i theta`` .  Reproduces Table 1.
     """
     i = model._fault(i)
     q, _, scale = _q(model, i, model._theta(theta), method)
@@ -101,7 +101,7 @@ def kl_isolability(
     Notes
     -----
     The paper writes ``N_[H F_j] F_i f_si`` without whitening; the whitened form here is
-    the one of Eriksson-Frisk-Krysander (2013) and reproduces Table 1 exactly.  The
+    the one of Eriksson, Frisk & Krysander (2013) and reproduces Table 1 exactly.  The
     projection uses the rank of ``Gamma N_H F_j`` decided by :mod:`geomfdi.tolerance`.
     """
     i = model._fault(i)
@@ -114,7 +114,7 @@ def kl_isolability(
 def directional_detectability(
     model: WindowModel, i: int, theta: Any, *, method: NullSpaceMethod | None = None
 ) -> float:
-    """Directional detectability ``FD(f_i) = 1/(p(q_i) + 1)`` (seed 002, eq. 17).
+    """Directional detectability ``FD(f_i) = 1/(p(q_i) + 1)`` (Li, Wang & Liu (2015), eq. 17).
 
     ``p`` is the ``N(0, I_d)`` density, ``p(q) = (2 pi)^{-d/2} exp(-||q||^2 / 2)``.
 
@@ -125,7 +125,7 @@ def directional_detectability(
 
     Notes
     -----
-    **Flaw** (math.md §7): an undetectable fault (``q_i = 0``) gets
+    **Flaw** : an undetectable fault (``q_i = 0``) gets
     ``1 / ((2 pi)^{-d/2} + 1)`` (0.7148 for ``d = 1``, Table 3), not 0, and every index
     tends to 1 as ``d`` grows whatever the fault.  Use
     :meth:`probabilistic_detectability` for an index that is 0 exactly when the fault
@@ -149,7 +149,7 @@ def directional_isolability(
     cosine: CosineConvention = "absolute",
     method: NullSpaceMethod | None = None,
 ) -> float:
-    """Directional isolability ``FI(f_i, f_j) = 1/(||q_i||_c + 1)`` (seed 002, eq. 22).
+    """Directional isolability ``FI(f_i, f_j) = 1/(||q_i||_c + 1)`` (Li, Wang & Liu (2015), eq. 22).
 
     Parameters
     ----------

@@ -41,10 +41,10 @@ _NULLSPACE_METHODS = ("structured", "direct")
 
 
 class WindowModel:
-    """Discrete plant with faults and noise, stacked over a window (seed 002, eqs. 1-3).
+    """Discrete plant with faults and noise, stacked over a window (Li, Wang & Liu 2015).
 
-    Sizes follow seed 002: ``n`` states, ``m`` outputs, ``q`` known inputs, ``p`` scalar
-    faults, ``l`` process and ``t`` measurement noises (:class:`~geomfdi.Plant` calls the
+    Sizes follow Li, Wang & Liu (2015), eqs. 1-3: ``n`` states, ``m`` outputs, ``q`` known
+    inputs, ``p`` scalar faults, ``l`` process and ``t`` measurement noises (:class:`~geomfdi.Plant` calls the
     outputs ``q`` and the inputs ``m``).
 
     Parameters
@@ -107,18 +107,18 @@ class WindowModel:
     residual (for model (23) the actuator faults reach it only through ``f(k-2)``).
 
     *Whitening.*  After projection, ``Gamma = (N_H E Sigma E^T N_H^T)^{-1/2}`` (symmetric
-    square root), and ``q_i = Gamma N_H F_i theta`` (math.md §7).  A singular projected
+    square root), and ``q_i = Gamma N_H F_i theta`` .  A singular projected
     noise covariance raises :class:`~geomfdi.errors.RankDeficientError`.
 
     References
     ----------
     Li W.-B., Wang D.-Y., Liu C.-R., Quantitative evaluation of actual fault
-    diagnosability for dynamic systems, Acta Automatica Sinica 41(3), 2015 (seed 002),
+    diagnosability for dynamic systems, Acta Automatica Sinica 41(3), 2015 (Li, Wang & Liu (2015)),
     eqs. (1)-(3).
 
     Examples
     --------
-    Model (23) of seed 002 (Table 1, first row):
+    Model (23) of Li, Wang & Liu (2015) (Table 1, first row):
 
     >>> import geomfdi as gf
     >>> dm = gf.WindowModel([[1, 1], [-1, 1]], [[0], [1]], [[1, 0], [1, 0]],

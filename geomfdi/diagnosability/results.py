@@ -14,7 +14,7 @@ __all__ = ["StackedWindow", "DiagnosabilityTable", "FaultApplicability", "Applic
 
 @dataclass(frozen=True)
 class StackedWindow:
-    """The stacked window model eq. (2) of seed 002: ``L z_s = H x_s + F f_s + E e_s``.
+    """The stacked window model eq. (2) of Li, Wang & Liu (2015): ``L z_s = H x_s + F f_s + E e_s``.
 
     Attributes
     ----------
@@ -39,7 +39,7 @@ class StackedWindow:
 
 @dataclass(frozen=True)
 class DiagnosabilityTable:
-    """A paper-like diagnosability table (seed 002, Tables 1-4).
+    """A paper-like diagnosability table (Li, Wang & Liu (2015), Tables 1-4).
 
     Attributes
     ----------
@@ -77,7 +77,7 @@ class DiagnosabilityTable:
 
 @dataclass(frozen=True)
 class FaultApplicability:
-    """Theorem 1 of seed 002 for one fault, with the exact rank facts beside it.
+    """Theorem 1 of Li, Wang & Liu (2015) for one fault, with the exact rank facts beside it.
 
     Attributes
     ----------
@@ -113,7 +113,7 @@ class FaultApplicability:
 
 @dataclass(frozen=True)
 class ApplicabilityReport:
-    """When the KL (distance-similarity) indices apply: Theorems 1-2 of seed 002.
+    """When the KL (distance-similarity) indices apply: Theorems 1-2 of Li, Wang & Liu (2015).
 
     Attributes
     ----------

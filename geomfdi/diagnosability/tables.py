@@ -82,7 +82,7 @@ def diagnosability_table(
 
     References
     ----------
-    Seed 002, Tables 1-4; Eriksson, Frisk, Krysander, Automatica 49(6), 2013.
+    Li, Wang & Liu (2015), Tables 1-4; Eriksson, Frisk, Krysander, Automatica 49(6), 2013.
     """
     if not hasattr(model, "fault_names") or not hasattr(model, "left_null_basis"):
         raise GeomFDIError(

@@ -1,4 +1,4 @@
-"""Synthetic GPS pseudorange innovations for the AR-model monitor (seed 003, math.md §8).
+"""Synthetic GPS pseudorange innovations for the AR-model monitor (Jin, Ding & Cong).
 
 Innovations of a well-tuned navigation filter are zero-mean Gaussian; the seed paper
 uses a pseudorange noise standard deviation ``sigma = 6 m`` and injects faults of
@@ -88,7 +88,7 @@ def innovation_fault(
     stop : int, optional
         One past the last faulty epoch (default: end of the sequence).
     sigma : float
-        Innovation standard deviation in metres (default 6 m, seed 003).
+        Innovation standard deviation in metres (default 6 m, Jin, Ding & Cong).
 
     Returns
     -------
@@ -176,7 +176,7 @@ def synthetic_innovations(
 
     References
     ----------
-    Seed 003 (Jin, Ding, Cong): GPS pseudorange innovations, ``sigma = 6 m``, faults of
+    Jin, Ding & Cong: GPS pseudorange innovations, ``sigma = 6 m``, faults of
     ``5 sigma`` in the last 2, 10 or 30 samples of 60-sample windows, or from 61 s on.
 
     Examples

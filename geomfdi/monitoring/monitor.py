@@ -30,7 +30,7 @@ __all__ = ["ARMonitor"]
 
 
 class ARMonitor:
-    """AR-model parameter-change detector for innovation sequences (seed 003).
+    """AR-model parameter-change detector for innovation sequences (Jin, Ding & Cong).
 
     Parameters
     ----------

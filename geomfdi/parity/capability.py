@@ -29,7 +29,7 @@ def capability(pf: ParityFDI) -> ConfigurationCapability:
 
     References
     ----------
-    Seed 000, Lemmas 1-2 (``0 < w_ii < 1``, ``V_i^T V_j = w_ij``).
+    Zhang, Chen & Liu (2005), Lemmas 1-2 (``0 < w_ii < 1``, ``V_i^T V_j = w_ij``).
 
     Examples
     --------

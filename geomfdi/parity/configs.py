@@ -2,14 +2,14 @@
 
 Each function returns the ``m x 3`` matrix whose rows are the unit sensing axes of ``m``
 single-axis sensors (gyros or accelerometers) measuring a 3-vector, so that the
-measurement model is ``Z = H x + eps`` (math.md §6).  They are re-exported by
+measurement model is ``Z = H x + eps`` .  They are re-exported by
 :mod:`geomfdi.parity.fdi` (``gf.parity.dodecahedron()``).
 
 References
 ----------
 Qin Yongyuan, Niu Huifang, "Soft fault detection and isolation to ensure the entire
 attitude measuring of a strapdown inertial navigation system", Journal of Astronautics,
-1999 (seed 004), §4: six gyros along the normals of a regular dodecahedron.
+1999 (Qin & Niu (1999)), §4: six gyros along the normals of a regular dodecahedron.
 """
 
 from __future__ import annotations
@@ -38,16 +38,16 @@ def dodecahedron() -> np.ndarray:
     Notes
     -----
     Every pair of axes satisfies ``|cos| = 1/sqrt 5``, ``H^T H = 2 I`` and the parity
-    projector ``W = I - H (H^T H)^{-1} H^T`` has ``w_ii = 1/2`` (math.md §6).  The sensor
-    numbering is the one of seed 004 (its reference [8], p. 92): with this ordering the
-    gyro pairs that seed 004's Table 1 reports for the noise-free single-fault
+    projector ``W = I - H (H^T H)^{-1} H^T`` has ``w_ii = 1/2`` .  The sensor
+    numbering is the one of Qin & Niu (1999) (its reference [8], p. 92): with this ordering the
+    gyro pairs that Qin & Niu (1999)'s Table 1 reports for the noise-free single-fault
     statistics ``D+_ij`` and ``D-_ij`` are maximisers of those statistics (the
     configuration is so symmetric that the maximisers are ties; the test suite checks
     that all twelve reported pairs are among them).
 
     References
     ----------
-    Seed 004, §4 and Table 1.
+    Qin & Niu (1999), §4 and Table 1.
 
     Examples
     --------

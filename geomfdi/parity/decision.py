@@ -126,13 +126,13 @@ def diagnose(
         False-alarm rate of every detection test, in (0, 1).
     method : {"glt", "opt", "opt-uncorrected", "search", "glr"}
         * ``"glt"`` (default): ``FD >= chi2_{1-pfa}(m - n)``, isolate
-          ``argmax FI(i)`` (seed 000 eq. 3, 5).
+          ``argmax FI(i)`` (Zhang, Chen & Liu (2005) eq. 3, 5).
         * ``"opt"``: corrected OPT, ``FD_OPT >= chi2_{1-pfa}`` and ``argmax |d_i|``
           (identical to ``"glt"`` when ``D = F = I``: Theorems 2 and 4).
-        * ``"opt-uncorrected"``: the OPT rule of seed 000 §1.2:
+        * ``"opt-uncorrected"``: the OPT rule of Zhang, Chen & Liu (2005) §1.2:
           ``max |d_i| > u_{1-pfa/2}``; its false-alarm rate exceeds ``pfa``
           (Theorem 1).  ``statistic`` is ``max |d_i|``.
-        * ``"search"``: the two-fault search of seed 004 (Figure 1, reconstructed,
+        * ``"search"``: the two-fault search of Qin & Niu (1999) (Figure 1, reconstructed,
           see Notes).
         * ``"glr"``: k-fault GLR with sequential consistency tests (see Notes).
     max_faults : int, optional
@@ -155,7 +155,7 @@ def diagnose(
     (parallel signatures, e.g. any sensor of the tetrahedron) is reported with
     ``isolated = -1`` and ``unresolved = True``.
 
-    *Search* (seed 004 §3-§5 and its Figure 1, whose flowchart is not in the
+    *Search* (Qin & Niu (1999) §3-§5 and its Figure 1, whose flowchart is not in the
     text; reconstruction).  With ``FD_S = FD - GLR_S`` the detection function of the
     configuration without the sensors ``S`` (re-detection after removal):
 
@@ -183,7 +183,7 @@ def diagnose(
 
     References
     ----------
-    Seed 000 §1-§5; seed 004 §2-§5; math.md §6.
+    Zhang, Chen & Liu (2005) §1-§5; Qin & Niu (1999) §2-§5.
     """
     pfa = as_probability(pfa, "pfa")
     if method not in METHODS:
@@ -195,7 +195,7 @@ def diagnose(
         mf = 2 if max_faults is None else as_int(max_faults, "max_faults", minimum=1)
         if mf > 2:
             raise GeomFDIError(
-                f"max_faults: the seed-004 search isolates at most 2 faults, got {mf}",
+                f"max_faults: the Qin & Niu search isolates at most 2 faults, got {mf}",
                 argument="max_faults",
             )
         return _search(pf, Zs, pfa, mf)

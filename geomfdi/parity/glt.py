@@ -58,7 +58,7 @@ def _fi_from_a(pf: ParityFDI, a: np.ndarray) -> np.ndarray:
 
 @_guarded
 def parity(pf: ParityFDI, Z: Any) -> np.ndarray:
-    """Parity vectors ``p = V Z``, shape (N, m - n) (seed 000, §1.1)."""
+    """Parity vectors ``p = V Z``, shape (N, m - n) (Zhang, Chen & Liu (2005), §1.1)."""
     Z = _samples(pf, Z)
     return Z @ pf.V.T
 
@@ -79,7 +79,7 @@ def detection_statistic(pf: ParityFDI, Z: Any) -> np.ndarray:
 
     References
     ----------
-    Seed 000, eq. 2; seed 004, eq. 5.
+    Zhang, Chen & Liu (2005), eq. 2; Qin & Niu (1999), eq. 5.
     """
     return _fd(pf, _samples(pf, Z))
 
@@ -90,7 +90,8 @@ def isolation_statistics(pf: ParityFDI, Z: Any) -> np.ndarray:
 
     References
     ----------
-    Seed 000, eq. 4 (scaled by ``1/sigma^2`` as in its eq. 22); seed 004, eq. 7.
+    Zhang, Chen & Liu (2005), eq. 4 (scaled by ``1/sigma^2`` as in its eq. 22); Qin & Niu
+    (1999), eq. 7.
     """
     Z = _samples(pf, Z)
     return _fi_from_a(pf, _a(pf, Z))

@@ -123,7 +123,7 @@ def false_alarm_rate(
     RateEstimate
         Fraction of samples where the detection test fired.  For ``"glt"`` it matches
         ``pfa``; for ``"opt-uncorrected"`` it is at least ``1 - (1 - pfa)^(m-n)``
-        (seed 000, Theorem 1).
+        (Zhang, Chen & Liu (2005), Theorem 1).
     """
     pfa = as_probability(pfa, "pfa")
     n_runs = as_int(n_runs, "n_runs", minimum=1)

@@ -145,7 +145,7 @@ def _pairs_from_a(pf: ParityFDI, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 @_guarded
 def pair_statistics(pf: ParityFDI, Z: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Seed 004's two-fault isolation functions ``(D+, D-)``, each (N, k, k).
+    """Qin & Niu (1999)'s two-fault isolation functions ``(D+, D-)``, each (N, k, k).
 
     ``D+/-_ij = ((V_i +/- V_j)^T p)^2 / (sigma^2 ||V_i +/- V_j||^2)`` is the
     likelihood-ratio gain of the hypothesis "sensors i and j carry faults of equal
@@ -159,7 +159,7 @@ def pair_statistics(pf: ParityFDI, Z: Any) -> tuple[np.ndarray, np.ndarray]:
 
     Notes
     -----
-    The formulas of seed 004 eq. 11-16 were lost in the OCR; they are rebuilt from
+    The formulas of Qin & Niu (1999) eq. 11-16 were lost in the OCR; they are rebuilt from
     its text: ``p = V eps + f (V_i + V_j)`` (eq. 11), the likelihood is a parabola in
     ``f`` maximised at ``f = (V_i + V_j)^T p / ||V_i + V_j||^2`` (eq. 13), and the
     maximal density is largest when ``D+_ij`` is (eq. 14-15); eq. 16 likewise with
@@ -167,7 +167,7 @@ def pair_statistics(pf: ParityFDI, Z: Any) -> tuple[np.ndarray, np.ndarray]:
 
     References
     ----------
-    Seed 004, eq. 8-16; math.md §6.
+    Qin & Niu (1999), eq. 8-16.
     """
     Z = _samples(pf, Z)
     return _pairs_from_a(pf, _a(pf, Z))
@@ -210,8 +210,8 @@ def two_fault_glr(pf: ParityFDI, Z: Any) -> np.ndarray:
 
     References
     ----------
-    Generalised likelihood ratio for the two-fault hypothesis ``H_ij`` of seed 004
-    eq. 8 with both sizes free; math.md §6.
+    Generalised likelihood ratio for the two-fault hypothesis ``H_ij`` of Qin & Niu (1999)
+    eq. 8 with both sizes free.
     """
     Z = _samples(pf, Z)
     a = _a(pf, Z)

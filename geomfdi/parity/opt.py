@@ -74,7 +74,7 @@ def opt_vectors(pf: ParityFDI) -> np.ndarray:
 
     Notes
     -----
-    Seed 000 eq. 7 maximises, over ``v = V^T c`` (so that ``v^T H = 0``),
+    Zhang, Chen & Liu (2005) eq. 7 maximises, over ``v = V^T c`` (so that ``v^T H = 0``),
 
     ``S_i(c) = (c^T u_i)^2 / (c^T M_i c)``,   ``u_i = V D e_i``,
     ``M_i = V (F F^T + sum_{j != i} D e_j e_j^T D^T) V^T``.
@@ -94,7 +94,7 @@ def opt_vectors(pf: ParityFDI) -> np.ndarray:
 
 
 def opt_performance(pf: ParityFDI) -> np.ndarray:
-    """The maximised index ``S_i = u_i^T M_i^{-1} u_i`` of seed 000 eq. 7, shape (k,)."""
+    """The maximised OPT index ``S_i = u_i^T M_i^{-1} u_i`` (Zhang, Chen & Liu 2005, eq. 7)."""
     return _opt_data(pf)["perf"].copy()
 
 
@@ -110,7 +110,7 @@ def opt_statistics(pf: ParityFDI, Z: Any) -> np.ndarray:
 
     References
     ----------
-    Seed 000, eq. 9 and Theorem 2.
+    Zhang, Chen & Liu (2005), eq. 9 and Theorem 2.
     """
     Z = _samples(pf, Z)
     return Z @ _opt_data(pf)["dmat"]
@@ -123,14 +123,14 @@ def opt_detection_statistic(pf: ParityFDI, Z: Any) -> np.ndarray:
     Notes
     -----
     The ``v_0k`` are an orthonormal basis (in the noise metric ``F F^T``, so that the
-    terms are independent by seed 000's Lemma 3) of the span of the optimal parity
+    terms are independent by Zhang, Chen & Liu (2005)'s Lemma 3) of the span of the optimal parity
     vectors, obtained by Gram-Schmidt with column pivoting (QR).  Its dimension
     :attr:`opt_dof` is ``m - n`` whenever the vectors span the parity space (always
     for ``D = I``), and then ``FD_OPT = FD_GLT`` (Theorem 4).
 
     References
     ----------
-    Seed 000, eq. 23, 25-26.
+    Zhang, Chen & Liu (2005), eq. 23, 25-26.
     """
     Z = _samples(pf, Z)
     P = Z @ _opt_data(pf)["U"]

@@ -105,7 +105,8 @@ class ConfigurationCapability:
     w : ndarray, shape (k,)
         ``w_ii = ||V_i||^2`` (``diag W``; in general ``diag G^T G`` of the whitened fault
         signatures).  ``w_ii`` is the fraction of a fault on sensor ``i`` that reaches
-        the parity space; ``0`` means undetectable (seed 000, Lemma 1: ``0 < w_ii < 1``
+        the parity space; ``0`` means undetectable (Zhang, Chen & Liu (2005), Lemma 1: ``0 <
+        w_ii < 1``
         for a fully redundant configuration).
     parity_cos : ndarray, shape (k, k)
         Cosine between the fault signatures ``V_i`` and ``V_j`` in parity space.
@@ -259,7 +260,7 @@ class RateCurve:
 
 @dataclass(frozen=True)
 class Seed004Result:
-    """Correct-isolation rates of the seed 004 experiment (see :func:`seed004_experiment`).
+    """Correct-isolation rates of the Qin & Niu (1999) experiment (see :func:`seed004_experiment`).
 
     Attributes
     ----------
@@ -312,7 +313,7 @@ class Seed004Result:
             f"{m[: w - 2]:>{w}s}" for m in self.methods
         )
         lines = [
-            f"seed 004 experiment: dodecahedron, sigma = {self.sigma:g} deg/h, "
+            f"Qin & Niu (1999) experiment: dodecahedron, sigma = {self.sigma:g} deg/h, "
             f"pfa = {self.pfa:g}, {self.n_runs} runs per case",
             "cells: correct-isolation rate (exact set), mean over the family's cases "
             "(min) / partial",

@@ -30,7 +30,7 @@ SEED004_KINDS = (
 )
 
 SEED004_METHODS = (
-    ("paper search (seed 004)", "search", 2),
+    ("paper search (Qin & Niu (1999))", "search", 2),
     ("two-fault GLR", "glr", 2),
     ("sequential GLT", "glt", 2),
 )
@@ -59,7 +59,7 @@ def seed004_experiment(
     pfa: float = 1e-3,
     methods: Sequence[Any] = SEED004_METHODS,
 ) -> Seed004Result:
-    """Reproduce seed 004's dodecahedron experiment as correct-isolation rates.
+    """Reproduce Qin & Niu (1999)'s dodecahedron experiment as correct-isolation rates.
 
     Six gyros on the dodecahedron (:func:`dodecahedron`, the paper's numbering), white
     noise ``sigma`` (deg/h), and the fault cases of the paper's tables (deg/h):

@@ -27,7 +27,7 @@ def chi2_threshold(pfa: float, dof: int) -> float:
 
     References
     ----------
-    Seed 000, eq. 2-3: ``FD_GLT ~ chi2(m - n)`` without fault.
+    Zhang, Chen & Liu (2005), eq. 2-3: ``FD_GLT ~ chi2(m - n)`` without fault.
 
     Examples
     --------
@@ -46,7 +46,7 @@ def normal_threshold(pfa: float) -> float:
 
     References
     ----------
-    Seed 000, §1.2, decision step (1).
+    Zhang, Chen & Liu (2005), §1.2, decision step (1).
 
     Examples
     --------
@@ -71,7 +71,7 @@ def opt_false_alarm_bound(pfa: float, s: int) -> float:
 
     Notes
     -----
-    Seed 000's proof takes ``s`` of the standardised OPT residuals ``d_i`` to be
+    Zhang, Chen & Liu (2005)'s proof takes ``s`` of the standardised OPT residuals ``d_i`` to be
     mutually independent, which holds only when ``s`` of the optimal parity vectors are
     orthogonal (e.g. not for the dodecahedron, where every pair has ``|cos| = 1/sqrt 5``).
     The inequality is nevertheless observed on every configuration the test suite draws
