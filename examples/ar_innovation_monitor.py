@@ -1,4 +1,4 @@
-"""AR-model innovation monitoring: the experiments of seed 003, reproduced in kind.
+"""AR-model innovation monitoring: the experiments of Jin, Ding & Cong, reproduced in kind.
 
 1. Parameter changes (paper, Figs. 2-6): 100 windows of 60 innovations (sigma = 6 m),
    with a 5-sigma step in the last 2, 10 or 30 samples of each window; the AR(5)
@@ -121,7 +121,7 @@ def stream_experiment(trained: gf.ARMonitor, ar, rng, out: Path) -> dict:
 
 
 def main(argv: list[str] | None = None) -> dict:
-    p = argparse.ArgumentParser(description="AR-model innovation monitor (seed 003)")
+    p = argparse.ArgumentParser(description="AR-model innovation monitor (Jin, Ding & Cong)")
     p.add_argument("--out", type=Path, default=Path("."), help="directory for the PNGs")
     p.add_argument("--white", action="store_true", help="white instead of AR(1) innovations")
     p.add_argument("--seed", type=int, default=3)

@@ -1,4 +1,4 @@
-"""Diagnosability of model (23) of seed 002 (example 1 of Eriksson-Frisk-Krysander 2013).
+"""Diagnosability of model (23) of Li, Wang & Liu 2015 (example 1 of Eriksson, Frisk & Krysander 2013).
 
 ::
 
@@ -32,7 +32,7 @@ THETA = [1.0, 1.0, 1.0]
 
 
 def model23(nullspace: str = "structured") -> gf.WindowModel:
-    """Model (23) of seed 002 as a :class:`geomfdi.WindowModel`."""
+    """Model (23) of Li, Wang & Liu 2015 as a :class:`geomfdi.WindowModel`."""
     return gf.WindowModel(
         [[1.0, 1.0], [-1.0, 1.0]],
         [[0.0], [1.0]],

@@ -1,4 +1,4 @@
-"""Diagnosability of the satellite pitch-axis attitude determination system (seed 002, eq. 24).
+"""Diagnosability of the satellite pitch-axis attitude determination system (Li, Wang & Liu 2015, eq. 24).
 
 Pitch-axis model with an infrared Earth sensor (attitude angle) and a gyro (rate)::
 
@@ -44,7 +44,7 @@ INCREASING_BIAS = [0.1, 0.3, 0.7, 0.9]  # f_rsi, Table 4
 
 
 def satellite_model(nullspace: str = "structured") -> gf.WindowModel:
-    """Model (24) of seed 002 as a :class:`geomfdi.WindowModel` (window n + 1 = 4)."""
+    """Model (24) of Li, Wang & Liu 2015 as a :class:`geomfdi.WindowModel` (window n + 1 = 4)."""
     A = [[1.0, -DT, -DT], [0.0, 1.0 - DT / TAU_Y, 0.0], [0.0, 0.0, 1.0]]
     B = DT * np.eye(3)
     C = [[1.0, 0.0, 0.0]]

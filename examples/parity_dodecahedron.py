@@ -1,4 +1,4 @@
-"""Six gyros on a dodecahedron: seed 004's soft-fault experiment as correct-isolation rates.
+"""Six gyros on a dodecahedron: Qin & Niu 1999's soft-fault experiment as correct-isolation rates.
 
 Seed 004 (Qin-Niu 1999) puts six single-axis gyros along the face normals of a regular
 dodecahedron and reports, in its Tables 1-4, which gyros the maxima of the single-fault
@@ -22,7 +22,7 @@ pair another disjoint pair produces the same parity vector), so no parity test c
 exceed about 1/2 on them on average: the column "ambig." counts such cases.
 
 The script also prints the configuration's capability figures and the false-alarm rates
-of the GLT and of the uncorrected OPT rule (seed 000, Theorem 1), and saves two figures:
+of the GLT and of the uncorrected OPT rule (Zhang, Chen & Liu 2005, Theorem 1), and saves two figures:
 ``parity_dodecahedron_rates.png`` (rates per case family) and
 ``parity_dodecahedron_fault_size.png`` (rates against the size of a single fault).
 
@@ -61,11 +61,11 @@ def main(argv: Sequence[str] | None = None) -> dict:
     import matplotlib.pyplot as plt
 
     pf = gf.ParityFDI(gf.parity.dodecahedron(), sigma=args.sigma[0])
-    print("Configuration: six gyros on a regular dodecahedron (seed 004 numbering)")
+    print("Configuration: six gyros on a regular dodecahedron (Qin & Niu 1999 numbering)")
     print(pf.capability().summary())
     print()
 
-    # false alarms: GLT vs the uncorrected OPT max rule (seed 000, Theorem 1)
+    # false alarms: GLT vs the uncorrected OPT max rule (Zhang, Chen & Liu 2005, Theorem 1)
     n_fa = max(args.runs * 5, 1000)
     print(f"false-alarm rates over {n_fa} fault-free samples (nominal alpha):")
     far = {}

@@ -44,8 +44,8 @@ class WindowModel:
     """Discrete plant with faults and noise, stacked over a window (Li, Wang & Liu 2015).
 
     Sizes follow Li, Wang & Liu (2015), eqs. 1-3: ``n`` states, ``m`` outputs, ``q`` known
-    inputs, ``p`` scalar faults, ``l`` process and ``t`` measurement noises (:class:`~geomfdi.Plant` calls the
-    outputs ``q`` and the inputs ``m``).
+    inputs, ``p`` scalar faults, ``l`` process and ``t`` measurement noises
+    (:class:`~geomfdi.Plant` calls the outputs ``q`` and the inputs ``m``).
 
     Parameters
     ----------

@@ -9,7 +9,7 @@ References
 ----------
 Qin Yongyuan, Niu Huifang, "Soft fault detection and isolation to ensure the entire
 attitude measuring of a strapdown inertial navigation system", Journal of Astronautics,
-1999 (Qin & Niu (1999)), §4: six gyros along the normals of a regular dodecahedron.
+1999, §4: six gyros along the normals of a regular dodecahedron.
 """
 
 from __future__ import annotations
