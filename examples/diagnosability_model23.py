@@ -1,4 +1,6 @@
-"""Diagnosability of model (23) of Li, Wang & Liu 2015 (example 1 of Eriksson, Frisk & Krysander 2013).
+"""Diagnosability of model (23) of Li, Wang & Liu 2015.
+
+Model (23) is example 1 of Eriksson, Frisk & Krysander 2013.
 
 ::
 

@@ -1,4 +1,4 @@
-"""Diagnosability of the satellite pitch-axis attitude determination system (Li, Wang & Liu 2015, eq. 24).
+"""Diagnosability of a satellite pitch-axis attitude system (Li, Wang & Liu 2015, eq. 24).
 
 Pitch-axis model with an infrared Earth sensor (attitude angle) and a gyro (rate)::
 

@@ -22,7 +22,8 @@ pair another disjoint pair produces the same parity vector), so no parity test c
 exceed about 1/2 on them on average: the column "ambig." counts such cases.
 
 The script also prints the configuration's capability figures and the false-alarm rates
-of the GLT and of the uncorrected OPT rule (Zhang, Chen & Liu 2005, Theorem 1), and saves two figures:
+of the GLT and of the uncorrected OPT rule (Zhang, Chen & Liu 2005, Theorem 1), and saves
+two figures:
 ``parity_dodecahedron_rates.png`` (rates per case family) and
 ``parity_dodecahedron_fault_size.png`` (rates against the size of a single fault).
 

@@ -30,7 +30,7 @@ SEED004_KINDS = (
 )
 
 SEED004_METHODS = (
-    ("paper search (Qin & Niu 1999)", "search", 2),
+    ("paper search (Qin-Niu)", "search", 2),
     ("two-fault GLR", "glr", 2),
     ("sequential GLT", "glt", 2),
 )
