@@ -188,7 +188,9 @@ def diagnose(
     pfa = as_probability(pfa, "pfa")
     if method not in METHODS:
         raise GeomFDIError(
-            f"method: expected one of {', '.join(METHODS)}, got {method!r}", argument="method"
+            f"method: expected one of {', '.join(METHODS)} (or, for a time series, "
+            f"windowed, cusum, sprt), got {method!r}",
+            argument="method",
         )
     Zs = _samples(pf, Z, check=method in ("search", "glr"))
     if method == "search":

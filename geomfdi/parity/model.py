@@ -33,6 +33,7 @@ from geomfdi.parity import decision as _decision
 from geomfdi.parity import glt as _glt
 from geomfdi.parity import multiple as _multiple
 from geomfdi.parity import opt as _opt
+from geomfdi.parity import sequential as _sequential
 from geomfdi.parity.results import ConfigurationCapability, ParityDiagnosis
 from geomfdi.tolerance import get_rtol, rank_decision
 
@@ -275,6 +276,7 @@ class ParityFDI:
         self._subset_cache: dict[int, dict[str, np.ndarray]] = {}
         self._reduced_cache: dict[tuple[int, ...], ParityFDI] = {}
         self._opt: dict[str, np.ndarray] | None = None
+        self._sequential_thresholds: dict[tuple, float] = {}
         self.isolable = self.detectable & ~_multiple._subset_info(self, 1)["ambiguous"]
         self._lut = np.where(self.isolable, np.arange(self.k), -1).astype(np.intp)
 
@@ -355,9 +357,32 @@ class ParityFDI:
         return _capability.capability(self)
 
     def diagnose(
-        self, Z: Any, pfa: float = 0.01, *, method: str = "glt", max_faults: int | None = None
+        self,
+        Z: Any,
+        pfa: float = 0.01,
+        *,
+        method: str = "glt",
+        max_faults: int | None = None,
+        window: int = 100,
+        shift: float = 0.5,
+        beta: float = 0.1,
+        threshold: float | None = None,
     ) -> ParityDiagnosis:
-        """Detect and isolate faults in every sample; see :func:`.decision.diagnose`."""
+        """Detect and isolate faults in every sample (or epoch of a time series).
+
+        ``method`` in ``"glt", "opt", "opt-uncorrected", "search", "glr"`` treats the rows
+        of ``Z`` as independent samples (:func:`.decision.diagnose`, ``max_faults``);
+        ``"windowed"`` (moving-average GLT over ``window`` samples), ``"cusum"`` and
+        ``"sprt"`` (tuned to a bias of ``shift * sigma``; SPRT restarts on accepting "no
+        fault" with missed-detection probability ``beta``) treat them as consecutive
+        samples, ``Z`` of shape ``(N, m)`` or ``(R, N, m)``, with a per-epoch false-alarm
+        rate ``pfa``: exact for ``"windowed"``, calibrated by Monte-Carlo for the others
+        unless ``threshold`` is given (:mod:`.sequential`).
+        """
+        if method in _sequential.SEQUENTIAL_METHODS:
+            return _sequential.diagnose_sequential(
+                self, Z, pfa, method, window=window, shift=shift, beta=beta, threshold=threshold
+            )
         return _decision.diagnose(self, Z, pfa, method=method, max_faults=max_faults)
 
     def reduced(self, remove: int | Sequence[int]) -> ParityFDI:

@@ -62,17 +62,17 @@ class ParityDiagnosis:
     @property
     def isolated(self) -> np.ndarray:
         """First isolated sensor per sample, ``-1`` when none, shape (N,)."""
-        return self.faults[:, 0]
+        return self.faults[..., 0]
 
     @property
     def max_faults(self) -> int:
         """Number of columns of :attr:`faults`."""
-        return int(self.faults.shape[1])
+        return int(self.faults.shape[-1])
 
     @property
     def n_faults(self) -> np.ndarray:
         """Number of isolated sensors per sample, shape (N,)."""
-        return np.count_nonzero(self.faults >= 0, axis=1)
+        return np.count_nonzero(self.faults >= 0, axis=-1)
 
     @property
     def unresolved(self) -> np.ndarray:
@@ -82,7 +82,7 @@ class ParityDiagnosis:
         isolation, or when the residual was still inconsistent after the last test.
         """
         if self._unresolved is None:
-            self._unresolved = self.detected & (self.faults[:, 0] < 0)
+            self._unresolved = self.detected & (self.faults[..., 0] < 0)
         return self._unresolved
 
     def __len__(self) -> int:
@@ -92,7 +92,7 @@ class ParityDiagnosis:
         n = len(self)
         return (
             f"ParityDiagnosis(method={self.method!r}, N={n}, detected={int(self.detected.sum())}, "
-            f"isolated={int((self.faults[:, 0] >= 0).sum())}, pfa={self.pfa:g})"
+            f"isolated={int((self.faults[..., 0] >= 0).sum())}, pfa={self.pfa:g})"
         )
 
 

@@ -1,0 +1,310 @@
+"""Windowed and sequential parity tests over time: moving-average GLT, CUSUM and SPRT.
+
+Rows of ``Z`` are consecutive samples of one stream (``(N, m)``) or of independent
+streams (``(R, N, m)``).  Per-sample tests see a bias of a fraction of ``sigma`` as noise;
+accumulating the parity vector over time makes it visible:
+
+* ``"windowed"``: ``FD_w(t) = ||sum_{tau in W_t} q_tau||^2 / (n_t sigma^2)`` over the last
+  ``n_t = min(t + 1, window)`` samples, ``chi2(m - n)`` without fault at every epoch, so the
+  per-epoch false-alarm rate is exactly ``pfa``; isolation by ``argmax FI`` of the mean.
+* ``"cusum"``: per fault hypothesis ``i`` and sign, the log-likelihood-ratio increment of a
+  fault of size ``shift * sigma`` on ``i``, ``l_t = +/- nu_i e_i(t) - nu_i^2 / 2`` with
+  ``e_i = a_i / sqrt(w_ii)`` and ``nu_i = shift sqrt(w_ii)``, accumulated by Page's CUSUM
+  over the last ``window`` samples (window-limited CUSUM, Lai 1998:
+  ``S_t = max_{t - window < tau <= t} sum_{tau..t} l``); statistic
+  ``max_{i,+/-} S_t``.
+* ``"sprt"``: the same increments in Wald's sequential probability ratio test run over
+  the last ``window`` samples, restarted at 0 whenever it accepts "no fault"
+  (``S <= log beta``); alarm when the ratio at ``t`` is above the threshold.
+
+Both depend on the last ``window`` samples only, so without fault the statistic has the
+same law at every epoch from ``window - 1`` on.  Its threshold has no closed form:
+:func:`calibrate_sequential` draws independent noise-only blocks of ``window`` samples
+of the same model and takes the ``1 - pfa`` quantile (a binomial estimate of the
+per-epoch rate); the result is cached on the :class:`~geomfdi.parity.model.ParityFDI`.
+See the user guide, *Theory: parity space* (``docs/theory/parity-space.md``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from geomfdi._validation import as_int, as_positive, as_probability
+from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.parity._input import _as_rng
+from geomfdi.parity.results import ParityDiagnosis
+from geomfdi.parity.thresholds import chi2_threshold
+
+if TYPE_CHECKING:
+    from geomfdi.parity.model import ParityFDI
+
+__all__ = [
+    "SEQUENTIAL_METHODS",
+    "windowed_statistic",
+    "cusum_statistic",
+    "sprt_statistic",
+    "calibrate_sequential",
+    "diagnose_sequential",
+]
+
+SEQUENTIAL_METHODS = ("windowed", "cusum", "sprt")
+"""Time-series rules accepted by :meth:`ParityFDI.diagnose`."""
+
+
+def _series(pf: ParityFDI, Z: Any) -> np.ndarray:
+    """``Z`` as a float array ``(R, N, m)`` (a single stream gets ``R = 1``)."""
+    arr = np.asarray(Z, dtype=float) if not isinstance(Z, np.ndarray) else Z.astype(float)
+    if arr.ndim == 2:
+        arr = arr[None]
+    if arr.ndim != 3 or arr.shape[-1] != pf.m or arr.shape[1] == 0:
+        raise ShapeError(
+            f"Z: a time series needs shape (N, {pf.m}) or (R, N, {pf.m}) with N >= 1, "
+            f"got {np.shape(Z)}",
+            argument="Z",
+        )
+    if not np.isfinite(arr).all():
+        raise GeomFDIError("Z: entries must be finite", argument="Z")
+    return arr
+
+
+def _standardised(pf: ParityFDI, X: np.ndarray) -> np.ndarray:
+    """``e_i = a_i / sqrt(w_ii)``, N(0, 1) per hypothesis without fault, (R, N, k)."""
+    return X @ pf._Bn
+
+
+def windowed_statistic(pf: ParityFDI, Z: Any, window: int) -> tuple[np.ndarray, np.ndarray]:
+    """Moving-average GLT ``FD_w`` and the isolation functions of the window mean.
+
+    Parameters
+    ----------
+    pf : ParityFDI
+    Z : array_like, (N, m) or (R, N, m)
+        Consecutive samples.
+    window : int
+        Number of samples averaged (``>= 1``; 1 is the per-sample GLT).
+
+    Returns
+    -------
+    fd : ndarray, (R, N)
+        ``||S_t||^2 / n_t`` with ``S_t`` the sum of the whitened parity vectors
+        ``q / sigma`` over the last ``n_t = min(t + 1, window)`` samples; ``chi2(m - n)``
+        at every epoch without fault.
+    fi : ndarray, (R, N, k)
+        ``FI_i = E_i(t)^2 / n_t``, ``E`` the windowed sum of ``e_i``.
+    """
+    window = as_int(window, "window", minimum=1)
+    X = _series(pf, Z)
+    P = X @ (pf._T.T / pf.sigma)
+    E = _standardised(pf, X)
+    n_t = np.minimum(np.arange(1, X.shape[1] + 1), window).astype(float)
+    Ps, Es = _moving_sum(P, window), _moving_sum(E, window)
+    fd = np.einsum("rts,rts->rt", Ps, Ps) / n_t
+    fi = Es**2 / n_t[:, None]
+    return fd, fi
+
+
+def _moving_sum(X: np.ndarray, w: int) -> np.ndarray:
+    """Sum of the last ``min(t + 1, w)`` rows along axis 1 (cumulative sums)."""
+    C = np.cumsum(X, axis=1)
+    out = C.copy()
+    if w < X.shape[1]:
+        out[:, w:] -= C[:, :-w]
+    return out
+
+
+def _llr(pf: ParityFDI, X: np.ndarray, shift: float) -> np.ndarray:
+    """Log-likelihood-ratio increments ``+/- nu_i e_i - nu_i^2 / 2``, (R, N, 2k)."""
+    E = _standardised(pf, X)
+    nu = shift * np.sqrt(pf._w)
+    nu = np.where(pf.detectable, nu, 0.0)
+    return np.concatenate([nu * E, -nu * E], axis=-1) - 0.5 * np.concatenate([nu, nu]) ** 2
+
+
+def cusum_statistic(
+    pf: ParityFDI, Z: Any, shift: float = 0.5, window: int = 100
+) -> tuple[np.ndarray, np.ndarray]:
+    """Window-limited CUSUM per fault hypothesis and sign.
+
+    Parameters
+    ----------
+    shift : float
+        Design fault size in units of ``sigma`` (the bias the test is tuned to).
+    window : int
+        Memory: change times in the last ``window`` samples are considered.
+
+    Returns
+    -------
+    stat : ndarray, (R, N)
+        ``max_{i, +/-} S_t`` with ``S_t = C_{t+1} - min_{t+1-window <= j <= t+1} C_j``,
+        ``C`` the cumulative sum of the increments (``C_0 = 0``): Page's CUSUM restricted
+        to the window, without a loop over time.
+    best : ndarray of int, (R, N)
+        The hypothesis attaining it.
+    """
+    from scipy.ndimage import minimum_filter1d
+
+    shift = as_positive(shift, "shift")
+    window = as_int(window, "window", minimum=1)
+    X = _series(pf, Z)
+    inc = _llr(pf, X, shift)
+    R, N, K = inc.shape
+    C = np.zeros((R, N + 1 + window, K))
+    C[:, :window] = np.inf  # before the stream: not a change time
+    np.cumsum(inc, axis=1, out=C[:, window + 1 :])
+    # trailing minimum over window + 1 entries (van Herk / Gil-Werman, O(N))
+    low = minimum_filter1d(C, window + 1, axis=1, origin=window // 2)
+    S = C[:, window + 1 :] - low[:, window + 1 :]
+    j = np.argmax(S, axis=-1)
+    return np.take_along_axis(S, j[..., None], axis=-1)[..., 0], j % pf.k
+
+
+def sprt_statistic(
+    pf: ParityFDI, Z: Any, shift: float = 0.5, beta: float = 0.1, window: int = 100
+) -> tuple[np.ndarray, np.ndarray]:
+    """Wald's SPRT log-likelihood ratio over the last ``window`` samples, per hypothesis.
+
+    For each epoch ``t`` the test starts at ``t - window + 1`` with ratio 0, adds the
+    increments ``l`` and restarts at 0 whenever the ratio falls to ``log beta`` (it
+    accepts "no fault"; ``beta`` is Wald's missed-detection probability of one cycle).
+
+    Returns
+    -------
+    stat, best : ndarray, (R, N)
+        ``max_{i, +/-}`` of the ratio at ``t`` and the hypothesis attaining it.
+    """
+    shift = as_positive(shift, "shift")
+    beta = as_probability(beta, "beta")
+    window = as_int(window, "window", minimum=1)
+    X = _series(pf, Z)
+    inc = _llr(pf, X, shift)
+    R, N, K = inc.shape
+    padded = np.concatenate([np.zeros((R, window - 1, K)), inc], axis=1)
+    lower = math.log(beta)
+    S = np.zeros((R, N, K))
+    for lag in range(window):  # vectorised over epochs: one pass per position in the window
+        S += padded[:, lag : lag + N]
+        S[S <= lower] = 0.0
+    j = np.argmax(S, axis=-1)
+    return np.take_along_axis(S, j[..., None], axis=-1)[..., 0], j % pf.k
+
+
+def _stat(pf: ParityFDI, Z: Any, method: str, opts: dict) -> tuple[np.ndarray, np.ndarray]:
+    if method == "cusum":
+        return cusum_statistic(pf, Z, opts["shift"], opts["window"])
+    return sprt_statistic(pf, Z, opts["shift"], opts["beta"], opts["window"])
+
+
+def calibrate_sequential(
+    pf: ParityFDI,
+    method: str,
+    pfa: float,
+    *,
+    shift: float = 0.5,
+    beta: float = 0.1,
+    window: int = 100,
+    n_blocks: int = 100_000,
+    rng: Any = 0,
+) -> float:
+    """Threshold of the CUSUM or SPRT statistic with per-epoch false-alarm rate ``pfa``.
+
+    Draws ``n_blocks`` independent noise-only blocks of ``window`` samples of the model;
+    the statistic at the last epoch of each block has the law of the statistic at any
+    epoch ``t >= window - 1`` of a fault-free stream.  Returns the ``1 - pfa`` quantile:
+    the realised rate has the binomial standard error ``sqrt(pfa (1 - pfa) / n_blocks)``.
+
+    Returns
+    -------
+    float
+        The threshold ``h``: ``P(stat_t > h) = pfa`` without fault.
+    """
+    if method not in ("cusum", "sprt"):
+        raise GeomFDIError(f"method: 'cusum' or 'sprt', got {method!r}", argument="method")
+    pfa = as_probability(pfa, "pfa")
+    n_blocks = as_int(n_blocks, "n_blocks", minimum=1)
+    gen = _as_rng(rng)
+    opts = {
+        "shift": as_positive(shift, "shift"),
+        "beta": as_probability(beta, "beta"),
+        "window": as_int(window, "window", minimum=1),
+    }
+    q = pf.m if pf.F is None else pf.F.shape[1]
+    chunk = max(1, (1 << 22) // (opts["window"] * q))
+    pool = []
+    for start in range(0, n_blocks, chunk):
+        r = min(chunk, n_blocks - start)
+        Z = gen.standard_normal((r, opts["window"], q)) * pf.sigma
+        if pf.F is not None:
+            Z = Z @ pf.F.T
+        pool.append(_last_epoch(pf, Z, method, opts))
+    return float(np.quantile(np.concatenate(pool), 1.0 - pfa))
+
+
+def _last_epoch(pf: ParityFDI, Z: np.ndarray, method: str, opts: dict) -> np.ndarray:
+    """The statistic at the last epoch of each stream of ``Z`` (R, window, m)."""
+    inc = _llr(pf, Z, opts["shift"])
+    if method == "cusum":
+        C = np.cumsum(inc, axis=1)
+        return (C[:, -1] - np.minimum(C.min(axis=1), 0.0)).max(axis=-1)
+    S = np.zeros(inc.shape[::2])
+    lower = math.log(opts["beta"])
+    for t in range(inc.shape[1]):
+        S += inc[:, t]
+        S[S <= lower] = 0.0
+    return S.max(axis=-1)
+
+
+def diagnose_sequential(
+    pf: ParityFDI,
+    Z: Any,
+    pfa: float,
+    method: str,
+    *,
+    window: int = 100,
+    shift: float = 0.5,
+    beta: float = 0.1,
+    threshold: float | None = None,
+) -> ParityDiagnosis:
+    """Per-epoch detection and isolation on a time series; see :meth:`ParityFDI.diagnose`.
+
+    Returns
+    -------
+    ParityDiagnosis
+        Arrays of shape ``(N,)`` for one stream or ``(R, N)`` for a batch (``faults``
+        ``(..., 1)``); ``threshold`` is exact (windowed) or calibrated (cusum, sprt).
+    """
+    pfa = as_probability(pfa, "pfa")
+    if method == "windowed":
+        fd, fi = windowed_statistic(pf, Z, window)
+        thr = chi2_threshold(pfa, pf.s) if threshold is None else float(threshold)
+        stat, best = fd, np.argmax(fi, axis=-1)
+        det = stat >= thr
+    elif method in ("cusum", "sprt"):
+        opts = {
+            "shift": as_positive(shift, "shift"),
+            "beta": as_probability(beta, "beta"),
+            "window": as_int(window, "window", minimum=1),
+        }
+        if threshold is None:
+            key = (method, pfa, opts["shift"], opts["beta"], opts["window"])
+            if key not in pf._sequential_thresholds:
+                pf._sequential_thresholds[key] = calibrate_sequential(
+                    pf, method, pfa, shift=opts["shift"], beta=opts["beta"], window=opts["window"]
+                )
+            thr = pf._sequential_thresholds[key]
+        else:
+            thr = float(threshold)
+        stat, best = _stat(pf, Z, method, opts)
+        det = stat > thr
+    else:
+        raise GeomFDIError(
+            f"method: expected one of {', '.join(SEQUENTIAL_METHODS)}, got {method!r}",
+            argument="method",
+        )
+    iso = np.where(det, pf._lut[best], -1)
+    one = np.ndim(Z) == 2
+    if one:
+        det, iso, stat = det[0], iso[0], stat[0]
+    return ParityDiagnosis(det, iso[..., None], stat, thr, method, pfa)

@@ -1,0 +1,94 @@
+"""Windowed and sequential parity tests: false-alarm rates and small-bias detection."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import geomfdi as gf
+from geomfdi.errors import GeomFDIError
+from geomfdi.parity.sequential import cusum_statistic, sprt_statistic
+
+N_FA = 20_000
+
+
+@pytest.fixture(scope="module")
+def pf():
+    return gf.ParityFDI(gf.parity.dodecahedron(), sigma=2.0)
+
+
+def _brute_cusum(inc, window):
+    R, N, _ = inc.shape
+    out = np.zeros((R, N))
+    for r in range(R):
+        for t in range(N):
+            sums = [inc[r, tau : t + 1].sum(axis=0) for tau in range(max(0, t - window + 1), t + 1)]
+            out[r, t] = max(0.0, max(s.max() for s in sums))
+    return out
+
+
+def _brute_sprt(inc, window, beta):
+    R, N, K = inc.shape
+    out = np.zeros((R, N))
+    for r in range(R):
+        for t in range(N):
+            cur = np.zeros(K)
+            for tau in range(max(0, t - window + 1), t + 1):
+                cur += inc[r, tau]
+                cur[cur <= np.log(beta)] = 0.0
+            out[r, t] = cur.max()
+    return out
+
+
+def test_cusum_and_sprt_match_their_recursions(pf):
+    from geomfdi.parity.sequential import _llr
+
+    Z = np.random.default_rng(0).standard_normal((2, 25, 6)) * 2.0
+    Z[:, 12:, 3] += 3.0
+    inc = _llr(pf, Z, 0.5)
+    assert np.allclose(cusum_statistic(pf, Z, 0.5, 7)[0], _brute_cusum(inc, 7), atol=1e-12)
+    assert np.allclose(sprt_statistic(pf, Z, 0.5, 0.1, 7)[0], _brute_sprt(inc, 7, 0.1))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["windowed", "cusum", "sprt"])
+def test_per_epoch_false_alarm_rate_matches_the_computed_one(pf, method):
+    window, pfa = 30, 0.01
+    # independent noise-only streams; the statistic at epoch window - 1 has the law of
+    # any epoch of a long stream (finite memory)
+    Z = np.random.default_rng(11).standard_normal((N_FA, window, 6)) * pf.sigma
+    res = pf.diagnose(Z, pfa, method=method, window=window)
+    rate = res.detected[:, -1].mean()
+    se = np.sqrt(pfa * (1 - pfa) / N_FA)
+    if method != "windowed":  # the calibrated threshold has its own binomial error
+        se = np.hypot(se, np.sqrt(pfa * (1 - pfa) / 100_000))
+    assert abs(rate - pfa) < 4 * se
+    if method == "windowed":
+        assert res.threshold == pytest.approx(gf.parity.chi2_threshold(pfa, 3))
+
+
+def test_windowed_test_detects_a_bias_the_per_sample_test_misses(pf):
+    rng = np.random.default_rng(4)
+    N, t0, window, pfa = 6000, 1000, 800, 1e-3
+    Z = rng.standard_normal((N, 6)) * pf.sigma
+    Z[t0:, 2] += 0.3 * pf.sigma  # a 0.3 sigma bias on sensor 2
+    per_sample = pf.diagnose(Z, pfa)
+    windowed = pf.diagnose(Z, pfa, method="windowed", window=window)
+    full = slice(t0 + window, N)  # window entirely faulty
+    assert windowed.detected[full].mean() > 0.9
+    assert (windowed.isolated[full] == 2).mean() > 0.8
+    assert windowed.detected[:t0].mean() < 0.01
+    # the per-sample GLT at the same false-alarm rate sees only its false alarms
+    assert per_sample.detected[t0:].mean() < 5 * pfa
+
+
+def test_sequential_options_are_validated(pf):
+    Z = np.zeros((10, 6))
+    with pytest.raises(GeomFDIError, match="window"):
+        pf.diagnose(Z, method="windowed", window=0)
+    with pytest.raises(GeomFDIError, match="shift"):
+        pf.diagnose(Z, method="cusum", shift=-1, threshold=1.0)
+    with pytest.raises(GeomFDIError, match="Z"):
+        pf.diagnose(np.zeros((10, 5)), method="cusum", threshold=1.0)
+    with pytest.raises(GeomFDIError, match="method"):
+        pf.diagnose(Z, method="ewma")
