@@ -46,7 +46,14 @@ def test_example_reproduces_the_seed_004_experiment(tmp_path, capsys):
 
 
 @pytest.mark.parametrize(
-    "module", [gf.parity.model, gf.parity.thresholds, gf.parity.capability, gf.parity.configs]
+    "module",
+    [
+        gf.parity.model,
+        gf.parity.thresholds,
+        gf.parity.capability,
+        gf.parity.configs,
+        gf.parity.estimation,
+    ],
 )
 def test_docstring_examples(module):
     result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)

@@ -92,3 +92,47 @@ def test_sequential_options_are_validated(pf):
         pf.diagnose(np.zeros((10, 5)), method="cusum", threshold=1.0)
     with pytest.raises(GeomFDIError, match="method"):
         pf.diagnose(Z, method="ewma")
+
+
+# ------------------------------------------------------------------ estimation after exclusion
+@pytest.mark.parametrize("F", [None, "correlated"])
+def test_state_estimate_after_exclusion_has_the_computed_covariance(F):
+    rng = np.random.default_rng(21)
+    H = gf.parity.dodecahedron()
+    Fm = None
+    if F == "correlated":
+        Fm = np.eye(6) + 0.3 * rng.standard_normal((6, 6))
+    pf = gf.ParityFDI(H, sigma=0.05, F=Fm)
+    x_true = np.array([0.3, -1.0, 2.0])
+    fault = np.zeros(6)
+    fault[4] = 3.0
+    Z = gf.parity.simulate(pf, 10_000, rng=rng, x=x_true, fault=fault)
+    est = pf.estimate_state(Z, exclude=[4])
+    err = est.x - x_true
+    assert np.abs(err.mean(axis=0)).max() < 4 * np.sqrt(np.diag(est.covariance[0]).max() / 1e4)
+    emp = np.cov(err.T)
+    P = est.covariance[0]
+    assert np.allclose(np.diag(emp), np.diag(P), rtol=0.05)
+    assert np.linalg.norm(emp - P) < 0.05 * np.linalg.norm(P)
+    # without the exclusion the faulty sensor biases the estimate
+    assert np.abs(pf.estimate_state(Z).x.mean(axis=0) - x_true).max() > 0.5
+    # the fault size estimate: unbiased, with the computed variance
+    fe = pf.estimate_faults(Z, 4)
+    assert abs(fe.size.mean() - 3.0) < 4 * np.sqrt(fe.covariance[0, 0] / 1e4)
+    assert fe.size.var() == pytest.approx(fe.covariance[0, 0], rel=0.05)
+
+
+def test_state_estimate_follows_a_diagnosis_sample_by_sample():
+    pf = gf.ParityFDI(gf.parity.dodecahedron(), sigma=0.01)
+    rng = np.random.default_rng(2)
+    Z = gf.parity.simulate(pf, 200, rng=rng, x=[1.0, 2.0, 3.0])
+    Z[:100, 1] += 1.0
+    Z[100:150, 5] -= 1.0
+    diag = pf.diagnose(Z, 1e-4)
+    est = pf.estimate_state(Z, exclude=diag)
+    assert (est.excluded[:100, 0] == 1).all() and (est.excluded[100:150, 0] == 5).all()
+    assert np.abs(est.x - [1.0, 2.0, 3.0]).max() < 6 * np.sqrt(est.covariance[:, 0, 0].max())
+    full = pf.estimate_state(Z[150:])
+    assert full.covariance[0, 0, 0] < est.covariance[0, 0, 0]  # six sensors beat five
+    with pytest.raises(GeomFDIError, match="exclude"):
+        pf.estimate_state(Z, exclude=[0, 1, 2, 3])

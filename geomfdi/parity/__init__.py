@@ -13,6 +13,7 @@ See the user guide, *Theory: parity space* (``docs/theory/parity-space.md``).
 
 from geomfdi.parity.configs import MAGIC_HALF_ANGLE, axis_cosines, cone, dodecahedron, tetrahedron
 from geomfdi.parity.decision import METHODS
+from geomfdi.parity.estimation import FaultEstimate, StateEstimate, estimate_faults, estimate_state
 from geomfdi.parity.model import ParityFDI
 from geomfdi.parity.montecarlo import (
     correct_isolation_rate,
@@ -29,6 +30,13 @@ from geomfdi.parity.results import (
     Seed004Result,
 )
 from geomfdi.parity.seed004 import seed004_experiment
+from geomfdi.parity.sequential import (
+    SEQUENTIAL_METHODS,
+    calibrate_sequential,
+    cusum_statistic,
+    sprt_statistic,
+    windowed_statistic,
+)
 from geomfdi.parity.thresholds import chi2_threshold, normal_threshold, opt_false_alarm_bound
 from geomfdi.plotting.parity import plot_rates, plot_seed004
 
@@ -50,6 +58,15 @@ __all__ = [
     "plot_rates",
     "plot_seed004",
     "METHODS",
+    "SEQUENTIAL_METHODS",
+    "windowed_statistic",
+    "cusum_statistic",
+    "sprt_statistic",
+    "calibrate_sequential",
+    "FaultEstimate",
+    "StateEstimate",
+    "estimate_faults",
+    "estimate_state",
     "seed004_experiment",
     "dodecahedron",
     "cone",

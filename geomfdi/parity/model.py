@@ -30,6 +30,7 @@ from geomfdi._validation import as_int, as_matrix, as_positive, as_real_array
 from geomfdi.errors import DesignError, GeomFDIError, RankDeficientError, ShapeError
 from geomfdi.parity import capability as _capability
 from geomfdi.parity import decision as _decision
+from geomfdi.parity import estimation as _estimation
 from geomfdi.parity import glt as _glt
 from geomfdi.parity import multiple as _multiple
 from geomfdi.parity import opt as _opt
@@ -384,6 +385,14 @@ class ParityFDI:
                 self, Z, pfa, method, window=window, shift=shift, beta=beta, threshold=threshold
             )
         return _decision.diagnose(self, Z, pfa, method=method, max_faults=max_faults)
+
+    def estimate_faults(self, Z: Any, faults: Any) -> _estimation.FaultEstimate:
+        """ML fault sizes of the hypotheses ``faults``; see :func:`.estimation.estimate_faults`."""
+        return _estimation.estimate_faults(self, Z, faults)
+
+    def estimate_state(self, Z: Any, exclude: Any = ()) -> _estimation.StateEstimate:
+        """State estimate without the excluded sensors; see :func:`.estimation.estimate_state`."""
+        return _estimation.estimate_state(self, Z, exclude)
 
     def reduced(self, remove: int | Sequence[int]) -> ParityFDI:
         """The configuration without the sensors ``remove`` (re-detection after isolation).
