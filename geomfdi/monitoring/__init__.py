@@ -12,6 +12,14 @@ baselines on the same innovations (chi-square, CUSUM, GLR of the mean, joint T^2
 See the user guide, *Theory: AR monitoring* (``docs/theory/ar-monitoring.md``).
 """
 
+from geomfdi.monitoring.baselines import (
+    BaselineResult,
+    coefficient_t2,
+    innovation_chi2,
+    innovation_cusum,
+    innovation_glr,
+    latch_alarms,
+)
 from geomfdi.monitoring.innovations import innovation_fault, synthetic_innovations
 from geomfdi.monitoring.monitor import ARMonitor
 from geomfdi.monitoring.results import ARMonitorResult, ARMonitorWarning, ARStep
@@ -25,4 +33,10 @@ __all__ = [
     "plot_ar_monitor",
     "innovation_fault",
     "synthetic_innovations",
+    "BaselineResult",
+    "innovation_chi2",
+    "innovation_cusum",
+    "innovation_glr",
+    "coefficient_t2",
+    "latch_alarms",
 ]
