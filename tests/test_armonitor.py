@@ -501,7 +501,7 @@ def test_benchmark_quick_mode_runs(capsys):
 
 def test_example_script_runs(tmp_path, capsys):
     example = _load(ROOT / "examples" / "ar_innovation_monitor.py")
-    res = example.main(["--out", str(tmp_path), "--seed", "3"])
+    res = example.main(["--out", str(tmp_path), "--seed", "3", "--buffers", "20", "--streams", "4"])
     assert (tmp_path / "ar_parameter_changes.png").exists()
     assert (tmp_path / "ar_stream_reset.png").exists()
     shift = res["shift"]["5σ in last 2"]
@@ -510,7 +510,17 @@ def test_example_script_runs(tmp_path, capsys):
     with_reset = res["stream"]["with reset (10 alarms)"]
     assert 61 <= no_reset["first_alarm_s"] <= 70
     assert with_reset["alarm_fraction_during_fault"] > 2 * no_reset["alarm_fraction_during_fault"]
-    assert "first alarm" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "first alarm" in out
+    # the alarm-fraction distribution over 20 stored buffers, with and without the reset,
+    # and the chi-square baseline on the same streams
+    assert "20 stored normal buffers" in out and "chi2 of innovation" in out
+    dist = res["buffers"]
+    assert dist["fractions"]["reset (10 alarms)"].size == 20
+    assert dist["fractions"]["no reset"].size == 20
+    spread = np.ptp(dist["fractions"]["reset (10 alarms)"])
+    assert spread > 0.2  # the reset's benefit depends strongly on the stored buffer
+    assert dist["chi2"] > np.median(dist["fractions"]["no reset"])
 
 
 @pytest.mark.parametrize("training", [[], np.zeros((0, 60)), np.zeros((1, 60)), [[]]])
