@@ -100,6 +100,9 @@ _register("geomfdi.parity.model", "ParityFDI")
 _register("geomfdi.parity.results", "ParityDiagnosis")
 _register("geomfdi.diagnosability.model", "WindowModel")
 _register(
+    "geomfdi.diagnosability.bank", "BankDiagnosability", "bank_diagnosability", "bank_window_sweep"
+)
+_register(
     "geomfdi.diagnosability.results",
     "ApplicabilityReport",
     "DiagnosabilityTable",
@@ -170,6 +173,11 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi import errors, tolerance  # noqa: F401
+    from geomfdi.diagnosability.bank import (  # noqa: F401
+        BankDiagnosability,
+        bank_diagnosability,
+        bank_window_sweep,
+    )
     from geomfdi.diagnosability.model import WindowModel  # noqa: F401
     from geomfdi.diagnosability.results import (  # noqa: F401
         ApplicabilityReport,

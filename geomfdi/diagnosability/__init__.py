@@ -11,6 +11,11 @@
 See the user guide, *Theory: diagnosability* (``docs/theory/diagnosability.md``).
 """
 
+from geomfdi.diagnosability.bank import (
+    BankDiagnosability,
+    bank_diagnosability,
+    bank_window_sweep,
+)
 from geomfdi.diagnosability.model import WindowModel
 from geomfdi.diagnosability.results import (
     ApplicabilityReport,
@@ -29,4 +34,7 @@ __all__ = [
     "ApplicabilityReport",
     "diagnosability_table",
     "plot_isolability",
+    "BankDiagnosability",
+    "bank_diagnosability",
+    "bank_window_sweep",
 ]

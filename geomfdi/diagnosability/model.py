@@ -61,6 +61,10 @@ class WindowModel:
         Output-side fault signatures (zero by default).
     Bw : array_like, (n, l), optional
         Process-noise input matrix (identity by default, ``l = n``).
+    Dw : array_like, (m, l), optional
+        Feedthrough of the process noise to the outputs (zero by default): a noise that
+        enters both the state and the output, e.g. the measurement noise of a residual
+        generator driven by the plant's outputs (:func:`bank_diagnosability`).
     Dv : array_like, (m, t), optional
         Measurement-noise matrix (identity by default, ``t = m``).
     Qw : float, array_like (l,) or (l, l)
@@ -139,6 +143,7 @@ class WindowModel:
         Df: Any = None,
         Bw: Any = None,
         Dv: Any = None,
+        Dw: Any = None,
         Qw: Any = None,
         Rv: Any = None,
         window: int | None = None,
@@ -164,6 +169,8 @@ class WindowModel:
         self.Df = np.zeros((m, p)) if Df is None else _as_channel(Df, "Df", m, p)
         self.Bw = np.eye(n) if Bw is None else _as_channel(Bw, "Bw", n)
         self.Dv = np.eye(m) if Dv is None else _as_channel(Dv, "Dv", m)
+        lw = self.Bw.shape[1]
+        self.Dw = np.zeros((m, lw)) if Dw is None else _as_channel(Dw, "Dw", m, lw)
         if Qw is None:
             raise GeomFDIError("Qw: the process-noise covariance is required", argument="Qw")
         if Rv is None:
@@ -187,7 +194,7 @@ class WindowModel:
                 argument="nullspace",
             )
         self.nullspace = nullspace
-        for arr in (self.A, self.B, self.C, self.D, self.Bf, self.Df, self.Bw, self.Dv):
+        for arr in (self.A, self.B, self.C, self.D, self.Bf, self.Df, self.Bw, self.Dv, self.Dw):
             arr.setflags(write=False)
         self.Qw.setflags(write=False)
         self.Rv.setflags(write=False)

@@ -69,6 +69,7 @@ def stacked(model: WindowModel) -> StackedWindow:
     l, tv = model.Bw.shape[1], model.Dv.shape[1]
     E = np.zeros(((n + m) * s, (l + tv) * s))
     E[: n * s, : l * s] = np.kron(I_s, model.Bw)
+    E[n * s :, : l * s] = np.kron(I_s, model.Dw)
     E[n * s :, l * s :] = np.kron(I_s, model.Dv)
     Sigma = np.zeros(((l + tv) * s, (l + tv) * s))
     Sigma[: l * s, : l * s] = np.kron(I_s, model.Qw)
@@ -155,14 +156,15 @@ def _reduced(model: WindowModel, method: str | None = None) -> _Reduced:
         N = model.left_null_basis("direct")
         Nx, Ny = N[:, : model.n * s], N[:, model.n * s :]
         NF = _times_kron(Nx, model.Bf) + _times_kron(Ny, model.Df)
-        NW, NV = _times_kron(Nx, model.Bw), _times_kron(Ny, model.Dv)
+        NW = _times_kron(Nx, model.Bw) + _times_kron(Ny, model.Dw)
+        NV = _times_kron(Ny, model.Dv)
         # ||F_i||_2: the columns of F_i are orthogonal, each of norm ||[Bf_i; Df_i]||
         f_norms = np.hypot(np.linalg.norm(model.Bf, axis=0), np.linalg.norm(model.Df, axis=0))
     else:
         N_O = _observability_null(model)
         Tf = _toeplitz(model, model.Bf, model.Df)
         NF = N_O @ Tf
-        NW = N_O @ _toeplitz(model, model.Bw, np.zeros((model.m, model.Bw.shape[1])))
+        NW = N_O @ _toeplitz(model, model.Bw, model.Dw)
         NV = _times_kron(N_O, model.Dv)
         f_norms = np.array([np.linalg.norm(Tf[:, i::p], 2) for i in range(p)])
     M = _times_kron(NW, model.Qw) @ NW.T + _times_kron(NV, model.Rv) @ NV.T

@@ -135,7 +135,8 @@ def diagnosability_table(
 
 
 def _format_table(vals: np.ndarray, names: tuple[str, ...], digits: int) -> str:
-    width = max(digits + 4, *(len(nm) + 1 for nm in names))
+    big = float(np.max(np.abs(vals))) if vals.size and np.isfinite(vals).all() else 0.0
+    width = max(digits + 4, len(f"{big:.{digits}f}") + 2, *(len(nm) + 1 for nm in names))
     head = " " * width + "".join(f"{h:>{width}}" for h in ("FD", *names))
     rows = [
         f"{nm:<{width}}" + "".join(f"{v:>{width}.{digits}f}" for v in row)
