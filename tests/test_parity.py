@@ -746,3 +746,20 @@ def test_large_configuration_statistics_match_the_projector():
 def test_sensor_labels_are_validated(labels, match):
     with pytest.raises(GeomFDIError, match=match):
         gf.ParityFDI(gf.parity.dodecahedron(), sensors=labels)
+
+
+def test_confusable_pairs_are_explained_exactly_by_a_disjoint_pair():
+    pf = gf.ParityFDI(gf.parity.dodecahedron())
+    cap = pf.capability()
+    assert cap.pair_identifiable[np.triu_indices(6, 1)].all()
+    assert cap.pair_confusable[np.triu_indices(6, 1)].all()
+    assert "confusable with a disjoint pair for some fault sizes: 15/15" in cap.summary()
+    f = np.zeros(6)
+    f[[0, 1]] = 1.0  # equal sizes, same sign (Qin & Niu, Table 3)
+    fd = pf.detection_statistic(f)[0]
+    glr, subsets = pf.glr_statistics(f, 2)
+    explained = [tuple(S) for S, g in zip(subsets, glr[0], strict=True) if fd - g < 1e-9 * fd]
+    assert (0, 1) in explained and any(not ({0, 1} & set(S)) for S in explained)
+    # with five parity equations two disjoint pairs never share a direction
+    cone = gf.ParityFDI(gf.parity.cone(8)).capability()
+    assert cone.pair_confusable is not None and not cone.pair_confusable.any()

@@ -122,8 +122,15 @@ class ConfigurationCapability:
     detectable, isolable : ndarray of bool, shape (k,)
         A single fault is visible in parity space / distinguishable from every other.
     pair_identifiable : ndarray of bool, shape (k, k)
-        The pair {i, j} spans a two-dimensional subspace that no other pair spans (the
-        two-fault GLR can single it out); diagonal False.
+        The pair {i, j} spans a two-dimensional subspace that no other pair spans and that
+        contains no other single-fault signature; diagonal False.  This is necessary, not
+        sufficient, for isolating the pair: see ``pair_confusable``.
+    pair_confusable : ndarray of bool, shape (k, k)
+        Some faults on {i, j} (with particular sizes) give a parity vector that a
+        disjoint pair {k, l} explains exactly: the spans of the two pairs share a
+        direction.  With ``m - n <= 3`` every two 2-D spans share a line, so every pair
+        is confusable (on the dodecahedron the equal-size faults of Qin & Niu's Tables
+        3-4 lie on these lines); ``None`` when not computed (too many pairs).
     """
 
     w: np.ndarray
@@ -135,6 +142,7 @@ class ConfigurationCapability:
     detectable: np.ndarray
     isolable: np.ndarray
     pair_identifiable: np.ndarray
+    pair_confusable: np.ndarray | None = None
 
     @property
     def min_separation_deg(self) -> float:
@@ -162,8 +170,16 @@ class ConfigurationCapability:
                 f"min {np.min(ax):.2f} deg, max {np.max(ax):.2f} deg"
             )
             lines.append(
-                f"identifiable pairs: {int(self.pair_identifiable[iu].sum())}/{iu[0].size}"
+                f"pairs with a unique span (free sizes): "
+                f"{int(self.pair_identifiable[iu].sum())}/{iu[0].size}"
             )
+            if self.pair_confusable is not None:
+                nc = int(self.pair_confusable[iu].sum())
+                lines.append(
+                    f"pairs confusable with a disjoint pair for some fault sizes: "
+                    f"{nc}/{iu[0].size}"
+                    + (" (two faults on such a pair are not isolable in general)" if nc else "")
+                )
         return "\n".join(lines)
 
 
