@@ -177,8 +177,7 @@ class ConfigurationCapability:
                 nc = int(self.pair_confusable[iu].sum())
                 lines.append(
                     f"pairs confusable with a disjoint pair for some fault sizes: "
-                    f"{nc}/{iu[0].size}"
-                    + (" (two faults on such a pair are not isolable in general)" if nc else "")
+                    f"{nc}/{iu[0].size}" + (" (not isolable for those sizes)" if nc else "")
                 )
         return "\n".join(lines)
 
