@@ -136,3 +136,46 @@ def test_state_estimate_follows_a_diagnosis_sample_by_sample():
     assert full.covariance[0, 0, 0] < est.covariance[0, 0, 0]  # six sensors beat five
     with pytest.raises(GeomFDIError, match="exclude"):
         pf.estimate_state(Z, exclude=[0, 1, 2, 3])
+
+
+# ------------------------------------------------------------------ configurations, faults, ROC
+def test_configurations_from_cosines_and_angles():
+    H = gf.parity.dodecahedron()
+    assert np.allclose(gf.parity.from_direction_cosines(3 * H), H)
+    az = np.degrees(np.arctan2(H[:, 1], H[:, 0]))
+    el = np.degrees(np.arcsin(H[:, 2]))
+    assert np.allclose(gf.parity.from_angles(az, el, degrees=True), H)
+    with pytest.raises(GeomFDIError, match="cosines"):
+        gf.parity.from_direction_cosines([[1, 0, 0], [0, 0, 0]])
+
+
+def test_scale_factor_and_misalignment_faults_are_isolated():
+    pf = gf.ParityFDI(gf.parity.dodecahedron(), sigma=1e-3)
+    rng = np.random.default_rng(9)
+    x = rng.standard_normal((500, 3)) * 10.0
+    Z0 = x @ pf.H.T + 1e-3 * rng.standard_normal((500, 6))
+    sf = gf.parity.scale_factor_fault(pf.H, x, 3, 0.01)
+    assert np.allclose(sf[:, 3], 0.01 * x @ pf.H[3]) and not sf[:, [0, 1, 2, 4, 5]].any()
+    mis = gf.parity.misalignment_fault(pf.H, x, 1, 0.5, degrees=True)
+    # a small rotation changes the reading by about angle * |x_perp|, orthogonal to h_1
+    assert np.abs(mis[:, 1]).max() < np.radians(0.5) * np.linalg.norm(x, axis=1).max() * 1.01
+    for fault, sensor in ((sf, 3), (mis, 1)):
+        res = pf.diagnose(Z0 + fault, 1e-4)
+        big = np.abs(fault[:, sensor]) > 0.02
+        assert (res.isolated[big] == sensor).mean() > 0.95
+
+
+def test_roc_curves_order_the_tests_and_match_nominal_rates():
+    pf = gf.ParityFDI(gf.parity.dodecahedron(), sigma=1.0)
+    f = np.zeros(6)
+    f[2] = 3.0
+    roc = gf.parity.roc_curves(pf, f, 20_000, rng=3, pfa=[1e-3, 1e-2, 1e-1])
+    assert np.allclose(roc.pd["glt"], roc.pd["opt"])  # Theorem 4
+    assert (np.diff(roc.pd["glt"]) > 0).all()
+    # at a realised false-alarm rate the GLT power equals the noncentral chi-square power
+    from scipy import stats
+
+    exact = stats.ncx2.sf(stats.chi2.isf([1e-3, 1e-2, 1e-1], 3), 3, 9.0 * 0.5)
+    assert np.allclose(roc.pd["glt"], exact, atol=4 * np.sqrt(0.25 / 20_000) + 0.01)
+    fig = roc.plot()
+    assert len(fig.axes[0].lines) == 3

@@ -11,14 +11,26 @@
 See the user guide, *Theory: parity space* (``docs/theory/parity-space.md``).
 """
 
-from geomfdi.parity.configs import MAGIC_HALF_ANGLE, axis_cosines, cone, dodecahedron, tetrahedron
+from geomfdi.parity.configs import (
+    MAGIC_HALF_ANGLE,
+    axis_cosines,
+    cone,
+    dodecahedron,
+    from_angles,
+    from_direction_cosines,
+    misalignment_fault,
+    scale_factor_fault,
+    tetrahedron,
+)
 from geomfdi.parity.decision import METHODS
 from geomfdi.parity.estimation import FaultEstimate, StateEstimate, estimate_faults, estimate_state
 from geomfdi.parity.model import ParityFDI
 from geomfdi.parity.montecarlo import (
+    RocCurve,
     correct_isolation_rate,
     false_alarm_rate,
     rates_vs_fault_size,
+    roc_curves,
     simulate,
 )
 from geomfdi.parity.results import (
@@ -38,7 +50,7 @@ from geomfdi.parity.sequential import (
     windowed_statistic,
 )
 from geomfdi.parity.thresholds import chi2_threshold, normal_threshold, opt_false_alarm_bound
-from geomfdi.plotting.parity import plot_rates, plot_seed004
+from geomfdi.plotting.parity import plot_rates, plot_roc, plot_seed004
 
 __all__ = [
     "ParityFDI",
@@ -73,4 +85,11 @@ __all__ = [
     "tetrahedron",
     "axis_cosines",
     "MAGIC_HALF_ANGLE",
+    "from_direction_cosines",
+    "from_angles",
+    "scale_factor_fault",
+    "misalignment_fault",
+    "RocCurve",
+    "roc_curves",
+    "plot_roc",
 ]

@@ -14,12 +14,31 @@ attitude measuring of a strapdown inertial navigation system", Journal of Astron
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from geomfdi._validation import as_int, as_positive
+from geomfdi._validation import (
+    as_index,
+    as_int,
+    as_matrix,
+    as_positive,
+    as_real_array,
+    as_vector,
+)
 from geomfdi.errors import GeomFDIError
 
-__all__ = ["dodecahedron", "cone", "tetrahedron", "MAGIC_HALF_ANGLE", "axis_cosines"]
+__all__ = [
+    "dodecahedron",
+    "cone",
+    "tetrahedron",
+    "MAGIC_HALF_ANGLE",
+    "axis_cosines",
+    "from_direction_cosines",
+    "from_angles",
+    "scale_factor_fault",
+    "misalignment_fault",
+]
 
 MAGIC_HALF_ANGLE = float(np.arccos(1.0 / np.sqrt(3.0)))
 """Cone half-angle ``arccos(1/sqrt 3)`` (54.7356 deg) for which ``H^T H = (m/3) I``."""
@@ -154,3 +173,114 @@ def axis_cosines(H: np.ndarray) -> np.ndarray:
     C[norms == 0, :] = 0.0
     C[:, norms == 0] = 0.0
     return np.clip(C, -1.0, 1.0)
+
+
+def from_direction_cosines(cosines: Any) -> np.ndarray:
+    """Measurement matrix from the direction cosines of the sensing axes.
+
+    Parameters
+    ----------
+    cosines : array_like, shape (m, 3)
+        One row per sensor: the cosines of its axis with the body x, y, z axes (any
+        non-zero length; rows are normalised to unit length).
+
+    Returns
+    -------
+    H : ndarray, shape (m, 3)
+        Unit rows.
+
+    Examples
+    --------
+    >>> from_direction_cosines([[1, 0, 0], [0, 2, 0], [0, 0, 1], [1, 1, 1]]).round(4)[3]
+    array([0.5774, 0.5774, 0.5774])
+    """
+    H = as_matrix(cosines, "cosines", cols=3)
+    norms = np.linalg.norm(H, axis=1)
+    if np.any(norms == 0):
+        raise GeomFDIError(
+            f"cosines: row {int(np.argmin(norms))} is zero (no sensing axis)", argument="cosines"
+        )
+    return H / norms[:, None]
+
+
+def from_angles(azimuth: Any, elevation: Any, *, degrees: bool = False) -> np.ndarray:
+    """Measurement matrix from azimuth and elevation angles of the sensing axes.
+
+    Row ``i`` is ``(cos e_i cos a_i, cos e_i sin a_i, sin e_i)``: azimuth ``a`` in the
+    x-y plane from x towards y, elevation ``e`` from that plane towards z.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> H = from_angles([0, 120, 240, 0], [35.26439, 35.26439, 35.26439, 90], degrees=True)
+    >>> np.round(H[:, 2], 4).tolist()
+    [0.5774, 0.5774, 0.5774, 1.0]
+    """
+    az = as_vector(azimuth, "azimuth")
+    el = as_vector(elevation, "elevation", length=az.size)
+    if degrees:
+        az, el = np.radians(az), np.radians(el)
+    return np.column_stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+
+
+def scale_factor_fault(H: Any, x: Any, sensor: int, k: float) -> np.ndarray:
+    """Additive fault of a scale-factor error ``k`` on ``sensor``: ``k h_i^T x``.
+
+    Parameters
+    ----------
+    H : array_like, (m, n)
+    x : array_like, (N, n) or (n,)
+        True states (the fault grows with the measured quantity).
+    sensor : int
+    k : float
+        Relative scale-factor error (``0.01``: the sensor reads 1 % high).
+
+    Returns
+    -------
+    ndarray, (N, m)
+        Add it to the fault-free measurements ``x H^T``.
+    """
+    Hm = as_matrix(H, "H")
+    i = as_index(sensor, "sensor", Hm.shape[0])
+    X = np.atleast_2d(as_real_array(x, "x"))
+    if X.shape[-1] != Hm.shape[1]:
+        raise GeomFDIError(f"x: expected {Hm.shape[1]} columns", argument="x")
+    out = np.zeros((X.shape[0], Hm.shape[0]))
+    out[:, i] = float(as_real_array(k, "k")) * (X @ Hm[i])
+    return out
+
+
+def misalignment_fault(
+    H: Any, x: Any, sensor: int, angle: float, *, about: Any = None, degrees: bool = False
+) -> np.ndarray:
+    """Additive fault of a misaligned axis: ``(h_i' - h_i)^T x``, ``h_i'`` rotated.
+
+    The unit axis ``h_i`` (of a 3-axis configuration) is rotated by ``angle`` about the
+    unit vector ``about`` (default: perpendicular to ``h_i`` and to the body axis it is
+    least aligned with), by Rodrigues' formula.
+
+    Returns
+    -------
+    ndarray, (N, m)
+        Add it to the fault-free measurements ``x H^T``.
+    """
+    Hm = as_matrix(H, "H", cols=3)
+    i = as_index(sensor, "sensor", Hm.shape[0])
+    X = np.atleast_2d(as_real_array(x, "x"))
+    if X.shape[-1] != 3:
+        raise GeomFDIError("x: expected 3 columns", argument="x")
+    th = float(as_real_array(angle, "angle"))
+    th = np.radians(th) if degrees else th
+    h = Hm[i]
+    if about is None:
+        k = np.cross(h, np.eye(3)[int(np.argmin(np.abs(h)))])
+    else:
+        k = as_vector(about, "about", length=3)
+    nk = np.linalg.norm(k)
+    if nk == 0:
+        raise GeomFDIError("about: the rotation axis must be non-zero", argument="about")
+    k = k / nk
+    h_rot = h * np.cos(th) + np.cross(k, h) * np.sin(th) + k * (k @ h) * (1 - np.cos(th))
+    out = np.zeros((X.shape[0], Hm.shape[0]))
+    out[:, i] = X @ (h_rot - h)
+    return out

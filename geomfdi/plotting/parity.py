@@ -10,9 +10,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
+    from geomfdi.parity.montecarlo import RocCurve
     from geomfdi.parity.results import RateCurve, Seed004Result
 
-__all__ = ["plot_rates", "plot_seed004"]
+__all__ = ["plot_rates", "plot_seed004", "plot_roc"]
 
 
 def _figure_axes(ax: Any, figsize: tuple[float, float]) -> tuple[Any, Any]:
@@ -92,5 +93,25 @@ def plot_seed004(result: Seed004Result, ax: Any = None) -> Any:
     ax.set_ylabel("correct-isolation rate (bar: mean, tick: min)")
     ax.set_title(f"Qin & Niu (1999) experiment, dodecahedron, sigma = {result.sigma:g} deg/h")
     ax.legend(fontsize=8, loc="upper right")
+    fig.tight_layout()
+    return fig
+
+
+def plot_roc(curve: RocCurve, ax: Any = None) -> Any:
+    """Detection rate against the realised false-alarm rate, one line per statistic.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig, ax = _figure_axes(ax, (5.5, 4))
+    for name, pd in curve.pd.items():
+        ax.semilogx(curve.pfa, pd, "-", label=name)
+    ax.set_xlabel("false-alarm rate")
+    ax.set_ylabel("detection rate")
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(alpha=0.3)
+    ax.set_title(f"ROC, {curve.n_runs} runs")
+    ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
