@@ -21,6 +21,7 @@ from geomfdi.monitoring.baselines import (
     latch_alarms,
 )
 from geomfdi.monitoring.innovations import innovation_fault, synthetic_innovations
+from geomfdi.monitoring.kalman import KalmanInnovations, kalman_innovations
 from geomfdi.monitoring.monitor import ARMonitor
 from geomfdi.monitoring.results import ARMonitorResult, ARMonitorWarning, ARStep
 from geomfdi.plotting.monitoring import plot_ar_monitor
@@ -39,4 +40,6 @@ __all__ = [
     "innovation_glr",
     "coefficient_t2",
     "latch_alarms",
+    "KalmanInnovations",
+    "kalman_innovations",
 ]
