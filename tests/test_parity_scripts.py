@@ -38,6 +38,11 @@ def test_example_reproduces_the_seed_004_experiment(tmp_path, capsys):
     text = capsys.readouterr().out
     assert (tmp_path / "parity_dodecahedron_rates.png").stat().st_size > 10_000
     assert (tmp_path / "parity_dodecahedron_fault_size.png").stat().st_size > 10_000
+    drift = out["drift"]  # detection delays of a slow drift, same stream and pfa
+    assert drift["windowed GLT (100)"] is not None and drift["CUSUM (shift 0.5, 100)"] is not None
+    assert (
+        drift["per-sample GLT"] is None or drift["per-sample GLT"] > 3 * drift["windowed GLT (100)"]
+    )
     assert "two-fault GLR" in text and "paper search (Qin-Niu)" in text
     glt, opt, bound = out["false_alarms"][0.05]
     assert abs(glt - 0.05) < 4 * (0.05 * 0.95 / 1500) ** 0.5 and opt > bound
