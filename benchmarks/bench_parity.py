@@ -140,7 +140,40 @@ def main(argv: Sequence[str] | None = None) -> dict[str, dict[str, float]]:
     )
     results = run(n, min(loop_n, n), repeat)
     print(format_table(results))
+    sizes = (100, 300) if args.quick else (100, 300, 1000)
+    results["construction"] = construction(sizes)
     return results
+
+
+def construction(sizes: Sequence[int]) -> dict[str, float]:
+    """``ParityFDI(H)`` for m sensors against one ``numpy.linalg.qr`` of an m x m matrix.
+
+    Measured once with one BLAS thread and once with the library default (threadpoolctl).
+    Construction used to form m x m x m intermediate products (28 s at m = 1000); it is
+    now a few m x m factorisations.
+    """
+    from threadpoolctl import threadpool_limits
+
+    rng = np.random.default_rng(0)
+    out = {}
+    print("ParityFDI construction, H random (m x 3); ratio = time / time(qr of m x m):")
+    for threads in (1, None):
+        with threadpool_limits(threads):
+            for m in sizes:
+                H = rng.standard_normal((m, 3))
+                A = rng.standard_normal((m, m))
+                t_qr = min(_timed(lambda A=A: np.linalg.qr(A)) for _ in range(3))
+                t_pf = min(_timed(lambda H=H: gf.ParityFDI(H)) for _ in range(3))
+                label = f"{'1 thread' if threads else 'default threads'}, m = {m}"
+                out[label] = t_pf
+                print(f"  {label:<28} {t_pf * 1e3:9.1f} ms   ratio {t_pf / t_qr:6.1f}")
+    return out
+
+
+def _timed(fn) -> float:
+    t = time.perf_counter()
+    fn()
+    return time.perf_counter() - t
 
 
 if __name__ == "__main__":
