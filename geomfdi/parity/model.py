@@ -395,58 +395,61 @@ class ParityFDI:
         return _estimation.estimate_state(self, Z, exclude)
 
     def reduced(self, remove: int | Sequence[int]) -> ParityFDI:
-        """The configuration without the sensors ``remove`` (re-detection after isolation).
+        """The configuration without the sensors ``remove``; see :func:`reduced_configuration`."""
+        return reduced_configuration(self, remove)
 
-        Parameters
-        ----------
-        remove : int or sequence of int
-            Sensor indices of *this* configuration (0-based).
 
-        Returns
-        -------
-        ParityFDI
-            ``H`` (and ``F``) without those rows, same ``sigma`` and basis kind;
-            :attr:`sensors` keeps the original labels.
+def reduced_configuration(pf: ParityFDI, remove: int | Sequence[int]) -> ParityFDI:
+    """The configuration without the sensors ``remove`` (re-detection after isolation).
 
-        Raises
-        ------
-        DesignError
-            ``D`` is not the identity, or no redundancy would remain (``m - r <= n``).
-        RankDeficientError
-            The remaining rows do not determine ``x``.
-        """
-        if self.D is not None:
-            raise DesignError(
-                "remove: a reduced configuration needs D = I (faults are sensor faults)",
-                argument="remove",
-            )
-        if isinstance(remove, int | np.integer):
-            rem = [int(remove)]
-        else:
-            rem = [int(as_int(r, "remove")) for r in remove]
-        for r in rem:
-            if not 0 <= r < self.m:
-                raise GeomFDIError(
-                    f"remove: index {r} out of range 0..{self.m - 1}", argument="remove"
-                )
-        key = tuple(sorted(set(rem)))
-        if key in self._reduced_cache:
-            return self._reduced_cache[key]
-        keep = np.setdiff1d(np.arange(self.m), key)
-        if keep.size <= self.n:
-            raise DesignError(
-                f"remove: removing {len(key)} sensor(s) leaves {keep.size} <= n = {self.n}: "
-                "no redundancy left",
-                argument="remove",
-            )
-        basis = self.basis if self.basis in ("potter", "svd") else "potter"
-        red = ParityFDI(
-            self.H[keep],
-            self.sigma,
-            F=None if self.F is None else self.F[keep],
-            basis=basis,
-            chunk_size=None,
-            sensors=self.sensors[keep],
+    Parameters
+    ----------
+    remove : int or sequence of int
+        Sensor indices of *this* configuration (0-based).
+
+    Returns
+    -------
+    ParityFDI
+        ``H`` (and ``F``) without those rows, same ``sigma`` and basis kind;
+        :attr:`sensors` keeps the original labels.
+
+    Raises
+    ------
+    DesignError
+        ``D`` is not the identity, or no redundancy would remain (``m - r <= n``).
+    RankDeficientError
+        The remaining rows do not determine ``x``.
+    """
+    if pf.D is not None:
+        raise DesignError(
+            "remove: a reduced configuration needs D = I (faults are sensor faults)",
+            argument="remove",
         )
-        self._reduced_cache[key] = red
-        return red
+    if isinstance(remove, int | np.integer):
+        rem = [int(remove)]
+    else:
+        rem = [int(as_int(r, "remove")) for r in remove]
+    for r in rem:
+        if not 0 <= r < pf.m:
+            raise GeomFDIError(f"remove: index {r} out of range 0..{pf.m - 1}", argument="remove")
+    key = tuple(sorted(set(rem)))
+    if key in pf._reduced_cache:
+        return pf._reduced_cache[key]
+    keep = np.setdiff1d(np.arange(pf.m), key)
+    if keep.size <= pf.n:
+        raise DesignError(
+            f"remove: removing {len(key)} sensor(s) leaves {keep.size} <= n = {pf.n}: "
+            "no redundancy left",
+            argument="remove",
+        )
+    basis = pf.basis if pf.basis in ("potter", "svd") else "potter"
+    red = ParityFDI(
+        pf.H[keep],
+        pf.sigma,
+        F=None if pf.F is None else pf.F[keep],
+        basis=basis,
+        chunk_size=None,
+        sensors=pf.sensors[keep],
+    )
+    pf._reduced_cache[key] = red
+    return red
