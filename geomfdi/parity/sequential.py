@@ -205,12 +205,13 @@ def calibrate_sequential(
     shift: float = 0.5,
     beta: float = 0.1,
     window: int = 100,
-    n_blocks: int = 100_000,
+    n_blocks: int | None = None,
     rng: Any = 0,
 ) -> float:
     """Threshold of the CUSUM or SPRT statistic with per-epoch false-alarm rate ``pfa``.
 
-    Draws ``n_blocks`` independent noise-only blocks of ``window`` samples of the model;
+    Draws ``n_blocks`` (default ``min(100000, 2e7 / window)``, bounding the work)
+    independent noise-only blocks of ``window`` samples of the model;
     the statistic at the last epoch of each block has the law of the statistic at any
     epoch ``t >= window - 1`` of a fault-free stream.  Returns the ``1 - pfa`` quantile:
     the realised rate has the binomial standard error ``sqrt(pfa (1 - pfa) / n_blocks)``.
@@ -223,6 +224,9 @@ def calibrate_sequential(
     if method not in ("cusum", "sprt"):
         raise GeomFDIError(f"method: 'cusum' or 'sprt', got {method!r}", argument="method")
     pfa = as_probability(pfa, "pfa")
+    window = as_int(window, "window", minimum=1)
+    if n_blocks is None:
+        n_blocks = max(1000, min(100_000, 20_000_000 // window))
     n_blocks = as_int(n_blocks, "n_blocks", minimum=1)
     gen = _as_rng(rng)
     opts = {
