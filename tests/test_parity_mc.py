@@ -140,7 +140,7 @@ def test_seed_004_experiment_small_run():
         assert summ[kind][glr]["min"] > 0.3
     # the single-fault function points at a true gyro for 6 of 15 same-sign pairs and
     # 9 of 15 opposite-sign pairs (seed 004 Tables 3-4): the search follows it
-    search = "paper search (seed 004)"
+    search = "paper search (Qin-Niu)"
     assert summ[same][search]["mean"] == pytest.approx(6 / 15, abs=0.02)
     assert summ[opposite][search]["mean"] == pytest.approx(9 / 15, abs=0.02)
     text = res.table(detail=True)
