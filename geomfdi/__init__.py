@@ -112,6 +112,17 @@ _register(
 _register("geomfdi.diagnosability.tables", "diagnosability_table")
 _register("geomfdi.plotting.diagnosability", "plot_isolability")
 _register("geomfdi.monitoring.monitor", "ARMonitor")
+_register(
+    "geomfdi.monitoring.baselines",
+    "BaselineResult",
+    "coefficient_t2",
+    "innovation_chi2",
+    "innovation_cusum",
+    "innovation_glr",
+    "latch_alarms",
+)
+_register("geomfdi.monitoring.kalman", "KalmanInnovations", "kalman_innovations")
+_register("geomfdi.parity.estimation", "FaultEstimate", "StateEstimate")
 _register("geomfdi.monitoring.results", "ARMonitorResult", "ARMonitorWarning", "ARStep")
 _register("geomfdi.plotting.monitoring", "plot_ar_monitor")
 _register("geomfdi.monitoring.innovations", "innovation_fault", "synthetic_innovations")
@@ -216,9 +227,19 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     )
     from geomfdi.model.faults import ActuatorFault, Fault, SensorFault  # noqa: F401
     from geomfdi.model.plant import Plant  # noqa: F401
+    from geomfdi.monitoring.baselines import (  # noqa: F401
+        BaselineResult,
+        coefficient_t2,
+        innovation_chi2,
+        innovation_cusum,
+        innovation_glr,
+        latch_alarms,
+    )
+    from geomfdi.monitoring.kalman import KalmanInnovations, kalman_innovations  # noqa: F401
     from geomfdi.monitoring.monitor import ARMonitor  # noqa: F401
     from geomfdi.monitoring.results import ARMonitorResult, ARMonitorWarning, ARStep  # noqa: F401
     from geomfdi.monitoring.innovations import innovation_fault, synthetic_innovations  # noqa: F401
+    from geomfdi.parity.estimation import FaultEstimate, StateEstimate  # noqa: F401
     from geomfdi.parity.model import ParityFDI  # noqa: F401
     from geomfdi.parity.results import ParityDiagnosis  # noqa: F401
     from geomfdi.plotting.diagnosability import plot_isolability  # noqa: F401
