@@ -74,9 +74,8 @@ _register("geomfdi.synthesis.generator", "ResidualBank", "ResidualGenerator")
 _register("geomfdi.synthesis.transforms", "pseudo_actuator_model")
 _register("geomfdi.verification.numeric", "VerificationReport", "verify")
 _register("geomfdi.verification.symbolic", "SymbolicReport", "verify_symbolic")
-_register(
-    "geomfdi.evaluation.decision", "FaultEvent", "Threshold", "calibrate_threshold", "isolate"
-)
+_register("geomfdi.evaluation.decision", "FaultEvent", "Threshold", "isolate")
+_register("geomfdi.simulation.calibration", "calibrate_threshold")
 _register(
     "geomfdi.simulation.signals",
     "BiasFault",
@@ -87,15 +86,11 @@ _register(
 )
 _register("geomfdi.simulation.lti", "simulate_lti")
 _register("geomfdi.plotting.residuals", "plot_residuals", "plot_structure", "save_png")
-_register(
-    "geomfdi.simulation.simulate",
-    "BatchResult",
-    "InitialStateWarning",
-    "Noise",
-    "SimulationResult",
-    "simulate",
-    "simulate_batch",
-)
+_register("geomfdi.simulation.results", "BatchResult", "SimulationResult")
+_register("geomfdi.simulation.initial_state", "InitialStateWarning")
+_register("geomfdi.simulation.noise", "Noise")
+_register("geomfdi.simulation.simulate", "simulate")
+_register("geomfdi.simulation.batch", "simulate_batch")
 _register("geomfdi.parity.fdi", "ParityDiagnosis", "ParityFDI")
 _register(
     "geomfdi.diagnosability.window",
@@ -183,12 +178,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         diagnosability_table,
         plot_isolability,
     )
-    from geomfdi.evaluation.decision import (  # noqa: F401
-        FaultEvent,
-        Threshold,
-        calibrate_threshold,
-        isolate,
-    )
+    from geomfdi.evaluation.decision import FaultEvent, Threshold, isolate  # noqa: F401
     from geomfdi.geometry.conditioned_invariant import (  # noqa: F401
         FriendSet,
         InvariantSubspace,
@@ -231,14 +221,12 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         StuckFault,
         apply_faults,
     )
-    from geomfdi.simulation.simulate import (  # noqa: F401
-        BatchResult,
-        InitialStateWarning,
-        Noise,
-        SimulationResult,
-        simulate,
-        simulate_batch,
-    )
+    from geomfdi.simulation.batch import simulate_batch  # noqa: F401
+    from geomfdi.simulation.calibration import calibrate_threshold  # noqa: F401
+    from geomfdi.simulation.initial_state import InitialStateWarning  # noqa: F401
+    from geomfdi.simulation.noise import Noise  # noqa: F401
+    from geomfdi.simulation.results import BatchResult, SimulationResult  # noqa: F401
+    from geomfdi.simulation.simulate import simulate  # noqa: F401
     from geomfdi.synthesis.design import (  # noqa: F401
         design_bank,
         design_residual_generator,

@@ -135,9 +135,9 @@ def test_detection_events_delays():
     alarms[1, 10:] = True  # from 5 s
     alarms[0, 12:] = True  # from 6 s
     iso = isolate(alarms, np.array([[1, 0], [1, 1]], dtype=bool)).isolated
-    f0 = gf.BiasFault(0, 4.0, 1.0)
-    f1 = gf.BiasFault(1, 3.0, 1.0)
-    f2 = gf.BiasFault(1, 20.0, 1.0)  # never starts on the grid
+    f0 = gf.BiasFault(0, start=4.0, bias=1.0)
+    f1 = gf.BiasFault(1, start=3.0, bias=1.0)
+    f2 = gf.BiasFault(1, start=20.0, bias=1.0)  # never starts on the grid
     ev = detection_events(t, alarms, iso, [f0, f1, f2], [0, 1, None])
     assert len(ev) == 2
     assert ev[0].onset == 4.0 and ev[0].detection_delay == 1.0
@@ -184,6 +184,25 @@ def test_calibrate_threshold_from_noise_only_simulation():
         threshold=thr,
         progress=False,
     )
-    assert abs(fresh.false_alarm_rate - 0.02) < 0.01
+    assert abs(fresh.false_alarm_rate() - 0.02) < 0.01
     with pytest.raises(GeomFDIError, match="noise"):
         gf.calibrate_threshold(plant, gen, t, noise=None, false_alarm_rate=0.02)
+
+
+def test_evaluation_and_plotting_do_not_import_the_simulator():
+    # the decision layer is below the simulator: no import (even in a function) goes up
+    import ast
+    import pathlib
+
+    root = pathlib.Path(gf.__file__).parent
+    for sub in ("evaluation", "plotting"):
+        for path in (root / sub).glob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text())):
+                mods = []
+                if isinstance(node, ast.ImportFrom) and node.module:
+                    mods = [node.module]
+                elif isinstance(node, ast.Import):
+                    mods = [a.name for a in node.names]
+                for mod in mods:
+                    assert not mod.startswith("geomfdi.simulation"), f"{path.name} imports {mod}"
+    assert gf.calibrate_threshold.__module__ == "geomfdi.simulation.calibration"

@@ -1,5 +1,5 @@
 """Residual evaluation and decisions: thresholds, alarms, isolation, detection events."""
 
-from geomfdi.evaluation.decision import FaultEvent, Threshold, calibrate_threshold, isolate
+from geomfdi.evaluation.decision import FaultEvent, Threshold, isolate
 
-__all__ = ["Threshold", "FaultEvent", "isolate", "calibrate_threshold"]
+__all__ = ["Threshold", "FaultEvent", "isolate"]

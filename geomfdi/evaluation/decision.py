@@ -11,8 +11,9 @@ or the causal moving root mean square over the last ``window`` samples
 
 Isolation compares the alarm pattern of a sample (one boolean per residual) with the
 columns of the *achieved* structure matrix of the bank (rows: residuals, columns:
-faults; seed 001, Definition 4): fault ``j`` is a **candidate** when its column equals
-the pattern.  Per sample the decision is
+faults; the fault signature matrix of Hou, Wen & Chen 2011; see the user guide,
+*Theory: evaluation*, ``docs/theory/evaluation.md``): fault ``j`` is a **candidate**
+when its column equals the pattern.  Per sample the decision is
 
 * the fault index when exactly one fault is a candidate,
 * :data:`NO_ALARM` (-1) when no residual alarms,
@@ -50,7 +51,6 @@ __all__ = [
     "Isolation",
     "FaultEvent",
     "detection_events",
-    "calibrate_threshold",
 ]
 
 NO_ALARM = -1
@@ -415,72 +415,3 @@ def detection_events(
             )
         )
     return out
-
-
-def calibrate_threshold(
-    plant: Any,
-    bank: Any,
-    t: Any,
-    *,
-    noise: Any,
-    false_alarm_rate: float,
-    runs: int = 1,
-    statistic: str = "abs",
-    window: int = 1,
-    per: str = "residual",
-    skip: float = 0.0,
-    **simulate_options: Any,
-) -> Threshold:
-    """Thresholds from noise-only simulations at a chosen false-alarm rate.
-
-    Runs :func:`geomfdi.simulation.simulate_batch` without faults (``runs`` seeds
-    derived from ``noise.seed``) and calls :meth:`Threshold.from_residuals`.
-
-    Parameters
-    ----------
-    plant, bank, t
-        As for :func:`geomfdi.simulate`.
-    noise : Noise
-        Must contain measurement and/or process noise.
-    false_alarm_rate : float
-        Per-sample false-alarm rate ``alpha``.
-    runs : int
-        Number of noise-only runs pooled.
-    statistic, window, per
-        See :meth:`Threshold.from_residuals`.
-    skip : float
-        Seconds at the start of each run left out of the quantile.
-    **simulate_options
-        Passed on (``u``, ``controller``, ``x0``, ``d``, ``hold``).
-
-    Returns
-    -------
-    Threshold
-    """
-    from geomfdi.simulation.simulate import simulate_batch
-
-    if noise is None or (noise.measurement is None and noise.process is None):
-        raise GeomFDIError(
-            "noise: a noise-only calibration needs measurement or process noise",
-            argument="noise",
-        )
-    runs = as_int(runs, "runs", minimum=1)
-    batch = simulate_batch(
-        plant,
-        bank,
-        t,
-        runs=runs,
-        noise=noise,
-        store="residuals",
-        progress=False,
-        **simulate_options,
-    )
-    k_skip = int(np.searchsorted(batch.t - batch.t[0], float(skip) - 1e-12))
-    return Threshold.from_residuals(
-        batch.residuals,
-        false_alarm_rate,
-        statistic=statistic,
-        window=window,
-        per=per,
-        skip=k_skip,
-    )

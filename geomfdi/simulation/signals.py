@@ -1,15 +1,17 @@
-"""Sensor fault signals for simulation: gain, bias and stuck faults (math.md §1).
+"""Sensor fault signals for simulation: gain, bias and stuck faults.
 
-Seed 001's sensor fault model (eq. 3-5) for the reading of sensor ``i``::
+The sensor fault model of Hou, Wen & Chen (2011) (eq. 3-5) for the reading of sensor ``i``::
 
     y_i(t) = eta_i(t) * y_i0(t) + lambda_i(t)
 
 with ``y_i0`` the healthy reading.  A **gain** fault has ``eta != 1`` (abrupt when a
 number, time-varying when a function of t), optionally with a bias; a **bias** fault has
 ``eta = 1, lambda != 0``; a **stuck** sensor has ``eta = 0`` and ``lambda`` the held value
-(the paper sets stuck faults aside; they are simulated here).  By Erratum 1 every one of
-them is an *additive* fault ``phi_i = (eta_i - 1) y_i0 + lambda_i`` on the measured y: the
-residual generators never see ``eta`` or ``lambda``, only the measured y.
+(the paper sets stuck faults aside; they are simulated here).  Every one of them is an
+*additive* fault ``phi_i = (eta_i - 1) y_i0 + lambda_i`` on the measured y: the residual
+generators never see ``eta`` or ``lambda``, only the measured y (see the user guide,
+*Theory: sensor-fault transforms*, ``docs/theory/sensor-fault-transforms.md``, and
+*Theory: errata*, ``docs/theory/errata.md``).
 
 Timing: a fault is active on the samples with ``start <= t < end`` (``end=None``: to the
 end of the run); sample times are compared with a tolerance of ``1e-9 * max(1, |time|)``
@@ -190,6 +192,9 @@ def _describe(value: Value) -> str:
 class GainFault(SensorFaultSignal):
     """Gain fault ``y_i = eta(t) y_i0 + lambda(t)`` on sensor ``sensor`` from ``start``.
 
+    Every argument after ``sensor`` is keyword-only (``GainFault(0, start=8, gain=1.5)``):
+    a positional ``GainFault(0, 1.5, 5.0)`` would silently swap onset and gain.
+
     Parameters
     ----------
     sensor : int
@@ -206,9 +211,9 @@ class GainFault(SensorFaultSignal):
 
     Notes
     -----
-    Seed 001, eq. (3)-(5) with ``eta != 1``.  With a constant gain the fault is abrupt and,
-    under output feedback, the closed loop is piecewise LTI (simulated exactly); a
-    callable gain makes it time-varying.
+    Hou, Wen & Chen (2011), eq. (3)-(5) with ``eta != 1``.  With a constant gain the
+    fault is abrupt and, under output feedback, the closed loop is piecewise LTI
+    (simulated exactly); a callable gain makes it time-varying.
 
     Examples
     --------
@@ -221,7 +226,13 @@ class GainFault(SensorFaultSignal):
     kind = "gain"
 
     def __init__(
-        self, sensor: int, start: float, gain: Value, bias: Value = 0.0, *, end: float | None = None
+        self,
+        sensor: int,
+        *,
+        start: float,
+        gain: Value,
+        bias: Value = 0.0,
+        end: float | None = None,
     ) -> None:
         self._init_common(sensor, start, end)
         self.gain = _check_value(gain, "gain")
@@ -263,13 +274,13 @@ class BiasFault(SensorFaultSignal):
     Examples
     --------
     >>> import numpy as np, geomfdi as gf
-    >>> gf.BiasFault(0, 1.0, 0.5).apply([0.0, 1.0], np.zeros((1, 2))).tolist()
+    >>> gf.BiasFault(0, start=1.0, bias=0.5).apply([0.0, 1.0], np.zeros((1, 2))).tolist()
     [[0.0, 0.5]]
     """
 
     kind = "bias"
 
-    def __init__(self, sensor: int, start: float, bias: Value, *, end: float | None = None) -> None:
+    def __init__(self, sensor: int, *, start: float, bias: Value, end: float | None = None) -> None:
         self._init_common(sensor, start, end)
         self.bias = _check_value(bias, "bias")
 
@@ -304,14 +315,14 @@ class StuckFault(SensorFaultSignal):
     --------
     >>> import numpy as np, geomfdi as gf
     >>> y0 = np.array([[1.0, 2.0, 3.0, 4.0]])
-    >>> gf.StuckFault(0, 1.0).apply([0.0, 1.0, 2.0, 3.0], y0).tolist()
+    >>> gf.StuckFault(0, start=1.0).apply([0.0, 1.0, 2.0, 3.0], y0).tolist()
     [[1.0, 2.0, 2.0, 2.0]]
     """
 
     kind = "stuck"
 
     def __init__(
-        self, sensor: int, start: float, value: float | None = None, *, end: float | None = None
+        self, sensor: int, *, start: float, value: float | None = None, end: float | None = None
     ) -> None:
         self._init_common(sensor, start, end)
         self.value = None if value is None else _check_value(value, "value")
@@ -515,13 +526,17 @@ def apply_faults(faults: Any, t: Any, y0: Any) -> np.ndarray:
     Returns
     -------
     ndarray, same shape as ``y0``
-        ``eta * y0 + lambda`` (seed 001, eq. 3-5).
+        ``eta * y0 + lambda`` (Hou, Wen & Chen 2011, eq. 3-5).
 
     Examples
     --------
     >>> import numpy as np, geomfdi as gf
     >>> y0 = np.ones((2, 3))
-    >>> fs = [gf.GainFault(0, 1.0, 2.0), gf.BiasFault(0, 2.0, 0.5), gf.StuckFault(1, 1.0, 7.0)]
+    >>> fs = [
+    ...     gf.GainFault(0, start=1.0, gain=2.0),
+    ...     gf.BiasFault(0, start=2.0, bias=0.5),
+    ...     gf.StuckFault(1, start=1.0, value=7.0),
+    ... ]
     >>> gf.apply_faults(fs, [0.0, 1.0, 2.0], y0).tolist()
     [[1.0, 2.0, 2.5], [1.0, 7.0, 7.0]]
     """

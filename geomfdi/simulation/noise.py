@@ -1,0 +1,102 @@
+"""Measurement and process noise of a simulation: :class:`Noise` and its square-root factors."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from geomfdi._validation import as_matrix, as_real_array
+from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.model.plant import Plant
+
+
+# =================================================================== noise
+def _factor(value: Any, dim: int, name: str) -> np.ndarray | None:
+    """A square-root factor ``L`` (dim, dim) of a noise description (std or covariance)."""
+    if value is None:
+        return None
+    arr = as_real_array(value, name)
+    if arr.ndim == 0:
+        if arr < 0:
+            raise GeomFDIError(
+                f"{name}: a standard deviation must be >= 0, got {arr}", argument=name
+            )
+        L = float(arr) * np.eye(dim)
+    elif arr.ndim == 1:
+        if arr.shape[0] != dim:
+            raise ShapeError(
+                f"{name}: expected {dim} standard deviations, got length {arr.shape[0]}",
+                argument=name,
+            )
+        if np.any(arr < 0):
+            raise GeomFDIError(f"{name}: standard deviations must be >= 0", argument=name)
+        L = np.diag(arr)
+    elif arr.ndim == 2:
+        if arr.shape != (dim, dim):
+            raise ShapeError(
+                f"{name}: a covariance must be ({dim}, {dim}), got shape {arr.shape}",
+                argument=name,
+            )
+        scale = max(float(np.max(np.abs(arr))), 1e-300)
+        if np.max(np.abs(arr - arr.T)) > 1e-10 * scale:
+            raise GeomFDIError(f"{name}: a covariance must be symmetric", argument=name)
+        lam, V = np.linalg.eigh((arr + arr.T) / 2)
+        if lam.min() < -1e-10 * scale:
+            raise GeomFDIError(
+                f"{name}: a covariance must be positive semidefinite (eigenvalue {lam.min():.3g})",
+                argument=name,
+            )
+        L = V * np.sqrt(np.clip(lam, 0, None))
+    else:
+        raise ShapeError(f"{name}: expected a number, a vector or a matrix", argument=name)
+    return None if not np.any(L) else L
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Measurement and process noise with a seed.
+
+    Parameters
+    ----------
+    measurement : float, (q,) or (q, q), optional
+        Measurement noise ``v`` added to the healthy readings: one standard deviation for
+        all sensors, one per sensor, or a covariance matrix.  Sensor faults act on the
+        noisy reading (a gain scales the noise, a stuck sensor freezes it).
+    process : float, (k,) or (k, k), optional
+        Process noise ``w`` entering ``x' = ... + Bw w`` (standard deviation(s) or
+        covariance of the samples).  For a continuous plant the samples are interpolated
+        with the simulation hold; the covariance of a sampled white noise of intensity
+        ``Q`` is ``Q / dt``.
+    process_input : (n, k), optional
+        ``Bw``; the identity (noise on every state) by default.
+    seed : int, numpy SeedSequence or None
+        Seed of :func:`numpy.random.default_rng`.  In :func:`simulate_batch` run ``i``
+        uses the ``i``-th child of ``SeedSequence(seed)`` unless seeds are given.
+
+    Examples
+    --------
+    >>> import geomfdi as gf
+    >>> gf.Noise(measurement=0.01, seed=1).measurement
+    0.01
+    """
+
+    measurement: Any = None
+    process: Any = None
+    process_input: Any = None
+    seed: Any = None
+
+    def factors(
+        self, plant: Plant
+    ) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+        """``(Lv, Bw, Lw)``: ``v = Lv z``, process noise ``Bw Lw z`` (z standard normal)."""
+        Lv = _factor(self.measurement, plant.q, "noise.measurement")
+        if self.process_input is None:
+            Bw = np.eye(plant.n)
+        else:
+            Bw = as_matrix(
+                self.process_input, "noise.process_input", rows=plant.n, vector_as="column"
+            )
+        Lw = _factor(self.process, Bw.shape[1], "noise.process")
+        return Lv, (Bw if Lw is not None else None), Lw
