@@ -75,9 +75,19 @@ _register("geomfdi.synthesis.transforms", "pseudo_actuator_model")
 _register("geomfdi.verification.numeric", "VerificationReport", "verify")
 _register("geomfdi.verification.symbolic", "SymbolicReport", "verify_symbolic")
 _register("geomfdi.evaluation.decision", "FaultEvent", "Threshold", "isolate")
+_register("geomfdi.evaluation.persistence", "Persistence")
+_register("geomfdi.evaluation.metrics", "DetectionMetrics")
+_register(
+    "geomfdi.simulation.input_faults",
+    "ActuatorBiasFault",
+    "ActuatorGainFault",
+    "ActuatorStuckFault",
+    "AdditiveFault",
+)
 _register("geomfdi.simulation.calibration", "calibrate_threshold")
 _register(
     "geomfdi.simulation.signals",
+    "FaultSignal",
     "BiasFault",
     "GainFault",
     "SensorFaultSignal",
@@ -179,6 +189,8 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         plot_isolability,
     )
     from geomfdi.evaluation.decision import FaultEvent, Threshold, isolate  # noqa: F401
+    from geomfdi.evaluation.metrics import DetectionMetrics  # noqa: F401
+    from geomfdi.evaluation.persistence import Persistence  # noqa: F401
     from geomfdi.geometry.conditioned_invariant import (  # noqa: F401
         FriendSet,
         InvariantSubspace,
@@ -216,6 +228,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.simulation.lti import simulate_lti  # noqa: F401
     from geomfdi.simulation.signals import (  # noqa: F401
         BiasFault,
+        FaultSignal,
         GainFault,
         SensorFaultSignal,
         StuckFault,
@@ -224,6 +237,12 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.simulation.batch import simulate_batch  # noqa: F401
     from geomfdi.simulation.calibration import calibrate_threshold  # noqa: F401
     from geomfdi.simulation.initial_state import InitialStateWarning  # noqa: F401
+    from geomfdi.simulation.input_faults import (  # noqa: F401
+        ActuatorBiasFault,
+        ActuatorGainFault,
+        ActuatorStuckFault,
+        AdditiveFault,
+    )
     from geomfdi.simulation.noise import Noise  # noqa: F401
     from geomfdi.simulation.results import BatchResult, SimulationResult  # noqa: F401
     from geomfdi.simulation.simulate import simulate  # noqa: F401

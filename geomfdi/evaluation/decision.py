@@ -343,6 +343,13 @@ class FaultEvent:
         ``index``; ``None``: never (or ``index`` is ``None``).
     residuals : tuple of int
         Residuals that alarm at some sample at or after the onset.
+    decided : int or None
+        The first isolation decision (a fault index) in the detection window.
+    window_end : float or None
+        End of the detection window (``None``: the end of the run).
+
+    Only alarms and decisions at or after the onset and before ``window_end`` count: an
+    alarm before the onset is a false alarm, not a detection.
     """
 
     fault: Any
@@ -353,6 +360,8 @@ class FaultEvent:
     isolation_time: float | None
     isolation_delay: float | None
     residuals: tuple[int, ...]
+    decided: int | None = None
+    window_end: float | None = None
 
     @property
     def detected(self) -> bool:
@@ -362,6 +371,13 @@ class FaultEvent:
     def isolated(self) -> bool:
         return self.isolation_time is not None
 
+    @property
+    def outcome(self) -> str:
+        """``"correct"``, ``"wrong"`` (the first decision named another fault) or ``"none"``."""
+        if self.decided is None:
+            return "none"
+        return "correct" if self.decided == self.index else "wrong"
+
 
 def detection_events(
     t: np.ndarray,
@@ -369,6 +385,8 @@ def detection_events(
     isolated: np.ndarray,
     faults: Sequence[Any],
     indices: Sequence[int | None],
+    *,
+    window: float | None = None,
 ) -> list[FaultEvent]:
     """Detection and isolation times of each fault signal (one run).
 
@@ -380,6 +398,8 @@ def detection_events(
     faults : sequence of fault signals (with ``.mask(t)``)
     indices : sequence of int or None
         Structure column of each fault signal.
+    window : float, optional
+        Detection window (seconds after the onset); ``None``: to the end of the run.
 
     Returns
     -------
@@ -388,6 +408,7 @@ def detection_events(
         skipped).
     """
     any_alarm = alarms.any(axis=0)
+    N = t.shape[0]
     out = []
     for f, j in zip(faults, indices, strict=True):
         m = f.mask(t)
@@ -395,13 +416,20 @@ def detection_events(
             continue
         ks = int(np.argmax(m))
         onset = float(t[ks])
-        hits = np.flatnonzero(any_alarm[ks:])
+        if window is None:
+            ke, wend = N, None
+        else:
+            wend = onset + float(window)
+            ke = int(np.searchsorted(t, wend + 1e-9 * max(1.0, abs(wend)), side="right"))
+        hits = np.flatnonzero(any_alarm[ks:ke])
         det = float(t[ks + hits[0]]) if hits.size else None
         iso_t = None
         if j is not None:
-            ih = np.flatnonzero(isolated[ks:] == j)
+            ih = np.flatnonzero(isolated[ks:ke] == j)
             iso_t = float(t[ks + ih[0]]) if ih.size else None
-        rows = tuple(int(r) for r in np.flatnonzero(alarms[:, ks:].any(axis=1)))
+        dh = np.flatnonzero(isolated[ks:ke] >= 0)
+        decided = int(isolated[ks + dh[0]]) if dh.size else None
+        rows = tuple(int(r) for r in np.flatnonzero(alarms[:, ks:ke].any(axis=1)))
         out.append(
             FaultEvent(
                 f,
@@ -412,6 +440,8 @@ def detection_events(
                 iso_t,
                 None if iso_t is None else iso_t - onset,
                 rows,
+                decided,
+                wend,
             )
         )
     return out

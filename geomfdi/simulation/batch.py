@@ -13,22 +13,24 @@ from geomfdi.evaluation.decision import (
     FaultEvent,
     as_threshold,
     detection_events,
-    isolate,
 )
+from geomfdi.evaluation.metrics import false_alarms
+from geomfdi.evaluation.persistence import as_persistence, decisions
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.context import (
-    fault_indices,
+    detection_window_of,
     prepare,
     progress_bar,
     residual_labels_of,
     residual_rows,
     state_vector,
 )
-from geomfdi.simulation.noise import Noise
+from geomfdi.simulation.noise import Noise, run_seeds
 from geomfdi.simulation.results import (
     BatchResult,
 )
-from geomfdi.simulation.signals import SensorFaultSignal, validate_faults
+from geomfdi.simulation.schedule import fault_schedule, structure_columns
+from geomfdi.simulation.signals import FaultSignal
 from geomfdi.simulation.simulate import run_chunk
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
@@ -52,6 +54,8 @@ def simulate_batch(
     consistent_init: bool = True,
     store: str = "residuals",
     chunk_size: int | None = None,
+    persistence: Any = None,
+    detection_window: float | None = None,
     progress: bool | None = None,
 ) -> BatchResult:
     """Many Monte-Carlo runs (noise seeds, fault sizes) in one vectorised call.
@@ -60,6 +64,8 @@ def simulate_batch(
     ----------
     plant, bank, t, u, x0, controller, threshold, d, xc0, hold, consistent_init
         As for :func:`simulate`; ``x0`` may also be ``(runs, n)``.
+    persistence, detection_window
+        The decision rule, as for :func:`simulate`.
     runs : int, optional
         Number of runs; defaults to the number of fault lists when ``faults`` is a list
         of lists, else 1.
@@ -70,7 +76,8 @@ def simulate_batch(
         the seeds are ``SeedSequence(noise.seed).spawn(runs)``, so run ``i`` equals
         ``simulate(..., noise=Noise(..., seed=seeds[i]))``.
     seeds : sequence, optional
-        Explicit per-run seeds.
+        Explicit per-run seeds (integers >= 0 or ``numpy.random.SeedSequence``), one per
+        run; needs ``noise``.
     store : {"residuals", "all", "summary"}
         What to keep per run: residuals, alarms and decisions (default); also ``x, y,
         u`` (``"all"``, enables :meth:`BatchResult.run`); or only peaks and events.
@@ -92,45 +99,36 @@ def simulate_batch(
     """
     plant = as_plant(plant)
     ctx = prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
-    q = plant.q
     per_run = (
-        not isinstance(faults, SensorFaultSignal)
+        not isinstance(faults, FaultSignal)
         and isinstance(faults, Sequence)
         and len(faults) > 0
         and all(isinstance(f, Sequence) for f in faults)
     )
     if per_run:
-        fault_lists = [validate_faults(f, q, argument=f"faults[{i}]") for i, f in enumerate(faults)]
+        schedules = [
+            fault_schedule(f, plant, argument=f"faults[{i}]") for i, f in enumerate(faults)
+        ]
         if runs is None:
-            runs = len(fault_lists)
-        if runs != len(fault_lists):
+            runs = len(schedules)
+        runs = as_int(runs, "runs", minimum=1)
+        if runs != len(schedules):
             raise ShapeError(
-                f"faults: {len(fault_lists)} fault lists for runs={runs}", argument="faults"
+                f"faults: {len(schedules)} fault lists for runs={runs}", argument="faults"
             )
     else:
-        runs = 1 if runs is None else runs
-        fault_lists = None
-    runs = as_int(runs, "runs", minimum=1)
-    shared_list = validate_faults(faults, q) if not per_run else None
+        runs = as_int(1 if runs is None else runs, "runs", minimum=1)
+        schedules = [fault_schedule(faults, plant)] * runs
+    q = plant.q
+    rule = as_persistence(persistence)
+    window = detection_window_of(detection_window)
     if store not in ("residuals", "all", "summary"):
         raise GeomFDIError(
             f"store: must be 'residuals', 'all' or 'summary', got {store!r}", argument="store"
         )
     x0a = state_vector(x0, plant.n, "x0", runs)
     xc0a = state_vector(xc0, ctx.ctrl.nc, "xc0")
-    if noise is not None:
-        if seeds is None:
-            ss = (
-                noise.seed
-                if isinstance(noise.seed, np.random.SeedSequence)
-                else (np.random.SeedSequence(noise.seed))
-            )
-            seeds = list(ss.spawn(runs))
-        elif len(seeds) != runs:
-            raise ShapeError(f"seeds: expected {runs} seeds, got {len(seeds)}", argument="seeds")
-        seeds = list(seeds)
-    else:
-        seeds = [None] * runs
+    seeds = run_seeds(noise, seeds, runs)
     view = ctx.view
     nres = len(view.generators)
     N = ctx.N
@@ -157,27 +155,34 @@ def simulate_batch(
     events: list[list[FaultEvent]] = []
     fa_counts = np.zeros(runs)
     healthy = np.zeros(runs, dtype=int)
-    all_lists = fault_lists if per_run else [shared_list] * runs
+    columns: dict[int, list[int | None]] = {}
+    fa_events = np.zeros(runs, dtype=int)
     bar = progress_bar(ctx.progress, runs, "runs")
     for a in range(0, runs, chunk_size):
         b = min(a + chunk_size, runs)
         rngs = [None if s is None else np.random.default_rng(s) for s in seeds[a:b]]
         x0c = x0a[a:b] if x0a.shape[0] > 1 else x0a
-        lists = all_lists[a:b]
-        raw = run_chunk(ctx, x0c, xc0a, rngs, lists, not per_run)
+        chunk = schedules[a:b]
+        raw = run_chunk(ctx, x0c, xc0a, rngs, chunk, not per_run)
         Rc = b - a
         res = np.broadcast_to(residual_rows(ctx, raw), (Rc, nres, N))
-        al = thr.alarms(res) if thr is not None else np.zeros(res.shape, dtype=bool)
-        iso = isolate(al, view.structure)
+        al, iso = decisions(res, thr, view.structure, rule)
         peak[a:b] = np.max(np.abs(res), axis=-1)
         for r in range(Rc):
-            fl = lists[r]
-            evs = detection_events(ctx.t, al[r], iso.isolated[r], fl, fault_indices(view, fl))
+            sched = chunk[r]
+            cols = columns.get(id(sched))
+            if cols is None:
+                cols = columns[id(sched)] = structure_columns(
+                    sched.faults, view.design_faults, plant
+                )
+            evs = detection_events(ctx.t, al[r], iso.isolated[r], sched.faults, cols, window=window)
             events.append(evs)
             onset = min((ev.onset for ev in evs), default=None)
             k = N if onset is None else int(np.searchsorted(ctx.t, onset - 1e-12))
-            healthy[a + r] = k
-            fa_counts[a + r] = np.count_nonzero(al[r, :, :k].any(axis=0))
+            fa = false_alarms(al[r], k)
+            healthy[a + r] = fa.samples
+            fa_counts[a + r] = fa.alarm_samples
+            fa_events[a + r] = fa.events
         if keep_r:
             R_res[a:b] = res
             R_al[a:b] = al
@@ -205,7 +210,7 @@ def simulate_batch(
         events=events,
         false_alarm_counts=fa_counts,
         healthy_samples=healthy,
-        fault_lists=all_lists,
+        fault_lists=[list(sc.faults) for sc in schedules],
         seeds=seeds,
         threshold=thr,
         structure=view.structure,
@@ -214,4 +219,6 @@ def simulate_batch(
         residual_labels=residual_labels_of(view),
         info=ctx.info,
         vector_rows=[g is not None and g.n_outputs > 1 for g in view.generators],
+        persistence=rule,
+        false_alarm_events=fa_events,
     )

@@ -6,20 +6,20 @@ open-loop and closed-loop engines read; :class:`RawRuns` holds the arrays they r
 
 from __future__ import annotations
 
+import numbers
 import sys
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from geomfdi._validation import as_matrix, as_real_array
 from geomfdi.errors import GeomFDIError, ShapeError
-from geomfdi.model.faults import SensorFault
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.discretization import HOLDS, Discretization, discretize, uniform_step
 from geomfdi.simulation.noise import Noise
-from geomfdi.simulation.signals import SensorFaultSignal
+from geomfdi.simulation.schedule import FaultSchedule, input_channels
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
 
@@ -315,17 +315,49 @@ def residual_rows(ctx: Context, raw: RawRuns) -> np.ndarray:
     return out
 
 
-def fault_indices(view: BankView, faults: Sequence[SensorFaultSignal]) -> list[int | None]:
-    out: list[int | None] = []
-    for f in faults:
-        j = None
-        for idx, df in enumerate(view.design_faults):
-            if isinstance(df, SensorFault) and df.i == f.sensor:
-                j = idx
-                break
-        out.append(j)
-    return out
-
-
 def residual_labels_of(view: BankView) -> list[str]:
     return [f"r[{k}]" for k in range(len(view.generators))]
+
+
+def with_input_faults(ctx: Context, schedules: Sequence[FaultSchedule]) -> Context:
+    """``ctx`` with the additive faults of ``schedules`` as extra disturbance channels.
+
+    The plant gets ``Bd' = [Bd, Bphi]``, ``Dd' = [Dd, Dphi]`` and the disturbance samples
+    ``d' = [d; phi]`` (per run, ``(R, nd', N)``, when the runs' signals differ).
+    """
+    ch = input_channels(schedules, ctx.plant, ctx.t, ctx.u_ext)
+    if ch is None:
+        return ctx
+    if ctx.ctrl.mode != "open" and any(s.needs_input for s in schedules):
+        raise GeomFDIError(
+            "faults: actuator gain and stuck faults act on the commanded input, known in "
+            "advance only in open loop; under feedback simulate an ActuatorBiasFault or an "
+            "AdditiveFault instead",
+            argument="faults",
+        )
+    Bphi, Dphi, phi = ch
+    p = ctx.plant
+    aug = Plant(p.A, p.B, p.C, p.D, Bd=np.hstack([p.Bd, Bphi]), Dd=np.hstack([p.Dd, Dphi]), dt=p.dt)
+    if phi.shape[0] == 1:
+        d = np.vstack([ctx.d, phi[0]])
+    else:
+        R, N = phi.shape[0], ctx.N
+        d = np.concatenate([np.broadcast_to(ctx.d, (R, p.nd, N)), phi], axis=1)
+    return replace(ctx, plant=aug, d=d)
+
+
+def detection_window_of(window: Any) -> float | None:
+    """Check a detection window (seconds, > 0) or None."""
+    if window is None:
+        return None
+    if isinstance(window, bool) or not isinstance(window, numbers.Real):
+        raise GeomFDIError(
+            f"detection_window: must be a number of seconds or None, got {window!r}",
+            argument="detection_window",
+        )
+    w = float(window)
+    if not (np.isfinite(w) and w > 0):
+        raise GeomFDIError(
+            f"detection_window: must be finite and > 0, got {w}", argument="detection_window"
+        )
+    return w

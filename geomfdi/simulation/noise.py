@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numbers
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -87,6 +89,9 @@ class Noise:
     process_input: Any = None
     seed: Any = None
 
+    def __post_init__(self) -> None:
+        check_seed(self.seed, "noise.seed")
+
     def factors(
         self, plant: Plant
     ) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
@@ -100,3 +105,45 @@ class Noise:
             )
         Lw = _factor(self.process, Bw.shape[1], "noise.process")
         return Lv, (Bw if Lw is not None else None), Lw
+
+
+def check_seed(seed: Any, name: str) -> Any:
+    """A reproducible seed: an integer >= 0 or a ``numpy.random.SeedSequence``."""
+    if seed is None or isinstance(seed, np.random.SeedSequence):
+        return seed
+    if isinstance(seed, numbers.Integral) and not isinstance(seed, bool):
+        if seed < 0:
+            raise GeomFDIError(f"{name}: a seed must be >= 0, got {seed}", argument=name)
+        return int(seed)
+    raise GeomFDIError(
+        f"{name}: expected an integer >= 0, a numpy SeedSequence or None, got {seed!r}",
+        argument=name,
+    )
+
+
+def run_seeds(noise: Noise | None, seeds: Any, runs: int) -> list[Any]:
+    """The per-run seeds of a batch: given (checked), or spawned from ``noise.seed``."""
+    if noise is None:
+        if seeds is not None:
+            raise GeomFDIError("seeds: per-run seeds need a noise model", argument="seeds")
+        return [None] * runs
+    if seeds is None:
+        ss = (
+            noise.seed
+            if isinstance(noise.seed, np.random.SeedSequence)
+            else np.random.SeedSequence(noise.seed)
+        )
+        return list(ss.spawn(runs))
+    if isinstance(seeds, str | bytes) or not isinstance(seeds, Sequence | np.ndarray):
+        raise GeomFDIError(f"seeds: expected a sequence of {runs} seeds", argument="seeds")
+    if len(seeds) != runs:
+        raise ShapeError(f"seeds: expected {runs} seeds, got {len(seeds)}", argument="seeds")
+    out = []
+    for i, s in enumerate(seeds):
+        if s is None:
+            raise GeomFDIError(
+                f"seeds[{i}]: None is not reproducible; give an integer >= 0",
+                argument="seeds",
+            )
+        out.append(check_seed(s, f"seeds[{i}]"))
+    return out

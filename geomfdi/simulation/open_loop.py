@@ -48,13 +48,19 @@ def run_open_loop(
     Dy0 = np.hstack([p.D, p.Dd, np.zeros((q, nwp))])
     Cu = -K
     Du = np.hstack([np.eye(m), np.zeros((m, nd + nwp))])
-    es = np.vstack([ctx.u_ext, ctx.d]) if ctx.d.shape[0] else ctx.u_ext
+    if ctx.d.ndim == 3:  # per-run disturbance samples (additive faults differ per run)
+        es = np.empty((m + nd, ctx.d.shape[0], N))
+        es[:m] = ctx.u_ext[:, None, :]
+        es[m:] = ctx.d.transpose(1, 0, 2)
+    else:
+        es = (np.vstack([ctx.u_ext, ctx.d]) if ctx.d.shape[0] else ctx.u_ext)[:, None, :]
     if wp is not None:
-        e = np.empty((es.shape[0] + nwp, wp.shape[0], N))
-        e[: es.shape[0]] = es[:, None, :]
+        Re = max(es.shape[1], wp.shape[0])
+        e = np.empty((es.shape[0] + nwp, Re, N))
+        e[: es.shape[0]] = es
         e[es.shape[0] :] = wp.transpose(1, 0, 2)
     else:
-        e = es[:, None, :]
+        e = es
     ne = e.shape[0]
     foh = ctx.hold == "foh" and not ctx.discrete
     x0T = np.ascontiguousarray(x0.T)

@@ -14,7 +14,14 @@ from geomfdi.evaluation.decision import (
     Threshold,
     isolate,
 )
-from geomfdi.simulation.signals import SensorFaultSignal
+from geomfdi.evaluation.metrics import (
+    DetectionMetrics,
+    FalseAlarms,
+    detection_metrics,
+    false_alarms,
+)
+from geomfdi.evaluation.persistence import Persistence
+from geomfdi.simulation.signals import FaultSignal
 
 
 # ================================================================== results
@@ -72,7 +79,7 @@ class SimulationResult:
     suspects: np.ndarray
     threshold: Threshold | None
     events: list[FaultEvent]
-    faults: list[SensorFaultSignal]
+    faults: list[FaultSignal]
     structure: np.ndarray
     requested: np.ndarray | None
     fault_labels: list[str]
@@ -81,6 +88,7 @@ class SimulationResult:
     w: list[np.ndarray | None] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
     vector_rows: list[bool] = field(default_factory=list)
+    persistence: Persistence | None = None
 
     @property
     def onsets(self) -> list[float]:
@@ -104,14 +112,37 @@ class SimulationResult:
             return list(self.vector_rows)
         return [rv is not None and rv.shape[0] > 1 for rv in self.residual_vectors]
 
-    def false_alarm_rate(self) -> float | None:
-        """Fraction of samples before the first onset where some residual alarms."""
-        if self.threshold is None:
-            return None
+    def _false_alarms(self) -> FalseAlarms:
         k = np.searchsorted(self.t, min(self.onsets) - 1e-12) if self.onsets else self.t.size
-        if k == 0:
+        return false_alarms(self.alarms, int(k))
+
+    def false_alarm_rate(self, per: str = "sample") -> float | None:
+        """False alarms before the first onset (``None`` without threshold or healthy part).
+
+        Parameters
+        ----------
+        per : {"sample", "hour"}
+            ``"sample"``: fraction of the healthy samples where some residual alarms;
+            ``"hour"``: false-alarm events (rising edges) per hour of healthy time.
+        """
+        if per not in ("sample", "hour"):
+            raise GeomFDIError(f"per: must be 'sample' or 'hour', got {per!r}", argument="per")
+        fa = self._false_alarms()
+        if self.threshold is None or fa.samples == 0:
             return None
-        return float(np.mean(self.alarms[:, :k].any(axis=0)))
+        if per == "sample":
+            return fa.alarm_samples / fa.samples
+        return fa.events / (fa.samples * float(self.t[1] - self.t[0]) / 3600.0)
+
+    def metrics(self) -> DetectionMetrics:
+        """Detection metrics of this run (see :mod:`geomfdi.evaluation.metrics`)."""
+        return detection_metrics(
+            [self.events],
+            [self._false_alarms()],
+            float(self.t[1] - self.t[0]),
+            self.structure.shape[1],
+            labels=self.fault_labels,
+        )
 
     def summary_rows(self) -> list[dict[str, Any]]:
         """One dict per simulated fault: onset, detection and isolation times/delays."""
@@ -194,9 +225,15 @@ class BatchResult:
     peak : ndarray, (runs, n_residuals)
         ``max |r|`` over each run.
     events : list of list of FaultEvent
-    false_alarm_counts, healthy_samples : ndarray, (runs,)
-        Number of samples before each run's first onset with some alarm, and of samples
-        before the first onset (see :meth:`false_alarm_rate`).
+    false_alarm_counts, healthy_samples, false_alarm_events : ndarray, (runs,)
+        Number of samples before each run's first onset with some alarm, of samples
+        before the first onset, and of false-alarm events (rising edges) there (see
+        :meth:`false_alarm_rate`).
+    persistence : Persistence or None
+        The persistence rule of the alarms and decisions.
+
+    Every rate is a method (``false_alarm_rate(per=...)``, ``detection_rate(which)``,
+    ``missed_detection_rate(which)``, ``metrics(which)``).
     fault_lists : list of list
     seeds : list
     threshold : Threshold or None
@@ -215,7 +252,7 @@ class BatchResult:
     events: list[list[FaultEvent]]
     false_alarm_counts: np.ndarray
     healthy_samples: np.ndarray
-    fault_lists: list[list[SensorFaultSignal]]
+    fault_lists: list[list[FaultSignal]]
     seeds: list[Any]
     threshold: Threshold | None
     structure: np.ndarray
@@ -224,20 +261,64 @@ class BatchResult:
     residual_labels: list[str]
     info: dict[str, Any] = field(default_factory=dict)
     vector_rows: list[bool] = field(default_factory=list)
+    persistence: Persistence | None = None
+    false_alarm_events: np.ndarray | None = None
 
-    def false_alarm_rate(self) -> float | None:
-        """Pooled fraction of fault-free samples with some alarm (None without data)."""
-        tot = int(self.healthy_samples.sum())
-        if self.threshold is None or tot == 0:
+    def _false_alarms(self) -> list[FalseAlarms]:
+        ev = (
+            self.false_alarm_events
+            if self.false_alarm_events is not None
+            else np.zeros(self.runs, dtype=int)
+        )
+        return [
+            FalseAlarms(int(h), int(c), int(e))
+            for h, c, e in zip(self.healthy_samples, self.false_alarm_counts, ev, strict=True)
+        ]
+
+    def metrics(self, which: int | None = None) -> DetectionMetrics:
+        """Aggregated detection metrics (:mod:`geomfdi.evaluation.metrics`).
+
+        ``which``: count only the ``which``-th fault of each run's list (default: all).
+        """
+        if which is not None:
+            which = as_int(which, "which", minimum=0)
+        return detection_metrics(
+            self.events,
+            self._false_alarms(),
+            float(self.t[1] - self.t[0]),
+            self.structure.shape[1],
+            which=which,
+            labels=self.fault_labels,
+        )
+
+    def false_alarm_rate(self, per: str = "sample") -> float | None:
+        """False-alarm rate over the runs' fault-free parts (``None`` without data).
+
+        Parameters
+        ----------
+        per : {"sample", "run", "hour"}
+            Pooled fraction of healthy samples with some alarm; fraction of runs with a
+            false alarm; false-alarm events per hour of healthy time.
+        """
+        if per not in ("sample", "run", "hour"):
+            raise GeomFDIError(
+                f"per: must be 'sample', 'run' or 'hour', got {per!r}", argument="per"
+            )
+        if self.threshold is None:
             return None
-        return float(self.false_alarm_counts.sum() / tot)
+        m = self.metrics()
+        return {"sample": m.far_per_sample, "run": m.far_per_run, "hour": m.far_per_hour}[per]
 
     def detection_rate(self, which: int = 0) -> float:
-        """Fraction of runs whose ``which``-th fault (in its list) was detected."""
+        """Fraction of runs whose ``which``-th fault (in its list) was detected in its window."""
         ev = [e[which] for e in self.events if len(e) > which]
         if not ev:
             raise GeomFDIError(f"which: no run has a fault number {which}", argument="which")
         return float(np.mean([x.detected for x in ev]))
+
+    def missed_detection_rate(self, which: int = 0) -> float:
+        """``1 - detection_rate(which)``."""
+        return 1.0 - self.detection_rate(which)
 
     def detection_delays(self, which: int = 0) -> np.ndarray:
         """Detection delays of the ``which``-th fault over the runs that detected it."""
@@ -252,7 +333,10 @@ class BatchResult:
             raise GeomFDIError("i: single runs need simulate_batch(..., store='all')", argument="i")
         if i >= self.runs:
             raise GeomFDIError(f"i: only {self.runs} runs", argument="i")
-        iso = isolate(self.alarms[i], self.structure)
+        if self.persistence is not None:
+            iso = self.persistence.isolation(self.alarms[i], self.structure)
+        else:
+            iso = isolate(self.alarms[i], self.structure)
         return SimulationResult(
             self.t,
             self.x[i],
@@ -274,6 +358,7 @@ class BatchResult:
             self.residual_labels,
             info=dict(self.info),
             vector_rows=list(self.vector_rows),
+            persistence=self.persistence,
         )
 
     def summary(self) -> str:

@@ -39,6 +39,7 @@ from geomfdi._validation import as_index, as_real_array, check_finite
 from geomfdi.errors import GeomFDIError, ShapeError
 
 __all__ = [
+    "FaultSignal",
     "SensorFaultSignal",
     "GainFault",
     "BiasFault",
@@ -104,7 +105,51 @@ def _evaluate(value: Value, t: np.ndarray, name: str) -> np.ndarray:
     return out
 
 
-class SensorFaultSignal:
+class FaultSignal:
+    """Base class of every simulated fault signal: an activity window ``start <= t < end``.
+
+    Attributes
+    ----------
+    start, end : float
+        Active for ``start <= t < end`` (``end`` may be ``None``: never ends).
+    """
+
+    start: float
+    end: float | None
+    kind: str = "fault"
+
+    def _init_window(self, start: Any, end: Any) -> None:
+        self.start = _check_time(start, "start")
+        self.end = _check_time(end, "end", allow_none=True)
+        if self.end is not None and self.end <= self.start:
+            raise GeomFDIError(
+                f"end: must be after start ({self.start}), got {self.end}", argument="end"
+            )
+
+    def mask(self, t: np.ndarray) -> np.ndarray:
+        """Boolean mask of the samples where the fault is active."""
+        t = np.asarray(t, dtype=float)
+        m = t >= self.start - _time_tol(self.start)
+        if self.end is not None:
+            m &= t < self.end - _time_tol(self.end)
+        return m
+
+    def label(self) -> str:
+        """Short human-readable description."""
+        raise NotImplementedError
+
+    def _until(self) -> str:
+        end = "" if self.end is None else f" until t={self.end:g}"
+        return f"from t={self.start:g}{end}"
+
+
+def _check_channel(value: Any, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+        raise GeomFDIError(f"{name}: must be an integer >= 0, got {value!r}", argument=name)
+    return int(value)
+
+
+class SensorFaultSignal(FaultSignal):
     """Base class of the sensor fault signals (not used directly).
 
     Attributes
@@ -116,22 +161,10 @@ class SensorFaultSignal:
     """
 
     sensor: int
-    start: float
-    end: float | None
-    kind: str = "fault"
 
     def _init_common(self, sensor: Any, start: Any, end: Any) -> None:
-        if isinstance(sensor, bool) or not isinstance(sensor, numbers.Integral) or sensor < 0:
-            raise GeomFDIError(
-                f"sensor: must be an integer >= 0, got {sensor!r}", argument="sensor"
-            )
-        self.sensor = int(sensor)
-        self.start = _check_time(start, "start")
-        self.end = _check_time(end, "end", allow_none=True)
-        if self.end is not None and self.end <= self.start:
-            raise GeomFDIError(
-                f"end: must be after start ({self.start}), got {self.end}", argument="end"
-            )
+        self.sensor = _check_channel(sensor, "sensor")
+        self._init_window(start, end)
 
     # ------------------------------------------------------------ interface
     @property
@@ -152,14 +185,6 @@ class SensorFaultSignal:
         """True for a stuck fault that holds the reading at its start."""
         return False
 
-    def mask(self, t: np.ndarray) -> np.ndarray:
-        """Boolean mask of the samples where the fault is active."""
-        t = np.asarray(t, dtype=float)
-        m = t >= self.start - _time_tol(self.start)
-        if self.end is not None:
-            m &= t < self.end - _time_tol(self.end)
-        return m
-
     def apply(self, t: Any, y0: Any) -> np.ndarray:
         """The faulty readings: this fault applied to the healthy readings ``y0``.
 
@@ -174,13 +199,8 @@ class SensorFaultSignal:
         """
         return apply_faults([self], t, y0)
 
-    def label(self) -> str:
-        """Short human-readable description."""
-        raise NotImplementedError
-
     def _window(self) -> str:
-        end = "" if self.end is None else f" until t={self.end:g}"
-        return f"sensor {self.sensor} from t={self.start:g}{end}"
+        return f"sensor {self.sensor} {self._until()}"
 
 
 def _describe(value: Value) -> str:

@@ -96,26 +96,28 @@ import numpy as np
 from geomfdi.evaluation.decision import (
     as_threshold,
     detection_events,
-    isolate,
 )
+from geomfdi.evaluation.persistence import as_persistence, decisions
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.closed_loop import run_output_feedback
 from geomfdi.simulation.context import (
     Context,
     RawRuns,
+    detection_window_of,
     draw_noise,
-    fault_indices,
     prepare,
     residual_labels_of,
     residual_rows,
     state_vector,
+    with_input_faults,
 )
 from geomfdi.simulation.noise import Noise
 from geomfdi.simulation.open_loop import run_open_loop
 from geomfdi.simulation.results import (
     SimulationResult,
 )
-from geomfdi.simulation.signals import SensorFaultSignal, validate_faults
+from geomfdi.simulation.schedule import FaultSchedule, fault_schedule, structure_columns
+from geomfdi.simulation.signals import FaultSignal
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
 
@@ -124,28 +126,35 @@ def run_chunk(
     x0: np.ndarray,
     xc0: np.ndarray,
     rngs: list[np.random.Generator | None],
-    fault_lists: list[list[SensorFaultSignal]],
+    schedules: list[FaultSchedule],
     shared: bool,
 ) -> RawRuns:
+    """Simulate one chunk of runs (``schedules``: one per run, or one shared)."""
     draws = [draw_noise(ctx, rng) if rng is not None else (None, None) for rng in rngs]
     v = np.stack([dv for dv, _ in draws]) if ctx.Lv is not None else None
     wp = np.stack([dw for _, dw in draws]) if ctx.Lw is not None else None
-    if wp is not None:
-        wp = np.asarray(wp)
     if ctx.ctrl.mode != "output":
-        return run_open_loop(ctx, x0, v, wp, fault_lists, shared)
+        return run_open_loop(
+            with_input_faults(ctx, schedules[:1] if shared else schedules),
+            x0,
+            v,
+            wp,
+            [s.sensor for s in schedules],
+            shared,
+        )
     if shared:
-        return run_output_feedback(ctx, x0, xc0, v, wp, fault_lists[0])
+        ctx1 = with_input_faults(ctx, schedules[:1])
+        return run_output_feedback(ctx1, x0, xc0, v, wp, schedules[0].sensor)
     parts = []
-    for r, fl in enumerate(fault_lists):  # the loop differs per run: one at a time
+    for r, sched in enumerate(schedules):  # the loop differs per run: one at a time
         parts.append(
             run_output_feedback(
-                ctx,
+                with_input_faults(ctx, [sched]),
                 x0[r : r + 1] if x0.shape[0] > 1 else x0,
                 xc0,
                 None if v is None else v[r : r + 1],
                 None if wp is None else wp[r : r + 1],
-                fl,
+                sched.sensor,
             )
         )
     cat = lambda xs: np.concatenate(xs)  # noqa: E731
@@ -172,7 +181,7 @@ def simulate(
     t: Any,
     u: Any = None,
     *,
-    faults: Sequence[SensorFaultSignal] | SensorFaultSignal = (),
+    faults: Sequence[FaultSignal] | FaultSignal = (),
     x0: Any = None,
     noise: Noise | None = None,
     controller: Any = None,
@@ -182,6 +191,8 @@ def simulate(
     hold: str = "foh",
     consistent_init: bool = True,
     keep_states: bool = False,
+    persistence: Any = None,
+    detection_window: float | None = None,
     progress: bool | None = None,
 ) -> SimulationResult:
     """Simulate the plant with sensor faults and run the residual bank on its output.
@@ -198,8 +209,12 @@ def simulate(
         External input ``u_ext`` (a vectorised function of the time array is accepted;
         ``None``: zero).  With a controller the applied input is ``u_ext - K x`` or
         ``u_ext + K(s) y``.
-    faults : sequence of GainFault / BiasFault / StuckFault
-        Any number, on any sensors (composed in order on one sensor).
+    faults : sequence of fault signals
+        Sensor faults (:class:`GainFault`, :class:`BiasFault`, :class:`StuckFault`;
+        composed in order on one sensor), actuator faults (:class:`ActuatorGainFault`,
+        :class:`ActuatorBiasFault`, :class:`ActuatorStuckFault`) and general additive
+        faults (:class:`AdditiveFault`), any number.  ``u`` in the result is the
+        commanded input (what the bank reads), not the faulty applied one.
     x0 : array_like (n,), optional
         Initial plant state (zero by default).
     noise : Noise, optional
@@ -225,6 +240,14 @@ def simulate(
     keep_states : bool
         Also return the generator states ``w`` (``res.w``); off by default to save
         memory (always kept under output feedback, where they come for free).
+    persistence : None, int, (k, n) or Persistence
+        Alarms and isolation decisions only when they hold ``k`` of ``n`` samples
+        (an int ``n``: a minimum duration of ``n`` samples); see
+        :class:`geomfdi.Persistence`.
+    detection_window : float, optional
+        Seconds after each onset within which an alarm counts as a detection (and a
+        decision as an isolation); ``None``: to the end of the run.  An alarm before the
+        onset is a false alarm, never a detection.
     progress : bool, optional
         Progress bar for the stepping scheme (default: when stderr is a terminal).
 
@@ -252,20 +275,19 @@ def simulate(
     plant = as_plant(plant)
     ctx = prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
     ctx.keep_states = bool(keep_states)
-    fl = validate_faults(faults, plant.q)
+    sched = fault_schedule(faults, plant)
     x0a = state_vector(x0, plant.n, "x0")
     xc0a = state_vector(xc0, ctx.ctrl.nc, "xc0")
-    rng = np.random.default_rng(noise.seed) if noise is not None else None
-    raw = run_chunk(ctx, x0a, xc0a, [rng], [fl], True)
-    res = residual_rows(ctx, raw)[0]
     view = ctx.view
     thr = as_threshold(threshold, len(view.generators), view.present)
-    if thr is not None:
-        alarms = thr.alarms(res)
-    else:
-        alarms = np.zeros(res.shape, dtype=bool)
-    iso = isolate(alarms, view.structure)
-    events = detection_events(ctx.t, alarms, iso.isolated, fl, fault_indices(view, fl))
+    rule = as_persistence(persistence)
+    window = detection_window_of(detection_window)
+    rng = np.random.default_rng(noise.seed) if noise is not None else None
+    raw = run_chunk(ctx, x0a, xc0a, [rng], [sched], True)
+    res = residual_rows(ctx, raw)[0]
+    alarms, iso = decisions(res, thr, view.structure, rule)
+    cols = structure_columns(sched.faults, view.design_faults, plant)
+    events = detection_events(ctx.t, alarms, iso.isolated, sched.faults, cols, window=window)
     first = lambda a: None if a is None else a[0]  # noqa: E731
     return SimulationResult(
         t=ctx.t,
@@ -281,7 +303,8 @@ def simulate(
         suspects=iso.suspects,
         threshold=thr,
         events=events,
-        faults=fl,
+        faults=list(sched.faults),
+        persistence=rule,
         structure=view.structure,
         requested=view.requested,
         fault_labels=view.fault_labels,
