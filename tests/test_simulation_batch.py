@@ -221,3 +221,33 @@ def test_benchmark_quick_mode_runs(capsys):
     assert "ratio" in out and "aggregate" in out and "extrapolated" in out
     exact = [r for r in rows if "max_diff" in r and not r["extrapolated"]]
     assert exact and all(r["max_diff"] < 1e-10 for r in exact)  # same numbers as the baseline
+
+
+def test_detection_rate_at_fault_size_zero_equals_the_false_alarm_rate():
+    # a zero-size fault leaves the residual healthy: P_d in a window of n samples after
+    # the onset must equal the per-run FAR over n healthy samples (binomial error)
+    plant = gf.Plant([[-1.0]], [[1.0]], [[1.0]])
+    gen = gf.ResidualGenerator([[-2.0]], [[-1.0]], [[1.0]], [[1.0]], [[1.0]], [[0.0]])
+    t = np.arange(400) * 0.01
+    runs = 400
+    kw = dict(
+        runs=runs,
+        faults=[gf.BiasFault(0, start=1.0, bias=0.0)],
+        noise=gf.Noise(measurement=0.1, seed=11),
+        threshold=0.28,
+        store="summary",
+    )
+    batch = gf.simulate_batch(plant, gen, t, detection_window=0.995, **kw)
+    assert np.all(batch.healthy_samples == 100)
+    far_run = batch.false_alarm_rate(per="run")
+    pd = batch.detection_rate()
+    assert 0.1 < far_run < 0.6  # a rate where the comparison has power
+    se = np.sqrt(2 * far_run * (1 - far_run) / runs)
+    assert abs(pd - far_run) < 3.5 * se
+    assert batch.missed_detection_rate() == pytest.approx(1 - pd)
+    # without the window an alarm anywhere in the 300 samples after onset counts: the
+    # old, inflated figure
+    loose = gf.simulate_batch(plant, gen, t, **kw)
+    assert loose.detection_rate() > far_run + 6 * se
+    m = batch.metrics()
+    assert m.far_per_run == far_run and m.detection_rate == pd and m.runs == runs

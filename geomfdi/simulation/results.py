@@ -151,13 +151,15 @@ class SimulationResult:
             rows.append(
                 {
                     "fault": ev.fault.label(),
-                    "sensor": ev.fault.sensor,
+                    "sensor": getattr(ev.fault, "sensor", None),
+                    "actuator": getattr(ev.fault, "actuator", None),
                     "structure_column": ev.index,
                     "onset": ev.onset,
                     "detected_at": ev.detection_time,
                     "detection_delay": ev.detection_delay,
                     "isolated_at": ev.isolation_time,
                     "isolation_delay": ev.isolation_delay,
+                    "isolation": ev.outcome,
                     "alarming_residuals": [self.residual_labels[r] for r in ev.residuals],
                 }
             )
