@@ -19,11 +19,13 @@ from geomfdi.evaluation.persistence import as_persistence, decisions
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.context import (
     detection_window_of,
+    from_balanced,
     prepare,
     progress_bar,
     residual_labels_of,
     residual_rows,
     state_vector,
+    to_balanced,
 )
 from geomfdi.simulation.noise import Noise, run_seeds
 from geomfdi.simulation.results import (
@@ -163,7 +165,7 @@ def simulate_batch(
         rngs = [None if s is None else np.random.default_rng(s) for s in seeds[a:b]]
         x0c = x0a[a:b] if x0a.shape[0] > 1 else x0a
         chunk = schedules[a:b]
-        raw = run_chunk(ctx, x0c, xc0a, rngs, chunk, not per_run)
+        raw = run_chunk(ctx, to_balanced(ctx, x0c), xc0a, rngs, chunk, not per_run)
         Rc = b - a
         res = np.broadcast_to(residual_rows(ctx, raw), (Rc, nres, N))
         al, iso = decisions(res, thr, view.structure, rule)
@@ -188,7 +190,7 @@ def simulate_batch(
             R_al[a:b] = al
             R_iso[a:b] = iso.isolated
         if store == "all":
-            R_x[a:b] = raw.x
+            R_x[a:b] = from_balanced(ctx, raw.x)
             R_y[a:b] = raw.y
             R_yh[a:b] = raw.y_healthy
             R_u[a:b] = raw.u

@@ -21,10 +21,7 @@ from geomfdi.simulation.context import (
     progress_bar,
 )
 from geomfdi.simulation.discretization import Discretization
-from geomfdi.simulation.initial_state import (
-    check_mismatch,
-    consistent_initial_state,
-)
+from geomfdi.simulation.initial_state import consistent_start
 from geomfdi.simulation.lifting import linear_recursion
 from geomfdi.simulation.signals import SensorFaultSignal, fault_profile
 
@@ -183,10 +180,10 @@ def run_output_feedback(
         if ctx.consistent:
             Sig = -g.E @ L0["Ymx"] + g.G @ L0["Ux"]
             Nout = -g.H @ L0["Ymx"] + g.K @ L0["Ux"]
-            Pi, mm = consistent_initial_state(g.F, L0["AX"], Sig, g.M, Nout)
-            ctx.info.setdefault("init_mismatch", {})[k] = mm
-            check_mismatch(k, mm)
-            S0[:, i : i + nw] = X0 @ Pi.T
+            Pi = consistent_start(k, g.F, L0["AX"], Sig, g.M, Nout, ctx.info)
+            if Pi is not None:
+                S0[:, i : i + nw] = X0 @ Pi.T
+        ctx.info.setdefault("w0", {})[k] = np.array(S0[0, i : i + nw])
         i += nw
     # exogenous samples (lambda filled per segment)
     ne = model.ne

@@ -13,9 +13,10 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 
 from geomfdi._validation import as_matrix, as_real_array
-from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.errors import GeomFDIError, NonFiniteError, ShapeError
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.discretization import HOLDS, Discretization, discretize, uniform_step
 from geomfdi.simulation.noise import Noise
@@ -32,9 +33,34 @@ class BankView:
     fault_labels: list[str]
     bank: Any
 
+    scales: list[np.ndarray | None] = field(default_factory=list)
+
     @property
     def present(self) -> list[int]:
         return [k for k, g in enumerate(self.generators) if g is not None]
+
+
+def balanced_generator(g: ResidualGenerator) -> tuple[ResidualGenerator, np.ndarray]:
+    """``g`` in balanced state coordinates ``w = diag(e) w_b`` (the residual is unchanged).
+
+    A generator designed in badly scaled coordinates has a badly scaled ``F``; its
+    simulation (Schur form, matrix exponential) is accurate relative to ``||F||``, so the
+    state is balanced first (``scipy.linalg.matrix_balance``, powers of 2: exact).
+    """
+    if g.order == 0:
+        return g, np.ones(0)
+    _, (e, _) = scipy.linalg.matrix_balance(g.F, permute=False, separate=True)
+    e = np.asarray(e, dtype=float)
+    if np.all(e == 1.0):
+        return g, e
+    gb = replace(
+        g,
+        F=g.F * e[None, :] / e[:, None],
+        E=g.E / e[:, None],
+        G=g.G / e[:, None],
+        M=g.M * e[None, :],
+    )
+    return gb, e
 
 
 def bank_view(bank: Any, plant: Plant) -> BankView:
@@ -60,6 +86,12 @@ def bank_view(bank: Any, plant: Plant) -> BankView:
         raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
     for k in view.present:
         g = view.generators[k]
+        for name in ("F", "E", "G", "M", "H", "K"):
+            mat = np.asarray(getattr(g, name), dtype=float)
+            if not np.all(np.isfinite(mat)):
+                raise NonFiniteError(
+                    f"bank: generator {k} has a non-finite entry in {name}", argument="bank"
+                )
         if g.q != plant.q or g.m != plant.m:
             raise ShapeError(
                 f"bank: generator {k} reads {g.q} outputs and {g.m} inputs, the plant has "
@@ -71,7 +103,23 @@ def bank_view(bank: Any, plant: Plant) -> BankView:
                 f"bank: generator {k} has dt={g.dt:g}, the plant dt={plant.dt:g}",
                 argument="bank",
             )
+    view.scales = [None] * len(view.generators)
+    for k in view.present:
+        view.generators[k], view.scales[k] = balanced_generator(view.generators[k])
     return view
+
+
+def unbalance_states(view: BankView, info: dict, ws: list[np.ndarray | None]) -> list:
+    """Generator states (and ``info["w0"]``) back in the bank's own coordinates."""
+    out: list[np.ndarray | None] = []
+    for k, w in enumerate(ws):
+        e = view.scales[k] if k < len(view.scales) else None
+        out.append(w if w is None or e is None else w * e[:, None])
+    for k, w0 in info.get("w0", {}).items():
+        e = view.scales[k]
+        if e is not None:
+            info["w0"][k] = w0 * e
+    return out
 
 
 @dataclass
@@ -182,6 +230,8 @@ class Context:
     progress: bool
     keep_states: bool = False
     info: dict[str, Any] = field(default_factory=dict)
+    original: Plant | None = None  # the user's plant (``plant`` is balanced)
+    x_scale: np.ndarray | None = None  # x = diag(x_scale) x_balanced
 
     @property
     def discrete(self) -> bool:
@@ -254,6 +304,24 @@ def prepare(
     Lv, Bw, Lw = noise.factors(plant) if noise is not None else (None, None, None)
     if progress is None:
         progress = sys.stderr.isatty()
+    # the state in balanced units (x = diag(xs) x_b): a plant in badly scaled coordinates
+    # is simulated as accurately as the same plant in good ones (exact: powers of 2)
+    original = plant
+    xs = plant_scaling(plant)
+    if xs is not None:
+        plant = Plant(
+            plant.A * xs[None, :] / xs[:, None],
+            plant.B / xs[:, None],
+            plant.C * xs[None, :],
+            plant.D,
+            Bd=plant.Bd / xs[:, None],
+            Dd=plant.Dd,
+            dt=plant.dt,
+        )
+        if ctrl.K is not None:
+            ctrl = replace(ctrl, K=ctrl.K * xs[None, :])
+        if Bw is not None:
+            Bw = Bw / xs[:, None]
     return Context(
         plant,
         view,
@@ -274,7 +342,28 @@ def prepare(
             ],
             "hold": "discrete" if plant.is_discrete else hold,
         },
+        original=original,
+        x_scale=xs,
     )
+
+
+def plant_scaling(plant: Plant) -> np.ndarray | None:
+    """Diagonal state scaling that balances ``A`` (``None`` when already balanced)."""
+    if plant.n == 0:
+        return None
+    _, (xs, _) = scipy.linalg.matrix_balance(plant.A, permute=False, separate=True)
+    xs = np.asarray(xs, dtype=float)
+    return None if np.all(xs == 1.0) else xs
+
+
+def to_balanced(ctx: Context, x0: np.ndarray) -> np.ndarray:
+    """Initial states (runs, n) in the balanced units of ``ctx``."""
+    return x0 if ctx.x_scale is None else x0 / ctx.x_scale[None, :]
+
+
+def from_balanced(ctx: Context, x: np.ndarray) -> np.ndarray:
+    """Plant states (..., n, N) back in the user's units."""
+    return x if ctx.x_scale is None else x * ctx.x_scale[:, None]
 
 
 def draw_noise(
@@ -325,7 +414,7 @@ def with_input_faults(ctx: Context, schedules: Sequence[FaultSchedule]) -> Conte
     The plant gets ``Bd' = [Bd, Bphi]``, ``Dd' = [Dd, Dphi]`` and the disturbance samples
     ``d' = [d; phi]`` (per run, ``(R, nd', N)``, when the runs' signals differ).
     """
-    ch = input_channels(schedules, ctx.plant, ctx.t, ctx.u_ext)
+    ch = input_channels(schedules, ctx.original or ctx.plant, ctx.t, ctx.u_ext)
     if ch is None:
         return ctx
     if ctx.ctrl.mode != "open" and any(s.needs_input for s in schedules):
@@ -336,6 +425,8 @@ def with_input_faults(ctx: Context, schedules: Sequence[FaultSchedule]) -> Conte
             argument="faults",
         )
     Bphi, Dphi, phi = ch
+    if ctx.x_scale is not None:
+        Bphi = Bphi / ctx.x_scale[:, None]
     p = ctx.plant
     aug = Plant(p.A, p.B, p.C, p.D, Bd=np.hstack([p.Bd, Bphi]), Dd=np.hstack([p.Dd, Dphi]), dt=p.dt)
     if phi.shape[0] == 1:

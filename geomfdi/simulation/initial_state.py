@@ -52,15 +52,31 @@ def consistent_initial_state(
     if nw == 0 or nX == 0:
         Pi = np.zeros((nw, nX))
     else:
-        if _spectra_apart(F, A_cl):
-            Pi = scipy.linalg.solve_sylvester(F, -A_cl, -Sigma)
+        d, e = state_scaling(A_cl), state_scaling(F)
+        Ab, Sb, Nb = A_cl * d[None, :] / d[:, None], Sigma * d / e[:, None], N_out * d
+        Fb, Mb = F * e[None, :] / e[:, None], M * e[None, :]
+        if _spectra_apart(Fb, Ab):
+            Pb = scipy.linalg.solve_sylvester(Fb, -Ab, -Sb)
         else:
             Inx, Inw = np.eye(nX), np.eye(nw)
-            lhs = np.vstack([np.kron(Inx, F) - np.kron(A_cl.T, Inw), np.kron(Inx, M)])
-            rhs = np.concatenate([-Sigma.ravel(order="F"), -N_out.ravel(order="F")])
+            lhs = np.vstack([np.kron(Inx, Fb) - np.kron(Ab.T, Inw), np.kron(Inx, Mb)])
+            rhs = np.concatenate([-Sb.ravel(order="F"), -Nb.ravel(order="F")])
             sol = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
-            Pi = sol.reshape((nw, nX), order="F")
+            Pb = sol.reshape((nw, nX), order="F")
+        Pi = Pb * e[:, None] / d[None, :]
     return Pi, output_mismatch(M, Pi, N_out)
+
+
+def state_scaling(A_cl: np.ndarray) -> np.ndarray:
+    """Diagonal scaling ``d`` with ``D^-1 A_cl D`` balanced (``D = diag(d)``, powers of 2).
+
+    Every check of ``Pi`` is made in these coordinates, so that it does not depend on
+    the units of the states (a change ``x -> T x`` with ``T`` diagonal).
+    """
+    if A_cl.shape[0] == 0:
+        return np.ones(0)
+    _, (scale, _) = scipy.linalg.matrix_balance(A_cl, permute=False, separate=True)
+    return np.asarray(scale, dtype=float)
 
 
 def _spectra_apart(F: np.ndarray, A_cl: np.ndarray, ea: np.ndarray | None = None) -> bool:
@@ -94,27 +110,40 @@ def joint_sylvester(
     out: list[np.ndarray | None] = [None] * len(Fs)
     if A_cl.shape[0] == 0:
         return out
-    ea = np.linalg.eigvals(A_cl)
+    d = state_scaling(A_cl)
+    Ab = A_cl * d[None, :] / d[:, None]
+    ea = np.linalg.eigvals(Ab)
     offs = np.cumsum([0] + [F.shape[0] for F in Fs])
-    keep = [g for g, F in enumerate(Fs) if F.shape[0] and _spectra_apart(F, A_cl, ea)]
+    es = [state_scaling(F) for F in Fs]
+    Fbs = [F * e[None, :] / e[:, None] for F, e in zip(Fs, es, strict=True)]
+    keep = [g for g, F in enumerate(Fbs) if F.shape[0] and _spectra_apart(F, Ab, ea)]
     if not keep:
         return out
     rows = np.concatenate([np.arange(offs[g], offs[g + 1]) for g in keep])
-    Pi = scipy.linalg.solve_sylvester(
-        scipy.linalg.block_diag(*[Fs[g] for g in keep]), -A_cl, -Sigma[rows]
+    ek = np.concatenate([es[g] for g in keep])
+    Pb = scipy.linalg.solve_sylvester(
+        scipy.linalg.block_diag(*[Fbs[g] for g in keep]), -Ab, -Sigma[rows] * d / ek[:, None]
     )
+    Pb = Pb * ek[:, None] / d[None, :]
     o = 0
     for g in keep:
-        out[g] = Pi[o : o + Fs[g].shape[0]]
+        out[g] = Pb[o : o + Fs[g].shape[0]]
         o += Fs[g].shape[0]
     return out
 
 
-DECOUPLE_TOL = 1e-12  # relative Sylvester residual below which w - Pi x is decoupled
+EXACT_TOL = 1e-8  # largest start_error for which w0 = Pi x0 (and w - Pi x) is used
 
 
 def sylvester_residual(F: np.ndarray, A_cl: np.ndarray, Sigma: np.ndarray, Pi: np.ndarray) -> float:
-    """``||F Pi - Pi A_cl + Sigma|| / (||F|| ||Pi|| + ||Pi|| ||A_cl|| + ||Sigma||)``."""
+    """``||F Pi - Pi A_cl + Sigma|| / (||F|| ||Pi|| + ||Pi|| ||A_cl|| + ||Sigma||)``.
+
+    Evaluated in the balanced coordinates of ``A_cl`` (:func:`state_scaling`): invariant
+    under a diagonal change of the state's units.
+    """
+    if A_cl.shape[0]:
+        d = state_scaling(A_cl)
+        A_cl, Sigma, Pi = A_cl * d[None, :] / d[:, None], Sigma * d, Pi * d
     res = F @ Pi - Pi @ A_cl + Sigma
     nPi = np.linalg.norm(Pi)
     den = (np.linalg.norm(F) + np.linalg.norm(A_cl)) * nPi + np.linalg.norm(Sigma)
@@ -130,3 +159,86 @@ def check_mismatch(k: int, mismatch: float) -> None:
             InitialStateWarning,
             stacklevel=4,
         )
+
+
+def start_error(
+    F: np.ndarray,
+    A_cl: np.ndarray,
+    Sigma: np.ndarray,
+    M: np.ndarray,
+    N_out: np.ndarray,
+    Pi: np.ndarray,
+) -> float:
+    """How far ``w = Pi X`` is from an invariant subspace, measured on the residual.
+
+    The Sylvester error ``R = F Pi - Pi A_cl + Sigma`` drives the residual through
+    ``M (sI - F)^-1 R``.  Per loop state ``j`` its size at ``s0 = i max(1, rho(F))`` is
+    compared with that of the healthy coupling, ``|M (s0 I - F)^-1 Sigma_j| + |N_j|``
+    (floored at 1e-6 of the largest, in the balanced units of ``A_cl``): the largest
+    ratio is returned.  The measure does not depend on the generator's state
+    coordinates, nor on the units of the loop states beyond what balancing removes.
+    """
+    nw = F.shape[0]
+    if nw == 0 or A_cl.shape[0] == 0:
+        return 0.0
+    R = F @ Pi - Pi @ A_cl + Sigma
+    rho = float(np.max(np.abs(np.linalg.eigvals(F))))
+    s0 = 1j * max(1.0, rho)
+    try:
+        G = M @ np.linalg.solve(s0 * np.eye(nw) - F, np.hstack([R, Sigma]))
+    except np.linalg.LinAlgError:
+        return float("inf")
+    nX = A_cl.shape[0]
+    d = state_scaling(A_cl)  # columns in balanced units
+    err = np.linalg.norm(G[:, :nX], axis=0) * d
+    ref = (np.linalg.norm(G[:, nX:], axis=0) + np.linalg.norm(N_out, axis=0)) * d
+    if not np.any(err):
+        return 0.0
+    # a state that does not reach the residual is compared with 1e-6 of the largest
+    top = float(np.max(ref))
+    if top == 0:
+        return float("inf")
+    return float(np.max(err / np.maximum(ref, 1e-6 * top)))
+
+
+def inexact_start(k: int, residual: float) -> None:
+    """Warn that generator ``k`` starts at zero: no exact consistent state was found."""
+    warnings.warn(
+        f"generator {k}: the consistent initial state is not exact (its error reaches "
+        f"{residual:.3g} of the residual, > {EXACT_TOL:g}); the generator starts at zero",
+        InitialStateWarning,
+        stacklevel=4,
+    )
+
+
+def consistent_start(
+    k: int,
+    F: np.ndarray,
+    A_cl: np.ndarray,
+    Sigma: np.ndarray,
+    M: np.ndarray,
+    N_out: np.ndarray,
+    info: dict,
+    Pi: np.ndarray | None = None,
+) -> np.ndarray | None:
+    """``Pi`` to start generator ``k`` at ``w0 = Pi X0``, or None when no exact one exists.
+
+    The start is used only when ``Pi`` solves the Sylvester equation to a relative
+    :data:`EXACT_TOL` in balanced coordinates (checked, not assumed): otherwise the
+    generator starts at zero with an :class:`InitialStateWarning`, never from a wrong
+    state.  ``info`` records ``init_mismatch``, ``init_residual`` and ``initial_state``.
+    """
+    if Pi is None:
+        Pi, mm = consistent_initial_state(F, A_cl, Sigma, M, N_out)
+    else:
+        mm = output_mismatch(M, Pi, N_out)
+    res = start_error(F, A_cl, Sigma, M, N_out, Pi)
+    info.setdefault("init_mismatch", {})[k] = mm
+    info.setdefault("init_residual", {})[k] = res
+    if not res <= EXACT_TOL:
+        inexact_start(k, res)
+        info.setdefault("initial_state", {})[k] = "zero"
+        return None
+    check_mismatch(k, mm)
+    info.setdefault("initial_state", {})[k] = "consistent"
+    return Pi

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_matrix, as_real_array
+from geomfdi._validation import as_matrix, as_positive, as_real_array
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.simulation.discretization import (
     HOLDS,
@@ -150,7 +150,7 @@ def simulate_lti(
             raise ShapeError(
                 f"x0: expected length {n} per run, got shape {x0.shape}", argument="x0"
             )
-    dt = float(dt)
+    dt = as_positive(dt, "dt", strict=False)  # 0: continuous; NaN, inf, < 0 refused
     if dt > 0:
         if abs(step - dt) > 1e-6 * dt:
             raise GeomFDIError(

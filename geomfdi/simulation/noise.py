@@ -107,17 +107,18 @@ class Noise:
         return Lv, (Bw if Lw is not None else None), Lw
 
 
-def check_seed(seed: Any, name: str) -> Any:
+def check_seed(seed: Any, name: str, argument: str | None = None) -> Any:
     """A reproducible seed: an integer >= 0 or a ``numpy.random.SeedSequence``."""
+    argument = argument or name
     if seed is None or isinstance(seed, np.random.SeedSequence):
         return seed
     if isinstance(seed, numbers.Integral) and not isinstance(seed, bool):
         if seed < 0:
-            raise GeomFDIError(f"{name}: a seed must be >= 0, got {seed}", argument=name)
+            raise GeomFDIError(f"{name}: a seed must be >= 0, got {seed}", argument=argument)
         return int(seed)
     raise GeomFDIError(
         f"{name}: expected an integer >= 0, a numpy SeedSequence or None, got {seed!r}",
-        argument=name,
+        argument=argument,
     )
 
 
@@ -145,5 +146,5 @@ def run_seeds(noise: Noise | None, seeds: Any, runs: int) -> list[Any]:
                 f"seeds[{i}]: None is not reproducible; give an integer >= 0",
                 argument="seeds",
             )
-        out.append(check_seed(s, f"seeds[{i}]"))
+        out.append(check_seed(s, f"seeds[{i}]", "seeds"))
     return out

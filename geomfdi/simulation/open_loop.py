@@ -16,12 +16,10 @@ from geomfdi.simulation.context import (
     RawRuns,
 )
 from geomfdi.simulation.initial_state import (
-    DECOUPLE_TOL,
-    check_mismatch,
-    consistent_initial_state,
+    EXACT_TOL,
+    consistent_start,
     joint_sylvester,
-    output_mismatch,
-    sylvester_residual,
+    start_error,
 )
 from geomfdi.simulation.lifting import Drive, block_recursion
 from geomfdi.simulation.signals import SensorFaultSignal, fault_profile
@@ -121,19 +119,16 @@ def run_open_loop(
     Pis = joint_sylvester([g.F for _, g in gens], A_X, Sig_all)
     w0s = {}
     for j, ((k, g), o0, o1) in enumerate(zip(gens, offs[:-1], offs[1:], strict=True)):
+        w0s[k] = np.zeros((g.order, 1))
         if ctx.consistent:
             N_out = -g.H @ Cy0 + g.K @ Cu
+            Pis[j] = consistent_start(k, g.F, A_X, Sig_all[o0:o1], g.M, N_out, ctx.info, Pis[j])
             if Pis[j] is not None:
-                mm = output_mismatch(g.M, Pis[j], N_out)
-            else:
-                Pis[j], mm = consistent_initial_state(g.F, A_X, Sig_all[o0:o1], g.M, N_out)
-            ctx.info.setdefault("init_mismatch", {})[k] = mm
-            check_mismatch(k, mm)
-            w0s[k] = Pis[j] @ x0T
-        else:
-            w0s[k] = np.zeros((g.order, 1))
+                w0s[k] = Pis[j] @ x0T
+        ctx.info.setdefault("w0", {})[k] = np.array(w0s[k][:, 0])
     decoupled = not ctx.discrete and all(
-        Pi is not None and sylvester_residual(g.F, A_X, Sig_all[o0:o1], Pi) <= DECOUPLE_TOL
+        Pi is not None
+        and start_error(g.F, A_X, Sig_all[o0:o1], g.M, -g.H @ Cy0 + g.K @ Cu, Pi) <= EXACT_TOL
         for Pi, (_, g), o0, o1 in zip(Pis, gens, offs[:-1], offs[1:], strict=True)
     )
     # ---- drive signals of the generators, stacked once for the whole bank

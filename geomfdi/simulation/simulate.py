@@ -105,10 +105,13 @@ from geomfdi.simulation.context import (
     RawRuns,
     detection_window_of,
     draw_noise,
+    from_balanced,
     prepare,
     residual_labels_of,
     residual_rows,
     state_vector,
+    to_balanced,
+    unbalance_states,
     with_input_faults,
 )
 from geomfdi.simulation.noise import Noise
@@ -283,7 +286,7 @@ def simulate(
     rule = as_persistence(persistence)
     window = detection_window_of(detection_window)
     rng = np.random.default_rng(noise.seed) if noise is not None else None
-    raw = run_chunk(ctx, x0a, xc0a, [rng], [sched], True)
+    raw = run_chunk(ctx, to_balanced(ctx, x0a), xc0a, [rng], [sched], True)
     res = residual_rows(ctx, raw)[0]
     alarms, iso = decisions(res, thr, view.structure, rule)
     cols = structure_columns(sched.faults, view.design_faults, plant)
@@ -291,7 +294,7 @@ def simulate(
     first = lambda a: None if a is None else a[0]  # noqa: E731
     return SimulationResult(
         t=ctx.t,
-        x=raw.x[0],
+        x=from_balanced(ctx, raw.x[0]),
         y=raw.y[0],
         y_healthy=np.ascontiguousarray(raw.y_healthy[0]),
         u=np.ascontiguousarray(raw.u[0]),
@@ -310,7 +313,7 @@ def simulate(
         fault_labels=view.fault_labels,
         residual_labels=residual_labels_of(view),
         xc=first(raw.xc),
-        w=[first(w) for w in raw.w],
+        w=unbalance_states(view, ctx.info, [first(w) for w in raw.w]),
         info=ctx.info,
         vector_rows=[g is not None and g.n_outputs > 1 for g in view.generators],
     )
