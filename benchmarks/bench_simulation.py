@@ -19,30 +19,30 @@ Both simulators use the first-order hold, so their residuals agree to rounding; 
 largest difference is printed.  When ``forced_response`` would take too long at the
 largest sizes it is timed at 10^5 samples and extrapolated linearly (rows marked ``*``).
 
-Times are CPU times (``time.process_time``) of single-threaded runs (BLAS limited to one
-thread), which keeps the comparison stable on a shared machine; they include the system
-time the operating system spends mapping fresh memory pages, a large and variable part of
-``gf.simulate`` at 10^6 samples.  ``gf.simulate`` is timed as the best of three calls.
+Times are CPU times (``time.process_time``); they include the system time the operating
+system spends mapping fresh memory pages, a large and variable part of ``gf.simulate`` at
+10^6 samples.  ``gf.simulate`` is timed as the best of three calls.  The whole table is
+measured twice, once with BLAS limited to one thread (``threadpoolctl``) and once with
+the default threads, and the ratios of both runs are printed side by side.
+
+``--memory`` measures peak memory in a fresh subprocess per case (``tracemalloc``, which
+sees numpy's allocations, and the process's ``ru_maxrss``): ``gf.simulate`` of one long
+record with measurement noise and a bank of 10 residuals (peak against the returned
+arrays), and ``gf.simulate_batch(store="summary")`` (peak against 0.5 GB).
 
 Run ``python benchmarks/bench_simulation.py`` (``--quick`` for a smoke run, ``--full`` to
-time ``forced_response`` at every size instead of extrapolating).
+time ``forced_response`` at every size instead of extrapolating, ``--memory`` for the
+memory cases, ``--samples``/``--runs`` to size them).
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
 
-if __name__ == "__main__":
-    # single-threaded BLAS when run as a script: forced_response is a single-threaded
-    # Python loop, and small multithreaded BLAS calls stall on a busy machine
-    for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(_var, "1")
-
-import numpy as np  # noqa: E402
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -118,7 +118,7 @@ def composite(bank: gf.ResidualBank):
 
 def consistent_state(bank: gf.ResidualBank, x0: np.ndarray) -> np.ndarray:
     """Generator states of gf.simulate's consistent start, for the baseline."""
-    from geomfdi.simulation.simulate import consistent_initial_state
+    from geomfdi.simulation.initial_state import consistent_initial_state
 
     Acl = A - B @ K
     parts = [x0]
@@ -147,7 +147,7 @@ def inputs(t: np.ndarray, t_fault: float) -> tuple[np.ndarray, np.ndarray]:
 def time_gf(bank, t, v, x0, t_fault, repeat=1):
     best = np.inf
     plant = gf.Plant(A, B, C)
-    fault = gf.BiasFault(0, t_fault, bias(t_fault))
+    fault = gf.BiasFault(0, start=t_fault, bias=bias(t_fault))
     for _ in range(repeat):
         t0 = time.process_time()
         res = gf.simulate(plant, bank, t, v, faults=[fault], x0=x0, controller=K)
@@ -221,7 +221,7 @@ def bench(
     v, f = inputs(t, t_fault)
     noise = gf.Noise(measurement=2e-4, seed=1)
     plant = gf.Plant(A, B, C)
-    fl = [gf.BiasFault(0, t_fault, bias(t_fault))]
+    fl = [gf.BiasFault(0, start=t_fault, bias=bias(t_fault))]
     tb = np.inf
     for _ in range(2):  # best of two, like the single runs
         t0 = time.process_time()
@@ -272,7 +272,7 @@ def bench(
     print(f"{'gf.simulate_batch (aggregate)':<34} {agg:>12.3g} {agg / fr_sps:>19.1f}")
     print(
         f"detection rate {batch.detection_rate():.2f}, false-alarm rate "
-        f"{batch.false_alarm_rate:.3g}"
+        f"{batch.false_alarm_rate():.3g}"
     )
     rows.append(
         {
@@ -286,20 +286,107 @@ def bench(
     return rows
 
 
+_MEMORY_CASE = """
+import resource, sys, time, tracemalloc
+import numpy as np
+sys.path.insert(0, {bench!r}); sys.path.insert(0, {root!r})
+import geomfdi as gf
+from bench_simulation import A, B, C, K, inputs, make_bank
+kind, N, runs = {kind!r}, {samples}, {runs}
+bank, plant = make_bank(10), gf.Plant(A, B, C)
+t = np.arange(N) * 1e-3
+tf = float(t[int(0.4 * N)])
+v, _ = inputs(t, tf)
+fl = [gf.BiasFault(0, start=tf, bias=0.02)]
+noise = gf.Noise(measurement=2e-4, seed=1)
+gf.simulate(plant, bank, t[:1000], v[:, :1000], faults=fl, controller=K, noise=noise)
+tracemalloc.start()
+t0 = time.perf_counter()
+if kind == "single":
+    res = gf.simulate(plant, bank, t, v, faults=fl, controller=K, noise=noise, threshold=0.01)
+    arrays = (res.x, res.y, res.y_healthy, res.u, res.residuals, res.alarms, res.isolated,
+              res.candidates, res.suspects)
+    out = sum(a.nbytes for a in arrays)
+else:
+    res = gf.simulate_batch(plant, bank, t, v, runs=runs, faults=fl, controller=K,
+                            noise=noise, threshold=0.01, store="summary", progress=False)
+    out = res.peak.nbytes + res.healthy_samples.nbytes * 3
+el = time.perf_counter() - t0
+peak = tracemalloc.get_traced_memory()[1]
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+print(peak, out, rss, el)
+"""
+
+
+def memory(samples: int = 10**7, batch_samples: int = 10**6, runs: int = 100) -> list[dict]:
+    """Peak memory of one long record and of a summary batch, each in a subprocess."""
+    import subprocess
+
+    here = str(Path(__file__).resolve().parent)
+    root = str(Path(__file__).resolve().parents[1])
+    rows = []
+    print(f"{'case':<40} {'peak MB':>9} {'returned MB':>12} {'peak/returned':>14} {'s':>7}")
+    for kind, N, R in (("single", samples, 1), ("batch", batch_samples, runs)):
+        code = _MEMORY_CASE.format(bench=here, root=root, kind=kind, samples=N, runs=R)
+        out = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, check=True
+        ).stdout.split()
+        peak, ret, rss, el = int(out[0]), int(out[1]), int(out[2]), float(out[3])
+        name = (
+            f"simulate, {N:.0e} samples x 10 residuals"
+            if kind == "single"
+            else f"simulate_batch summary, {R} x {N:.0e}"
+        )
+        print(f"{name:<40} {peak / 1e6:>9.0f} {ret / 1e6:>12.1f} {peak / ret:>14.2f} {el:>7.1f}")
+        rows.append(
+            {
+                "case": kind,
+                "samples": N,
+                "runs": R,
+                "peak": peak,
+                "returned": ret,
+                "maxrss": rss,
+                "seconds": el,
+            }
+        )
+    print("(peak: tracemalloc over the call; the process's ru_maxrss is in the rows)")
+    return rows
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
+    from threadpoolctl import threadpool_limits
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small smoke run")
     ap.add_argument("--full", action="store_true", help="time forced_response at every size")
+    ap.add_argument("--memory", action="store_true", help="measure peak memory instead")
+    ap.add_argument("--samples", type=float, default=1e7, help="memory: one record's length")
+    ap.add_argument("--batch-samples", type=float, default=1e6, help="memory: run length")
+    ap.add_argument("--runs", type=int, default=100, help="memory: batch runs")
     args = ap.parse_args(argv)
+    if args.memory:
+        return memory(int(args.samples), int(args.batch_samples), args.runs)
     if args.quick:
-        return bench(
+        kw = dict(
             sizes=(10**3, 10**4),
             banks=(3, 5),
             batch_runs=8,
             batch_samples=2000,
             extrapolate_above=5000,
         )
-    return bench(full=args.full)
+    else:
+        kw = dict(full=args.full)
+    print("== BLAS limited to one thread")
+    with threadpool_limits(limits=1):
+        one = bench(**kw)
+    print("\n== default BLAS threads")
+    default = bench(**kw)
+    print("\nratio forced_response / gf.simulate: one thread vs default threads")
+    print(f"{'samples':>9} {'bank':>5} {'1 thread':>9} {'default':>9}")
+    for a, b in zip(one, default, strict=True):
+        if "ratio" in a:
+            print(f"{a['samples']:>9} {a['bank']:>5} {a['ratio']:>9.1f} {b['ratio']:>9.1f}")
+    return one + default
 
 
 if __name__ == "__main__":

@@ -135,9 +135,9 @@ def test_detection_events_delays():
     alarms[1, 10:] = True  # from 5 s
     alarms[0, 12:] = True  # from 6 s
     iso = isolate(alarms, np.array([[1, 0], [1, 1]], dtype=bool)).isolated
-    f0 = gf.BiasFault(0, 4.0, 1.0)
-    f1 = gf.BiasFault(1, 3.0, 1.0)
-    f2 = gf.BiasFault(1, 20.0, 1.0)  # never starts on the grid
+    f0 = gf.BiasFault(0, start=4.0, bias=1.0)
+    f1 = gf.BiasFault(1, start=3.0, bias=1.0)
+    f2 = gf.BiasFault(1, start=20.0, bias=1.0)  # never starts on the grid
     ev = detection_events(t, alarms, iso, [f0, f1, f2], [0, 1, None])
     assert len(ev) == 2
     assert ev[0].onset == 4.0 and ev[0].detection_delay == 1.0
@@ -184,6 +184,110 @@ def test_calibrate_threshold_from_noise_only_simulation():
         threshold=thr,
         progress=False,
     )
-    assert abs(fresh.false_alarm_rate - 0.02) < 0.01
+    assert abs(fresh.false_alarm_rate() - 0.02) < 0.01
     with pytest.raises(GeomFDIError, match="noise"):
         gf.calibrate_threshold(plant, gen, t, noise=None, false_alarm_rate=0.02)
+
+
+def test_evaluation_and_plotting_do_not_import_the_simulator():
+    # the decision layer is below the simulator: no import (even in a function) goes up
+    import ast
+    import pathlib
+
+    root = pathlib.Path(gf.__file__).parent
+    for sub in ("evaluation", "plotting"):
+        for path in (root / sub).glob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text())):
+                mods = []
+                if isinstance(node, ast.ImportFrom) and node.module:
+                    mods = [node.module]
+                elif isinstance(node, ast.Import):
+                    mods = [a.name for a in node.names]
+                for mod in mods:
+                    assert not mod.startswith("geomfdi.simulation"), f"{path.name} imports {mod}"
+    assert gf.calibrate_threshold.__module__ == "geomfdi.simulation.calibration"
+
+
+# ------------------------------------------------------------ persistence and metrics
+from geomfdi.evaluation.metrics import detection_metrics, false_alarms  # noqa: E402
+from geomfdi.evaluation.persistence import Persistence, as_persistence, k_of_n  # noqa: E402
+
+
+def test_k_of_n_persistence_by_hand():
+    raw = np.array([1, 0, 1, 1, 0, 0, 1, 0, 1, 1, 1], dtype=bool)
+    # windows of 3 ending at each sample hold 1,1,2,2,2,1,1,1,2,2,3 raw alarms
+    assert k_of_n(raw, 2, 3).astype(int).tolist() == [0, 0, 1, 1, 1, 0, 0, 0, 1, 1, 1]
+    assert k_of_n(raw, 3, 3).astype(int).tolist() == [0] * 10 + [1]
+    assert Persistence.from_duration(0.1, 0.002) == Persistence(50, 50)
+    assert as_persistence(4) == Persistence(4, 4) and as_persistence((2, 5)) == Persistence(2, 5)
+    assert as_persistence(None) is None
+    for bad in ((3, 2), (0, 1), "x", 1.5):
+        with pytest.raises(GeomFDIError, match="persistence"):
+            as_persistence(bad)
+
+
+def test_isolation_needs_a_persistent_pattern():
+    S = np.eye(2, dtype=bool)
+    # r0 alarms throughout; r1 drops out for two samples (a coincidental single pattern)
+    a = np.array([[1] * 8, [1, 1, 1, 0, 0, 1, 1, 1]], dtype=bool)
+    assert isolate(a, S).isolated.tolist() == [-2, -2, -2, 0, 0, -2, -2, -2]
+    iso = Persistence(3, 3).isolation(a, S).isolated
+    assert iso.tolist() == [-2] * 8  # the two-sample pattern never settles
+    # a pattern held for 3 samples is decided at its third sample
+    b = np.array([[1] * 8, [1, 1, 0, 0, 0, 0, 1, 1]], dtype=bool)
+    assert Persistence(3, 3).isolation(b, S).isolated.tolist() == [-2, -2, -2, -2, 0, 0, -2, -2]
+
+
+def _hand_runs(window=None):
+    t = np.arange(10) * 0.5
+    S = np.eye(2, dtype=bool)
+    z = np.zeros((2, 10), dtype=bool)
+    a = z.copy()  # run A, fault 0 at t=2.5: false alarms at k=1,2 and 4; r0 from k=7
+    a[0, [1, 2, 4, 7, 8, 9]] = True
+    b = z.copy()  # run B, fault 1 at t=2.5: r0 at k=6 (a wrong decision), r1 from k=8
+    b[0, 6] = True
+    b[1, 8:] = True
+    c = z.copy()  # run C, fault 0 at t=2.5: nothing
+    faults = [gf.BiasFault(0, start=2.5, bias=1.0), gf.BiasFault(1, start=2.5, bias=1.0)]
+    evs, fas = [], []
+    for al, f, j in ((a, faults[0], 0), (b, faults[1], 1), (c, faults[0], 0)):
+        iso = isolate(al, S).isolated
+        evs.append(detection_events(t, al, iso, [f], [j], window=window))
+        fas.append(false_alarms(al, 5))
+    return evs, fas
+
+
+def test_every_metric_against_a_hand_computed_case():
+    evs, fas = _hand_runs()
+    assert [(fa.samples, fa.alarm_samples, fa.events) for fa in fas] == [(5, 3, 2), (5, 0, 0)] + [
+        (5, 0, 0)
+    ]
+    m = detection_metrics(evs, fas, 0.5, 2)
+    assert m.far_per_sample == pytest.approx(3 / 15)
+    assert m.far_per_run == pytest.approx(1 / 3)
+    assert m.far_per_hour == pytest.approx(2 / (15 * 0.5 / 3600))  # 960 per hour
+    assert m.detection_rate == pytest.approx(2 / 3)
+    assert m.missed_detection_rate == pytest.approx(1 / 3)
+    # detection delays 1.0 (A) and 0.5 (B)
+    assert m.detection_delay["mean"] == pytest.approx(0.75)
+    assert m.detection_delay["p50"] == pytest.approx(0.75)
+    assert m.detection_delay["p90"] == pytest.approx(0.95)
+    # isolation delays 1.0 (A, correct) and 1.5 (B: r1 alone from k=8)
+    assert m.isolation_delay["mean"] == pytest.approx(1.25)
+    assert m.isolation == pytest.approx({"correct": 1 / 3, "wrong": 1 / 3, "none": 1 / 3})
+    # rows: true fault; columns: first decision (fault 0, fault 1, none)
+    assert m.confusion.tolist() == [[1, 0, 1], [1, 0, 0]]
+    assert "P_d 0.6667" in m.summary()
+
+
+def test_detection_window_excludes_late_alarms():
+    evs, fas = _hand_runs(window=1.0)  # samples 5..7 only
+    a, b, c = (e[0] for e in evs)
+    assert (a.detection_delay, a.isolation_delay, a.outcome) == (1.0, 1.0, "correct")
+    assert (b.detection_delay, b.isolation_delay, b.outcome) == (0.5, None, "wrong")
+    assert b.window_end == 3.5 and not c.detected
+    m = detection_metrics(evs, fas, 0.5, 2)
+    assert m.isolation_delay["mean"] == pytest.approx(1.0)
+    # the metrics of one fault position only
+    with pytest.raises(GeomFDIError, match="which"):
+        detection_metrics(evs, fas, 0.5, 2, which=3)

@@ -182,7 +182,7 @@ def test_bad_inputs_name_the_argument():
 def test_block_recursion_chunks_and_blocks_are_exact(lift):
     """Plain and lifted recursions, whole and chunked (chunk lengths that are and are not
     multiples of the lifting factor), against the naive loop."""
-    from geomfdi.simulation.lti import Drive, block_recursion
+    from geomfdi.simulation.lifting import Drive, block_recursion
 
     rng = np.random.default_rng(5)
     A1 = np.array([[0.9, 0.3], [-0.3, 0.9]])  # complex pair
@@ -231,7 +231,7 @@ def test_block_recursion_chunks_and_blocks_are_exact(lift):
 
 
 def test_block_recursion_runs_come_from_scales_too():
-    from geomfdi.simulation.lti import Drive, block_recursion
+    from geomfdi.simulation.lifting import Drive, block_recursion
 
     d = np.ones((1, 1, 6))
     scale = np.arange(3.0)[None, :, None] * np.ones((1, 3, 5))

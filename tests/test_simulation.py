@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -66,8 +67,8 @@ def test_hand_built_generators_satisfy_the_identities(seed001):
 @pytest.mark.parametrize(
     ("fault", "expected"),
     [
-        (gf.GainFault(0, 8.0, 1.5, bias=0.02), (0.145, 0.213, 0.319)),
-        (gf.BiasFault(0, 8.0, 0.02), (0.020, 0.040, 0.060)),
+        (gf.GainFault(0, start=8.0, gain=1.5, bias=0.02), (0.145, 0.213, 0.319)),
+        (gf.BiasFault(0, start=8.0, bias=0.02), (0.020, 0.040, 0.060)),
     ],
 )
 def test_reference_peaks_paper_design(seed001, fault, expected):
@@ -96,7 +97,7 @@ def test_bias_leaks_decay_to_zero(seed001):
         paper_bank(seed001),
         T,
         v_ext,
-        faults=[gf.BiasFault(0, 8.0, 0.02)],
+        faults=[gf.BiasFault(0, start=8.0, bias=0.02)],
         x0=X0,
         controller=K_FB,
     )
@@ -113,12 +114,12 @@ def test_alarm_isolation_and_delays(seed001):
         paper_bank(seed001),
         T,
         v_ext,
-        faults=[gf.GainFault(0, 8.0, 1.5, 0.02)],
+        faults=[gf.GainFault(0, start=8.0, gain=1.5, bias=0.02)],
         x0=X0,
         controller=K_FB,
         threshold=0.06,
     )
-    assert not res.alarms[:, T < 8.0].any() and res.false_alarm_rate == 0.0
+    assert not res.alarms[:, T < 8.0].any() and res.false_alarm_rate() == 0.0
     ev = res.events[0]
     assert ev.onset == pytest.approx(8.0) and ev.detection_delay == pytest.approx(0.0)
     # the achieved structure has r2, r3 seeing every sensor: isolation of sensor 0 needs
@@ -149,7 +150,7 @@ def test_synthesised_paper_bank_reproduces_reference(seed001):
         scaled,
         T,
         v_ext,
-        faults=[gf.GainFault(0, 8.0, 1.5, 0.02)],
+        faults=[gf.GainFault(0, start=8.0, gain=1.5, bias=0.02)],
         x0=X0,
         controller=K_FB,
     )
@@ -166,7 +167,7 @@ def test_exact_design_leakage_is_rounding(seed001, sensor):
         bank,
         T[::5],
         v_ext,
-        faults=[gf.GainFault(sensor, 8.0, 1.5, 0.02)],
+        faults=[gf.GainFault(sensor, start=8.0, gain=1.5, bias=0.02)],
         x0=X0,
         controller=K_FB,
         threshold=0.06,
@@ -210,7 +211,7 @@ def test_open_loop_matches_forced_response_of_composite(F, decoupled):
             g,
             t,
             u,
-            faults=[gf.BiasFault(1, 4.0, ramp)],
+            faults=[gf.BiasFault(1, start=4.0, bias=ramp)],
             x0=[1.0, -1.0],
             consistent_init=False,
         )
@@ -229,7 +230,7 @@ def test_open_loop_matches_forced_response_of_composite(F, decoupled):
 
 
 def test_zoh_hold_differs_from_foh_by_order_dt(seed001):
-    kw = dict(faults=[gf.GainFault(0, 8.0, 1.5, 0.02)], x0=X0, controller=K_FB)
+    kw = dict(faults=[gf.GainFault(0, start=8.0, gain=1.5, bias=0.02)], x0=X0, controller=K_FB)
     a = gf.simulate(seed001, paper_bank(seed001), T[::10], v_ext, **kw)
     b = gf.simulate(seed001, paper_bank(seed001), T[::10], v_ext, hold="zoh", **kw)
     d = np.max(np.abs(a.residuals - b.residuals))
@@ -244,7 +245,7 @@ def test_single_generator_missing_rows_and_vector_residuals(seed001):
         g0,
         T[::20],
         v_ext,
-        faults=[gf.BiasFault(0, 8.0, 0.02)],
+        faults=[gf.BiasFault(0, start=8.0, bias=0.02)],
         x0=X0,
         controller=K_FB,
         threshold=0.015,
@@ -261,7 +262,7 @@ def test_single_generator_missing_rows_and_vector_residuals(seed001):
         bank,
         T[::20],
         v_ext,
-        faults=[gf.BiasFault(0, 8.0, 0.02)],
+        faults=[gf.BiasFault(0, start=8.0, bias=0.02)],
         x0=X0,
         controller=K_FB,
         threshold=0.01,
@@ -274,10 +275,22 @@ def test_single_generator_missing_rows_and_vector_residuals(seed001):
         g2.F, g2.E, g2.G, np.vstack([g2.M, 2 * g2.M]), np.vstack([g2.H, 2 * g2.H]), np.zeros((2, 3))
     )
     res2 = gf.simulate(
-        seed001, two, T[::20], v_ext, faults=[gf.BiasFault(0, 8.0, 0.02)], x0=X0, controller=K_FB
+        seed001,
+        two,
+        T[::20],
+        v_ext,
+        faults=[gf.BiasFault(0, start=8.0, bias=0.02)],
+        x0=X0,
+        controller=K_FB,
     )
     ref = gf.simulate(
-        seed001, g2, T[::20], v_ext, faults=[gf.BiasFault(0, 8.0, 0.02)], x0=X0, controller=K_FB
+        seed001,
+        g2,
+        T[::20],
+        v_ext,
+        faults=[gf.BiasFault(0, start=8.0, bias=0.02)],
+        x0=X0,
+        controller=K_FB,
     )
     assert np.allclose(res2.residuals[0], np.sqrt(5) * np.abs(ref.residuals[0]), atol=1e-13)
 
@@ -321,7 +334,7 @@ def test_stuck_sensor_freezes_noisy_reading(seed001):
         v_ext,
         x0=X0,
         controller=K_FB,
-        faults=[gf.StuckFault(1, 5.0)],
+        faults=[gf.StuckFault(1, start=5.0)],
         noise=gf.Noise(measurement=1e-3, seed=1),
     )
     k = int(np.searchsorted(res.t, 5.0))
@@ -355,7 +368,7 @@ def test_plot_and_png_export(seed001, tmp_path):
         v_ext,
         x0=X0,
         controller=K_FB,
-        faults=[gf.GainFault(0, 8.0, 1.5, 0.02)],
+        faults=[gf.GainFault(0, start=8.0, gain=1.5, bias=0.02)],
         threshold=0.06,
     )
     fig = res.plot(title="seed 001")
@@ -399,7 +412,7 @@ def test_bad_arguments_name_themselves(seed001):
     with pytest.raises(GeomFDIError, match="noise.process"):
         gf.simulate(seed001, bank, T, noise=gf.Noise(process=-np.eye(3)))
     with pytest.raises(GeomFDIError, match="sensor"):
-        gf.simulate(seed001, bank, T, faults=[gf.BiasFault(3, 1.0, 1.0)])
+        gf.simulate(seed001, bank, T, faults=[gf.BiasFault(3, start=1.0, bias=1.0)])
     with pytest.raises(GeomFDIError, match="u"):
         gf.simulate(seed001, bank, T, lambda t: 1 / 0)
     d = gf.ResidualGenerator(
@@ -418,7 +431,7 @@ def closed_loop_with_states(plant, bank, sensor):
         v_ext,
         x0=X0,
         controller=K_FB,
-        faults=[gf.BiasFault(sensor, 8.0, 0.02)],
+        faults=[gf.BiasFault(sensor, start=8.0, bias=0.02)],
         keep_states=True,
     )
 
@@ -473,7 +486,7 @@ def test_lifted_bank_matches_forced_response():
     feedback, a bias ramp) against forced_response on the composite system."""
     import control
 
-    from geomfdi.simulation.lti import _lift_factor
+    from geomfdi.simulation.lifting import _lift_factor
 
     rng = np.random.default_rng(11)
     A = np.array([[0.0, 1.0, 0.0], [-2.0, -0.5, 1.0], [0.0, 0.0, -1.0]])
@@ -511,7 +524,7 @@ def test_lifted_bank_matches_forced_response():
             bank,
             t,
             v,
-            faults=[gf.BiasFault(2, 4.0, ramp)],
+            faults=[gf.BiasFault(2, start=4.0, bias=ramp)],
             x0=x0,
             controller=K,
             consistent_init=False,
@@ -554,3 +567,63 @@ def test_state_feedback_gain_does_not_import_python_control():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def _vector_residual_result():
+    # r = y = [x; 2x] (a generator with two residual components), x' = -x + u, u = 1
+    plant = gf.Plant([[-1.0]], [[1.0]], [[1.0], [2.0]])
+    g = gf.ResidualGenerator(
+        [[-1.0]], [[0.0, 0.0]], [[0.0]], [[0.0], [0.0]], -np.eye(2), [[0.0], [0.0]]
+    )
+    t = np.linspace(0.0, 3.0, 301)
+    return gf.simulate(plant, g, t, np.ones((1, t.size)), threshold=0.5, consistent_init=False)
+
+
+def test_vector_residual_norm_is_plotted_against_a_positive_threshold_only():
+    res = _vector_residual_result()
+    x = 1 - np.exp(-res.t)
+    np.testing.assert_allclose(res.residuals[0], np.sqrt(5) * x, atol=1e-12)
+    assert res.norm_rows() == [True]
+    fig = res.plot()
+    (ax,) = fig.axes
+    levels = [ln.get_ydata()[0] for ln in ax.get_lines() if ln.get_linestyle() == "--"]
+    assert levels == [0.5]  # no -0.5 line under a norm that cannot be negative
+    # a scalar residual still gets both lines
+    fig2 = gf.plot_residuals(res.t, res.residuals[0] - 1.0, threshold=0.5)
+    levels2 = sorted(
+        ln.get_ydata()[0] for ln in fig2.axes[0].get_lines() if ln.get_linestyle() == "--"
+    )
+    assert levels2 == [-0.5, 0.5]
+
+
+def test_false_alarm_rate_is_a_method_like_detection_rate():
+    res = _vector_residual_result()
+    assert callable(res.false_alarm_rate)
+    # no fault: every sample is fault-free; |r| > 0.5 once sqrt(5) x > 0.5
+    expect = np.mean(np.sqrt(5) * (1 - np.exp(-res.t)) > 0.5)
+    assert res.false_alarm_rate() == pytest.approx(expect)
+
+
+def test_persistence_removes_the_coincidental_isolation_of_three_simultaneous_faults():
+    from geomfdi.io.modelfile import load_model
+
+    spec = load_model(Path(__file__).parents[1] / "examples" / "seed001.toml")
+    bank = gf.design_bank(spec.plant, spec.faults, spec.structure)
+    (sc,) = [s for s in spec.scenarios if s.name.startswith("gain steps on all three")]
+    kw = dict(
+        faults=sc.faults,
+        x0=spec.x0,
+        controller=spec.K,
+        threshold=spec.threshold,
+        detection_window=1.0,
+    )
+    raw = gf.simulate(spec.plant, bank, spec.t, spec.u, **kw)
+    # every residual alarms at the onset (three faults), yet residuals 1 and 2 cross
+    # zero together and the 25-sample pattern "r0 only" reads as "fault 0 isolated"
+    assert all(ev.detection_delay == 0.0 for ev in raw.events)
+    assert raw.events[0].isolation_delay == pytest.approx(0.116)
+    assert [ev.outcome for ev in raw.events] == ["correct", "wrong", "wrong"]
+    # a 0.25 s minimum duration: no pattern in the window settles on one fault
+    held = gf.simulate(spec.plant, bank, spec.t, spec.u, persistence=125, **kw)
+    assert [ev.outcome for ev in held.events] == ["none"] * 3
+    assert all(ev.detected and not ev.isolated for ev in held.events)

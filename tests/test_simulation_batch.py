@@ -54,7 +54,7 @@ def v_ext(t):
 def test_batch_runs_equal_single_runs_with_spawned_seeds():
     plant, bank = setup()
     noise = gf.Noise(measurement=2e-3, process=[0.0, 1e-2, 0.0], seed=11)
-    faults = [gf.GainFault(0, 6.0, 1.5, 0.02)]
+    faults = [gf.GainFault(0, start=6.0, gain=1.5, bias=0.02)]
     batch = gf.simulate_batch(
         plant,
         bank,
@@ -95,7 +95,7 @@ def test_batch_runs_equal_single_runs_with_spawned_seeds():
 def test_fault_size_sweep_per_run():
     plant, bank = setup()
     gains = [1.1, 1.3, 1.5, 2.0]
-    lists = [[gf.GainFault(0, 6.0, g, 0.02)] for g in gains]
+    lists = [[gf.GainFault(0, start=6.0, gain=g, bias=0.02)] for g in gains]
     batch = gf.simulate_batch(
         plant, bank, T, v_ext, faults=lists, x0=X0, controller=K_FB, threshold=0.06, progress=False
     )
@@ -111,7 +111,7 @@ def test_chunking_and_summary_store_do_not_change_results():
     plant, bank = setup()
     kw = dict(
         runs=6,
-        faults=[gf.BiasFault(1, 5.0, 0.05)],
+        faults=[gf.BiasFault(1, start=5.0, bias=0.05)],
         x0=X0,
         controller=K_FB,
         noise=gf.Noise(measurement=1e-3, seed=2),
@@ -125,7 +125,7 @@ def test_chunking_and_summary_store_do_not_change_results():
     assert c.residuals is None and c.alarms is None
     assert np.allclose(a.peak, c.peak)
     assert [e[0].detection_time for e in a.events] == [e[0].detection_time for e in c.events]
-    assert a.false_alarm_rate == c.false_alarm_rate
+    assert a.false_alarm_rate() == c.false_alarm_rate()
     with pytest.raises(GeomFDIError, match="store='all'"):
         a.run(0)
 
@@ -145,7 +145,7 @@ def test_false_alarm_rate_is_pooled_over_healthy_samples():
         progress=False,
     )
     manual = batch.alarms.any(axis=1).mean()
-    assert batch.false_alarm_rate == pytest.approx(manual)
+    assert batch.false_alarm_rate() == pytest.approx(manual)
     assert 0 < manual < 1
 
 
@@ -162,7 +162,7 @@ def test_output_feedback_batch_shared_and_per_run():
         v_ext,
         runs=3,
         noise=noise,
-        faults=[gf.GainFault(2, 3.0, 0.8)],
+        faults=[gf.GainFault(2, start=3.0, gain=0.8)],
         store="all",
         **kw,
     )
@@ -172,12 +172,12 @@ def test_output_feedback_batch_shared_and_per_run():
         t,
         v_ext,
         noise=gf.Noise(measurement=1e-3, seed=shared.seeds[2]),
-        faults=[gf.GainFault(2, 3.0, 0.8)],
+        faults=[gf.GainFault(2, start=3.0, gain=0.8)],
         x0=X0,
         controller=ctrl,
     )
     assert np.allclose(shared.residuals[2], one.residuals, rtol=1e-9, atol=1e-12)
-    lists = [[gf.GainFault(2, 3.0, g)] for g in (0.5, 0.8)]
+    lists = [[gf.GainFault(2, start=3.0, gain=g)] for g in (0.5, 0.8)]
     per = gf.simulate_batch(plant, bank, t, v_ext, faults=lists, **kw)
     single = gf.simulate(plant, bank, t, v_ext, faults=lists[1], x0=X0, controller=ctrl)
     assert np.allclose(per.residuals[1], single.residuals, rtol=1e-9, atol=1e-12)
@@ -186,7 +186,9 @@ def test_output_feedback_batch_shared_and_per_run():
 def test_batch_argument_errors():
     plant, bank = setup()
     with pytest.raises(ShapeError, match="faults"):
-        gf.simulate_batch(plant, bank, T, runs=3, faults=[[gf.BiasFault(0, 1.0, 1.0)]] * 2)
+        gf.simulate_batch(
+            plant, bank, T, runs=3, faults=[[gf.BiasFault(0, start=1.0, bias=1.0)]] * 2
+        )
     with pytest.raises(ShapeError, match="seeds"):
         gf.simulate_batch(plant, bank, T, runs=3, noise=gf.Noise(measurement=1.0), seeds=[1])
     with pytest.raises(GeomFDIError, match="store"):
@@ -219,3 +221,33 @@ def test_benchmark_quick_mode_runs(capsys):
     assert "ratio" in out and "aggregate" in out and "extrapolated" in out
     exact = [r for r in rows if "max_diff" in r and not r["extrapolated"]]
     assert exact and all(r["max_diff"] < 1e-10 for r in exact)  # same numbers as the baseline
+
+
+def test_detection_rate_at_fault_size_zero_equals_the_false_alarm_rate():
+    # a zero-size fault leaves the residual healthy: P_d in a window of n samples after
+    # the onset must equal the per-run FAR over n healthy samples (binomial error)
+    plant = gf.Plant([[-1.0]], [[1.0]], [[1.0]])
+    gen = gf.ResidualGenerator([[-2.0]], [[-1.0]], [[1.0]], [[1.0]], [[1.0]], [[0.0]])
+    t = np.arange(400) * 0.01
+    runs = 400
+    kw = dict(
+        runs=runs,
+        faults=[gf.BiasFault(0, start=1.0, bias=0.0)],
+        noise=gf.Noise(measurement=0.1, seed=11),
+        threshold=0.28,
+        store="summary",
+    )
+    batch = gf.simulate_batch(plant, gen, t, detection_window=0.995, **kw)
+    assert np.all(batch.healthy_samples == 100)
+    far_run = batch.false_alarm_rate(per="run")
+    pd = batch.detection_rate()
+    assert 0.1 < far_run < 0.6  # a rate where the comparison has power
+    se = np.sqrt(2 * far_run * (1 - far_run) / runs)
+    assert abs(pd - far_run) < 3.5 * se
+    assert batch.missed_detection_rate() == pytest.approx(1 - pd)
+    # without the window an alarm anywhere in the 300 samples after onset counts: the
+    # old, inflated figure
+    loose = gf.simulate_batch(plant, gen, t, **kw)
+    assert loose.detection_rate() > far_run + 6 * se
+    m = batch.metrics()
+    assert m.far_per_run == far_run and m.detection_rate == pd and m.runs == runs

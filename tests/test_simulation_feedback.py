@@ -82,9 +82,9 @@ def test_output_feedback_piecewise_lti_is_exact():
     plant = gf.Plant(A, B, C)
     t = np.arange(0, 5.0001, 5e-3)
     faults = [
-        gf.GainFault(0, 1.5, 1.5, 0.02),
-        gf.StuckFault(2, 2.5, end=3.0),
-        gf.BiasFault(1, 3.5, 0.05, end=4.5),
+        gf.GainFault(0, start=1.5, gain=1.5, bias=0.02),
+        gf.StuckFault(2, start=2.5, end=3.0),
+        gf.BiasFault(1, start=3.5, bias=0.05, end=4.5),
     ]
     res = gf.simulate(plant, bank(plant), t, v_ext, faults=faults, x0=X0, controller=CTRL)
     assert res.info["mode"] == "output feedback" and res.info["stepped_samples"] == 0
@@ -115,7 +115,7 @@ def test_output_feedback_time_varying_gain_steps():
     plant = gf.Plant(A, B, C)
     t = np.arange(0, 2.5001, 5e-3)
     gain = lambda s: 1 + 2.0 * (s - 1.5)  # noqa: E731
-    faults = [gf.GainFault(0, 1.5, gain, end=2.0)]
+    faults = [gf.GainFault(0, start=1.5, gain=gain, end=2.0)]
     res = gf.simulate(
         plant, bank(plant), t, v_ext, faults=faults, x0=X0, controller=CTRL, progress=False
     )
@@ -142,7 +142,7 @@ def test_healthy_output_feedback_equals_state_feedback():
     assert np.allclose(a.x, b.x, rtol=1e-9, atol=1e-10)
     assert np.max(np.abs(a.residuals)) < 1e-10 and np.max(np.abs(b.residuals)) < 1e-10
     # with a sensor gain fault they differ: the feedback sees it, the state feedback not
-    f = [gf.GainFault(0, 3.0, 1.2)]
+    f = [gf.GainFault(0, start=3.0, gain=1.2)]
     c = gf.simulate(plant, bank(plant), t, v_ext, x0=X0, controller=static, faults=f)
     d = gf.simulate(plant, bank(plant), t, v_ext, x0=X0, controller=K_FB, faults=f)
     assert np.allclose(c.x[:, t < 3], d.x[:, t < 3], atol=1e-9)
@@ -172,7 +172,9 @@ def test_discrete_plant_with_disturbance_open_and_output_feedback():
     t = np.arange(300) * 0.1
     d = lambda s: np.sin(0.7 * s)  # noqa: E731
     u = np.cos(0.2 * t)[None]
-    ol = gf.simulate(plant, g, t, u, d=d, x0=[1.0, -1.0, 0.5], faults=[gf.BiasFault(0, 15.0, 0.1)])
+    ol = gf.simulate(
+        plant, g, t, u, d=d, x0=[1.0, -1.0, 0.5], faults=[gf.BiasFault(0, start=15.0, bias=0.1)]
+    )
     assert np.max(np.abs(ol.residuals[0, t < 15])) < 1e-12  # decoupled from u and d
     # recursion by hand for the faulty part: r = M e with e[k+1] = F e[k] - E f[k]
     k0 = int(np.searchsorted(t, 15.0))
@@ -186,7 +188,7 @@ def test_discrete_plant_with_disturbance_open_and_output_feedback():
         d=d,
         x0=[1.0, -1.0, 0.5],
         controller=ctrl,
-        faults=[gf.GainFault(0, 15.0, 0.5)],
+        faults=[gf.GainFault(0, start=15.0, gain=0.5)],
     )
     assert np.max(np.abs(fb.residuals[0, t < 15])) < 1e-12
     assert np.max(np.abs(fb.residuals[0, t >= 15])) > 1e-3
@@ -210,7 +212,7 @@ def test_discrete_plant_with_disturbance_open_and_output_feedback():
         d=d,
         controller=ctrl,
         progress=False,
-        faults=[gf.GainFault(1, 5.0, lambda s: 1 + 0.1 * (s - 5))],
+        faults=[gf.GainFault(1, start=5.0, gain=lambda s: 1 + 0.1 * (s - 5))],
     )
     assert fb2.info["stepped_samples"] > 0
 

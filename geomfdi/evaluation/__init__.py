@@ -1,5 +1,7 @@
-"""Residual evaluation and decisions: thresholds, alarms, isolation, detection events."""
+"""Residual evaluation and decisions: thresholds, alarms, isolation, persistence, metrics."""
 
-from geomfdi.evaluation.decision import FaultEvent, Threshold, calibrate_threshold, isolate
+from geomfdi.evaluation.decision import FaultEvent, Threshold, isolate
+from geomfdi.evaluation.metrics import DetectionMetrics
+from geomfdi.evaluation.persistence import Persistence
 
-__all__ = ["Threshold", "FaultEvent", "isolate", "calibrate_threshold"]
+__all__ = ["Threshold", "FaultEvent", "isolate", "Persistence", "DetectionMetrics"]

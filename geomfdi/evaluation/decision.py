@@ -11,8 +11,9 @@ or the causal moving root mean square over the last ``window`` samples
 
 Isolation compares the alarm pattern of a sample (one boolean per residual) with the
 columns of the *achieved* structure matrix of the bank (rows: residuals, columns:
-faults; seed 001, Definition 4): fault ``j`` is a **candidate** when its column equals
-the pattern.  Per sample the decision is
+faults; the fault signature matrix of Hou, Wen & Chen 2011; see the user guide,
+*Theory: evaluation*, ``docs/theory/evaluation.md``): fault ``j`` is a **candidate**
+when its column equals the pattern.  Per sample the decision is
 
 * the fault index when exactly one fault is a candidate,
 * :data:`NO_ALARM` (-1) when no residual alarms,
@@ -50,7 +51,6 @@ __all__ = [
     "Isolation",
     "FaultEvent",
     "detection_events",
-    "calibrate_threshold",
 ]
 
 NO_ALARM = -1
@@ -343,6 +343,13 @@ class FaultEvent:
         ``index``; ``None``: never (or ``index`` is ``None``).
     residuals : tuple of int
         Residuals that alarm at some sample at or after the onset.
+    decided : int or None
+        The first isolation decision (a fault index) in the detection window.
+    window_end : float or None
+        End of the detection window (``None``: the end of the run).
+
+    Only alarms and decisions at or after the onset and before ``window_end`` count: an
+    alarm before the onset is a false alarm, not a detection.
     """
 
     fault: Any
@@ -353,6 +360,8 @@ class FaultEvent:
     isolation_time: float | None
     isolation_delay: float | None
     residuals: tuple[int, ...]
+    decided: int | None = None
+    window_end: float | None = None
 
     @property
     def detected(self) -> bool:
@@ -362,6 +371,13 @@ class FaultEvent:
     def isolated(self) -> bool:
         return self.isolation_time is not None
 
+    @property
+    def outcome(self) -> str:
+        """``"correct"``, ``"wrong"`` (the first decision named another fault) or ``"none"``."""
+        if self.decided is None:
+            return "none"
+        return "correct" if self.decided == self.index else "wrong"
+
 
 def detection_events(
     t: np.ndarray,
@@ -369,6 +385,8 @@ def detection_events(
     isolated: np.ndarray,
     faults: Sequence[Any],
     indices: Sequence[int | None],
+    *,
+    window: float | None = None,
 ) -> list[FaultEvent]:
     """Detection and isolation times of each fault signal (one run).
 
@@ -380,6 +398,8 @@ def detection_events(
     faults : sequence of fault signals (with ``.mask(t)``)
     indices : sequence of int or None
         Structure column of each fault signal.
+    window : float, optional
+        Detection window (seconds after the onset); ``None``: to the end of the run.
 
     Returns
     -------
@@ -388,6 +408,7 @@ def detection_events(
         skipped).
     """
     any_alarm = alarms.any(axis=0)
+    N = t.shape[0]
     out = []
     for f, j in zip(faults, indices, strict=True):
         m = f.mask(t)
@@ -395,13 +416,20 @@ def detection_events(
             continue
         ks = int(np.argmax(m))
         onset = float(t[ks])
-        hits = np.flatnonzero(any_alarm[ks:])
+        if window is None:
+            ke, wend = N, None
+        else:
+            wend = onset + float(window)
+            ke = int(np.searchsorted(t, wend + 1e-9 * max(1.0, abs(wend)), side="right"))
+        hits = np.flatnonzero(any_alarm[ks:ke])
         det = float(t[ks + hits[0]]) if hits.size else None
         iso_t = None
         if j is not None:
-            ih = np.flatnonzero(isolated[ks:] == j)
+            ih = np.flatnonzero(isolated[ks:ke] == j)
             iso_t = float(t[ks + ih[0]]) if ih.size else None
-        rows = tuple(int(r) for r in np.flatnonzero(alarms[:, ks:].any(axis=1)))
+        dh = np.flatnonzero(isolated[ks:ke] >= 0)
+        decided = int(isolated[ks + dh[0]]) if dh.size else None
+        rows = tuple(int(r) for r in np.flatnonzero(alarms[:, ks:ke].any(axis=1)))
         out.append(
             FaultEvent(
                 f,
@@ -412,75 +440,8 @@ def detection_events(
                 iso_t,
                 None if iso_t is None else iso_t - onset,
                 rows,
+                decided,
+                wend,
             )
         )
     return out
-
-
-def calibrate_threshold(
-    plant: Any,
-    bank: Any,
-    t: Any,
-    *,
-    noise: Any,
-    false_alarm_rate: float,
-    runs: int = 1,
-    statistic: str = "abs",
-    window: int = 1,
-    per: str = "residual",
-    skip: float = 0.0,
-    **simulate_options: Any,
-) -> Threshold:
-    """Thresholds from noise-only simulations at a chosen false-alarm rate.
-
-    Runs :func:`geomfdi.simulation.simulate_batch` without faults (``runs`` seeds
-    derived from ``noise.seed``) and calls :meth:`Threshold.from_residuals`.
-
-    Parameters
-    ----------
-    plant, bank, t
-        As for :func:`geomfdi.simulate`.
-    noise : Noise
-        Must contain measurement and/or process noise.
-    false_alarm_rate : float
-        Per-sample false-alarm rate ``alpha``.
-    runs : int
-        Number of noise-only runs pooled.
-    statistic, window, per
-        See :meth:`Threshold.from_residuals`.
-    skip : float
-        Seconds at the start of each run left out of the quantile.
-    **simulate_options
-        Passed on (``u``, ``controller``, ``x0``, ``d``, ``hold``).
-
-    Returns
-    -------
-    Threshold
-    """
-    from geomfdi.simulation.simulate import simulate_batch
-
-    if noise is None or (noise.measurement is None and noise.process is None):
-        raise GeomFDIError(
-            "noise: a noise-only calibration needs measurement or process noise",
-            argument="noise",
-        )
-    runs = as_int(runs, "runs", minimum=1)
-    batch = simulate_batch(
-        plant,
-        bank,
-        t,
-        runs=runs,
-        noise=noise,
-        store="residuals",
-        progress=False,
-        **simulate_options,
-    )
-    k_skip = int(np.searchsorted(batch.t - batch.t[0], float(skip) - 1e-12))
-    return Threshold.from_residuals(
-        batch.residuals,
-        false_alarm_rate,
-        statistic=statistic,
-        window=window,
-        per=per,
-        skip=k_skip,
-    )

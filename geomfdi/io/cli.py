@@ -144,8 +144,8 @@ def _threshold(spec: ModelSpec, bank: ResidualBank) -> Any:
     """The decision threshold of one bank: fixed, or calibrated on noise-only runs."""
     th = spec.threshold
     if isinstance(th, dict):
-        from geomfdi.evaluation.decision import calibrate_threshold
-        from geomfdi.simulation.simulate import Noise
+        from geomfdi.simulation.calibration import calibrate_threshold
+        from geomfdi.simulation.noise import Noise
 
         if not spec.noise:
             raise GeomFDIError(
@@ -207,7 +207,8 @@ def _simulate(
     from tqdm.auto import tqdm
 
     from geomfdi.plotting.residuals import save_png
-    from geomfdi.simulation.simulate import Noise, simulate
+    from geomfdi.simulation.noise import Noise
+    from geomfdi.simulation.simulate import simulate
 
     rows = []
     stems = dict(zip((id(sc) for sc in spec.scenarios), _unique_names(spec), strict=True))
@@ -250,7 +251,7 @@ def _simulate(
             "threshold": _threshold_values(res.threshold, res.residuals.shape[0]),
             "alarms": bool(res.alarms.any()),
             "events": _events(res),
-            "false_alarm_rate": res.false_alarm_rate,
+            "false_alarm_rate": res.false_alarm_rate(),
             "final_isolation": int(res.isolated[-1]) if res.isolated.size else None,
         }
         if plots and out is not None:

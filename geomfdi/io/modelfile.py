@@ -45,7 +45,7 @@ A model file has four parts (sensor and input indices are 0-based)::
 Expressions of ``t`` follow the grammar of :mod:`geomfdi.io.expressions`.  A calibrated
 threshold (``threshold = {false_alarm_rate = 1e-3, runs = 10}``) needs measurement or
 process noise in ``[simulation.noise]``; it is computed from noise-only runs of the
-healthy loop (:func:`geomfdi.decision.calibrate_threshold`).
+healthy loop (:func:`geomfdi.calibrate_threshold`).
 
 Every problem raises :class:`~geomfdi.errors.ModelFileError` with a one-line message
 naming the file, the entry and what is wrong (a wrong shape names the matrix and the
@@ -373,14 +373,19 @@ def _fault_signal(ctx: _Ctx, item: Any, where: str, q: int, t: np.ndarray) -> An
         if kind == "gain":
             if "gain" not in item:
                 raise ctx.err(f"{where}.gain", "missing")
-            return GainFault(s, start, value("gain", 1.0), value("bias", 0.0), end=end)
+            return GainFault(
+                s, start=start, gain=value("gain", 1.0), bias=value("bias", 0.0), end=end
+            )
         if kind == "bias":
             if "bias" not in item:
                 raise ctx.err(f"{where}.bias", "missing")
-            return BiasFault(s, start, value("bias", 0.0), end=end)
+            return BiasFault(s, start=start, bias=value("bias", 0.0), end=end)
         held = item.get("value")
         return StuckFault(
-            s, start, None if held is None else ctx.number(held, f"{where}.value"), end=end
+            s,
+            start=start,
+            value=None if held is None else ctx.number(held, f"{where}.value"),
+            end=end,
         )
     except ModelFileError:
         raise

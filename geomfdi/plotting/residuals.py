@@ -36,6 +36,7 @@ def plot_residuals(
     alarms: Any = None,
     title: str | None = None,
     statistic: str = "abs",
+    norms: Sequence[bool] | None = None,
     figsize: tuple[float, float] | None = None,
 ) -> Any:
     """Residual traces, one axis per residual, with thresholds and fault onsets.
@@ -56,6 +57,9 @@ def plot_residuals(
     title : str, optional
     statistic : str
         Used when ``threshold`` is a plain number/vector.
+    norms : sequence of bool, optional
+        Rows that are the Euclidean norm of a vector residual (never negative): their
+        threshold is drawn as ``+threshold`` only.  Default: no row.
     figsize : (float, float), optional
 
     Returns
@@ -76,6 +80,9 @@ def plot_residuals(
     labels = list(labels) if labels is not None else [f"r[{k}]" for k in range(nres)]
     if len(labels) != nres:
         raise ShapeError(f"labels: expected {nres} labels, got {len(labels)}", argument="labels")
+    is_norm = [False] * nres if norms is None else [bool(b) for b in norms]
+    if len(is_norm) != nres:
+        raise ShapeError(f"norms: expected {nres} flags, got {len(is_norm)}", argument="norms")
     thr_obj = None
     if isinstance(threshold, Threshold):
         thr_obj = threshold
@@ -94,7 +101,7 @@ def plot_residuals(
             ax.plot(t, stat[k], lw=0.8, color="C2", label=f"{thr_obj.statistic} statistic")
         if thr is not None and np.isfinite(thr[k]):
             ax.axhline(thr[k], color="C3", ls="--", lw=0.9, label="threshold")
-            if stat is None:
+            if stat is None and not is_norm[k]:
                 ax.axhline(-thr[k], color="C3", ls="--", lw=0.9)
         for j, on in enumerate(onsets):
             ax.axvline(on, color="0.3", ls=":", lw=1.0, label="fault onset" if j == 0 else None)
@@ -123,6 +130,7 @@ def plot_result(result: Any, *, title: str | None = None, **kwargs: Any) -> Any:
         labels=result.residual_labels,
         alarms=result.alarms if result.threshold is not None else None,
         title=title,
+        norms=result.norm_rows(),
         **kwargs,
     )
 

@@ -1,32 +1,47 @@
 """Simulation of a plant with faults, noise and a residual bank.
 
-* :mod:`~geomfdi.simulation.signals` -- sensor fault signals (gain, bias, stuck).
-* :mod:`~geomfdi.simulation.lti` -- the loop-free LTI simulation core.
-* :mod:`~geomfdi.simulation.simulate` -- ``simulate`` and ``simulate_batch``.
+* :mod:`~geomfdi.simulation.signals` -- sensor fault signals (gain, bias, stuck);
+  :mod:`~geomfdi.simulation.input_faults` -- actuator and general additive fault signals;
+  :mod:`~geomfdi.simulation.schedule` -- a fault list checked once against the plant.
+* :mod:`~geomfdi.simulation.discretization`, :mod:`~geomfdi.simulation.recursion`,
+  :mod:`~geomfdi.simulation.lifting`, :mod:`~geomfdi.simulation.lti` -- the loop-free LTI core.
+* :mod:`~geomfdi.simulation.noise`, :mod:`~geomfdi.simulation.initial_state`,
+  :mod:`~geomfdi.simulation.context` -- the inputs of a simulation.
+* :mod:`~geomfdi.simulation.open_loop`, :mod:`~geomfdi.simulation.closed_loop` -- the engines.
+* :mod:`~geomfdi.simulation.simulate`, :mod:`~geomfdi.simulation.batch`,
+  :mod:`~geomfdi.simulation.results` -- ``simulate``, ``simulate_batch`` and their results.
+* :mod:`~geomfdi.simulation.calibration` -- thresholds from noise-only simulations.
 """
 
+from geomfdi.simulation.batch import simulate_batch
+from geomfdi.simulation.calibration import calibrate_threshold
+from geomfdi.simulation.initial_state import InitialStateWarning, consistent_initial_state
+from geomfdi.simulation.input_faults import (
+    ActuatorBiasFault,
+    ActuatorGainFault,
+    ActuatorStuckFault,
+    AdditiveFault,
+    InputFaultSignal,
+)
 from geomfdi.simulation.lti import simulate_lti
+from geomfdi.simulation.noise import Noise
+from geomfdi.simulation.results import BatchResult, SimulationResult
+from geomfdi.simulation.schedule import FaultSchedule, fault_schedule
 from geomfdi.simulation.signals import (
     BiasFault,
+    FaultSignal,
     GainFault,
     SensorFaultSignal,
     StuckFault,
     apply_faults,
 )
-from geomfdi.simulation.simulate import (
-    BatchResult,
-    InitialStateWarning,
-    Noise,
-    SimulationResult,
-    consistent_initial_state,
-    simulate,
-    simulate_batch,
-)
+from geomfdi.simulation.simulate import simulate
 
 __all__ = [
     "simulate",
     "simulate_batch",
     "simulate_lti",
+    "calibrate_threshold",
     "SimulationResult",
     "BatchResult",
     "Noise",
@@ -37,4 +52,12 @@ __all__ = [
     "StuckFault",
     "SensorFaultSignal",
     "apply_faults",
+    "FaultSignal",
+    "InputFaultSignal",
+    "ActuatorGainFault",
+    "ActuatorBiasFault",
+    "ActuatorStuckFault",
+    "AdditiveFault",
+    "FaultSchedule",
+    "fault_schedule",
 ]

@@ -1,15 +1,17 @@
-"""Sensor fault signals for simulation: gain, bias and stuck faults (math.md §1).
+"""Sensor fault signals for simulation: gain, bias and stuck faults.
 
-Seed 001's sensor fault model (eq. 3-5) for the reading of sensor ``i``::
+The sensor fault model of Hou, Wen & Chen (2011) (eq. 3-5) for the reading of sensor ``i``::
 
     y_i(t) = eta_i(t) * y_i0(t) + lambda_i(t)
 
 with ``y_i0`` the healthy reading.  A **gain** fault has ``eta != 1`` (abrupt when a
 number, time-varying when a function of t), optionally with a bias; a **bias** fault has
 ``eta = 1, lambda != 0``; a **stuck** sensor has ``eta = 0`` and ``lambda`` the held value
-(the paper sets stuck faults aside; they are simulated here).  By Erratum 1 every one of
-them is an *additive* fault ``phi_i = (eta_i - 1) y_i0 + lambda_i`` on the measured y: the
-residual generators never see ``eta`` or ``lambda``, only the measured y.
+(the paper sets stuck faults aside; they are simulated here).  Every one of them is an
+*additive* fault ``phi_i = (eta_i - 1) y_i0 + lambda_i`` on the measured y: the residual
+generators never see ``eta`` or ``lambda``, only the measured y (see the user guide,
+*Theory: sensor-fault transforms*, ``docs/theory/sensor-fault-transforms.md``, and
+*Theory: errata*, ``docs/theory/errata.md``).
 
 Timing: a fault is active on the samples with ``start <= t < end`` (``end=None``: to the
 end of the run); sample times are compared with a tolerance of ``1e-9 * max(1, |time|)``
@@ -37,6 +39,7 @@ from geomfdi._validation import as_index, as_real_array, check_finite
 from geomfdi.errors import GeomFDIError, ShapeError
 
 __all__ = [
+    "FaultSignal",
     "SensorFaultSignal",
     "GainFault",
     "BiasFault",
@@ -102,7 +105,51 @@ def _evaluate(value: Value, t: np.ndarray, name: str) -> np.ndarray:
     return out
 
 
-class SensorFaultSignal:
+class FaultSignal:
+    """Base class of every simulated fault signal: an activity window ``start <= t < end``.
+
+    Attributes
+    ----------
+    start, end : float
+        Active for ``start <= t < end`` (``end`` may be ``None``: never ends).
+    """
+
+    start: float
+    end: float | None
+    kind: str = "fault"
+
+    def _init_window(self, start: Any, end: Any) -> None:
+        self.start = _check_time(start, "start")
+        self.end = _check_time(end, "end", allow_none=True)
+        if self.end is not None and self.end <= self.start:
+            raise GeomFDIError(
+                f"end: must be after start ({self.start}), got {self.end}", argument="end"
+            )
+
+    def mask(self, t: np.ndarray) -> np.ndarray:
+        """Boolean mask of the samples where the fault is active."""
+        t = np.asarray(t, dtype=float)
+        m = t >= self.start - _time_tol(self.start)
+        if self.end is not None:
+            m &= t < self.end - _time_tol(self.end)
+        return m
+
+    def label(self) -> str:
+        """Short human-readable description."""
+        raise NotImplementedError
+
+    def _until(self) -> str:
+        end = "" if self.end is None else f" until t={self.end:g}"
+        return f"from t={self.start:g}{end}"
+
+
+def _check_channel(value: Any, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+        raise GeomFDIError(f"{name}: must be an integer >= 0, got {value!r}", argument=name)
+    return int(value)
+
+
+class SensorFaultSignal(FaultSignal):
     """Base class of the sensor fault signals (not used directly).
 
     Attributes
@@ -114,22 +161,10 @@ class SensorFaultSignal:
     """
 
     sensor: int
-    start: float
-    end: float | None
-    kind: str = "fault"
 
     def _init_common(self, sensor: Any, start: Any, end: Any) -> None:
-        if isinstance(sensor, bool) or not isinstance(sensor, numbers.Integral) or sensor < 0:
-            raise GeomFDIError(
-                f"sensor: must be an integer >= 0, got {sensor!r}", argument="sensor"
-            )
-        self.sensor = int(sensor)
-        self.start = _check_time(start, "start")
-        self.end = _check_time(end, "end", allow_none=True)
-        if self.end is not None and self.end <= self.start:
-            raise GeomFDIError(
-                f"end: must be after start ({self.start}), got {self.end}", argument="end"
-            )
+        self.sensor = _check_channel(sensor, "sensor")
+        self._init_window(start, end)
 
     # ------------------------------------------------------------ interface
     @property
@@ -150,14 +185,6 @@ class SensorFaultSignal:
         """True for a stuck fault that holds the reading at its start."""
         return False
 
-    def mask(self, t: np.ndarray) -> np.ndarray:
-        """Boolean mask of the samples where the fault is active."""
-        t = np.asarray(t, dtype=float)
-        m = t >= self.start - _time_tol(self.start)
-        if self.end is not None:
-            m &= t < self.end - _time_tol(self.end)
-        return m
-
     def apply(self, t: Any, y0: Any) -> np.ndarray:
         """The faulty readings: this fault applied to the healthy readings ``y0``.
 
@@ -172,13 +199,8 @@ class SensorFaultSignal:
         """
         return apply_faults([self], t, y0)
 
-    def label(self) -> str:
-        """Short human-readable description."""
-        raise NotImplementedError
-
     def _window(self) -> str:
-        end = "" if self.end is None else f" until t={self.end:g}"
-        return f"sensor {self.sensor} from t={self.start:g}{end}"
+        return f"sensor {self.sensor} {self._until()}"
 
 
 def _describe(value: Value) -> str:
@@ -189,6 +211,9 @@ def _describe(value: Value) -> str:
 
 class GainFault(SensorFaultSignal):
     """Gain fault ``y_i = eta(t) y_i0 + lambda(t)`` on sensor ``sensor`` from ``start``.
+
+    Every argument after ``sensor`` is keyword-only (``GainFault(0, start=8, gain=1.5)``):
+    a positional ``GainFault(0, 1.5, 5.0)`` would silently swap onset and gain.
 
     Parameters
     ----------
@@ -206,9 +231,9 @@ class GainFault(SensorFaultSignal):
 
     Notes
     -----
-    Seed 001, eq. (3)-(5) with ``eta != 1``.  With a constant gain the fault is abrupt and,
-    under output feedback, the closed loop is piecewise LTI (simulated exactly); a
-    callable gain makes it time-varying.
+    Hou, Wen & Chen (2011), eq. (3)-(5) with ``eta != 1``.  With a constant gain the
+    fault is abrupt and, under output feedback, the closed loop is piecewise LTI
+    (simulated exactly); a callable gain makes it time-varying.
 
     Examples
     --------
@@ -221,7 +246,13 @@ class GainFault(SensorFaultSignal):
     kind = "gain"
 
     def __init__(
-        self, sensor: int, start: float, gain: Value, bias: Value = 0.0, *, end: float | None = None
+        self,
+        sensor: int,
+        *,
+        start: float,
+        gain: Value,
+        bias: Value = 0.0,
+        end: float | None = None,
     ) -> None:
         self._init_common(sensor, start, end)
         self.gain = _check_value(gain, "gain")
@@ -263,13 +294,13 @@ class BiasFault(SensorFaultSignal):
     Examples
     --------
     >>> import numpy as np, geomfdi as gf
-    >>> gf.BiasFault(0, 1.0, 0.5).apply([0.0, 1.0], np.zeros((1, 2))).tolist()
+    >>> gf.BiasFault(0, start=1.0, bias=0.5).apply([0.0, 1.0], np.zeros((1, 2))).tolist()
     [[0.0, 0.5]]
     """
 
     kind = "bias"
 
-    def __init__(self, sensor: int, start: float, bias: Value, *, end: float | None = None) -> None:
+    def __init__(self, sensor: int, *, start: float, bias: Value, end: float | None = None) -> None:
         self._init_common(sensor, start, end)
         self.bias = _check_value(bias, "bias")
 
@@ -304,14 +335,14 @@ class StuckFault(SensorFaultSignal):
     --------
     >>> import numpy as np, geomfdi as gf
     >>> y0 = np.array([[1.0, 2.0, 3.0, 4.0]])
-    >>> gf.StuckFault(0, 1.0).apply([0.0, 1.0, 2.0, 3.0], y0).tolist()
+    >>> gf.StuckFault(0, start=1.0).apply([0.0, 1.0, 2.0, 3.0], y0).tolist()
     [[1.0, 2.0, 2.0, 2.0]]
     """
 
     kind = "stuck"
 
     def __init__(
-        self, sensor: int, start: float, value: float | None = None, *, end: float | None = None
+        self, sensor: int, *, start: float, value: float | None = None, end: float | None = None
     ) -> None:
         self._init_common(sensor, start, end)
         self.value = None if value is None else _check_value(value, "value")
@@ -515,13 +546,17 @@ def apply_faults(faults: Any, t: Any, y0: Any) -> np.ndarray:
     Returns
     -------
     ndarray, same shape as ``y0``
-        ``eta * y0 + lambda`` (seed 001, eq. 3-5).
+        ``eta * y0 + lambda`` (Hou, Wen & Chen 2011, eq. 3-5).
 
     Examples
     --------
     >>> import numpy as np, geomfdi as gf
     >>> y0 = np.ones((2, 3))
-    >>> fs = [gf.GainFault(0, 1.0, 2.0), gf.BiasFault(0, 2.0, 0.5), gf.StuckFault(1, 1.0, 7.0)]
+    >>> fs = [
+    ...     gf.GainFault(0, start=1.0, gain=2.0),
+    ...     gf.BiasFault(0, start=2.0, bias=0.5),
+    ...     gf.StuckFault(1, start=1.0, value=7.0),
+    ... ]
     >>> gf.apply_faults(fs, [0.0, 1.0, 2.0], y0).tolist()
     [[1.0, 2.0, 2.5], [1.0, 7.0, 7.0]]
     """

@@ -1,0 +1,85 @@
+"""Thresholds calibrated on noise-only simulations (:func:`calibrate_threshold`).
+
+Lives with the simulator (it simulates); the quantile itself is
+:meth:`geomfdi.evaluation.decision.Threshold.from_residuals`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from geomfdi._validation import as_int
+from geomfdi.errors import GeomFDIError
+from geomfdi.evaluation.decision import Threshold
+from geomfdi.simulation.batch import simulate_batch
+
+__all__ = ["calibrate_threshold"]
+
+
+def calibrate_threshold(
+    plant: Any,
+    bank: Any,
+    t: Any,
+    *,
+    noise: Any,
+    false_alarm_rate: float,
+    runs: int = 1,
+    statistic: str = "abs",
+    window: int = 1,
+    per: str = "residual",
+    skip: float = 0.0,
+    **simulate_options: Any,
+) -> Threshold:
+    """Thresholds from noise-only simulations at a chosen false-alarm rate.
+
+    Runs :func:`geomfdi.simulation.simulate_batch` without faults (``runs`` seeds
+    derived from ``noise.seed``) and calls :meth:`Threshold.from_residuals`.
+
+    Parameters
+    ----------
+    plant, bank, t
+        As for :func:`geomfdi.simulate`.
+    noise : Noise
+        Must contain measurement and/or process noise.
+    false_alarm_rate : float
+        Per-sample false-alarm rate ``alpha``.
+    runs : int
+        Number of noise-only runs pooled.
+    statistic, window, per
+        See :meth:`Threshold.from_residuals`.
+    skip : float
+        Seconds at the start of each run left out of the quantile.
+    **simulate_options
+        Passed on (``u``, ``controller``, ``x0``, ``d``, ``hold``).
+
+    Returns
+    -------
+    Threshold
+    """
+    if noise is None or (noise.measurement is None and noise.process is None):
+        raise GeomFDIError(
+            "noise: a noise-only calibration needs measurement or process noise",
+            argument="noise",
+        )
+    runs = as_int(runs, "runs", minimum=1)
+    batch = simulate_batch(
+        plant,
+        bank,
+        t,
+        runs=runs,
+        noise=noise,
+        store="residuals",
+        progress=False,
+        **simulate_options,
+    )
+    k_skip = int(np.searchsorted(batch.t - batch.t[0], float(skip) - 1e-12))
+    return Threshold.from_residuals(
+        batch.residuals,
+        false_alarm_rate,
+        statistic=statistic,
+        window=window,
+        per=per,
+        skip=k_skip,
+    )

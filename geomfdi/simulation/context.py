@@ -1,0 +1,454 @@
+"""Checked inputs of a simulation: the bank, the controller, the exogenous signals, the context.
+
+:func:`prepare` validates everything once and returns a :class:`Context` that the
+open-loop and closed-loop engines read; :class:`RawRuns` holds the arrays they return.
+"""
+
+from __future__ import annotations
+
+import numbers
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+
+from geomfdi._validation import as_matrix, as_real_array
+from geomfdi.errors import GeomFDIError, NonFiniteError, ShapeError
+from geomfdi.model.plant import Plant, as_plant
+from geomfdi.simulation.discretization import HOLDS, Discretization, discretize, uniform_step
+from geomfdi.simulation.noise import Noise
+from geomfdi.simulation.schedule import FaultSchedule, input_channels
+from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
+
+
+@dataclass
+class BankView:
+    generators: list[ResidualGenerator | None]
+    structure: np.ndarray
+    requested: np.ndarray | None
+    design_faults: list[Any]
+    fault_labels: list[str]
+    bank: Any
+
+    scales: list[np.ndarray | None] = field(default_factory=list)
+
+    @property
+    def present(self) -> list[int]:
+        return [k for k, g in enumerate(self.generators) if g is not None]
+
+
+def balanced_generator(g: ResidualGenerator) -> tuple[ResidualGenerator, np.ndarray]:
+    """``g`` in balanced state coordinates ``w = diag(e) w_b`` (the residual is unchanged).
+
+    A generator designed in badly scaled coordinates has a badly scaled ``F``; its
+    simulation (Schur form, matrix exponential) is accurate relative to ``||F||``, so the
+    state is balanced first (``scipy.linalg.matrix_balance``, powers of 2: exact).
+    """
+    if g.order == 0:
+        return g, np.ones(0)
+    _, (e, _) = scipy.linalg.matrix_balance(g.F, permute=False, separate=True)
+    e = np.asarray(e, dtype=float)
+    if np.all(e == 1.0):
+        return g, e
+    gb = replace(
+        g,
+        F=g.F * e[None, :] / e[:, None],
+        E=g.E / e[:, None],
+        G=g.G / e[:, None],
+        M=g.M * e[None, :],
+    )
+    return gb, e
+
+
+def bank_view(bank: Any, plant: Plant) -> BankView:
+    if isinstance(bank, ResidualGenerator):
+        idx = set(bank.target) | set(bank.decoupled)
+        nf = max(idx) + 1 if idx else 1
+        S = np.zeros((1, nf), dtype=bool)
+        for j in bank.target:
+            S[0, j] = True
+        view = BankView([bank], S, S.copy(), [], [f"fault {j}" for j in range(nf)], bank)
+    elif isinstance(bank, ResidualBank):
+        S = np.asarray(bank.structure, dtype=bool)
+        labels = [getattr(f, "name", None) or f"fault {j}" for j, f in enumerate(bank.faults)]
+        labels += [f"fault {j}" for j in range(len(labels), S.shape[1])]
+        req = None if bank.requested is None else np.asarray(bank.requested, dtype=bool)
+        view = BankView(list(bank.generators), S, req, list(bank.faults), labels, bank)
+    else:
+        raise GeomFDIError(
+            f"bank: expected a ResidualBank or a ResidualGenerator, got {type(bank).__name__}",
+            argument="bank",
+        )
+    if not view.present:
+        raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
+    for k in view.present:
+        g = view.generators[k]
+        for name in ("F", "E", "G", "M", "H", "K"):
+            mat = np.asarray(getattr(g, name), dtype=float)
+            if not np.all(np.isfinite(mat)):
+                raise NonFiniteError(
+                    f"bank: generator {k} has a non-finite entry in {name}", argument="bank"
+                )
+        if g.q != plant.q or g.m != plant.m:
+            raise ShapeError(
+                f"bank: generator {k} reads {g.q} outputs and {g.m} inputs, the plant has "
+                f"{plant.q} and {plant.m}",
+                argument="bank",
+            )
+        if abs(g.dt - plant.dt) > 1e-12 * max(1.0, plant.dt):
+            raise GeomFDIError(
+                f"bank: generator {k} has dt={g.dt:g}, the plant dt={plant.dt:g}",
+                argument="bank",
+            )
+    view.scales = [None] * len(view.generators)
+    for k in view.present:
+        view.generators[k], view.scales[k] = balanced_generator(view.generators[k])
+    return view
+
+
+def unbalance_states(view: BankView, info: dict, ws: list[np.ndarray | None]) -> list:
+    """Generator states (and ``info["w0"]``) back in the bank's own coordinates."""
+    out: list[np.ndarray | None] = []
+    for k, w in enumerate(ws):
+        e = view.scales[k] if k < len(view.scales) else None
+        out.append(w if w is None or e is None else w * e[:, None])
+    for k, w0 in info.get("w0", {}).items():
+        e = view.scales[k]
+        if e is not None:
+            info["w0"][k] = w0 * e
+    return out
+
+
+@dataclass
+class Controller:
+    mode: str  # "open", "state", "output"
+    K: np.ndarray | None = None
+    Ac: np.ndarray | None = None
+    Bc: np.ndarray | None = None
+    Cc: np.ndarray | None = None
+    Dc: np.ndarray | None = None
+
+    @property
+    def nc(self) -> int:
+        return 0 if self.Ac is None else self.Ac.shape[0]
+
+
+def as_controller(controller: Any, plant: Plant) -> Controller:
+    if controller is None:
+        return Controller("open")
+    # an LTI object implies python-control is loaded: no import (about 0.3 s) for a gain
+    control = sys.modules.get("control")
+    if control is not None and isinstance(controller, control.LTI):
+        try:
+            ss = control.ss(controller)
+        except Exception as exc:  # non-proper transfer function, ...
+            raise GeomFDIError(
+                f"controller: cannot be realised as a state-space system ({exc})",
+                argument="controller",
+            ) from exc
+        if ss.ninputs != plant.q or ss.noutputs != plant.m:
+            raise ShapeError(
+                f"controller: must read the {plant.q} measured outputs and produce the "
+                f"{plant.m} inputs, got {ss.ninputs} inputs and {ss.noutputs} outputs",
+                argument="controller",
+            )
+        cdt = ss.dt
+        if plant.is_discrete:
+            ok = cdt is None or cdt is True or (cdt and abs(cdt - plant.dt) <= 1e-12 * plant.dt)
+        else:
+            ok = cdt is None or cdt == 0
+        if not ok:
+            raise GeomFDIError(
+                f"controller: dt={cdt} does not match the plant (dt={plant.dt:g})",
+                argument="controller",
+            )
+        nc = ss.nstates
+        return Controller(
+            "output",
+            Ac=np.asarray(ss.A, dtype=float).reshape(nc, nc),
+            Bc=np.asarray(ss.B, dtype=float).reshape(nc, plant.q),
+            Cc=np.asarray(ss.C, dtype=float).reshape(plant.m, nc),
+            Dc=np.asarray(ss.D, dtype=float).reshape(plant.m, plant.q),
+        )
+    K = as_matrix(controller, "controller", rows=plant.m, cols=plant.n)
+    return Controller("state", K=K)
+
+
+def exogenous_signal(value: Any, t: np.ndarray, rows: int, name: str) -> np.ndarray:
+    """An exogenous signal as a (rows, N) array: None, array or vectorised callable."""
+    N = t.shape[0]
+    if value is None:
+        return np.zeros((rows, N))
+    if rows == 0:
+        raise GeomFDIError(f"{name}: the plant has no such input", argument=name)
+    if callable(value):
+        try:
+            value = value(t)
+        except Exception as exc:
+            raise GeomFDIError(
+                f"{name}: calling it on the time array failed ({type(exc).__name__}: {exc}); "
+                "the function must accept a numpy array of times",
+                argument=name,
+            ) from exc
+    arr = as_real_array(value, name)
+    if arr.ndim == 0:
+        return np.full((rows, N), float(arr))
+    if arr.ndim == 1 and rows == 1 and arr.shape[0] == N:
+        return arr[None].copy()
+    if arr.ndim == 1 and arr.shape[0] == rows:
+        return np.repeat(arr[:, None], N, axis=1)
+    if arr.shape != (rows, N):
+        raise ShapeError(f"{name}: expected shape ({rows}, {N}), got {arr.shape}", argument=name)
+    return arr
+
+
+def batched_matmul(Mat: np.ndarray, arr: np.ndarray) -> np.ndarray:
+    """``Mat @ arr[r]`` for each run of ``arr`` (R, k, L) -> (R, p, L)."""
+    if arr.shape[0] == 1:
+        return (Mat @ arr[0])[None]
+    return np.matmul(Mat, arr)
+
+
+# ================================================================== context
+@dataclass
+class Context:
+    plant: Plant
+    view: BankView
+    ctrl: Controller
+    t: np.ndarray
+    step: float
+    hold: str
+    u_ext: np.ndarray  # (m, N)
+    d: np.ndarray  # (nd, N)
+    Lv: np.ndarray | None
+    Bw: np.ndarray | None
+    Lw: np.ndarray | None
+    consistent: bool
+    progress: bool
+    keep_states: bool = False
+    info: dict[str, Any] = field(default_factory=dict)
+    original: Plant | None = None  # the user's plant (``plant`` is balanced)
+    x_scale: np.ndarray | None = None  # x = diag(x_scale) x_balanced
+
+    @property
+    def discrete(self) -> bool:
+        return self.plant.is_discrete
+
+    @property
+    def N(self) -> int:
+        return self.t.shape[0]
+
+    @property
+    def nwp(self) -> int:
+        return 0 if self.Bw is None else self.Bw.shape[1]
+
+    def discretize(self, A: np.ndarray, B: np.ndarray) -> Discretization:
+        if self.discrete:
+            return Discretization(A, B, np.zeros_like(B), self.step, "discrete")
+        return discretize(A, B, self.step, self.hold)
+
+
+@dataclass
+class RawRuns:
+    """Arrays of one chunk of runs (leading axis: runs, possibly 1 = broadcast)."""
+
+    x: np.ndarray
+    xc: np.ndarray | None
+    y: np.ndarray
+    y_healthy: np.ndarray
+    u: np.ndarray
+    r_vectors: list[np.ndarray | None]
+    w: list[np.ndarray | None]
+    rows: np.ndarray | None = None  # residual rows (R, n_rows, N), when already formed
+
+
+def progress_bar(enabled: bool, total: int, desc: str) -> Any:
+    if not enabled:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc=desc, leave=False)
+
+
+# ============================================================ entry points
+def prepare(
+    plant: Any,
+    bank: Any,
+    t: Any,
+    u: Any,
+    d: Any,
+    noise: Any,
+    controller: Any,
+    hold: str,
+    consistent_init: bool,
+    progress: Any,
+) -> Context:
+    plant = as_plant(plant)
+    view = bank_view(bank, plant)
+    ctrl = as_controller(controller, plant)
+    t, step = uniform_step(t)
+    if plant.is_discrete and abs(step - plant.dt) > 1e-6 * plant.dt:
+        raise GeomFDIError(
+            f"t: the grid step {step:g} must equal the plant's sampling period {plant.dt:g}",
+            argument="t",
+        )
+    if hold not in HOLDS:
+        raise GeomFDIError(f"hold: must be one of {HOLDS}, got {hold!r}", argument="hold")
+    if noise is not None and not isinstance(noise, Noise):
+        raise GeomFDIError(
+            f"noise: expected a geomfdi Noise, got {type(noise).__name__}", argument="noise"
+        )
+    Lv, Bw, Lw = noise.factors(plant) if noise is not None else (None, None, None)
+    if progress is None:
+        progress = sys.stderr.isatty()
+    # the state in balanced units (x = diag(xs) x_b): a plant in badly scaled coordinates
+    # is simulated as accurately as the same plant in good ones (exact: powers of 2)
+    original = plant
+    xs = plant_scaling(plant)
+    if xs is not None:
+        plant = Plant(
+            plant.A * xs[None, :] / xs[:, None],
+            plant.B / xs[:, None],
+            plant.C * xs[None, :],
+            plant.D,
+            Bd=plant.Bd / xs[:, None],
+            Dd=plant.Dd,
+            dt=plant.dt,
+        )
+        if ctrl.K is not None:
+            ctrl = replace(ctrl, K=ctrl.K * xs[None, :])
+        if Bw is not None:
+            Bw = Bw / xs[:, None]
+    return Context(
+        plant,
+        view,
+        ctrl,
+        t,
+        step,
+        hold,
+        exogenous_signal(u, t, plant.m, "u"),
+        exogenous_signal(d, t, plant.nd, "d"),
+        Lv,
+        Bw,
+        Lw,
+        bool(consistent_init),
+        bool(progress),
+        info={
+            "mode": {"open": "open loop", "state": "state feedback", "output": "output feedback"}[
+                ctrl.mode
+            ],
+            "hold": "discrete" if plant.is_discrete else hold,
+        },
+        original=original,
+        x_scale=xs,
+    )
+
+
+def plant_scaling(plant: Plant) -> np.ndarray | None:
+    """Diagonal state scaling that balances ``A`` (``None`` when already balanced)."""
+    if plant.n == 0:
+        return None
+    _, (xs, _) = scipy.linalg.matrix_balance(plant.A, permute=False, separate=True)
+    xs = np.asarray(xs, dtype=float)
+    return None if np.all(xs == 1.0) else xs
+
+
+def to_balanced(ctx: Context, x0: np.ndarray) -> np.ndarray:
+    """Initial states (runs, n) in the balanced units of ``ctx``."""
+    return x0 if ctx.x_scale is None else x0 / ctx.x_scale[None, :]
+
+
+def from_balanced(ctx: Context, x: np.ndarray) -> np.ndarray:
+    """Plant states (..., n, N) back in the user's units."""
+    return x if ctx.x_scale is None else x * ctx.x_scale[:, None]
+
+
+def draw_noise(
+    ctx: Context, rng: np.random.Generator
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    N = ctx.N
+    v = ctx.Lv @ rng.standard_normal((ctx.plant.q, N)) if ctx.Lv is not None else None
+    w = ctx.Lw @ rng.standard_normal((ctx.Lw.shape[1], N)) if ctx.Lw is not None else None
+    return v, w
+
+
+def state_vector(value: Any, n: int, name: str, runs: int | None = None) -> np.ndarray:
+    if value is None:
+        return np.zeros((1, n))
+    arr = as_real_array(value, name)
+    if arr.ndim == 1:
+        if arr.shape[0] != n:
+            raise ShapeError(f"{name}: expected length {n}, got {arr.shape[0]}", argument=name)
+        return arr[None]
+    if arr.ndim == 2 and runs is not None and arr.shape == (runs, n):
+        return arr
+    expect = f"({n},)" if runs is None else f"({n},) or ({runs}, {n})"
+    raise ShapeError(f"{name}: expected shape {expect}, got {arr.shape}", argument=name)
+
+
+def residual_rows(ctx: Context, raw: RawRuns) -> np.ndarray:
+    """Residual rows (R, n_rows, N): one per bank row, norms for vector residuals."""
+    if raw.rows is not None:
+        return raw.rows
+    r_vectors = raw.r_vectors
+    R = max(r.shape[0] for r in r_vectors if r is not None)
+    N = ctx.N
+    out = np.zeros((R, len(r_vectors), N))
+    for k, rv in enumerate(r_vectors):
+        if rv is None:
+            continue
+        out[:, k] = rv[:, 0] if rv.shape[1] == 1 else np.sqrt(np.sum(rv * rv, axis=1))
+    return out
+
+
+def residual_labels_of(view: BankView) -> list[str]:
+    return [f"r[{k}]" for k in range(len(view.generators))]
+
+
+def with_input_faults(ctx: Context, schedules: Sequence[FaultSchedule]) -> Context:
+    """``ctx`` with the additive faults of ``schedules`` as extra disturbance channels.
+
+    The plant gets ``Bd' = [Bd, Bphi]``, ``Dd' = [Dd, Dphi]`` and the disturbance samples
+    ``d' = [d; phi]`` (per run, ``(R, nd', N)``, when the runs' signals differ).
+    """
+    ch = input_channels(schedules, ctx.original or ctx.plant, ctx.t, ctx.u_ext)
+    if ch is None:
+        return ctx
+    if ctx.ctrl.mode != "open" and any(s.needs_input for s in schedules):
+        raise GeomFDIError(
+            "faults: actuator gain and stuck faults act on the commanded input, known in "
+            "advance only in open loop; under feedback simulate an ActuatorBiasFault or an "
+            "AdditiveFault instead",
+            argument="faults",
+        )
+    Bphi, Dphi, phi = ch
+    if ctx.x_scale is not None:
+        Bphi = Bphi / ctx.x_scale[:, None]
+    p = ctx.plant
+    aug = Plant(p.A, p.B, p.C, p.D, Bd=np.hstack([p.Bd, Bphi]), Dd=np.hstack([p.Dd, Dphi]), dt=p.dt)
+    if phi.shape[0] == 1:
+        d = np.vstack([ctx.d, phi[0]])
+    else:
+        R, N = phi.shape[0], ctx.N
+        d = np.concatenate([np.broadcast_to(ctx.d, (R, p.nd, N)), phi], axis=1)
+    return replace(ctx, plant=aug, d=d)
+
+
+def detection_window_of(window: Any) -> float | None:
+    """Check a detection window (seconds, > 0) or None."""
+    if window is None:
+        return None
+    if isinstance(window, bool) or not isinstance(window, numbers.Real):
+        raise GeomFDIError(
+            f"detection_window: must be a number of seconds or None, got {window!r}",
+            argument="detection_window",
+        )
+    w = float(window)
+    if not (np.isfinite(w) and w > 0):
+        raise GeomFDIError(
+            f"detection_window: must be finite and > 0, got {w}", argument="detection_window"
+        )
+    return w

@@ -1,0 +1,150 @@
+"""Measurement and process noise of a simulation: :class:`Noise` and its square-root factors."""
+
+from __future__ import annotations
+
+import numbers
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from geomfdi._validation import as_matrix, as_real_array
+from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.model.plant import Plant
+
+
+# =================================================================== noise
+def _factor(value: Any, dim: int, name: str) -> np.ndarray | None:
+    """A square-root factor ``L`` (dim, dim) of a noise description (std or covariance)."""
+    if value is None:
+        return None
+    arr = as_real_array(value, name)
+    if arr.ndim == 0:
+        if arr < 0:
+            raise GeomFDIError(
+                f"{name}: a standard deviation must be >= 0, got {arr}", argument=name
+            )
+        L = float(arr) * np.eye(dim)
+    elif arr.ndim == 1:
+        if arr.shape[0] != dim:
+            raise ShapeError(
+                f"{name}: expected {dim} standard deviations, got length {arr.shape[0]}",
+                argument=name,
+            )
+        if np.any(arr < 0):
+            raise GeomFDIError(f"{name}: standard deviations must be >= 0", argument=name)
+        L = np.diag(arr)
+    elif arr.ndim == 2:
+        if arr.shape != (dim, dim):
+            raise ShapeError(
+                f"{name}: a covariance must be ({dim}, {dim}), got shape {arr.shape}",
+                argument=name,
+            )
+        scale = max(float(np.max(np.abs(arr))), 1e-300)
+        if np.max(np.abs(arr - arr.T)) > 1e-10 * scale:
+            raise GeomFDIError(f"{name}: a covariance must be symmetric", argument=name)
+        lam, V = np.linalg.eigh((arr + arr.T) / 2)
+        if lam.min() < -1e-10 * scale:
+            raise GeomFDIError(
+                f"{name}: a covariance must be positive semidefinite (eigenvalue {lam.min():.3g})",
+                argument=name,
+            )
+        L = V * np.sqrt(np.clip(lam, 0, None))
+    else:
+        raise ShapeError(f"{name}: expected a number, a vector or a matrix", argument=name)
+    return None if not np.any(L) else L
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Measurement and process noise with a seed.
+
+    Parameters
+    ----------
+    measurement : float, (q,) or (q, q), optional
+        Measurement noise ``v`` added to the healthy readings: one standard deviation for
+        all sensors, one per sensor, or a covariance matrix.  Sensor faults act on the
+        noisy reading (a gain scales the noise, a stuck sensor freezes it).
+    process : float, (k,) or (k, k), optional
+        Process noise ``w`` entering ``x' = ... + Bw w`` (standard deviation(s) or
+        covariance of the samples).  For a continuous plant the samples are interpolated
+        with the simulation hold; the covariance of a sampled white noise of intensity
+        ``Q`` is ``Q / dt``.
+    process_input : (n, k), optional
+        ``Bw``; the identity (noise on every state) by default.
+    seed : int, numpy SeedSequence or None
+        Seed of :func:`numpy.random.default_rng`.  In :func:`simulate_batch` run ``i``
+        uses the ``i``-th child of ``SeedSequence(seed)`` unless seeds are given.
+
+    Examples
+    --------
+    >>> import geomfdi as gf
+    >>> gf.Noise(measurement=0.01, seed=1).measurement
+    0.01
+    """
+
+    measurement: Any = None
+    process: Any = None
+    process_input: Any = None
+    seed: Any = None
+
+    def __post_init__(self) -> None:
+        check_seed(self.seed, "noise.seed")
+
+    def factors(
+        self, plant: Plant
+    ) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+        """``(Lv, Bw, Lw)``: ``v = Lv z``, process noise ``Bw Lw z`` (z standard normal)."""
+        Lv = _factor(self.measurement, plant.q, "noise.measurement")
+        if self.process_input is None:
+            Bw = np.eye(plant.n)
+        else:
+            Bw = as_matrix(
+                self.process_input, "noise.process_input", rows=plant.n, vector_as="column"
+            )
+        Lw = _factor(self.process, Bw.shape[1], "noise.process")
+        return Lv, (Bw if Lw is not None else None), Lw
+
+
+def check_seed(seed: Any, name: str, argument: str | None = None) -> Any:
+    """A reproducible seed: an integer >= 0 or a ``numpy.random.SeedSequence``."""
+    argument = argument or name
+    if seed is None or isinstance(seed, np.random.SeedSequence):
+        return seed
+    if isinstance(seed, numbers.Integral) and not isinstance(seed, bool):
+        if seed < 0:
+            raise GeomFDIError(f"{name}: a seed must be >= 0, got {seed}", argument=argument)
+        return int(seed)
+    raise GeomFDIError(
+        f"{name}: expected an integer >= 0, a numpy SeedSequence or None, got {seed!r}",
+        argument=argument,
+    )
+
+
+def run_seeds(noise: Noise | None, seeds: Any, runs: int) -> list[Any]:
+    """The per-run seeds of a batch: given (checked), or spawned from ``noise.seed``."""
+    if noise is None:
+        if seeds is not None:
+            raise GeomFDIError("seeds: per-run seeds need a noise model", argument="seeds")
+        return [None] * runs
+    if seeds is None:
+        ss = (
+            noise.seed
+            if isinstance(noise.seed, np.random.SeedSequence)
+            else np.random.SeedSequence(noise.seed)
+        )
+        return list(ss.spawn(runs))
+    if isinstance(seeds, str | bytes) or not isinstance(seeds, Sequence | np.ndarray):
+        raise GeomFDIError(f"seeds: expected a sequence of {runs} seeds", argument="seeds")
+    if len(seeds) != runs:
+        raise ShapeError(f"seeds: expected {runs} seeds, got {len(seeds)}", argument="seeds")
+    out = []
+    for i, s in enumerate(seeds):
+        if s is None:
+            raise GeomFDIError(
+                f"seeds[{i}]: None is not reproducible; give an integer >= 0",
+                argument="seeds",
+            )
+        out.append(check_seed(s, f"seeds[{i}]", "seeds"))
+    return out

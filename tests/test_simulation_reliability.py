@@ -1,0 +1,136 @@
+"""Reliability of the simulator: scale-invariant initial states, validated options."""
+
+import warnings
+
+import numpy as np
+import pytest
+import scipy.signal
+
+import geomfdi as gf
+from geomfdi.errors import GeomFDIError, NonFiniteError
+
+A = np.array([[1.0, 1, 1], [0, 1, 0], [2, 0, 1]])
+B = np.array([[1.0, 0, 1], [0, 1, 1], [0, 1, 0]])
+C = np.array([[0.0, 1, 0], [0, 0, 1], [1, 0, 2]])
+K = np.array([[5, -1.5, 3], [2, 0, 2], [-2, 2.5, -2]])
+X0 = np.array([0.5, -0.3, 0.2])
+T = np.arange(0.0, 3.0, 0.002)
+U = np.vstack([np.sin(0.5 * T), np.cos(0.3 * T), 0.2 + 0 * T])
+
+
+def _lsim_residuals(plant, bank, Kfb, x0, w0s, u):
+    """Residuals of the composite [closed-loop plant; generator] by scipy.signal.lsim."""
+    Acl = plant.A - plant.B @ Kfb
+    out = []
+    for k, g in enumerate(bank.generators):
+        if g is None:
+            out.append(np.zeros(T.size))
+            continue
+        n, nw = plant.n, g.order
+        Ac = np.block([[Acl, np.zeros((n, nw))], [-g.E @ plant.C - g.G @ Kfb, g.F]])
+        Bc = np.vstack([plant.B, g.G])
+        Cc = np.hstack([-g.H @ plant.C - g.K @ Kfb, g.M])
+        _, y, _ = scipy.signal.lsim((Ac, Bc, Cc, g.K), u.T, T, X0=np.concatenate([x0, w0s[k]]))
+        out.append(np.reshape(y, (T.size, -1))[:, 0])
+    return np.array(out)
+
+
+def _scaled(plant, scales):
+    Tm = np.diag(scales)
+    Ti = np.diag(1.0 / np.asarray(scales))
+    return gf.Plant(Tm @ plant.A @ Ti, Tm @ plant.B, plant.C @ Ti), Tm, Ti
+
+
+@pytest.mark.slow
+def test_healthy_residual_equals_lsim_in_scaled_coordinates():
+    # seed 001's plant in T = diag(1e-4, 1, 1e4) (the bank designed there is not the
+    # unscaled one), and random plants in diag(10^k), k in [-6, 6]: whatever the bank,
+    # the simulated residual is the true one, from the initial state simulate reports
+    rng = np.random.default_rng(5)
+    cases = [(gf.Plant(A, B, C), [1e-4, 1.0, 1e4], K)]
+    for _ in range(4):
+        Ar = rng.standard_normal((3, 3)) - 2 * np.eye(3)
+        Br = rng.standard_normal((3, 2))
+        cases.append((gf.Plant(Ar, Br, np.eye(3)), 10.0 ** rng.integers(-6, 7, 3), None))
+    checked = 0
+    for plant, scales, Kfb in cases:
+        P, Tm, Ti = _scaled(plant, scales)
+        bank = gf.design_sensor_bank(P)
+        Kt = np.zeros((P.m, P.n)) if Kfb is None else Kfb @ Ti
+        u = U[: P.m]
+        for consistent_init in (True, False):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", gf.InitialStateWarning)
+                res = gf.simulate(
+                    P,
+                    bank,
+                    T,
+                    u,
+                    x0=Tm @ X0,
+                    controller=None if Kfb is None else Kt,
+                    consistent_init=consistent_init,
+                )
+            ref = _lsim_residuals(P, bank, Kt, Tm @ X0, res.info["w0"], u)
+            scale = max(1.0, float(np.max(np.abs(ref))))
+            for k, g in enumerate(bank.generators):
+                # a nearly defective F (eigenvector condition > 1e4, a scaled design gone
+                # wrong) limits any two integrators' agreement; those rows are not compared
+                if g is None or np.linalg.cond(np.linalg.eig(g.F)[1]) > 1e4:
+                    continue
+                np.testing.assert_allclose(res.residuals[k], ref[k], atol=1e-9 * scale)
+                checked += 1
+    assert checked >= 8, checked
+
+
+def test_inexact_consistent_state_is_not_used():
+    # a generator whose F shares its eigenvalue with the plant and is coupled to it:
+    # F Pi - Pi A = -Sigma has no solution, so the start is zero (warned), not a guess
+    plant = gf.Plant([[-1.0]], [[1.0]], [[1.0]])
+    g = gf.ResidualGenerator([[-1.0]], [[-1.0]], [[0.0]], [[1.0]], [[0.0]], [[0.0]])
+    t = np.linspace(0.0, 2.0, 201)
+    with pytest.warns(gf.InitialStateWarning, match="starts at zero"):
+        res = gf.simulate(plant, g, t, x0=[1.0])
+    assert res.info["initial_state"][0] == "zero"
+    np.testing.assert_array_equal(res.info["w0"][0], [0.0])
+    # w' = -w + x with x = e^-t, w(0) = 0: w = t e^-t
+    np.testing.assert_allclose(res.residuals[0], t * np.exp(-t), atol=1e-12)
+
+
+@pytest.mark.parametrize("dt", [-0.01, float("nan"), float("inf")])
+def test_simulate_lti_refuses_a_bad_dt(dt):
+    with pytest.raises(GeomFDIError) as err:
+        gf.simulate_lti([[-1.0]], [[1.0]], [[1.0]], None, None, np.linspace(0, 1, 11), dt=dt)
+    assert err.value.argument == "dt"
+
+
+def test_options_are_validated_with_named_errors():
+    plant = gf.Plant([[-1.0]], [[1.0]], [[1.0]])
+    g = gf.ResidualGenerator([[-2.0]], [[-1.0]], [[1.0]], [[1.0]], [[1.0]], [[0.0]])
+    t = np.linspace(0.0, 1.0, 11)
+    noise = gf.Noise(measurement=0.1, seed=1)
+    cases = [
+        (lambda: gf.simulate_batch(plant, g, t, runs=2, noise=noise, seeds=[None, None]), "seeds"),
+        (lambda: gf.simulate_batch(plant, g, t, runs=2, noise=noise, seeds=["abc", 1]), "seeds"),
+        (lambda: gf.simulate_batch(plant, g, t, runs=2, noise=noise, seeds=[-1, 1]), "seeds"),
+        (lambda: gf.simulate_batch(plant, g, t, runs=2, noise=noise, seeds=[1]), "seeds"),
+        (lambda: gf.simulate_batch(plant, g, t, runs=2, seeds=[1, 2]), "seeds"),
+        (lambda: gf.Noise(measurement=0.1, seed="abc"), "noise.seed"),
+        (lambda: gf.Noise(measurement=0.1, seed=-1), "noise.seed"),
+        (lambda: gf.simulate(plant, g, t, persistence=(3, 2)), "persistence"),
+        (lambda: gf.simulate(plant, g, t, detection_window=-1.0), "detection_window"),
+        (lambda: gf.simulate(plant, g, t, detection_window=float("nan")), "detection_window"),
+        (lambda: gf.simulate(plant, g, t, faults="oops"), "faults"),
+        (lambda: gf.simulate_batch(plant, g, t, runs=0), "runs"),
+    ]
+    for call, arg in cases:
+        with pytest.raises(GeomFDIError) as err:
+            call()
+        assert err.value.argument == arg, (arg, err.value)
+    bad = gf.ResidualGenerator([[np.nan]], [[-1.0]], [[1.0]], [[1.0]], [[1.0]], [[0.0]])
+    with pytest.raises(NonFiniteError, match="generator 0") as err:
+        gf.simulate(plant, bad, t)
+    assert err.value.argument == "bank"
+    # valid seeds still work and reproduce
+    a = gf.simulate_batch(plant, g, t, runs=2, noise=noise, seeds=[3, 4])
+    b = gf.simulate_batch(plant, g, t, runs=2, noise=noise, seeds=[3, 4])
+    np.testing.assert_array_equal(a.residuals, b.residuals)
