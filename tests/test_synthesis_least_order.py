@@ -65,8 +65,10 @@ def leak_angle(g, A, B, C, D, Bx, Dx, is_input, dt, count=6, seed=0):
         s = rad * rng.uniform(0.5, 1.5) * np.exp(1j * rng.uniform(0.3, np.pi - 0.3))
         if dt:
             s = 1.0 + 0.5 * s / rad
-        Rf = np.linalg.solve(s * np.eye(k) - g.F, np.hstack([-g.E, g.G])) if k else np.zeros(
-            (0, g.E.shape[1] + g.G.shape[1])
+        Rf = (
+            np.linalg.solve(s * np.eye(k) - g.F, np.hstack([-g.E, g.G]))
+            if k
+            else np.zeros((0, g.E.shape[1] + g.G.shape[1]))
         )
         Q = g.M @ Rf + np.hstack([-g.H, g.K])
         Gx = C @ np.linalg.solve(s * np.eye(n) - A, Bx) + Dx
@@ -211,8 +213,11 @@ def test_textbook_detector_with_disturbance_order_one():
 
 def test_certificate_and_user_poles():
     plant, faults, row = random_problem(3)
-    p = gf.Plant([[1, 1, 1], [0, 1, 0], [2, 0, 1]], [[1, 0, 1], [0, 1, 1], [0, 1, 0]],
-                 [[0, 1, 0], [0, 0, 1], [1, 0, 2]])
+    p = gf.Plant(
+        [[1, 1, 1], [0, 1, 0], [2, 0, 1]],
+        [[1, 0, 1], [0, 1, 1], [0, 1, 0]],
+        [[0, 1, 0], [0, 0, 1], [1, 0, 2]],
+    )
     faults = [gf.SensorFault(i) for i in range(3)]
     g = gf.design_residual_generator(p, faults, 1)
     cert = g.info["least_order"]

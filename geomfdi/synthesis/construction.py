@@ -45,7 +45,6 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
-import scipy.signal
 
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError
 from geomfdi.geometry.subspace import Subspace, _norm2, pinv
@@ -223,6 +222,8 @@ def _place(
             targets = (margin**2 / bad_eigs.conj()) if dt > 0 else (-bad_eigs.conj() - 2 * margin)
         else:
             targets = poles
+            import scipy.signal
+
             K2 = scipy.signal.place_poles(T22, B2 @ Vr, targets).gain_matrix
     except (ValueError, np.linalg.LinAlgError) as exc:
         raise DesignError(

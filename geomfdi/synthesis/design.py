@@ -173,7 +173,8 @@ def design_residual_generator(
         (closed under conjugation); a row of order ν uses the first ν (fewer raise a
         :class:`DesignError` naming the order).  Default: distinct real poles spread
         geometrically over ``[−10ω, −ω/10]`` (continuous, ω the plant's spectral radius)
-        or ``[0.001, 0.93]`` (discrete).  Other methods: the spectrum of the quotient observer (its order).
+        or ``[0.001, 0.93]`` (discrete).  Other methods: the spectrum of the quotient
+        observer (its order).
     method : {"exact", "full", "paper", "mvw"}
         ``"exact"``: least-order scalar residual (exact decoupling, no output filter).
         ``"full"``: full-quotient observer with the output filter of the exact

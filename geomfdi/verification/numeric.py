@@ -1,16 +1,21 @@
-"""Verification of residual generators on the physical model (math.md §5).
+"""Verification of residual generators on the physical model.
 
-The composite of plant and generator (faults ``x' = … + Bf f``, ``y = … + Df f``)::
+See the user guide, *Theory: verification* (``docs/theory/verification.md``).
 
-    [x; w]' = [[A, 0], [−E C, F]] [x; w] + [[B, Bd, Bf], [G − E D, −E Dd, −E Df]] [u; d; f]
-    r       = [−H C, M] [x; w] + [K − H D, −H Dd, −H Df] [u; d; f]
+**Leakage** (every decoupled fault, the known input u and the disturbances d) is the
+coordinate-free angle measure
 
-A transfer is "identically zero" when its relative gain stays at rounding level at
-``order + 2`` random complex points (default; plant and generator are evaluated apart,
-``T(s) = G_y(s) P(s) (+ G_u(s))``, and ``‖T(s)‖`` is compared with
-``‖G_y(s)‖ (‖C (sI − A)⁻¹‖ ‖Bx‖ + ‖Dy‖) (+ ‖G_u(s)‖)``, see ``Composite.point_gains``),
-or when the output map annihilates the orthonormal Krylov (reachable) subspace of the
-composite (``method="krylov"``).  :func:`verify_symbolic` redoes the
+    ‖Q(s) V_x(s)‖ / (‖Q(s)‖ ‖V_x(s)‖),   Q(s) = [G_y(s), G_u(s)],   V_x = [G_x(s); I_x]
+
+at random points s (``I_x = I`` for u, 0 otherwise): the cosine between the residual's
+row space and the channel's response in ``[y; u]``.  It does not change under any change
+of the plant's or the generator's state coordinates or a scaling of the residual, so a
+badly scaled realisation cannot hide a leak; a design fails above ``tol`` (1e-9).
+**Stability**: the generator's poles are stable and the plant's unstable invariant
+eigenvalues are unobservable from r (``‖G_y(μ) C v‖ / (‖G_y(μ)‖ ‖C v‖)`` = 0 for every
+unstable eigenpair (μ, v), i.e. the residue of the pole μ vanishes).
+**Targets**: the relative gain of :mod:`geomfdi.synthesis.gains` (random points, with
+the orthonormal Krylov test as second opinion).  :func:`verify_symbolic` redoes the
 design in exact rational arithmetic and proves the zeros.
 """
 
@@ -25,10 +30,14 @@ import numpy as np
 from geomfdi.errors import GeomFDIError
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.synthesis.gains import LEAK_TOL, Composite, _gains, _input_gain, fault_gains
+from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, _gains, fault_gains
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
+VERIFY_TOL = 1e-9
+"""Largest leakage angle accepted by :func:`verify`."""
+
 __all__ = [
+    "VERIFY_TOL",
     "verify",
     "VerificationReport",
     "fault_gains",
@@ -75,6 +84,8 @@ class VerificationReport:
     ok: bool
     method: str = "points"
     details: list[str] = field(default_factory=list)
+    stable: np.ndarray | None = None
+    unstable_leakage: np.ndarray | None = None
 
     @property
     def complete(self) -> bool:
@@ -130,7 +141,7 @@ def verify(
     faults: Sequence[Fault] | None = None,
     *,
     method: str = "points",
-    tol: float = LEAK_TOL,
+    tol: float = VERIFY_TOL,
 ) -> VerificationReport:
     """Check every generator's decouplings and detections on the physical model.
 
@@ -150,6 +161,9 @@ def verify(
     Returns
     -------
     VerificationReport
+        ``leakage`` and ``input_leakage`` are the angle measure (module Notes);
+        ``stable[r]``: the generator is stable; ``unstable_leakage[r]``: angle between
+        the residual and the plant's unstable modes (must be 0).
 
     Notes
     -----
@@ -158,6 +172,9 @@ def verify(
     Unlike the paper's check on its pseudo-actuator model, this one uses the measured y,
     so the paper design's transient leakage (Erratum 2) is visible.
     """
+    tol = float(tol) if isinstance(tol, int | float | np.floating) else tol
+    if not isinstance(tol, float) or not np.isfinite(tol) or not 0 < tol < 1:
+        raise GeomFDIError(f"tol: must be a number in (0, 1), got {tol!r}", argument="tol")
     if method not in ("points", "krylov"):
         raise GeomFDIError(
             f"method: must be 'points' or 'krylov', got {method!r}", argument="method"
@@ -168,20 +185,36 @@ def verify(
     gain = np.zeros((rows, nf))
     dc = np.zeros((rows, nf))
     inp = np.zeros(rows)
+    stable = np.ones(rows, dtype=bool)
+    unst = np.zeros(rows)
     idents: list[dict[str, float]] = []
     missing, details = [], []
+    factor = PlantFactor(plant)
+    sigs = fault_matrices(faults, plant.n, plant.q)
     for r, g in enumerate(gens):
         if g is None:
             missing.append(r)
             idents.append({})
             continue
-        comp = Composite(g, plant)
-        gain[r], dc[r] = _gains(comp, fault_matrices(faults, plant.n, plant.q), method)
-        for j in np.flatnonzero(req[r] & (gain[r] <= tol)):
+        comp = Composite(g, plant, factor)
+        gain[r], dc[r] = _gains(comp, sigs, method)
+        for j in np.flatnonzero(req[r] & (gain[r] <= LEAK_TOL)):
             # a target at rounding level under the random-point measure (a badly scaled
             # generator): second opinion from the orthonormal Krylov test, as in the design
-            gain[r, j] = max(gain[r, j], fault_gains(g, plant, [faults[j]], method="krylov")[0][0])
-        inp[r] = _input_gain(comp, method)
+            gain[r, j] = max(
+                gain[r, j], fault_gains(g, plant, [faults[j]], method="krylov", factor=factor)[0][0]
+            )
+        ang = comp.angle_gains([(Bf, Df, False) for Bf, Df in sigs])
+        gain[r] = np.where(req[r], gain[r], ang)
+        chans = []
+        if plant.m:
+            chans.append((plant.B, plant.D, True))
+        if plant.nd:
+            chans.append((plant.Bd, plant.Dd, False))
+        inp[r] = float(np.max(comp.angle_gains(chans))) if chans else 0.0
+        unst[r] = comp.unstable_angle(factor)
+        lam = g.poles
+        stable[r] = bool(np.all(np.abs(lam) < 1) if plant.dt > 0 else np.all(lam.real < 0))
         idents.append(dict(g.info.get("identities", {})))
     leak = np.where(req, 0.0, gain)
     tgain = np.where(req, gain, 0.0)
@@ -193,16 +226,24 @@ def verify(
             if not req[r, j] and gain[r, j] > tol:
                 ok = False
                 details.append(f"row {r}: leaks fault {j} (relative gain {gain[r, j]:.3g})")
-            if req[r, j] and gain[r, j] <= tol:
+            if req[r, j] and gain[r, j] <= LEAK_TOL:
                 ok = False
                 details.append(f"row {r}: does not see fault {j}")
         if inp[r] > tol:
             ok = False
             details.append(f"row {r}: input leakage {inp[r]:.3g}")
+        if not stable[r]:
+            ok = False
+            details.append(f"row {r}: unstable generator (poles {g.poles.tolist()})")
+        if unst[r] > tol:
+            ok = False
+            details.append(f"row {r}: unstable plant modes reach the residual ({unst[r]:.3g})")
         if any(v > 1e-8 for v in idents[r].values()):
             ok = False
             details.append(f"row {r}: identities {idents[r]}")
-    return VerificationReport(gain, leak, tgain, inp, dc, idents, missing, tol, ok, method, details)
+    return VerificationReport(
+        gain, leak, tgain, inp, dc, idents, missing, tol, ok, method, details, stable, unst
+    )
 
 
 # ----------------------------------------------------------------- exact
