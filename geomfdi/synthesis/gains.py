@@ -88,7 +88,7 @@ class Composite:
             factor = PlantFactor(plant)
         self.g, self.plant, self.n, self.k, self.N = g, plant, n, k, n + k
         self.TA, self.UAh, self.CUA = factor.TA, factor.UAh, factor.CUA
-        self.nA, self.nCp = _norm2(plant.A), _norm2(plant.C)
+        self.nA, self.nCp = _norm2(factor.TA), _norm2(factor.CUA)  # balanced
         self.nF, self.nE = _norm2(g.F), _norm2(g.E)
         self.nH, self.nM = _norm2(g.H), _norm2(g.M)
         eig = [np.diag(self.TA)]
