@@ -28,7 +28,7 @@ from geomfdi.geometry.balancing import state_scaling
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.construction import IDENTITY_TOL, _NumericalDesignError
-from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, _gains, _input_gain
+from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, _gains
 from geomfdi.synthesis.generator import ResidualGenerator
 from geomfdi.synthesis.least_order import (
     _Infeasible,
@@ -37,7 +37,29 @@ from geomfdi.synthesis.least_order import (
     realise_on_plant,
 )
 
-__all__ = ["build_least_order"]
+__all__ = ["build_least_order", "ANGLE_TOL", "check_angles"]
+
+ANGLE_TOL = 1e-9
+"""Largest leakage angle (the measure of :func:`geomfdi.verify`) a delivered row may have."""
+
+
+def check_angles(
+    g: ResidualGenerator, plant: Plant, sigs: list, factor: PlantFactor | None, row: str
+) -> None:
+    """Raise the numerical-failure error when a decoupled channel of g leaks (angle measure)."""
+    comp = Composite(g, plant, factor)
+    ang = comp.angle_gains([sigs[j] + (False,) for j in g.decoupled])
+    chans = [(plant.B, plant.D, True)] if plant.m else []
+    chans += [(plant.Bd, plant.Dd, False)] if plant.nd else []
+    inp = float(np.max(comp.angle_gains(chans))) if chans else 0.0
+    worst = max(float(np.max(ang, initial=0.0)), inp)
+    g.info["leak_angle"] = worst
+    if worst > ANGLE_TOL:
+        raise _NumericalDesignError(
+            f"{row}: the generator leaks on the physical model (angle {worst:.2g} > "
+            f"{ANGLE_TOL:g}); the design is ill-conditioned",
+            argument="plant",
+        )
 
 
 def _stack(cols: list[np.ndarray], rows: int) -> np.ndarray:
@@ -152,9 +174,13 @@ def build_least_order(
             gains[j] = _gains(comp, [sigs[j]], "krylov")[0][0]
     g.info["fault_gain"] = gains
     g.info["dc_gain"] = dc
-    leaks = [j for j in decouple if gains[j] > LEAK_TOL]
-    inp = _input_gain(comp, "points")
-    if leaks or inp > LEAK_TOL:
+    ang = comp.angle_gains([sigs[j] + (False,) for j in decouple])
+    leaks = [j for j, a in zip(decouple, ang, strict=True) if a > ANGLE_TOL]
+    chans = [(plant.B, plant.D, True)] if plant.m else []
+    chans += [(plant.Bd, plant.Dd, False)] if plant.nd else []
+    inp = float(np.max(comp.angle_gains(chans))) if chans else 0.0
+    g.info["leak_angle"] = max(float(np.max(ang, initial=0.0)), inp)
+    if leaks or inp > ANGLE_TOL:
         raise _NumericalDesignError(
             f"{row}: the least-order row leaks on the physical model (faults {leaks}, input "
             f"gain {inp:.2g}); the design is ill-conditioned",

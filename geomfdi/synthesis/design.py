@@ -32,7 +32,7 @@ from geomfdi._validation import as_indices, as_real_array
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant
-from geomfdi.synthesis.build import build_least_order
+from geomfdi.synthesis.build import build_least_order, check_angles
 from geomfdi.synthesis.construction import (
     _coerce_faults,
     _coerce_plant,
@@ -118,9 +118,25 @@ def _design_row(
         first = str(exc)
     if poles is not None:  # the user's spectrum was for the least-order row
         raise _NumericalDesignError(first, argument="plant")
-    g = build_full(
-        plant, faults, "exact", filter_pole, target, decouple, None, margin, minimal, row, factor
-    )
+    try:
+        g = build_full(
+            plant,
+            faults,
+            "exact",
+            filter_pole,
+            target,
+            decouple,
+            None,
+            margin,
+            minimal,
+            row,
+            factor,
+        )
+    except NotIsolableError:
+        raise
+    except DesignError as exc:
+        raise _NumericalDesignError(f"{first}; full-quotient fallback: {exc}") from None
+    check_angles(g, plant, sigs, factor, row)
     g.info["synthesis"] = "full"
     g.info["fallback"] = f"least-order realisation failed numerically ({first}); full quotient"
     return g
