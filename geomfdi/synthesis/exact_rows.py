@@ -71,7 +71,7 @@ def exact_least_order(g: ResidualGenerator, plant: Plant, faults: list[Any]) -> 
     A0 = P * (Aa + D0 * Ca) * Q
     k, rho = A0.rows, H.rows
     cert = g.info["least_order"]
-    poles = [ex._exact_pole(p) for p in np.asarray(cert["poles"], dtype=complex)]
+    poles = [_small_rational(p) for p in np.asarray(cert["poles"], dtype=complex)]
     kinds = cert["blocks"]
     blocks, res = [M], {}
     for kind, i in zip(kinds[1:], _indices(kinds[1:]), strict=True):
@@ -90,7 +90,7 @@ def exact_least_order(g: ResidualGenerator, plant: Plant, faults: list[Any]) -> 
     rhs = np.concatenate([np.asarray(v, dtype=float) for v in cert["row_in_y"]])
     beta = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
     beta = beta / np.max(np.abs(beta))
-    bq = sp.Matrix([sp.Rational(float(b)).limit_denominator(10**6) for b in beta])
+    bq = sp.Matrix([sp.Rational(float(b)).limit_denominator(10**4) for b in beta])
     x = N * bq
     parts = [x[b * rho : (b + 1) * rho, 0].T for b in range(len(blocks))]
     nu = len(poles)
@@ -140,6 +140,16 @@ def exact_least_order(g: ResidualGenerator, plant: Plant, faults: list[Any]) -> 
         key: (v.applyfunc(sp.nsimplify) if isinstance(v, sp.MatrixBase) else v)
         for key, v in out.items()
     }
+
+
+def _small_rational(p: complex) -> Any:
+    """A pole as a Gaussian rational with denominators ≤ 1000 (the decoupling is exact for
+    any pole values, and small rationals keep the symbolic transfers cheap)."""
+    import sympy as sp
+
+    re_ = sp.Rational(float(p.real)).limit_denominator(10**3)
+    im_ = sp.Rational(float(p.imag)).limit_denominator(10**3)
+    return re_ + sp.I * im_
 
 
 def _indices(kinds: list[str]) -> list[int]:
