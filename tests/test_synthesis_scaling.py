@@ -30,8 +30,12 @@ def _random_plant(seed):
     rng = np.random.default_rng(seed)
     n, q, m = int(rng.integers(2, 7)), int(rng.integers(2, 5)), int(rng.integers(1, 3))
     A = rng.standard_normal((n, n)) / np.sqrt(n)
-    p = gf.Plant(A, rng.standard_normal((n, m)), rng.standard_normal((q, n)),
-                 Bd=rng.standard_normal((n, 1)) if rng.random() < 0.5 else None)
+    p = gf.Plant(
+        A,
+        rng.standard_normal((n, m)),
+        rng.standard_normal((q, n)),
+        Bd=rng.standard_normal((n, 1)) if rng.random() < 0.5 else None,
+    )
     return p, rng
 
 
@@ -64,7 +68,9 @@ def test_seed001_in_scaled_coordinates():
 def test_random_plants_in_scaled_coordinates():
     for seed in range(20):
         p, rng = _random_plant(seed)
-        faults = [gf.SensorFault(i) for i in range(p.q)] + [gf.ActuatorFault(rng.standard_normal(p.n))]
+        faults = [gf.SensorFault(i) for i in range(p.q)] + [
+            gf.ActuatorFault(rng.standard_normal(p.n))
+        ]
         S = (rng.random((3, len(faults))) < 0.5).astype(int)
         S[:, 0] = 1
         ref = gf.design_bank(p, faults, S)
@@ -85,8 +91,18 @@ def _planted(g, rng, rel):
     X = (E, G, H)[which]
     size = max(np.linalg.norm(E), np.linalg.norm(G), np.linalg.norm(H))
     X += rel * size * rng.standard_normal(X.shape)
-    return gf.ResidualGenerator(F, E, G, M, H, K, dt=g.dt, target=g.target,
-                                decoupled=g.decoupled, info={"faults": g.info["faults"]})
+    return gf.ResidualGenerator(
+        F,
+        E,
+        G,
+        M,
+        H,
+        K,
+        dt=g.dt,
+        target=g.target,
+        decoupled=g.decoupled,
+        info={"faults": g.info["faults"]},
+    )
 
 
 def test_verify_fails_planted_leaks():
