@@ -81,6 +81,11 @@ def _exact_design(g: ResidualGenerator, plant: Plant, faults: list[Fault]) -> di
     """Redo the construction of math.md §4 in exact arithmetic for g's options."""
     import sympy as sp
 
+    if g.info.get("synthesis") == "least_order":
+        from geomfdi.synthesis.exact_rows import exact_least_order
+
+        return exact_least_order(g, plant, faults)
+
     from geomfdi.geometry import exact as ex
 
     A = ex.to_rational(plant.A, "A")

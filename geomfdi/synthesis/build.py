@@ -1,0 +1,196 @@
+"""One least-order residual row on a plant: balance, quotient, parity space, realise, check.
+
+See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.md``).
+
+Steps for a row that must see ``target`` and ignore ``decouple`` (and every disturbance):
+
+1. **Balance** the state (:func:`geomfdi.geometry.balancing.state_scaling`): the design
+   runs on ``(D⁻¹ A D, D⁻¹ [B Bd Bf], C D)``; the delivered generator reads y and u
+   only and needs no change (``info["P"]`` is mapped back).
+2. **Quotient** by S* of the model with decoupled feedthrough made states
+   (:func:`geomfdi.synthesis.least_order.quotient_model`).
+3. **Least-order row** and its functional-observer realisation
+   (:func:`geomfdi.synthesis.least_order.least_order_row`), with the certificate in
+   ``info["least_order"]``.
+4. **Checks** on the physical (unbalanced) plant: relative gain from every fault
+   (:mod:`geomfdi.synthesis.gains`); a decoupled signal above ``LEAK_TOL`` or a
+   construction identity above ``IDENTITY_TOL`` makes the row a numerical failure.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from geomfdi.errors import NotIsolableError
+from geomfdi.geometry.balancing import state_scaling
+from geomfdi.geometry.subspace import _norm2
+from geomfdi.model.plant import Plant
+from geomfdi.synthesis.construction import IDENTITY_TOL, _NumericalDesignError
+from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, _gains
+from geomfdi.synthesis.generator import ResidualGenerator
+from geomfdi.synthesis.least_order import (
+    _Infeasible,
+    least_order_row,
+    quotient_model,
+    realise_on_plant,
+)
+
+__all__ = ["build_least_order", "ANGLE_TOL", "check_angles"]
+
+ANGLE_TOL = 1e-9
+"""Largest leakage angle (the measure of :func:`geomfdi.verify`) a delivered row may have."""
+
+
+def check_angles(
+    g: ResidualGenerator, plant: Plant, sigs: list, factor: PlantFactor | None, row: str
+) -> None:
+    """Raise the numerical-failure error when a decoupled channel of g leaks (angle measure)."""
+    comp = Composite(g, plant, factor)
+    ang = comp.angle_gains([sigs[j] + (False,) for j in g.decoupled])
+    chans = [(plant.B, plant.D, True)] if plant.m else []
+    chans += [(plant.Bd, plant.Dd, False)] if plant.nd else []
+    inp = float(np.max(comp.angle_gains(chans))) if chans else 0.0
+    worst = max(float(np.max(ang, initial=0.0)), inp)
+    g.info["leak_angle"] = worst
+    if worst > ANGLE_TOL:
+        raise _NumericalDesignError(
+            f"{row}: the generator leaks on the physical model (angle {worst:.2g} > "
+            f"{ANGLE_TOL:g}); the design is ill-conditioned",
+            argument="plant",
+        )
+
+
+def _stack(cols: list[np.ndarray], rows: int) -> np.ndarray:
+    cols = [c for c in cols if c.size]
+    return np.hstack(cols) if cols else np.zeros((rows, 0))
+
+
+def build_least_order(
+    plant: Plant,
+    faults: list[Any],
+    sigs: list[tuple[np.ndarray, np.ndarray]],
+    target: tuple[int, ...],
+    decouple: tuple[int, ...],
+    *,
+    poles: Any,
+    omega: float,
+    row: str,
+    factor: PlantFactor | None = None,
+    balance: bool = True,
+) -> ResidualGenerator:
+    """Design, realise and check one least-order scalar row (module Notes).
+
+    Raises
+    ------
+    NotIsolableError
+        No residual seeing every target while decoupling the rest exists (reason: the
+        certificate).
+    DesignError
+        Bad poles; or (as the private numerical-failure subclass) a realisation whose
+        identities or decouplings fail numerically.
+    """
+    n = plant.n
+    A, B, C, Du = plant.A, plant.B, plant.C, plant.D
+    Ball = _stack([B, plant.Bd, *[Bf for Bf, _ in sigs]], n)
+    d = state_scaling(A, Ball, C) if balance else np.ones(n)
+    Ab = A * d[None, :] / d[:, None]
+    Bb, Cb = B / d[:, None], C * d[None, :]
+    Bw = np.hstack([plant.Bd / d[:, None], *[sigs[j][0] / d[:, None] for j in decouple]])
+    Dw = np.hstack([plant.Dd, *[sigs[j][1] for j in decouple]])
+    tg = [(sigs[j][0] / d[:, None], sigs[j][1]) for j in target]
+    Qm = quotient_model(Ab, Bb, Cb, Du, Bw, Dw, tg)
+    bad = {k: v for k, v in Qm.identities.items() if v > IDENTITY_TOL}
+    if bad:
+        raise _NumericalDesignError(
+            f"{row}: quotient identities fail ({bad}); the rank decisions behind S* are "
+            "ill-conditioned",
+            argument="plant",
+        )
+    try:
+        lo = least_order_row(Qm, poles=poles, omega=omega, dt=plant.dt)
+    except _Infeasible as exc:
+        unseen = exc.data.get("unseen", list(range(len(target))))
+        names = [target[i] for i in unseen] if unseen else list(target)
+        reason = (
+            f"faults {names} are not isolable from faults {list(decouple)}"
+            + (" and the disturbances" if plant.nd else "")
+            + f": {exc.reason}"
+        )
+        raise NotIsolableError(f"{row}: no residual exists: {reason}", reason=reason) from None
+    mats = realise_on_plant(Qm, lo, Du)
+    bad = {k: v for k, v in mats["identities"].items() if v > IDENTITY_TOL}
+    if bad:
+        raise _NumericalDesignError(
+            f"{row}: the least-order realisation is ill-conditioned ({bad})", argument="plant"
+        )
+    # unit residual scale: ‖[H K]‖ + ‖M‖ ‖[E G]‖ / max(‖F‖, ω) = 1 (a pure normalisation)
+    Fm, Em, Gm, Mm, Hm, Km = (mats[x] for x in "FEGMHK")
+    size = _norm2(np.hstack([Hm, Km])) + _norm2(Mm) * _norm2(np.hstack([Em, Gm])) / max(
+        _norm2(Fm), omega, 1e-300
+    )
+    if size > 0:
+        Em, Gm, Hm, Km = Em / size, Gm / size, Hm / size, Km / size
+    cert = dict(lo.certificate)
+    cert["poles"] = lo.poles
+    info = {
+        "synthesis": "least_order",
+        "least_order": cert,
+        "S_dim": Qm.S.dim,
+        "S_history": Qm.S.history,
+        "W_dim": Qm.S.W.dim,
+        "W_history": Qm.S.W.history,
+        "min_gap": Qm.S.min_gap,
+        "quotient_order": Qm.k,
+        "full_order": Qm.k,
+        "design_n": Qm.n_aug,
+        "augmented_states": Qm.n_aug - n,
+        "P": Qm.P / d[None, :],
+        "state_scaling": d,
+        "identities": {**Qm.identities, **mats["identities"]},
+        "poles": lo.poles,
+        "faults": list(faults),
+        "filter_pole": None,
+        "filtered_channels": (),
+    }
+    g = ResidualGenerator(
+        Fm,
+        Em,
+        Gm,
+        Mm,
+        Hm,
+        Km,
+        dt=plant.dt,
+        target=target,
+        decoupled=decouple,
+        method="exact",
+        info=info,
+    )
+    comp = Composite(g, plant, factor)
+    gains, dc = _gains(comp, sigs, "points")
+    for j in target:
+        if not gains[j] > LEAK_TOL:
+            gains[j] = _gains(comp, [sigs[j]], "krylov")[0][0]
+    g.info["fault_gain"] = gains
+    g.info["dc_gain"] = dc
+    ang = comp.angle_gains([sigs[j] + (False,) for j in decouple])
+    leaks = [j for j, a in zip(decouple, ang, strict=True) if a > ANGLE_TOL]
+    chans = [(plant.B, plant.D, True)] if plant.m else []
+    chans += [(plant.Bd, plant.Dd, False)] if plant.nd else []
+    inp = float(np.max(comp.angle_gains(chans))) if chans else 0.0
+    g.info["leak_angle"] = max(float(np.max(ang, initial=0.0)), inp)
+    if leaks or inp > ANGLE_TOL:
+        raise _NumericalDesignError(
+            f"{row}: the least-order row leaks on the physical model (faults {leaks}, input "
+            f"gain {inp:.2g}); the design is ill-conditioned",
+            argument="plant",
+        )
+    unseen = [j for j in target if not gains[j] > LEAK_TOL]
+    if unseen:
+        reason = (
+            f"faults {unseen}: the transfer to the residual is identically zero on the "
+            "physical model"
+        )
+        raise NotIsolableError(f"{row}: no residual exists: {reason}", reason=reason)
+    return g

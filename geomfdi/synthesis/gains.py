@@ -1,0 +1,385 @@
+"""Transfer gains of a generator on the physical model (shared by design and verification).
+
+The composite of plant and generator (faults ``x' = … + Bf f``, ``y = … + Df f``)::
+
+    [x; w]' = [[A, 0], [−E C, F]] [x; w] + [[B, Bd, Bf], [G − E D, −E Dd, −E Df]] [u; d; f]
+    r       = [−H C, M] [x; w] + [K − H D, −H Dd, −H Df] [u; d; f]
+
+A transfer is "identically zero" when its relative gain stays at rounding level at
+``order + 2`` random complex points (plant and generator evaluated apart) or when the output
+map annihilates the orthonormal Krylov subspace of the composite (``method="krylov"``).
+The plant's complex Schur form is computed once per plant (:class:`PlantFactor`) and
+shared by every row of a bank.  See the user guide, *Theory: verification*
+(``docs/theory/verification.md``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+
+from geomfdi.geometry.balancing import state_scaling
+from geomfdi.geometry.subspace import _norm2
+from geomfdi.model.faults import Fault, fault_matrices
+from geomfdi.model.plant import Plant
+from geomfdi.synthesis.generator import ResidualGenerator
+from geomfdi.synthesis.realization import reachable_subspace
+
+__all__ = ["LEAK_TOL", "fault_gains", "PlantFactor", "Composite"]
+
+
+def _tri_solve(T: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """``T⁻¹ X`` for upper-triangular T (LAPACK LU for small T: far cheaper per call than a
+    threaded triangular BLAS solve at this size)."""
+    if T.shape[0] <= 48:
+        return np.linalg.solve(T, X)
+    return scipy.linalg.solve_triangular(T, X, check_finite=False)
+
+
+LEAK_TOL = 1e-8
+"""Relative gain below which a transfer counts as identically zero."""
+
+_EPS = float(np.finfo(float).eps)
+
+
+class PlantFactor:
+    """Complex Schur factor ``A = U_A T_A U_Aᴴ`` of a plant, computed once and shared.
+
+    The state is balanced first (:func:`geomfdi.geometry.balancing.state_scaling`,
+    ``Ã = D⁻¹ A D``), so that transfers of a badly scaled realisation are evaluated as
+    accurately as those of a well-scaled one: ``A = (D U) T_A (D U)⁻¹``.  Attributes
+    ``TA``, ``UAh`` (= U_Aᴴ D⁻¹), ``CUA`` (= C D U_A) and ``unstable``: the plant's unstable
+    eigenvalues (Re λ ≥ 0, or |λ| ≥ 1 when dt > 0) with their eigenvectors.
+    """
+
+    def __init__(self, plant: Plant) -> None:
+        A = np.asarray(plant.A, dtype=float)
+        d = state_scaling(A, np.hstack([plant.B, plant.Bd]), plant.C)
+        Ab = A * d[None, :] / d[:, None]
+        TA, UA = scipy.linalg.schur(Ab.astype(complex), output="complex")
+        self.plant = plant
+        self.TA, self.UAh, self.CUA = TA, UA.conj().T / d[None, :], (plant.C * d[None, :]) @ UA
+        lam, V = np.linalg.eig(Ab) if plant.n else (np.zeros(0), np.zeros((0, 0)))
+        bad = np.abs(lam) >= 1.0 if plant.dt > 0 else lam.real >= 0
+        self.unstable = [(complex(lam[i]), d * V[:, i]) for i in np.flatnonzero(bad)]
+
+
+class Composite:
+    """Plant and generator, Schur-factored once for fast transfer evaluations.
+
+    The random-point measure and the DC gains evaluate the two apart:
+    ``T(s) = G_y(s) P(s) (+ G_u(s))`` with ``P(s) = C (sI − A)⁻¹ Bx + Dy`` and the
+    generator's ``G_y(s) = −M (sI − F)⁻¹ E − H``, ``G_u(s) = M (sI − F)⁻¹ G + K``; the
+    complex Schur forms of A and F turn every resolvent into a triangular solve, so each
+    of the ``order + 2`` points costs O(n² + k²) per column.  The Krylov test works on
+    the interconnection ``A_c = [[A, 0], [−E C, F]]``, ``C_c = [−H C, M]``, where an
+    input ``(Bx, Dy)`` (entering the generator also through ``(Gx, Kx)``) has
+    ``B_c = [Bx; −E Dy + Gx]``, ``D_c = −H Dy + Kx`` (built on first use).
+    """
+
+    def __init__(
+        self, g: ResidualGenerator, plant: Plant, factor: PlantFactor | None = None
+    ) -> None:
+        n, k = plant.n, g.order
+        if factor is None or factor.plant is not plant:
+            factor = PlantFactor(plant)
+        self.g, self.plant, self.n, self.k, self.N = g, plant, n, k, n + k
+        self.TA, self.UAh, self.CUA = factor.TA, factor.UAh, factor.CUA
+        self.nA, self.nCp = _norm2(factor.TA), _norm2(factor.CUA)  # balanced
+        self.nF, self.nE = _norm2(g.F), _norm2(g.E)
+        self.nH, self.nM = _norm2(g.H), _norm2(g.M)
+        eig = [np.diag(self.TA)]
+        if k:
+            self.TF, UF = scipy.linalg.schur(g.F.astype(complex), output="complex")
+            self.MUF = g.M @ UF
+            self.UFEG = UF.conj().T @ np.hstack([-g.E, g.G])
+            self.UFEC = UF.conj().T @ (g.E @ plant.C)
+            eig.append(np.diag(self.TF))
+        self.eig = np.concatenate(eig)
+        rng = np.random.default_rng(7)
+        va, vf = rng.standard_normal(n), rng.standard_normal(k)
+        self.UAva = self.UAh @ (va / max(np.linalg.norm(va), 1e-300))
+        self.UFvf = (
+            UF.conj().T @ (vf / max(np.linalg.norm(vf), 1e-300)) if k else np.zeros(0, complex)
+        )
+        self.scale = max(self.nA, self.nF, self.nE * self.nCp)
+        self.points = self._clear_of_rounding(_points(self.scale, self.N + 2, self.eig))
+        self._comp: dict[str, Any] | None = None
+
+    # ----------------------------------------------------------- resolvents
+    def _solve_A(self, s: complex, X: np.ndarray) -> np.ndarray:
+        return _tri_solve(s * np.eye(self.n) - self.TA, X)
+
+    def _solve_F(self, s: complex, X: np.ndarray) -> np.ndarray:
+        return _tri_solve(s * np.eye(self.k) - self.TF, X)
+
+    # ---------------------------------------------------------------- angles
+    def unstable_angle(self, factor: PlantFactor) -> float:
+        """Largest ``‖G_y(μ) C v‖ / (g ‖C v‖)`` over unstable eigenpairs (μ, v).
+
+        The residual's response to a plant initial state along v has the pole μ unless
+        this residue vanishes: 0 means the unstable mode is unobservable from r.  ``g`` is
+        the largest ``‖G_y(s)‖`` at the random points (at μ itself G_y has a
+        transmission zero when the mode is cancelled, so it cannot be the reference).
+        """
+        worst = 0.0
+        if not factor.unstable:
+            return worst
+        ref = max(_norm2(self.generator_tf(s)[0]) for s in self.points)
+        for mu, v in factor.unstable:
+            Gy, _ = self.generator_tf(mu)
+            Cv = self.plant.C @ v
+            den = max(ref, _norm2(Gy)) * float(np.linalg.norm(Cv))
+            if den > 0:
+                worst = max(worst, float(np.linalg.norm(Gy @ Cv)) / den)
+        return worst
+
+    def angle_gains(self, channels: list[tuple[Any, ...]]) -> np.ndarray:
+        """Coordinate-free leakage ``‖Q(s) V(s)‖ / (‖Q(s)‖ ‖V(s)‖)`` at the random points.
+
+        ``Q(s) = [G_y(s), G_u(s)]`` is the generator's transfer from ``[y; u]`` and, for a
+        channel ``(Bx, Dx, is_input)``, ``V(s) = [C (sI − A)⁻¹ Bx + Dx; I_x]`` its
+        response in ``[y; u]`` (``I_x = I`` for the known input, 0 otherwise).  The
+        measure is the cosine of the angle between the row space of Q and the channel:
+        invariant under any change of state coordinates of plant or generator and under
+        scaling of the residual; 0 exactly when the channel is decoupled.
+        """
+        best = np.zeros(len(channels))
+        UBs = [self.UAh @ c[0] for c in channels]
+        for s in self.points:
+            Gy, Gu = self.generator_tf(s)
+            Qs = np.hstack([Gy, Gu])
+            nQ = _norm2(Qs)
+            if nQ == 0:
+                continue
+            for c, ch in enumerate(channels):
+                Y = self.CUA @ self._solve_A(s, UBs[c]) + ch[1]
+                U = np.eye(self.g.m) if ch[2] else np.zeros((self.g.m, Y.shape[1]))
+                V = np.vstack([Y, U])
+                nV = _norm2(V)
+                if nV > 0:
+                    best[c] = max(best[c], float(np.linalg.norm(Qs @ V, 2) / (nQ * nV)))
+        return best
+
+    def _clear_of_rounding(self, points: np.ndarray) -> np.ndarray:
+        """Push points out of the region where rounding in A or F shows.
+
+        Near a defective or ill-conditioned eigenvalue (e.g. a Jordan block at 0, whose
+        computed eigenvalues sit ~sqrt(eps) away) the resolvent amplifies the rounding of
+        a cancelled channel to far above ``LEAK_TOL``.  A point is doubled until
+        ``eps N scale r ≤ LEAK_TOL / 100``, with ``r = r_A + r_F + r_F ‖E‖ ‖C‖ r_A`` (a
+        bound of the interconnection's resolvent from the fixed random probes
+        ``r_A = ‖(sI − A)⁻¹ v‖``, ``r_F = ‖(sI − F)⁻¹ w‖``).
+        """
+        out = []
+        for s in points:
+            for _ in range(60):
+                ra = float(np.linalg.norm(self._solve_A(s, self.UAva)))
+                rf = float(np.linalg.norm(self._solve_F(s, self.UFvf))) if self.k else 0.0
+                r = ra + rf + rf * self.nE * self.nCp * ra
+                if np.isfinite(r) and _EPS * self.N * max(self.scale, 1.0) * r <= LEAK_TOL / 100:
+                    break
+                s = 2 * s
+            out.append(s)
+        return np.array(out)
+
+    def generator_tf(self, s: complex) -> tuple[np.ndarray, np.ndarray]:
+        """``G_y(s) = −M (sI − F)⁻¹ E − H`` and ``G_u(s) = M (sI − F)⁻¹ G + K``."""
+        g = self.g
+        T = np.hstack([-g.H, g.K]).astype(complex)
+        if self.k:
+            T = T + self.MUF @ self._solve_F(s, self.UFEG)
+        return T[:, : g.q], T[:, g.q :]
+
+    # ------------------------------------------------------- random points
+    def point_gains(self, channels: list[tuple[Any, ...]]) -> np.ndarray:
+        """Relative gains at the random points, plant and generator evaluated apart.
+
+        A channel ``(Bx, Dy[, Gx, Kx])`` gives ``T(s) = G_y(s) P(s) (+ G_u(s))``; its
+        relative gain is the largest
+        ``‖T(s)‖ / (‖G_y(s)‖ (‖C (sI − A)⁻¹‖ ‖Bx‖ + ‖Dy‖) + ‖G_u(s)‖)``: the residual's
+        response compared with what its own sensitivity to y (and u) would give without
+        any cancellation.  ``‖C (sI − A)⁻¹‖`` is estimated on a fixed random vector.  No
+        norm of a product the design cancels to rounding enters the denominator, so a
+        generator whose E is itself rounding (e.g. A = 0) is judged correctly.
+        """
+        widths = [c[0].shape[1] for c in channels]
+        UB = np.hstack([self.UAh @ c[0] for c in channels] + [self.UAva[:, None]])
+        base = [(_norm2(c[0]), _norm2(c[1])) for c in channels]
+        best = np.zeros(len(channels))
+        for s in self.points:
+            Y = self.CUA @ self._solve_A(s, UB)
+            cr = float(np.linalg.norm(Y[:, -1]))
+            Gy, Gu = self.generator_tf(s)
+            nGy, nGu = _norm2(Gy), _norm2(Gu)
+            i = 0
+            for c, (ch, w) in enumerate(zip(channels, widths, strict=True)):
+                T = Gy @ (Y[:, i : i + w] + ch[1])
+                i += w
+                den = nGy * (cr * base[c][0] + base[c][1])
+                if len(ch) > 2 and ch[2] is not None:  # the known input: u enters G too
+                    T = T + Gu
+                    den += nGu
+                if den > 0:
+                    best[c] = max(best[c], float(np.linalg.norm(T) / den))
+        return best
+
+    # ------------------------------------------------------------ DC gains
+    def dc_gains(self, sigs: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+        """``‖T(s0)‖`` per fault, s0 = 0 (continuous) or 1 (discrete); ``inf`` where the
+        channel integrates.
+
+        Where A or F has a pole at s0 it may cancel in the channel: then T is analytic at
+        s0 and the linear extrapolation of ``T(s0 + e1)``, ``T(s0 + e2)`` to e = 0 is
+        accurate to O(e1 e2) (a zero DC gain comes out as 0, not as ~e2); where it does
+        not cancel, T grows like 1/e.
+        """
+        if not sigs:
+            return np.zeros(0)
+        widths = [Bf.shape[1] for Bf, _ in sigs]
+        UB = self.UAh @ np.hstack([Bf for Bf, _ in sigs])
+        Dall = np.hstack([Df for _, Df in sigs])
+
+        def T(s: complex) -> np.ndarray:
+            Gy, _ = self.generator_tf(s)
+            return Gy @ (self.CUA @ self._solve_A(s, UB) + Dall)
+
+        def split(X: np.ndarray) -> np.ndarray:
+            edges = np.cumsum([0, *widths])
+            return np.array(
+                [np.linalg.norm(X[:, edges[i] : edges[i + 1]]) for i in range(len(widths))]
+            )
+
+        s0 = 1.0 if self.plant.dt > 0 else 0.0
+        sc = max(self.scale, 1.0)
+        if np.min(np.abs(s0 - self.eig)) > 1e-9 * sc:
+            return split(T(s0))
+        e1, e2 = 1e-5 * sc, 1e-7 * sc
+        T1, T2 = T(s0 + e1), T(s0 + e2)
+        v1, v2 = split(T1), split(T2)
+        out = split(T2 - e2 * (T1 - T2) / (e1 - e2))
+        out[(v2 > 10 * np.maximum(v1, 1e-300)) & (v2 > 1e-6)] = np.inf
+        return out
+
+    # --------------------------------------------------------- Krylov test
+    def _composite(self) -> dict[str, Any]:
+        if self._comp is None:
+            g, plant, n, k = self.g, self.plant, self.n, self.k
+            Ac = np.block([[plant.A, np.zeros((n, k))], [-g.E @ plant.C, g.F]])
+            Cc = np.hstack([-g.H @ plant.C, g.M])
+            # natural sizes, not norms of products the design may have cancelled to
+            # rounding (e.g. H C = 0 for a parity row): ‖C_c‖ ≤ ‖H‖ ‖C‖ + ‖M‖, and an E
+            # that is rounding relative to ‖F‖ / ‖C‖ counts as zero
+            nC = self.nH * self.nCp + self.nM
+            nE = max(self.nE, self.nF / self.nCp if self.nCp > 0 else 0.0)
+            self._comp = {"Ac": Ac, "Cc": Cc, "nC": nC, "nE": nE}
+        return self._comp
+
+    def channel(self, Bx, Dy, Gx=None, Kx=None):
+        """``(B_c, D_c, b, d)``: the channel and the norms its rounding is judged against.
+
+        ``b = ‖Bx‖ + max(‖E‖, ‖F‖/‖C‖) ‖Dy‖ (+ ‖Gx‖)`` and ``d = ‖H‖ ‖Dy‖ (+ ‖Kx‖)``: the
+        size the transfer would have if the generator did not cancel this input.
+        """
+        g = self.g
+        Bw = -g.E @ Dy
+        Dc = -g.H @ Dy
+        b = _norm2(Bx) + self._composite()["nE"] * _norm2(Dy)
+        d = self.nH * _norm2(Dy)
+        if Gx is not None:
+            Bw, Dc = Bw + Gx, Dc + Kx
+            b += _norm2(Gx)
+            d += _norm2(Kx)
+        return np.vstack([Bx, Bw]), Dc, b, d
+
+    def krylov_gain(self, Bc, Dc, b: float, d: float) -> float:
+        """``‖C_c V‖ ‖B_c‖ / (‖C_c‖ b)`` with V an orthonormal basis of ``<A_c | Im B_c>``
+        (and the feedthrough relative to ``d``)."""
+        comp = self._composite()
+        if Bc.shape[1] == 0 or comp["Cc"].shape[0] == 0 or (b == 0 and d == 0):
+            return 0.0
+        V = reachable_subspace(comp["Ac"], Bc).basis
+        num = _norm2(comp["Cc"] @ V) * _norm2(Bc) if V.size else 0.0
+        nC = comp["nC"]
+        return max(num / (nC * b + 1e-300), _norm2(Dc) / (d + nC * b + 1e-300))
+
+
+def _points(scale: float, count: int, eigenvalues: np.ndarray, seed: int = 12345) -> np.ndarray:
+    """Random points in the upper half-plane at the scale of the spectrum.
+
+    The radius is the spectral radius (not a matrix norm, which a non-normal generator
+    can make orders of magnitude larger: far from the poles a strictly proper transfer
+    decays like ``|s|^{-k}`` and a real response would look like rounding), at least
+    ``1e-6 scale``; 1 when every pole is at 0 to rounding.
+    """
+    rng = np.random.default_rng(seed)
+    rho = float(np.max(np.abs(eigenvalues))) if eigenvalues.size else 0.0
+    rad = max(rho, 1e-6 * scale)
+    if rad < 1e-8:  # every pole at 0 to rounding (e.g. A = 0, F = 0): any scale will do
+        rad = 1.0
+    r = rad * rng.uniform(0.3, 1.5, count)
+    th = rng.uniform(0.15, np.pi - 0.15, count)
+    return r * np.exp(1j * th)
+
+
+def fault_gains(
+    g: ResidualGenerator,
+    plant: Plant,
+    faults: Sequence[Fault],
+    *,
+    method: str = "points",
+    factor: PlantFactor | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Relative gain and DC gain from each fault to the residual, on the physical model."""
+    sigs = fault_matrices(faults, plant.n, plant.q)
+    return _gains(Composite(g, plant, factor), sigs, method)
+
+
+def _gains(comp: Composite, sigs: list, method: str) -> tuple[np.ndarray, np.ndarray]:
+    if not sigs:
+        return np.zeros(0), np.zeros(0)
+    dcs = comp.dc_gains(sigs)
+    if method == "points":
+        gains = comp.point_gains([(Bf, Df) for Bf, Df in sigs])
+    else:
+        gains = np.array([comp.krylov_gain(*comp.channel(Bf, Df)) for Bf, Df in sigs])
+    return np.asarray(gains, dtype=float), dcs
+
+
+def _input_gain(comp: Composite, method: str) -> float:
+    g, plant = comp.g, comp.plant
+    chans: list[tuple[Any, ...]] = []
+    if plant.m:
+        chans.append((plant.B, plant.D, g.G, g.K))
+    if plant.nd:
+        chans.append((plant.Bd, plant.Dd))
+    if not chans:
+        return 0.0
+    if method == "points":
+        return float(np.max(comp.point_gains(chans)))
+    return max(comp.krylov_gain(*comp.channel(*c)) for c in chans)
+
+
+def frequency_gains(comp: Composite, sigs: list, omegas: np.ndarray) -> np.ndarray:
+    """``‖T_j(s)‖`` from each fault on the stability boundary: ``s = iω`` (continuous) or
+    ``z = e^{iω}`` (discrete), one row per frequency; a plant or generator pole hit
+    exactly gives ``inf``."""
+    if not sigs:
+        return np.zeros((omegas.size, 0))
+    widths = [Bf.shape[1] for Bf, _ in sigs]
+    UB = comp.UAh @ np.hstack([Bf for Bf, _ in sigs])
+    Dall = np.hstack([Df for _, Df in sigs])
+    edges = np.cumsum([0, *widths])
+    out = np.zeros((omegas.size, len(sigs)))
+    for i, w in enumerate(omegas):
+        s = np.exp(1j * w) if comp.plant.dt > 0 else 1j * w
+        if np.min(np.abs(comp.eig - s), initial=np.inf) < 1e-12 * max(comp.scale, 1.0):
+            out[i] = np.inf
+            continue
+        Gy, _ = comp.generator_tf(s)
+        X = Gy @ (comp.CUA @ comp._solve_A(s, UB) + Dall)
+        out[i] = [np.linalg.norm(X[:, edges[j] : edges[j + 1]]) for j in range(len(sigs))]
+    return out

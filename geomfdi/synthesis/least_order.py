@@ -1,0 +1,584 @@
+"""Least-order scalar residual generators from the geometric quotient.
+
+See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.md``).
+
+**Decoupled signals with feedthrough.**  A signal ``w`` to be decoupled (a disturbance, a
+decoupled fault) enters as ``x' = … + B_w w``, ``y = … + D_w w``.  Columns with
+``D_w ≠ 0`` are made states of an augmented model (``v' = free``)::
+
+    A_a = [[A, B_w'], [0, 0]],   C_a = [C, D_w'],   L_a = [[B_w'', 0], [0, I]]
+
+(``'``: columns with an output part, ``''``: the others).  The transfer from the new free
+input is ``(C (sI − A)⁻¹ B_w' + D_w') / s``, so the left annihilators — hence every
+residual and its least order — are those of the original model; no output filter is
+needed and rows with ``H C = 0`` come out as static (order-0) parity relations.
+
+**Quotient.**  With ``S = S*(A_a, C_a, L_a)``, Q an orthonormal basis of S^⊥, P = Qᵀ,
+``D0 = −Q Qᵀ A_a S (C_a S)⁺`` and H an orthonormal basis of the left null space of
+``C_a S`` (so ``H [C S, D_w'] = 0``), ``ξ = P x_a`` obeys::
+
+    ξ' = A0 ξ − P D0 y + (P B + P D0 D_u) u + (P B_f + P D0 D_f) f,
+    z  = H (y − D_u u) = M ξ + H D_f f
+
+with ``A0 = P (A_a + D0 C_a) Q`` and ``M = H C_a Q``; decoupled signals are gone.
+
+**Degree-ν parity space by resolvents.**  For distinct stable poles λ_1 … λ_ν not in
+spec(A0), the rows ``x = (x_0, x_1, …, x_ν)`` with::
+
+    x_0 M + Σ_i x_i M (λ_i I − A0)⁻¹ = 0
+
+are, by partial fractions, exactly the polynomial rows ``v(s)`` of degree ν with
+``v(s) M (sI − A0)⁻¹`` polynomial, divided by ``d(s) = Π (s − λ_i)`` (the rational
+Krylov space has the dimension of the monomial one; no powers of A0 are formed).  Each
+such x is realised as a functional observer of order ν::
+
+    ζ' = Λ ζ + G_s z + T (B_qy y + B_qu u),   r = c ζ + h z,
+    T A0 − Λ T = G_s M,   c T + h M = 0,      t_i = x_i M (λ_i I − A0)⁻¹,  g_i = −x_i, h = x_0
+
+so that ``ε = ζ − T ξ`` obeys ``ε' = Λ ε + (G_s H D_f − T B_fq) f`` and ``r = c ε + h H D_f f``.
+The least order is the smallest ν whose parity space holds a vector seeing every target
+(a real vector space is no finite union of proper subspaces, so it suffices that each
+target is seen by some basis vector); the certificate lists, for ν − 1, a target that the
+whole degree-(ν − 1) space does not see.  Within the least-order space the direction
+maximising the smallest normalised target gain is chosen.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from geomfdi.errors import DesignError
+from geomfdi.geometry.subspace import Subspace, _norm2, pinv
+from geomfdi.geometry.unobservability import min_unobservability_subspace
+from geomfdi.tolerance import get_rtol, rank_decision
+
+__all__ = [
+    "Quotient",
+    "quotient_model",
+    "default_pole_sequence",
+    "plant_scale",
+    "least_order_row",
+    "LeastOrderRow",
+]
+
+SEE_TOL = 1e-8
+"""Relative gain above which a target counts as seen by a parity space."""
+
+_GOLD = 0.6180339887498949
+
+
+def plant_scale(A: np.ndarray, dt: float) -> float:
+    """The plant's frequency scale ω for the default spectrum.
+
+    Continuous: the spectral radius of A (its fastest mode); ``‖A‖₂`` if that is 0 and
+    1 if ``A = 0``.  Discrete: ``1`` (the unit circle sets the scale).
+    """
+    if dt > 0 or A.size == 0:
+        return 1.0
+    rho = float(np.max(np.abs(np.linalg.eigvals(A))))
+    if rho > 1e-12 * max(_norm2(A), 1e-300):
+        return rho
+    nA = _norm2(A)
+    return nA if nA > 0 else 1.0
+
+
+def default_pole_sequence(count: int, omega: float, dt: float) -> np.ndarray:
+    """Distinct real stable poles, geometrically spread: the default generator spectrum.
+
+    Continuous: ``λ_i = −ω · 10^{2 ({i φ} − 1/2)}`` ({·}: fractional part, φ the golden
+    ratio conjugate), i.e. in ``[−10ω, −ω/10]``; discrete: ``z_i = exp(−0.7 · 10^{2 ({i φ}
+    − 1/2)})``, i.e. in ``[0.001, 0.93]``.  Every prefix is spread over the interval (a
+    low-discrepancy sequence).  A wide geometric spread keeps the partial-fraction
+    (rational Krylov) basis of the parity space well conditioned: clustered poles make
+    its coefficients large and cancelling.
+    """
+    i = np.arange(1, count + 1)
+    frac = np.mod(i * _GOLD, 1.0)
+    spread = 10.0 ** (2.0 * (frac - 0.5))
+    if dt > 0:
+        return np.exp(-0.7 * spread)
+    return -omega * spread
+
+
+@dataclass
+class Quotient:
+    """The decoupled quotient system of one row (module Notes)."""
+
+    A0: np.ndarray
+    M: np.ndarray
+    H: np.ndarray
+    Bqy: np.ndarray
+    Bqu: np.ndarray
+    Bf: list[np.ndarray]
+    Df: list[np.ndarray]
+    P: np.ndarray
+    S: Any
+    n_aug: int
+    identities: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def k(self) -> int:
+        return self.A0.shape[0]
+
+    @property
+    def rho(self) -> int:
+        return self.M.shape[0]
+
+
+def quotient_model(
+    A: np.ndarray,
+    B: np.ndarray,
+    C: np.ndarray,
+    Du: np.ndarray,
+    Bw: np.ndarray,
+    Dw: np.ndarray,
+    targets: list[tuple[np.ndarray, np.ndarray]],
+) -> Quotient:
+    """Augment decoupled feedthrough, compute S* and the quotient (module Notes)."""
+    n, q = A.shape[0], C.shape[0]
+    sc = max(_norm2(np.vstack([Bw, Dw])) if Bw.size else 0.0, 1e-300)
+    direct = np.linalg.norm(Dw, axis=0) > get_rtol(n + q) * sc if Dw.size else np.zeros(0, bool)
+    Wf_B, Wf_D = Bw[:, direct], Dw[:, direct]
+    Ws = Bw[:, ~direct] if Bw.size else np.zeros((n, 0))
+    na = int(np.count_nonzero(direct))
+    Aa = np.zeros((n + na, n + na))
+    Aa[:n, :n] = A
+    Aa[:n, n:] = Wf_B
+    Ca = np.hstack([C, Wf_D])
+    La = np.zeros((n + na, Ws.shape[1] + na))
+    La[:n, : Ws.shape[1]] = Ws
+    La[n:, Ws.shape[1] :] = np.eye(na)
+    Ba = np.vstack([B, np.zeros((na, B.shape[1]))])
+    S = min_unobservability_subspace(Aa, Ca, La)
+    nC, nA = max(_norm2(Ca), 1e-300), _norm2(Aa)
+    if S.dim:
+        Sb = S.basis
+        CS = Ca @ Sb
+        Q = S.complement().basis
+        D0 = -Q @ (Q.T @ Aa @ Sb @ pinv(CS, nC, what="(C S)⁺"))
+        H = Subspace(CS, scale=nC).complement().basis.T
+    else:
+        Sb = np.zeros((n + na, 0))
+        Q = np.eye(n + na)
+        D0 = np.zeros((n + na, q))
+        H = np.eye(q)
+    P = Q.T
+    A0 = P @ (Aa + D0 @ Ca) @ Q
+    M = H @ Ca @ Q
+    ident = {
+        "P (A + D0 C) S = 0": float(_norm2(P @ (Aa + D0 @ Ca) @ Sb) / max(nA, _norm2(D0) * nC))
+        if Sb.size
+        else 0.0,
+        "H C S = 0": float(_norm2(H @ Ca @ Sb) / nC) if Sb.size and H.size else 0.0,
+    }
+    Bqy = -P @ D0
+    Bqu = P @ Ba + P @ D0 @ Du
+    Bf = [P @ np.vstack([Bt, np.zeros((na, Bt.shape[1]))]) + P @ D0 @ Dt for Bt, Dt in targets]
+    Df = [H @ Dt for _, Dt in targets]
+    return Quotient(A0, M, H, Bqy, Bqu, Bf, Df, P[:, :n], S, n + na, ident)
+
+
+# ------------------------------------------------------------------ parity space
+def _blocks(Qm: Quotient, poles: np.ndarray) -> tuple[list[np.ndarray], list[tuple[str, int]]]:
+    """Real row blocks of the degree-ν parity condition, each normalised to unit norm.
+
+    Real pole: ``M (λ − A0)⁻¹``; conjugate pair (listed once, Im λ > 0): real and
+    imaginary parts of ``M (λ − A0)⁻¹``.  Returns the blocks and their kinds.
+    """
+    k = Qm.k
+    out = [Qm.M]
+    kinds: list[tuple[str, int]] = [("h", -1)]
+    i = 0
+    while i < len(poles):
+        lam = poles[i]
+        R = np.linalg.solve((lam * np.eye(k) - Qm.A0).T, Qm.M.T).T if k else Qm.M[:, :0]
+        if abs(lam.imag) > 0:
+            out += [R.real, R.imag]
+            kinds += [("re", i), ("im", i)]
+            i += 2
+        else:
+            out.append(R.real)
+            kinds.append(("r", i))
+            i += 1
+    return out, kinds
+
+
+def _check_poles(poles: np.ndarray, A0: np.ndarray, dt: float) -> np.ndarray:
+    """Order conjugate pairs as (λ, λ̄) with Im λ > 0; distinct; not in spec(A0)."""
+    out: list[complex] = []
+    rest = list(np.asarray(poles, dtype=complex))
+    while rest:
+        lam = rest.pop(0)
+        if abs(lam.imag) <= 1e-14 * max(1.0, abs(lam)):
+            out.append(complex(lam.real, 0.0))
+            continue
+        j = int(np.argmin([abs(x - np.conj(lam)) for x in rest])) if rest else -1
+        if j < 0 or abs(rest[j] - np.conj(lam)) > 1e-9 * max(1.0, abs(lam)):
+            raise DesignError("poles: complex poles must come in conjugate pairs", argument="poles")
+        rest.pop(j)
+        lam = complex(lam.real, abs(lam.imag))
+        out += [lam, lam.conjugate()]
+    arr = np.array(out, dtype=complex)
+    scale = max(1.0, float(np.max(np.abs(arr)))) if arr.size else 1.0
+    for a in range(arr.size):
+        for b in range(a + 1, arr.size):
+            if abs(arr[a] - arr[b]) <= 1e-9 * scale:
+                raise DesignError(
+                    "poles: the least-order realisation needs distinct poles "
+                    f"(got {arr[a]:.6g} twice)",
+                    argument="poles",
+                )
+    if A0.size and arr.size:
+        eig = np.linalg.eigvals(A0)
+        near = np.min(np.abs(arr[:, None] - eig[None, :]), axis=1)
+        if np.any(near <= 1e-9 * max(scale, _norm2(A0))):
+            raise DesignError(
+                "poles: a requested pole coincides with an eigenvalue of the decoupled "
+                "quotient; choose other poles",
+                argument="poles",
+            )
+    return arr
+
+
+def _null_rows(blocks: list[np.ndarray]) -> tuple[np.ndarray, int, float]:
+    """Real left null space of the stacked normalised blocks.
+
+    Returns (basis with orthonormal columns in the *normalised* coordinates, rank, gap).
+    """
+    norms = [_bnorm(b) for b in blocks]
+    R = np.vstack([b / s for b, s in zip(blocks, norms, strict=True)])
+    rows, k = R.shape
+    if k == 0:
+        return np.eye(rows), 0, np.inf
+    U, s, _ = np.linalg.svd(R, full_matrices=True)
+    dec = rank_decision(s, 1.0, max(rows, k), what="degree-ν parity space", warn=False)
+    return U[:, dec.rank :], dec.rank, dec.gap
+
+
+def _bnorm(b: np.ndarray) -> float:
+    nb = _norm2(b)
+    return nb if nb > 0 else 1.0
+
+
+def _unnormalise(X: np.ndarray, blocks: list[np.ndarray]) -> np.ndarray:
+    norms = np.concatenate([np.full(b.shape[0], _bnorm(b)) for b in blocks])
+    return X / norms[:, None]
+
+
+def _points(Qm: Quotient, poles: np.ndarray, omega: float, count: int = 3) -> np.ndarray:
+    rng = np.random.default_rng(2024)
+    eig = np.concatenate([np.linalg.eigvals(Qm.A0) if Qm.k else np.zeros(0), poles])
+    rad = max(float(np.max(np.abs(eig))) if eig.size else 0.0, omega, 1e-300)
+    r = rad * rng.uniform(0.5, 1.5, count)
+    th = rng.uniform(0.3, np.pi - 0.3, count)
+    return r * np.exp(1j * th)
+
+
+def _target_maps(
+    Qm: Quotient, poles: np.ndarray, kinds: list[tuple[str, int]], s: complex
+) -> list[np.ndarray]:
+    """Per target j, the complex matrix W_j(s) with response ``x W_j(s)`` (x: real coords).
+
+    ``r_f(s) = x_0 D_f − Σ_i x_i (D_f + M (λ_i − A0)⁻¹ B_f) / (s − λ_i)``; a pair with
+    ``x_p = (α − iβ)/2`` contributes ``−(α/2)(U + V) + (iβ/2)(U − V)``, with U, V the
+    terms of λ and λ̄.
+    """
+    k = Qm.k
+    out = []
+    Bfall = np.hstack(Qm.Bf) if Qm.Bf else np.zeros((k, 0))
+    Dfall = np.hstack(Qm.Df) if Qm.Df else np.zeros((Qm.rho, 0))
+    widths = [b.shape[1] for b in Qm.Bf]
+    res: dict[int, np.ndarray] = {}
+    rows = []
+    for kind, i in kinds:
+        if kind == "h":
+            rows.append(Dfall.astype(complex))
+            continue
+        lam = poles[i]
+        if i not in res:
+            Rl = np.linalg.solve((lam * np.eye(k) - Qm.A0).T, Qm.M.T).T if k else Qm.M[:, :0]
+            U = (Dfall + Rl @ Bfall) / (s - lam)
+            Rc = Rl.conj()
+            V = (Dfall + Rc @ Bfall) / (s - np.conj(lam))
+            res[i] = (U, V)  # type: ignore[assignment]
+        U, V = res[i]  # type: ignore[misc]
+        if kind == "r":
+            rows.append(-U)
+        elif kind == "re":
+            rows.append(-(U + V) / 2)
+        else:
+            rows.append(1j * (U - V) / 2)
+    Wall = np.vstack(rows)
+    edges = np.cumsum([0, *widths])
+    for j in range(len(widths)):
+        out.append(Wall[:, edges[j] : edges[j + 1]])
+    return out
+
+
+def _target_grams(
+    Qm: Quotient,
+    poles: np.ndarray,
+    kinds: list[tuple[str, int]],
+    X: np.ndarray,
+    points: np.ndarray,
+    blocks: list[np.ndarray],
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """Gram matrices of the targets' responses on the null space (normalised coords).
+
+    Returns (per target ``G_j = Re(Γ_j Γ_jᴴ)``, relative gain of each target on the
+    space: ``‖Γ_j‖ / ‖W_j‖``).
+    """
+    Xu = _unnormalise(X, blocks)
+    norms = np.concatenate([np.full(b.shape[0], _bnorm(b)) for b in blocks])
+    nt = len(Qm.Bf)
+    gam: list[list[np.ndarray]] = [[] for _ in range(nt)]
+    full: list[list[np.ndarray]] = [[] for _ in range(nt)]
+    for s in points:
+        Ws = _target_maps(Qm, poles, kinds, s)
+        for j in range(nt):
+            gam[j].append(Xu.T @ Ws[j])
+            full[j].append(Ws[j] / norms[:, None])
+    grams, rel = [], np.zeros(nt)
+    for j in range(nt):
+        Gj = np.hstack(gam[j]) if gam[j] else np.zeros((X.shape[1], 0))
+        Fj = np.hstack(full[j])
+        ref = _norm2(Fj)
+        rel[j] = _norm2(Gj) / ref if ref > 0 else 0.0
+        grams.append((Gj @ Gj.conj().T).real / max(_norm2(Gj) ** 2, 1e-300))
+    return grams, rel
+
+
+def _maxmin_direction(grams: list[np.ndarray]) -> tuple[np.ndarray, float]:
+    """Unit real α maximising ``min_j αᵀ G_j α`` (each G_j normalised to norm 1).
+
+    Multiplicative-weights iteration on the top eigenvector of ``Σ w_j G_j``, started
+    from every target's own best direction; the best iterate is kept.
+    """
+    d = grams[0].shape[0]
+    if d == 1:
+        a = np.ones(1)
+        return a, float(min(float(G[0, 0]) for G in grams))
+
+    def value(a: np.ndarray) -> float:
+        return float(min(a @ G @ a for G in grams))
+
+    cands = [np.linalg.eigh(G)[1][:, -1] for G in grams]
+    w = np.ones(len(grams)) / len(grams)
+    best, bval = cands[0], value(cands[0])
+    for a in cands:
+        v = value(a)
+        if v > bval:
+            best, bval = a, v
+    for _ in range(60):
+        S = sum(wj * G for wj, G in zip(w, grams, strict=True))
+        a = np.linalg.eigh(S)[1][:, -1]
+        v = value(a)
+        if v > bval:
+            best, bval = a, v
+        g = np.array([a @ G @ a for G in grams])
+        w = w * np.exp(-2.0 * (g - g.min()))
+        w /= w.sum()
+    return best / np.linalg.norm(best), bval
+
+
+@dataclass
+class LeastOrderRow:
+    """One scalar least-order row: realisation on the quotient and its certificate."""
+
+    order: int
+    F: np.ndarray
+    Gs: np.ndarray
+    T: np.ndarray
+    c: np.ndarray
+    h: np.ndarray
+    poles: np.ndarray
+    certificate: dict[str, Any]
+
+
+def _realise(
+    Qm: Quotient, poles: np.ndarray, kinds: list[tuple[str, int]], x: np.ndarray, sizes: list[int]
+) -> tuple[np.ndarray, ...]:
+    """Functional observer ``(Λ, G_s, T, c, h)`` of the real null vector x (module Notes)."""
+    nu = len(poles)
+    rho, k = Qm.rho, Qm.k
+    edges = np.cumsum([0, *sizes])
+    part = [x[edges[b] : edges[b + 1]] for b in range(len(sizes))]
+    F = np.zeros((nu, nu))
+    Gs = np.zeros((nu, rho))
+    T = np.zeros((nu, k))
+    c = np.zeros(nu)
+    h = part[0]
+    b = 1
+    for kind, i in kinds[1:]:
+        if kind == "im":
+            continue
+        lam = poles[i]
+        R = np.linalg.solve((lam * np.eye(k) - Qm.A0).T, Qm.M.T).T if k else Qm.M[:, :0]
+        if kind == "r":
+            xi = part[b]
+            F[i, i] = lam.real
+            T[i] = xi @ R.real
+            Gs[i] = -xi
+            c[i] = 1.0
+            b += 1
+        else:  # pair (λ, λ̄): x_p = (α − iβ)/2, states (Re ζ, Im ζ)
+            alpha, beta = part[b], part[b + 1]
+            xp = (alpha - 1j * beta) / 2
+            t = xp @ R
+            a_, w_ = lam.real, lam.imag
+            F[i : i + 2, i : i + 2] = [[a_, -w_], [w_, a_]]
+            T[i], T[i + 1] = t.real, t.imag
+            Gs[i], Gs[i + 1] = (-xp).real, (-xp).imag
+            c[i], c[i + 1] = 2.0, 0.0
+            b += 2
+    return F, Gs, T, c, h
+
+
+def least_order_row(
+    Qm: Quotient,
+    *,
+    poles: Any = None,
+    omega: float = 1.0,
+    dt: float = 0.0,
+    min_order: int = 0,
+) -> LeastOrderRow:
+    """Least-order scalar row of the quotient that sees every target.
+
+    Parameters
+    ----------
+    Qm : Quotient
+    poles : sequence, optional
+        Generator poles; the row of order ν uses the first ν.  Default:
+        :func:`default_pole_sequence`.
+    omega, dt : float
+        Plant scale and sampling period for the default poles.
+    min_order : int
+        Search from this degree on (used for extra rows).
+
+    Raises
+    ------
+    DesignError
+        ``argument="faults"`` with ``reason`` when no degree sees every target (the
+        certificate names the unseen targets), ``argument="poles"`` for bad poles.
+    """
+    k, rho = Qm.k, Qm.rho
+    nt = len(Qm.Bf)
+    if rho == 0:
+        raise _Infeasible("no measurement combination is blind to the decoupled signals", {})
+    user = None if poles is None else np.atleast_1d(np.asarray(poles, dtype=complex))
+    dims, ranks, history = [], [], []
+    last_rank = -1
+    nu = max(0, min_order)
+    pool = default_pole_sequence(k + 2, omega, dt) if user is None else None
+    if pool is not None and Qm.k:
+        eig = np.linalg.eigvals(Qm.A0)
+        for t in range(pool.size):  # keep default poles clear of the quotient's spectrum
+            for _ in range(20):
+                if np.min(np.abs(eig - pool[t])) > 1e-6 * max(omega, 1e-300):
+                    break
+                pool[t] *= 1.0 + 1e-3
+    unseen_at: dict[int, list[int]] = {}
+    while True:
+        src = pool if user is None else _extend(user, nu, omega, dt)
+        cand = src[:nu].astype(complex)
+        if np.count_nonzero(cand.imag > 0) != np.count_nonzero(cand.imag < 0):
+            nu += 1  # a prefix may not split a conjugate pair: the next degree covers it
+            continue
+        cand = _check_poles(cand, Qm.A0, dt)
+        blocks, kinds = _blocks(Qm, cand)
+        X, rank, gap = _null_rows(blocks)
+        dims.append(X.shape[1])
+        ranks.append(rank)
+        if X.shape[1]:
+            pts = _points(Qm, cand, omega)
+            grams, rel = _target_grams(Qm, cand, kinds, X, pts, blocks)
+            seen = rel > SEE_TOL
+        else:
+            grams, rel, seen = [], np.zeros(nt), np.zeros(nt, bool)
+        history.append({"order": nu, "dim": X.shape[1], "rank": rank, "gap": gap})
+        if np.all(seen) and nt and X.shape[1]:
+            break
+        unseen_at[nu] = [int(j) for j in np.flatnonzero(~seen)]
+        if rank == last_rank or nu > k + 1:
+            raise _Infeasible(
+                "the targets "
+                + str(unseen_at[nu])
+                + " are not seen by any residual that decouples the other signals "
+                f"(their transfer vanishes on the whole parity space of degree {nu})",
+                {"unseen": unseen_at[nu], "history": history},
+            )
+        last_rank = rank
+        nu += 1
+    if user is not None and user.size < nu:
+        raise DesignError(
+            f"poles: the least-order residual has order {nu}; give at least {nu} poles "
+            f"(got {user.size})",
+            argument="poles",
+        )
+    alpha, val = _maxmin_direction(grams)
+    x = _unnormalise(X, blocks) @ alpha
+    sizes = [b.shape[0] for b in blocks]
+    F, Gs, T, c, h = _realise(Qm, cand, kinds, x, sizes)
+    edges = np.cumsum([0, *sizes])
+    cert = {
+        "order": nu,
+        "row_in_y": [x[edges[b] : edges[b + 1]] @ Qm.H for b in range(len(sizes))],
+        "blocks": [kind for kind, _ in kinds],
+        "parity_dims": dims,
+        "ranks": ranks,
+        "history": history,
+        "unseen_below": {int(a): b for a, b in unseen_at.items()},
+        "min_target_gain": float(np.sqrt(max(val, 0.0))),
+        "target_gain_on_space": rel.tolist(),
+        "statement": (
+            f"order {nu} is least: "
+            + (
+                "order 0 is the minimum"
+                if nu == 0
+                else f"the degree-{nu - 1} parity space does not see targets "
+                f"{unseen_at.get(nu - 1, [])}"
+            )
+        ),
+    }
+    return LeastOrderRow(nu, F, Gs, T, c, h, cand, cert)
+
+
+def _extend(user: np.ndarray, nu: int, omega: float, dt: float) -> np.ndarray:
+    if user.size >= nu:
+        return user
+    extra = default_pole_sequence(nu - user.size + 2, omega, dt) * (1.0 + 1e-3)
+    return np.concatenate([user, extra.astype(complex)])
+
+
+class _Infeasible(Exception):
+    def __init__(self, reason: str, data: dict[str, Any]) -> None:
+        super().__init__(reason)
+        self.reason = reason
+        self.data = data
+
+
+def realise_on_plant(Qm: Quotient, row: LeastOrderRow, Du: np.ndarray) -> dict[str, np.ndarray]:
+    """The row as ``(F, E, G, M, H, K)`` reading the measured y and u.
+
+    ``ζ' = Λ ζ + (G_s H + T B_qy) y + (T B_qu − G_s H D_u) u``, ``r = c ζ + h H y − h H D_u u``.
+    """
+    F, Gs, T, c, h = row.F, row.Gs, row.T, row.c, row.h
+    H = Qm.H
+    E = -(Gs @ H + T @ Qm.Bqy)
+    G = T @ Qm.Bqu - Gs @ H @ Du
+    Mg = c.reshape(1, -1)
+    Hg = -(h @ H).reshape(1, -1)
+    Kg = -(h @ H @ Du).reshape(1, -1)
+    scale = max(_norm2(T) * _norm2(Qm.A0), _norm2(F) * _norm2(T), _norm2(Gs) * _norm2(Qm.M), 1e-300)
+    ident = {
+        "T A0 − Λ T = G_s M": float(_norm2(T @ Qm.A0 - F @ T - Gs @ Qm.M) / scale)
+        if T.size
+        else 0.0,
+        "c T + h M = 0": float(
+            _norm2(c @ T + h @ Qm.M) / max(_norm2(c) * _norm2(T), _norm2(h) * _norm2(Qm.M), 1e-300)
+        ),
+    }
+    return {"F": F, "E": E, "G": G, "M": Mg, "H": Hg, "K": Kg, "identities": ident}
