@@ -656,6 +656,7 @@ def design_residual_generator(
     filter_pole: float | None = None,
     margin: float | None = None,
     minimal: bool = True,
+    exact: bool = False,
 ) -> ResidualGenerator:
     """Design one residual generator that sees ``target`` and ignores ``decouple``.
 
@@ -683,6 +684,12 @@ def design_residual_generator(
     minimal : bool
         Deliver a minimal realization (default); the order before reduction is in
         ``g.info["full_order"]``.
+    exact : bool
+        Run the construction in exact arithmetic (rationals, or rational functions of the
+        parameters of a parametric plant) and return an
+        :class:`~geomfdi.synthesis.exact_generator.ExactResidualGenerator`; see
+        :func:`geomfdi.synthesis.exact_design.design_bank_exact` (``margin`` and
+        ``minimal`` do not apply).
 
     Returns
     -------
@@ -726,6 +733,21 @@ def design_residual_generator(
     >>> g.order, round(float(g.F[0, 0]), 12)
     (1, -2.0)
     """
+    # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
+    if exact:
+        from geomfdi.synthesis.exact_design import exact_dispatch
+
+        return exact_dispatch(
+            "residual",
+            plant,
+            faults,
+            target=target,
+            decouple=decouple,
+            poles=poles,
+            method=method,
+            filter_pole=filter_pole,
+        )
+    # --- end exact ---
     plant = _coerce_plant(plant)
     faults = _coerce_faults(faults)
     nf = len(faults)
@@ -771,6 +793,7 @@ def design_bank(
     filter_pole: float | None = None,
     margin: float | None = None,
     minimal: bool = True,
+    exact: bool = False,
 ) -> ResidualBank:
     """Design one residual generator per row of a structure matrix.
 
@@ -784,6 +807,10 @@ def design_bank(
         One spectrum used for every row, or one per row (``None`` entries: default).
     method, filter_pole, margin, minimal
         As in :func:`design_residual_generator`.
+    exact : bool
+        Exact / parametric design: returns an
+        :class:`~geomfdi.synthesis.exact_generator.ExactResidualBank` (see
+        :func:`geomfdi.synthesis.exact_design.design_bank_exact`).
 
     Returns
     -------
@@ -800,6 +827,20 @@ def design_bank(
         MVW design whose decoupling holds only to the printed relative gain > 1e-8).
         Several notes are joined with ``"; "``.
     """
+    # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
+    if exact:
+        from geomfdi.synthesis.exact_design import exact_dispatch
+
+        return exact_dispatch(
+            "bank",
+            plant,
+            faults,
+            structure=structure,
+            poles=poles,
+            method=method,
+            filter_pole=filter_pole,
+        )
+    # --- end exact ---
     plant = _coerce_plant(plant)
     faults = _coerce_faults(faults)
     nf = len(faults)
@@ -898,6 +939,7 @@ def design_sensor_bank(
     filter_pole: float | None = None,
     margin: float | None = None,
     minimal: bool = True,
+    exact: bool = False,
 ) -> ResidualBank:
     """One residual per sensor, each decoupled from every other sensor (``S_FDI = I``).
 
@@ -913,6 +955,14 @@ def design_sensor_bank(
     >>> gf.design_sensor_bank(p, method="mvw").isolable.tolist()
     [True, False, False]
     """
+    # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
+    if exact:
+        from geomfdi.synthesis.exact_design import exact_dispatch
+
+        return exact_dispatch(
+            "sensor", plant, None, poles=poles, method=method, filter_pole=filter_pole
+        )
+    # --- end exact ---
     plant = _coerce_plant(plant)
     faults = [SensorFault(i) for i in range(plant.q)]
     return design_bank(

@@ -646,3 +646,63 @@ def design_sensor_bank_exact(plant: Plant, **kwargs: Any) -> ExactResidualBank:
     plant = as_plant(plant, parametric=True)
     faults = [SensorFault(i) for i in range(plant.q)]
     return design_bank_exact(plant, faults, np.eye(plant.q), **kwargs)
+
+
+def exact_dispatch(
+    kind: str,
+    plant: Any,
+    faults: Any,
+    *,
+    structure: Any = None,
+    target: Any = None,
+    decouple: Any = None,
+    poles: Any = None,
+    method: str = "exact",
+    filter_pole: Any = None,
+) -> ExactResidualBank | ExactResidualGenerator:
+    """The ``exact=True`` branch of the three design functions (one row, a bank, sensors)."""
+    from geomfdi._validation import as_indices
+
+    if method != "exact":
+        raise DesignError(
+            f"method: the exact design uses the exact sensor-fault transform; got {method!r}",
+            argument="method",
+        )
+    if kind == "sensor":
+        return design_sensor_bank_exact(plant, poles=poles, filter_pole=filter_pole)
+    if kind == "bank":
+        return design_bank_exact(plant, faults, structure, poles=poles, filter_pole=filter_pole)
+    faults = [faults] if isinstance(faults, Fault) else list(faults)
+    nf = len(faults)
+    tgt = as_indices(target, "target", nf)
+    if not tgt:
+        raise GeomFDIError("target: at least one fault index is required", argument="target")
+    dec = (
+        tuple(j for j in range(nf) if j not in tgt)
+        if decouple is None
+        else as_indices(decouple, "decouple", nf)
+    )
+    both = set(tgt) & set(dec)
+    if both:
+        raise GeomFDIError(f"decouple: faults {sorted(both)} are also targets", argument="decouple")
+    row = np.zeros((1, nf))
+    row[0, list(tgt)] = 1
+    keep = sorted(set(tgt) | set(dec))  # faults neither seen nor decoupled are ignored
+    bank = design_bank_exact(
+        plant,
+        [faults[j] for j in keep],
+        row[:, keep],
+        poles=None if poles is None else [list(poles)],
+        filter_pole=filter_pole,
+    )
+    g = bank.generators[0]
+    if g is None:
+        raise NotIsolableError(
+            "the residual: no residual exists: " + bank.diagnostics[0].removeprefix("missing: "),
+            reason=bank.diagnostics[0],
+        )
+    remap = {i: j for i, j in enumerate(keep)}
+    g.target = tuple(remap[i] for i in g.target)
+    g.decoupled = tuple(remap[i] for i in g.decoupled)
+    g.info["exceptional"] = bank.exceptional
+    return g

@@ -84,13 +84,15 @@ def _numeric(M: Any, vals: dict[Any, Any], name: str) -> np.ndarray:
 
     if M.rows == 0 or M.cols == 0:
         return np.zeros(M.shape)
-    X = M.subs(vals)
+    X = M.xreplace(vals) if all(v.is_Rational for v in vals.values()) else M.subs(vals)
     if X.has(sp.zoo, sp.nan, sp.oo):
         raise DesignError(
             f"values: the generator's {name} has a pole at these parameter values (they lie on "
             "its exceptional set); redesign at this point",
             argument="values",
         )
+    if all(x.is_Rational for x in X):
+        return np.array([[float(x) for x in X.row(i)] for i in range(X.rows)])
     return np.array(X.evalf(30).tolist(), dtype=float)
 
 

@@ -306,6 +306,28 @@ def _check_size(plant: Plant, gens: list[Any], max_order: int) -> int:
     return N
 
 
+def _exact_tf(Ac: Any, b: Any, c: Any, d: Any, var: Any) -> Any:
+    """``c (var I − Ac)⁻¹ b + d`` over ``K``: charpoly ``Σ a_i var^(N−i)`` and Markov
+    parameters ``h_k = c Ac^k b`` give the numerator ``Σ_j (Σ_{i≤j} a_i h_{j−i}) var^(N−1−j)``.
+    """
+    import sympy as sp
+
+    K = Ac.domain
+    N = Ac.shape[0]
+    dd = K.to_sympy(d.to_list()[0][0])
+    if N == 0:
+        return sp.factor(dd)
+    a = Ac.charpoly()
+    h, V = [], b
+    for _ in range(N):
+        h.append((c * V).to_list()[0][0])
+        V = Ac * V
+    num = [sum((a[i] * h[j - i] for i in range(j + 1)), K.zero) for j in range(N)]
+    nexpr = sp.Add(*[K.to_sympy(x) * var ** (N - 1 - j) for j, x in enumerate(num)])
+    dexpr = sp.Add(*[K.to_sympy(x) * var ** (N - i) for i, x in enumerate(a)])
+    return sp.factor(sp.cancel(nexpr / dexpr + dd))
+
+
 def _exact_row(ctx: Any, g: Any, sigs, var) -> dict[str, Any]:
     """Parametric / rational generator: exact zero tests and cancelled transfers."""
     import sympy as sp
@@ -333,9 +355,7 @@ def _exact_row(ctx: Any, g: Any, sigs, var) -> dict[str, Any]:
         d = Dc.extract([o], [c])
         if pm.block_transfer_is_zero(Ac, b, co, d):
             return True, sp.Integer(0)
-        Ms = Ac.to_Matrix()
-        expr = (co.to_Matrix() * (var * sp.eye(Ms.rows) - Ms).LUsolve(b.to_Matrix()))[0, 0]
-        return False, sp.factor(sp.cancel(expr + d.to_Matrix()[0, 0]))
+        return False, _exact_tf(Ac, b, co, d, var)
 
     zero, tr = np.ones((nout, len(cols)), dtype=bool), [[None] * len(cols) for _ in range(nout)]
     for j, (Bf, Df, _, _) in enumerate(cols):
