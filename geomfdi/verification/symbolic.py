@@ -14,7 +14,7 @@ parameter is computed exactly and measured against the magnitudes it is made of:
     ρ = max_k |Cc Ac^k b| / (‖c‖ ‖Ac‖^k w0)   (and |Dc| / (g ‖Df‖) for the feedthrough)
 
 with ``g`` the largest ∞-norm of the generator's E, H, G, K, ``w0 = max(‖Bf‖, g ‖Df‖)``
-and ``‖c‖ = max(‖M_o‖, g ‖C‖)``: each coefficient relative to the magnitudes it is made
+and ``‖c‖ = max(‖M_o‖, ‖H_o‖ ‖C‖)``: each coefficient relative to the magnitudes it is made
 of, before any cancellation.
 
 ``ρ = 0``: a **structural zero** (exact); ``0 < ρ ≤ rtol``: a **rounding-level**
@@ -181,7 +181,7 @@ def _rho_numeric(
 
     ``ρ_k = |c Ac^k b| / (‖c‖ ‖Ac‖^k w0)`` and, for the feedthrough, ``|d| / Dscale``,
     with ``w0 = max(‖Bf‖, g ‖Df‖)`` (inputs: ``max(‖B‖, g ‖D‖) + ‖G‖``),
-    ``‖c‖ = max(‖M_o‖, g ‖C‖)`` and ``g`` the largest ∞-norm of E, H, G, K: the size of
+    ``‖c‖ = max(‖M_o‖, ‖H_o‖ ‖C‖)`` and ``g`` the largest ∞-norm of E, H, G, K: the size of
     each coefficient relative to the magnitudes it is made of, before any cancellation
     (rounding in a delivered matrix is relative to the generator's overall magnitude).
     The scales are floats; the Markov parameters are exact (columns rescaled by exact
@@ -434,7 +434,7 @@ def _numeric_row(
     anorm = float(np.abs(Acf).sum(axis=1).max()) if Acf.size else 0.0
     cnorm_plant = float(np.abs(Pf["C"]).sum(axis=1).max()) if Pf["C"].size else 0.0
     mn = np.abs(g.M).sum(axis=1) if g.M.size else np.zeros(g.n_outputs)
-    cn = np.maximum(mn, gnorm * cnorm_plant)
+    cn = np.maximum(mn, np.abs(g.H).sum(axis=1) * cnorm_plant)
 
     def readable(Bxf, Dyf, Gxf, Kxf, o, c):
         Bw, Dc = -g.E @ Dyf, -g.H @ Dyf
