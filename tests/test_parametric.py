@@ -99,7 +99,7 @@ def test_parametric_sensor_bank_decouples_identically(plant, ebank):
 
 
 def test_exceptional_set_is_where_the_rank_drops(plant, ebank):
-    cond = [c for c in ebank.exceptional if c.kind == "rank"]
+    cond = [c for c in ebank.exceptional if c.kind in ("fails", "formula")]
     exprs = [sp.expand(c.expr) for c in cond]
     assert sp.expand(k * m**2 - 1) in exprs, ebank.exceptional
     # on it: the design of row 2 redone at that point has a different S* (or is missing)
@@ -167,3 +167,23 @@ def test_exact_design_options_are_validated(plant):
     with pytest.raises(DesignError) as info:
         gf.design_sensor_bank(plant, exact=True, poles=[[-1], [-1], [-1]])
     assert info.value.argument == "poles"
+
+
+def test_exact_geometry_accepts_symbols_with_exceptional_set():
+    kr = sp.Symbol("k")  # any real k (no positivity assumed)
+    A0 = sp.Matrix([[1, 1, 1], [0, 1, 0], [2, 0, 1]])
+    Ck = sp.Matrix([[kr, 1, 0], [1, 0, 1]])
+    L = [1, -1, 0]
+    S = gf.exact.min_unobservability_subspace(A0, Ck, L)
+    assert S.dim == 1 and S.exceptional == [kr - sp.Rational(1, 3)]
+    # on the condition S* is a plane; off it (k = 2) it is the generic line
+    on = gf.exact.min_unobservability_subspace(A0, Ck.subs(kr, sp.Rational(1, 3)), L)
+    off = gf.exact.min_unobservability_subspace(A0, Ck.subs(kr, 2), L)
+    assert on.dim == 2 and off.dim == 1
+    assert off.basis == S.basis.subs(kr, 2)
+    # with k > 0 assumed, k - 1/3 still can vanish; with k < 0 it cannot
+    kn = sp.Symbol("kn", negative=True)
+    Sn = gf.exact.min_unobservability_subspace(A0, Ck.subs(kr, kn), L)
+    assert Sn.dim == 1 and Sn.exceptional == []
+    W = gf.exact.min_conditioned_invariant(A0, Ck, L)
+    assert S.W.history == W.history and W.basis == S.W.basis

@@ -22,13 +22,15 @@ quotient order ``n_design − dim S*``).  The decoupling and the visibility of e
 are then checked exactly on the physical model (Markov parameters over ``K``).
 
 Every pivot of every elimination is recorded; the irreducible factors of the pivots and
-of the delivered denominators are candidates for the **exceptional set**.  A candidate
-linear in some parameter is checked by redoing the row's design on the family specialised
-to it: if a dimension changes (W*, S*, the measurement map, the observability of the
-quotient) or a target becomes invisible, it is a ``"rank"`` condition; if only a
-delivered denominator vanishes there, a ``"formula"`` condition; otherwise it is an
-artefact of the chosen bases and dropped.  Candidates not linear in any parameter are
-kept as unchecked ``"candidate"`` conditions.
+of the delivered denominators are candidates for the **exceptional set** (where a pivot
+vanishes, a rank of the construction may drop).  A candidate linear in some parameter is
+checked on the family specialised to it: the delivered generator is evaluated there and
+its transfers are recomputed exactly on the specialised plant.  If an entry has a pole
+there it is a ``"formula"`` condition; if a target becomes invisible or a decoupling is
+lost, a ``"fails"`` condition; otherwise it is an artefact of the chosen bases and
+dropped.  A candidate that cannot vanish under the symbols' assumptions (``k + 1`` with
+``k > 0``) is dropped; one not linear in any parameter is kept as an unchecked
+``"candidate"``.
 
 See the user guide, *Theory: verification* (``docs/theory/verification.md``), section
 "Parametric plants".
@@ -393,42 +395,46 @@ def _specialise(mats, sigs, poles, a, sym, val):
     return m2, s2, p2, a2
 
 
-def _row_profile(mats, sigs, dt, target, decouple, poles, a):
-    ctx = _Ctx(mats, sigs, dt, [a, *(poles or [])])
-    try:
-        g = _design_row(ctx, target, decouple, poles, a)
-    except (GeomFDIError, ZeroDivisionError) as exc:
-        return ("failed", type(exc).__name__)
+def _holds_at(spec, dt, gen: dict[str, sp.Matrix], sub, generic) -> str | None:
+    """Does the generic generator, evaluated at ``sub``, still do its job on the family there?
+
+    ``"formula"``: a delivered entry has a pole there; ``"fails"``: defined, but a target
+    becomes invisible or a decoupling is lost; ``None``: it holds.
+    """
+    ev = {k: M.subs(sub).applyfunc(sp.cancel) for k, M in gen.items()}
+    if any(M.has(sp.zoo, sp.nan, sp.oo) for M in ev.values()):
+        return "formula"
+    mats, sigs = spec[0], spec[1]
+    ctx = _Ctx(mats, sigs, dt, [x for M in ev.values() for x in M])
+    g = {k: ctx._dm(M) for k, M in ev.items()}
     seen, inz = _seen(ctx, g)
-    return (g["profile"], tuple(seen), inz)
+    return None if (tuple(seen), inz) == generic else "fails"
 
 
-def _classify(cands, denoms, mats, sigs, dt, target, decouple, poles, a, generic, deadline):
+def _classify(cands, mats, sigs, dt, poles, a, gen, generic, deadline):
+    """Sort candidate factors into ``"fails"`` / ``"formula"`` / ``"candidate"`` (or drop)."""
     out: list[tuple[sp.Expr, str]] = []
     for f in cands:
         syms = sorted(f.free_symbols, key=lambda x: x.name)
         lin = [x for x in syms if sp.degree(f, x) == 1 and not sp.diff(f, x).free_symbols & {x}]
-        is_denom = any(sp.rem(dn, f, *syms) == 0 for dn in denoms if dn.free_symbols & set(syms))
         if not lin or time.monotonic() > deadline:
-            out.append((f, "formula" if is_denom else "candidate"))
+            out.append((f, "candidate"))
             continue
         x = lin[0]
         sol = sp.solve(f, x)
         if not sol:  # cannot vanish under the symbols' assumptions (e.g. k + 1, k > 0)
             continue
-        val = sol[0]
+        sub = {x: sol[0]}
         try:
-            spec = _specialise(mats, sigs, poles, a, x, val)
+            spec = _specialise(mats, sigs, poles, a, x, sol[0])
         except (ZeroDivisionError, ValueError):
-            out.append((f, "rank"))
+            out.append((f, "fails"))
             continue
         if any(M.has(sp.zoo, sp.nan) for M in spec[0].values()):
             continue  # the plant itself is undefined there: not a point of the family
-        prof = _row_profile(spec[0], spec[1], dt, target, decouple, spec[2], spec[3])
-        if prof != generic:
-            out.append((f, "rank"))
-        elif is_denom:
-            out.append((f, "formula"))
+        kind = _holds_at(spec, dt, gen, sub, generic)
+        if kind is not None:
+            out.append((f, kind))
     return out
 
 
@@ -584,22 +590,20 @@ def design_bank_exact(
                     *[sp.Poly(d, *d.free_symbols).monic().as_expr() for d in denoms],
                 }
             )
-            generic = (g["profile"], tuple(seen), inputs_zero)
+            generic = (tuple(seen), inputs_zero)
             for f, kind in _classify(
                 sorted(cands, key=sp.default_sort_key),
-                denoms,
                 mats,
                 sigs,
                 plant.dt,
-                tgt,
-                dec,
                 rp,
                 a,
+                mats_out,
                 generic,
                 deadline,
             ):
                 old = conds.get(f)
-                rank = {"rank": 2, "formula": 1, "candidate": 0}
+                rank = {"fails": 2, "formula": 1, "candidate": 0}
                 k2 = kind if old is None or rank[kind] > rank[old[0]] else old[0]
                 conds[f] = (k2, (old[1] if old else set()) | {r})
         gens.append(
@@ -624,7 +628,7 @@ def design_bank_exact(
     exc_list = [ExceptionalCondition(f, k, tuple(sorted(rows))) for f, (k, rows) in conds.items()]
     exc_list.sort(
         key=lambda c: (
-            {"rank": 0, "formula": 1, "candidate": 2}[c.kind],
+            {"fails": 0, "formula": 1, "candidate": 2}[c.kind],
             sp.default_sort_key(c.expr),
         )
     )

@@ -30,11 +30,11 @@ class ExceptionalCondition:
     expr : sympy.Expr
         An irreducible polynomial in the parameters.
     kind : str
-        ``"rank"``: on ``expr = 0`` a rank of the design drops (checked by redoing the
-        design there: W*, S*, the measurement map, the observer or a target's visibility
-        changes); ``"formula"``: the structure holds but the delivered formulas have a
-        pole there (redesign at that point); ``"candidate"``: a pivot of the elimination
-        vanishes there, not checked (the condition is not linear in any parameter).
+        ``"fails"``: on ``expr = 0`` a rank of the construction drops and the delivered
+        generator, evaluated there, loses a target or a decoupling (checked exactly on
+        the specialised family); ``"formula"``: a delivered entry has a pole there
+        (redesign at that point); ``"candidate"``: a pivot of the elimination vanishes
+        there, not checked (the condition is not linear in any parameter).
     rows : tuple of int
         Bank rows concerned.
     """
@@ -199,7 +199,7 @@ class ExactResidualBank:
         )
 
     def on_exceptional_set(self, values: dict[Any, Any]) -> list[ExceptionalCondition]:
-        """The conditions (of kind ``"rank"`` or ``"formula"``) that vanish at ``values``."""
+        """The conditions that vanish at ``values``."""
         vals = _subs_values(self.parameters, values)
         return [c for c in self.exceptional if c.expr.subs(vals) == 0]
 
@@ -212,7 +212,7 @@ class ExactResidualBank:
             Naming ``values`` when they lie on a confirmed exceptional condition (the
             generic design does not hold there) or a delivered matrix has a pole there.
         """
-        hit = [c for c in self.on_exceptional_set(values) if c.kind in ("rank", "formula")]
+        hit = [c for c in self.on_exceptional_set(values) if c.kind in ("fails", "formula")]
         if hit:
             raise DesignError(
                 "values: on the exceptional set of the design ("
