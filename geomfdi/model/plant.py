@@ -60,15 +60,17 @@ class Plant:
         is accepted only for one output and one input; otherwise a :class:`ShapeError`
         naming ``D`` explains that the sampling period is written ``dt=``.
 
-    Parametric plants
-    -----------------
-    Entries may be sympy expressions in symbols (``m = sympy.Symbol("m", positive=True)``):
-    rational functions of the parameters.  The matrices are then kept as sympy matrices
-    (floats read through their shortest decimal), :attr:`parameters` lists the symbols,
+    Notes
+    -----
+    **Parametric plants.**  Entries may be sympy expressions in symbols
+    (``m = sympy.Symbol("m", positive=True)``): rational functions of the parameters.
+    The matrices are then kept as sympy matrices (floats read through their shortest
+    decimal), :attr:`parameters` lists the symbols,
     and :meth:`subs` gives the numeric plant at a point.  Only the exact design
     (``design_bank(..., exact=True)``), :func:`~geomfdi.verify_symbolic` and
     :mod:`geomfdi.exact` accept a parametric plant; every numeric function asks for
-    :meth:`subs` first.
+    :meth:`subs` first.  See the user guide, *Theory: verification*
+    (``docs/theory/verification.md``).
 
     Examples
     --------

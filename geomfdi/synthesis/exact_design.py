@@ -509,7 +509,9 @@ def design_bank_exact(
     faults = [faults] if isinstance(faults, Fault) else list(faults)
     if not faults or not all(isinstance(f, Fault) for f in faults):
         raise GeomFDIError("faults: expected a non-empty list of faults", argument="faults")
-    req = np.atleast_2d(np.asarray(structure, dtype=float))
+    from geomfdi._validation import as_real_array
+
+    req = np.atleast_2d(as_real_array(structure, "structure"))
     if req.shape[1] != len(faults) or not np.all((req == 0) | (req == 1)):
         raise GeomFDIError(
             f"structure: expected 0/1 entries and {len(faults)} columns, got shape {req.shape}",
