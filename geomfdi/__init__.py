@@ -71,6 +71,12 @@ _register(
     "geomfdi.synthesis.design", "design_bank", "design_residual_generator", "design_sensor_bank"
 )
 _register("geomfdi.synthesis.generator", "ResidualBank", "ResidualGenerator")
+_register(
+    "geomfdi.synthesis.exact_generator",
+    "ExactResidualBank",
+    "ExactResidualGenerator",
+    "ExceptionalCondition",
+)
 _register("geomfdi.synthesis.transforms", "pseudo_actuator_model")
 _register("geomfdi.verification.numeric", "VerificationReport", "verify")
 _register("geomfdi.verification.symbolic", "SymbolicReport", "verify_symbolic")
@@ -265,6 +271,11 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         design_bank,
         design_residual_generator,
         design_sensor_bank,
+    )
+    from geomfdi.synthesis.exact_generator import (  # noqa: F401
+        ExactResidualBank,
+        ExactResidualGenerator,
+        ExceptionalCondition,
     )
     from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator  # noqa: F401
     from geomfdi.synthesis.realization import minimal_realization, reachable_subspace  # noqa: F401

@@ -11,6 +11,14 @@ a user typed.
 
 Use as ``gf.exact.min_unobservability_subspace(A, C, L)``, or pass sympy matrices (or
 ``exact=True``) to :func:`geomfdi.min_unobservability_subspace`.
+
+Entries may also be rational functions of sympy symbols (a parametric family): W* and S*
+are then computed over the field of rational functions of the parameters
+(:mod:`geomfdi.geometry.parametric`, generic ranks) and the result carries
+``exceptional``: the polynomial conditions on the parameters under which the result does
+not hold (the subspace there differs from the generic basis evaluated there, or that
+basis is undefined; each checked by redoing the iteration on the specialised family).
+See the user guide, *Theory: verification* (``docs/theory/verification.md``).
 """
 
 from __future__ import annotations
@@ -199,8 +207,76 @@ def _prepare(A: Any, C: Any, L: Any) -> tuple[sp.Matrix, sp.Matrix, ExactSubspac
     return A, C, Ls
 
 
+def _parametric(which: str, A: Any, C: Any, L: Any) -> ExactSubspace:
+    """W* or S* of a parametric family over Q(params), with the exceptional conditions."""
+    from geomfdi.geometry import parametric as pm
+
+    if isinstance(L, ExactSubspace):
+        L = L.basis
+    Am = pm.as_exact_matrix(A, "A")
+    n = Am.rows
+    if Am.cols != n or n == 0:
+        raise ShapeError(f"A: must be square and non-empty, got shape {Am.shape}", argument="A")
+    Cm = pm.as_exact_matrix(C, "C", cols=n, vector_as="row")
+    Lm = pm.as_exact_matrix(L, "L", rows=n)
+
+    def run(Ax: sp.Matrix, Cx: sp.Matrix, Lx: sp.Matrix) -> tuple[Any, Any]:
+        F = pm.field_of(Ax, Cx, Lx)
+        fn = (
+            pm.generic_unobservability_subspace
+            if which == "S"
+            else pm.generic_conditioned_invariant
+        )
+        Lrows = F.matrix(Lx) if Lx.cols else [[] for _ in range(n)]
+        res = fn(F, F.matrix(Ax), F.matrix(Cx), Lrows, n, Cx.rows, Lx.cols)
+        return F, res
+
+    F, res = run(Am, Cm, Lm)
+    conds = []
+    for f in F.candidate_factors():
+        lin = [x for x in sorted(f.free_symbols, key=str) if sp.degree(f, x) == 1]
+        sol = sp.solve(f, lin[0]) if lin else None
+        if lin and not sol:
+            continue  # cannot vanish under the symbols' assumptions
+        if not lin:
+            conds.append(f)  # not checked: kept as a candidate
+            continue
+        sub = {lin[0]: sol[0]}
+        spec = [M.subs(sub).applyfunc(sp.cancel) for M in (Am, Cm, Lm)]
+        if any(M.has(sp.zoo, sp.nan) for M in spec):
+            continue
+        _, r2 = run(*spec)
+        here = res.to_sympy().subs(sub).applyfunc(sp.cancel)
+        if here.has(sp.zoo, sp.nan) or r2.dim != res.dim:
+            conds.append(f)  # the generic basis is undefined there, or the dimension changes
+            continue
+        if r2.dim and sp.Matrix.hstack(r2.to_sympy(), here).rank() != r2.dim:
+            conds.append(f)  # same dimension, another subspace
+    out = ExactSubspace.__new__(ExactSubspace)
+    out.n, out.basis, out.history = n, res.to_sympy(), res.history
+    if res.W is not None:
+        W = ExactSubspace.__new__(ExactSubspace)
+        W.n, W.basis, W.history = n, res.W.to_sympy(), res.W.history
+        out.W = W  # type: ignore[attr-defined]
+    out.exceptional = conds  # type: ignore[attr-defined]
+    out.parameters = F.symbols  # type: ignore[attr-defined]
+    return out
+
+
+def _symbolic(*values: Any) -> bool:
+    from geomfdi.geometry.parametric import has_symbols
+
+    return has_symbols(*[v.basis if isinstance(v, ExactSubspace) else v for v in values])
+
+
 def min_conditioned_invariant(A: Any, C: Any, L: Any) -> ExactSubspace:
-    """W* in exact arithmetic: ``Z_0 = L, Z_k = L + A(Z_{k-1} ∩ Ker C)`` (seed 001, eq. 14)."""
+    """W* in exact arithmetic: ``Z_0 = L, Z_k = L + A(Z_{k-1} ∩ Ker C)`` (seed 001, eq. 14).
+
+    With symbols in the data: generic W* over the rational functions of the parameters,
+    with ``exceptional`` (module docstring).
+    """
+    if _symbolic(A, C, L):
+        return _parametric("W", A, C, L)
     A, C, Ls = _prepare(A, C, L)
     Z = Ls
     history = [Z.dim]
@@ -234,7 +310,22 @@ def min_unobservability_subspace(A: Any, C: Any, L: Any) -> ExactSubspace:
     (Matrix([
     [1, 0, 0],
     [0, 0, 1]]), [3, 2, 2], [2, 2])
+
+    A parameter ``k`` in the output map ``C = [[k, 1, 0], [1, 0, 1]]`` and the signature
+    ``(1, −1, 0)``: S* is the line of the signature for every k except ``k = 1/3``, where
+    it is a plane (checked by redoing the iteration there).
+
+    >>> import sympy as sp
+    >>> k = sp.Symbol("k")
+    >>> Ck = sp.Matrix([[k, 1, 0], [1, 0, 1]])
+    >>> Sk = gf.exact.min_unobservability_subspace(A, Ck, [1, -1, 0])
+    >>> Sk.basis.T, Sk.exceptional
+    (Matrix([[1, -1, 0]]), [k - 1/3])
+    >>> gf.exact.min_unobservability_subspace(A, Ck.subs(k, sp.Rational(1, 3)), [1, -1, 0]).dim
+    2
     """
+    if _symbolic(A, C, L):
+        return _parametric("S", A, C, L)
     A, C, Ls = _prepare(A, C, L)
     W = min_conditioned_invariant(A, C, Ls)
     n = A.rows

@@ -134,6 +134,8 @@ def _verify(spec: ModelSpec, bank: ResidualBank, symbolic: bool) -> dict[str, An
     if symbolic and spec.plant.n <= SYMBOLIC_MAX_N and bank.present:
         sym = verify_symbolic(bank, spec.plant)
         out["symbolic_ok"] = bool(sym.ok)
+        out["symbolic_summary"] = sym.summary()
+        out["symbolic_rounding_level"] = float(sym.rounding_level)
         out["symbolic_transfer"] = [
             [str(x) for x in sym.transfer.row(i)] for i in range(sym.transfer.rows)
         ]
@@ -347,7 +349,8 @@ def run_model(
             "|---|---|---|---|---|",
         ]
         for m, v in summary["verification"].items():
-            sym = {True: "zeros exact", False: "fails", None: "-"}[v.get("symbolic_ok")]
+            sym = v.get("symbolic_summary", "-") if v.get("symbolic_ok") is not None else "-"
+            sym = sym.split(": ")[0] if sym.startswith("fails") else sym
             lines.append(
                 f"| {m} | {v['ok']} | {v['max_leakage']:.3g} | "
                 f"{v['max_input_leakage']:.3g} | {sym} |"

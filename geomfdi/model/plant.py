@@ -54,7 +54,23 @@ class Plant:
     Bd, Dd : array_like, optional
         Disturbance channels, (n, nd) and (q, nd).  Either may be omitted (zero).
     dt : float
-        0 for continuous time, the sampling period for discrete time.
+        0 for continuous time, the sampling period for discrete time.  Positional as the
+        5th argument, as in python-control's ``ss(A, B, C, D, dt)``.  A scalar 4th
+        argument is ``D`` (as in python-control): 0 means no feedthrough, another scalar
+        is accepted only for one output and one input; otherwise a :class:`ShapeError`
+        naming ``D`` explains that the sampling period is written ``dt=``.
+
+    Notes
+    -----
+    **Parametric plants.**  Entries may be sympy expressions in symbols
+    (``m = sympy.Symbol("m", positive=True)``): rational functions of the parameters.
+    The matrices are then kept as sympy matrices (floats read through their shortest
+    decimal), :attr:`parameters` lists the symbols,
+    and :meth:`subs` gives the numeric plant at a point.  Only the exact design
+    (``design_bank(..., exact=True)``), :func:`~geomfdi.verify_symbolic` and
+    :mod:`geomfdi.exact` accept a parametric plant; every numeric function asks for
+    :meth:`subs` first.  See the user guide, *Theory: verification*
+    (``docs/theory/verification.md``).
 
     Examples
     --------
@@ -70,11 +86,15 @@ class Plant:
         B: Any = None,
         C: Any = None,
         D: Any = None,
+        dt: float = 0,
         *,
         Bd: Any = None,
         Dd: Any = None,
-        dt: float = 0,
     ) -> None:
+        self.parameters: tuple[Any, ...] = ()
+        if _has_symbols(A, B, C, D, Bd, Dd):
+            self._init_parametric(A, B, C, D, Bd, Dd, dt)
+            return
         self.A = as_matrix(A, "A", square=True)
         n = self.A.shape[0]
         if C is None:
@@ -86,9 +106,10 @@ class Plant:
         else:
             self.B = as_matrix(B, "B", rows=n, allow_empty=True, vector_as="column")
         m = self.B.shape[1]
-        if D is None:
+        if D is None or _is_zero_scalar(D):
             self.D = np.zeros((q, m))
         else:
+            _check_scalar_d(D, q, m)
             self.D = as_matrix(D, "D", rows=q, cols=m, allow_empty=True)
         nd = 0
         if Bd is not None:
@@ -107,6 +128,72 @@ class Plant:
         self.dt = _as_dt(dt)
         for arr in (self.A, self.B, self.C, self.D, self.Bd, self.Dd):
             arr.setflags(write=False)
+
+    def _init_parametric(self, A, B, C, D, Bd, Dd, dt) -> None:
+        from geomfdi.geometry.parametric import as_exact_matrix
+
+        self.A = as_exact_matrix(A, "A")
+        n = self.A.rows
+        if self.A.cols != n or n == 0:
+            raise ShapeError(f"A: must be square, got shape {self.A.shape}", argument="A")
+        if C is None:
+            raise GeomFDIError("C: the output matrix is required", argument="C")
+        self.C = as_exact_matrix(C, "C", cols=n, vector_as="row")
+        q = self.C.rows
+        self.B = as_exact_matrix(np.zeros((n, 0)) if B is None else B, "B", rows=n)
+        m = self.B.cols
+        if D is None or _is_zero_scalar(D):
+            D = np.zeros((q, m))
+        else:
+            _check_scalar_d(D, q, m)
+        self.D = as_exact_matrix(D, "D", rows=q, cols=m)
+        nd = 0 if Bd is None and Dd is None else None
+        self.Bd = None if Bd is None else as_exact_matrix(Bd, "Bd", rows=n)
+        self.Dd = None if Dd is None else as_exact_matrix(Dd, "Dd", rows=q)
+        if nd is None:
+            nd = (self.Bd if self.Bd is not None else self.Dd).cols
+        if self.Bd is None:
+            self.Bd = as_exact_matrix(np.zeros((n, nd)), "Bd", rows=n, cols=nd)
+        if self.Dd is None:
+            self.Dd = as_exact_matrix(np.zeros((q, nd)), "Dd", rows=q, cols=nd)
+        if self.Dd.cols != self.Bd.cols:
+            raise ShapeError(
+                f"Dd: expected {self.Bd.cols} columns (as many as Bd), got shape {self.Dd.shape}",
+                argument="Dd",
+            )
+        self.dt = _as_dt(dt)
+        syms: set[Any] = set()
+        for M in (self.A, self.B, self.C, self.D, self.Bd, self.Dd):
+            syms |= M.free_symbols
+        self.parameters = tuple(sorted(syms, key=lambda s: s.name))
+
+    @property
+    def is_parametric(self) -> bool:
+        """True when the entries hold sympy symbols (see *Parametric plants*)."""
+        return bool(self.parameters)
+
+    def subs(self, values: dict[Any, Any]) -> Plant:
+        """The numeric plant at the parameter values ``values`` ({symbol or name: number}).
+
+        Raises
+        ------
+        GeomFDIError
+            Naming ``values`` when a parameter has no value or an entry is undefined there.
+        """
+        if not self.is_parametric:
+            return self
+        from geomfdi.synthesis.exact_generator import _subs_values
+
+        vals = _subs_values(self.parameters, values)
+        out = []
+        for name in ("A", "B", "C", "D", "Bd", "Dd"):
+            M = getattr(self, name)
+            X = M.subs(vals) if M.rows and M.cols else M
+            if any(not x.is_finite for x in X):
+                raise GeomFDIError(f"values: {name} is undefined at {values}", argument="values")
+            out.append(np.array(X.evalf(30).tolist(), dtype=float).reshape(M.shape))
+        A, B, C, D, Bd, Dd = out
+        return Plant(A, B, C, D, self.dt, Bd=Bd, Dd=Dd)
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -184,6 +271,7 @@ class Plant:
         """The plant as a python-control ``StateSpace`` with inputs ``[u; d]``."""
         import control
 
+        _require_numeric(self, "plant")
         B = np.hstack([self.B, self.Bd])
         D = np.hstack([self.D, self.Dd])
         names_in = [f"u[{i}]" for i in range(self.m)] + [f"d[{i}]" for i in range(self.nd)]
@@ -200,22 +288,81 @@ class Plant:
 
     def __repr__(self) -> str:
         kind = f"dt={self.dt:g}" if self.is_discrete else "continuous"
-        return f"Plant(n={self.n}, m={self.m}, q={self.q}, nd={self.nd}, {kind})"
+        par = f", parameters={list(self.parameters)}" if self.parameters else ""
+        return f"Plant(n={self.n}, m={self.m}, q={self.q}, nd={self.nd}, {kind}{par})"
 
 
-def as_plant(plant: Any, name: str = "plant") -> Plant:
+def _has_symbols(*values: Any) -> bool:
+    """True when a value holds sympy objects with free symbols (sympy imported lazily)."""
+    for v in values:
+        if v is None:
+            continue
+        mod = type(v).__module__.split(".")[0]
+        if mod == "sympy" or (
+            isinstance(v, list | tuple | np.ndarray)
+            and any(
+                type(x).__module__.split(".")[0] == "sympy"
+                for x in np.ravel(np.array(v, dtype=object))
+            )
+        ):
+            from geomfdi.geometry.parametric import has_symbols
+
+            if has_symbols(v):
+                return True
+    return False
+
+
+def _is_zero_scalar(D: Any) -> bool:
+    return np.ndim(D) == 0 and not isinstance(D, bool | str | bytes) and _scalar(D) == 0
+
+
+def _scalar(D: Any) -> Any:
+    try:
+        return complex(D)
+    except (TypeError, ValueError):
+        return None
+
+
+def _check_scalar_d(D: Any, q: int, m: int) -> None:
+    """A non-zero scalar D is only D for one output and one input (python-control's rule)."""
+    if np.ndim(D) == 0 and not isinstance(D, bool | str | bytes) and (q, m) != (1, 1):
+        raise ShapeError(
+            f"D: got the scalar {D!r}, but D must be a ({q}, {m}) matrix for this plant. "
+            "The 4th positional argument is the feedthrough D, as in python-control's "
+            f"ss(A, B, C, D, dt); for a sampling period write Plant(A, B, C, dt={D!r}) or "
+            f"Plant(A, B, C, 0, {D!r})",
+            argument="D",
+        )
+
+
+def _require_numeric(plant: Plant, name: str) -> None:
+    if plant.is_parametric:
+        raise GeomFDIError(
+            f"{name}: has symbolic parameters {list(plant.parameters)}; substitute values with "
+            f"{name}.subs({{...}}) or use the exact design (design_bank(..., exact=True)) and "
+            "verify_symbolic",
+            argument=name,
+        )
+
+
+def as_plant(plant: Any, name: str = "plant", *, parametric: bool = False) -> Plant:
     """Return ``plant`` as a :class:`Plant`; a python-control ``StateSpace`` is converted.
 
     Every public function that takes a plant accepts either form (the ``StateSpace`` inputs
     are all taken as control inputs; use :meth:`Plant.from_statespace` with
     ``n_disturbances`` to mark trailing inputs as disturbances).
 
+    ``parametric=True`` also accepts a plant with symbolic parameters (for the exact
+    functions); otherwise such a plant is refused with a message asking for ``subs``.
+
     Raises
     ------
     GeomFDIError
-        Naming ``name`` when ``plant`` is neither.
+        Naming ``name`` when ``plant`` is neither (or is parametric where numbers are needed).
     """
     if isinstance(plant, Plant):
+        if not parametric:
+            _require_numeric(plant, name)
         return plant
     if type(plant).__module__.split(".")[0] == "control":
         import control

@@ -172,6 +172,7 @@ def design_residual_generator(
     filter_pole: float | None = None,
     margin: float | None = None,
     minimal: bool = True,
+    exact: bool = False,
 ) -> ResidualGenerator:
     """Design one residual generator that sees ``target`` and ignores ``decouple``.
 
@@ -202,6 +203,14 @@ def design_residual_generator(
         Stability requirement of the full-quotient default spectrum.
     minimal : bool
         Minimal realisation of a full-quotient generator.
+        Deliver a minimal realization (default); the order before reduction is in
+        ``g.info["full_order"]``.
+    exact : bool
+        Run the construction in exact arithmetic (rationals, or rational functions of the
+        parameters of a parametric plant) and return an
+        :class:`~geomfdi.synthesis.exact_generator.ExactResidualGenerator`; see
+        :func:`geomfdi.synthesis.exact_design.design_bank_exact` (``margin`` and
+        ``minimal`` do not apply).
 
     Returns
     -------
@@ -229,6 +238,21 @@ def design_residual_generator(
     >>> gf.design_residual_generator(p, faults, [0, 1, 2]).order   # fault detection
     0
     """
+    # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
+    if exact:
+        from geomfdi.synthesis.exact_design import exact_dispatch
+
+        return exact_dispatch(
+            "residual",
+            plant,
+            faults,
+            target=target,
+            decouple=decouple,
+            poles=poles,
+            method=method,
+            filter_pole=filter_pole,
+        )
+    # --- end exact ---
     plant = _coerce_plant(plant)
     faults = _coerce_faults(faults)
     method = _check_method(method)
@@ -314,6 +338,7 @@ def design_bank(
     margin: float | None = None,
     minimal: bool = True,
     common_poles: bool = False,
+    exact: bool = False,
 ) -> ResidualBank:
     """Design one residual generator per row of a structure matrix.
 
@@ -331,6 +356,10 @@ def design_bank(
         Every row draws its poles from one common list (the default sequence, or
         ``poles``), and ``bank.info["joint_order"]`` reports the order of the stacked
         bank after a joint minimal realisation.
+    exact : bool
+        Exact / parametric design: returns an
+        :class:`~geomfdi.synthesis.exact_generator.ExactResidualBank` (see
+        :func:`geomfdi.synthesis.exact_design.design_bank_exact`).
 
     Returns
     -------
@@ -343,6 +372,20 @@ def design_bank(
         ``"leaks faults [...] on the physical model (...)"`` (paper method);
         ``"ill-conditioned: ..."``.  Several notes are joined with ``"; "``.
     """
+    # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
+    if exact:
+        from geomfdi.synthesis.exact_design import exact_dispatch
+
+        return exact_dispatch(
+            "bank",
+            plant,
+            faults,
+            structure=structure,
+            poles=poles,
+            method=method,
+            filter_pole=filter_pole,
+        )
+    # --- end exact ---
     plant = _coerce_plant(plant)
     faults = _coerce_faults(faults)
     method = _check_method(method)
@@ -466,6 +509,7 @@ def design_sensor_bank(
     margin: float | None = None,
     minimal: bool = True,
     common_poles: bool = False,
+    exact: bool = False,
 ) -> ResidualBank:
     """One residual per sensor, each decoupled from every other sensor (``S_FDI = I``).
 
@@ -481,6 +525,14 @@ def design_sensor_bank(
     >>> gf.design_sensor_bank(p, method="mvw").isolable.tolist()
     [True, False, False]
     """
+    # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
+    if exact:
+        from geomfdi.synthesis.exact_design import exact_dispatch
+
+        return exact_dispatch(
+            "sensor", plant, None, poles=poles, method=method, filter_pole=filter_pole
+        )
+    # --- end exact ---
     plant = _coerce_plant(plant)
     faults = [SensorFault(i) for i in range(plant.q)]
     return design_bank(
