@@ -116,6 +116,9 @@ _register(
     "plot_ar_monitor",
 )
 _register("geomfdi.monitoring.innovations", "innovation_fault", "synthetic_innovations")
+_register("geomfdi.deployment.recorded", "evaluate")
+_register("geomfdi.deployment.monitor", "Monitor")
+_register("geomfdi.deployment.persistence", "load_bank", "load_monitor")
 
 # public modules (``gf.parity.dodecahedron()``, ``gf.exact.kernel(...)``); the old flat
 # names stay as aliases of the modules that now hold them.
@@ -136,6 +139,8 @@ _MODULES: dict[str, str] = {
     "diagnosability": "geomfdi.diagnosability",
     "monitoring": "geomfdi.monitoring",
     "io": "geomfdi.io",
+    "codegen": "geomfdi.deployment.codegen",
+    "deployment": "geomfdi.deployment",
     # the flat module names of earlier releases
     "plant": "geomfdi.model.plant",
     "faults": "geomfdi.model.faults",
@@ -174,6 +179,10 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi import errors, tolerance  # noqa: F401
+    from geomfdi.deployment import codegen  # noqa: F401
+    from geomfdi.deployment.monitor import Monitor  # noqa: F401
+    from geomfdi.deployment.persistence import load_bank, load_monitor  # noqa: F401
+    from geomfdi.deployment.recorded import evaluate  # noqa: F401
     from geomfdi.diagnosability.window import (  # noqa: F401
         ApplicabilityReport,
         DiagnosabilityTable,
