@@ -259,12 +259,17 @@ class EvaluationResult:
         return float(self.t[hit[0]]) if hit.size else None
 
     def plot(self, **kwargs: Any) -> Any:
-        """Residual traces with thresholds (a matplotlib Figure)."""
+        """Residual traces with thresholds and confirmed alarms (a matplotlib Figure);
+        masked samples are drawn at zero."""
         from geomfdi.plotting.residuals import plot_residuals
 
-        thr = None if self.threshold is None else self.threshold.values
+        kwargs.setdefault("alarms", self.alarms)
         return plot_residuals(
-            self.t, self.residuals, threshold=thr, labels=self.residual_labels, **kwargs
+            self.t,
+            np.nan_to_num(self.residuals, nan=0.0),
+            threshold=self.threshold,
+            labels=self.residual_labels,
+            **kwargs,
         )
 
 
