@@ -177,7 +177,9 @@ def set_state(state: MonitorState, program: Any, persistence: Any, value: Any) -
     if pending is not None and not isinstance(pending, str):
         pending = np.asarray(pending, dtype=float)
         if pending.shape != (program.nw,):
-            raise ShapeError(f"state: pending state must have {program.nw} entries", "state")
+            raise ShapeError(
+                f"state: pending state must have {program.nw} entries", argument="state"
+            )
     elif isinstance(pending, str) and pending not in ("zero", "steady"):
         raise GeomFDIError(f"state: unknown pending rule {pending!r}", argument="state")
     samples = value["samples"]

@@ -29,8 +29,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 
-from geomfdi.deployment._lti import discretize_hold, linear_recursion
+from geomfdi.deployment._lti import discretize_hold, schur_form, triangular_recursion
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
@@ -80,6 +81,10 @@ class Program:
         ``"discrete"`` or ``"foh"`` (sampled from a continuous bank).
     structure : ndarray of bool, (n_rows, n_faults)
         Achieved structure used for isolation.
+    schur : (T, Z, C Z, stops) or None
+        Block-diagonal Schur form ``A = Z T Z^H`` (one unitary block per generator) used
+        by the loop-free recursion of :func:`run_program`; ``stops[i]`` ends the block of
+        state ``i``.
     """
 
     A: np.ndarray
@@ -94,6 +99,7 @@ class Program:
     dt: float
     hold: str
     structure: np.ndarray
+    schur: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
 
     @property
     def nw(self) -> int:
@@ -177,7 +183,9 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
     q, m = gens[0].q, gens[0].m
     for g in gens:
         if (g.q, g.m) != (q, m):
-            raise ShapeError("bank: the generators read different numbers of signals", "bank")
+            raise ShapeError(
+                "bank: the generators read different numbers of signals", argument="bank"
+            )
     F, Bz, M, Dz = _stack(gens)
     nw, nz = F.shape[0], q + m
     bdt = float(bank.dt)
@@ -211,6 +219,7 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
     else:
         steady = np.zeros((0, nz))
     rows: list[tuple[int, int] | None] = []
+    schur = _block_schur(A, C, [g.order for g in gens]) if nw else None
     o = 0
     for g in bank.generators:
         if g is None:
@@ -231,7 +240,30 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
         step,
         hold,
         np.asarray(bank.structure, dtype=bool),
+        schur,
     )
+
+
+def _block_schur(
+    A: np.ndarray, C: np.ndarray, orders: list[int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Schur form of the block-diagonal ``A``, one generator block at a time.
+
+    The unitary basis keeps the rounding of the recursion at the level of the plain
+    sample-by-sample update (a modal basis would amplify it by its condition number).
+    """
+    Ts, Zs, stops = [], [], []
+    i = 0
+    for n in orders:
+        if n:
+            T, Z = schur_form(A[i : i + n, i : i + n])
+            Ts.append(T)
+            Zs.append(Z)
+            stops += [i + n] * n
+        i += n
+    T = scipy.linalg.block_diag(*Ts)
+    Z = scipy.linalg.block_diag(*Zs)
+    return T, Z, C @ Z, np.array(stops, dtype=int)
 
 
 INITIAL = ("zero", "steady")
@@ -323,9 +355,12 @@ def run_program(
             xi = initial_state(program, pending, Zs[:, 0])
             pending = None
         if program.nw:
-            x = linear_recursion(program.A, program.B @ Zs, xi)[0]
-            comp[:, s:e] = program.C @ x[:, :-1] + program.D @ Zs
-            xi = x[:, -1].copy()
+            T, Zu, CZ, stops = program.schur
+            Zh = Zu.conj().T
+            g = (Zh @ (program.B @ Zs))[:, None, :]
+            zt = triangular_recursion(T, g, (Zh @ xi)[:, None], stops)[:, 0, :]
+            comp[:, s:e] = (CZ @ zt[:, :-1]).real + program.D @ Zs
+            xi = (Zu @ zt[:, -1]).real
         else:
             comp[:, s:e] = program.D @ Zs
     if not valid[-1]:

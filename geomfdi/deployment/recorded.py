@@ -140,7 +140,9 @@ def _signals(y: Any, u: Any, q: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     if y.ndim == 1 and q == 1:
         y = y[None]
     if y.ndim != 2 or y.shape[0] != q:
-        raise ShapeError(f"y: expected ({q}, N) for the bank's {q} outputs, got {y.shape}", "y")
+        raise ShapeError(
+            f"y: expected ({q}, N) for the bank's {q} outputs, got {y.shape}", argument="y"
+        )
     N = y.shape[1]
     if u is None:
         if m:
@@ -150,7 +152,9 @@ def _signals(y: Any, u: Any, q: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     if u.ndim == 1 and m == 1:
         u = u[None]
     if u.ndim != 2 or u.shape[0] != m:
-        raise ShapeError(f"u: expected ({m}, N) for the bank's {m} inputs, got {u.shape}", "u")
+        raise ShapeError(
+            f"u: expected ({m}, N) for the bank's {m} inputs, got {u.shape}", argument="u"
+        )
     if u.shape[1] != N:
         raise ShapeError(f"u: has {u.shape[1]} samples, y has {N}", argument="u")
     return y, u
