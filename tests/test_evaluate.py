@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from deploy_banks import seed_bank
 from scipy.signal import cont2discrete
 
 import geomfdi as gf
@@ -25,7 +26,7 @@ DT = 0.01
 
 @pytest.fixture(scope="module")
 def cbank() -> gf.ResidualBank:
-    return gf.design_sensor_bank(gf.Plant(A, B, C))
+    return seed_bank()
 
 
 @pytest.fixture(scope="module")

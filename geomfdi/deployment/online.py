@@ -131,9 +131,9 @@ def make_step(
 
     One fused product per sample: ``res = Phi [xi; z]`` with rows ``[A B]`` (next
     state), ``[C D]`` and ``[-C -D]`` (the residual rows and their negatives, so that
-    ``|r| > threshold`` is one comparison) and a last row summing ``z`` (non-finite when
-    a sample is missing).  The raw alarm pattern, its k-of-n counts and the isolation
-    decision are looked up in caches keyed by the packed pattern.
+    ``|r| > threshold`` is one comparison).  A sample is missing when ``v . v`` is not
+    finite (a ``nan`` or an infinite entry).  The raw alarm pattern, its k-of-n counts
+    and the isolation decision are looked up in caches keyed by the packed pattern.
     """
     nw, q, m, nz = program.nw, program.q, program.m, program.nz
     rows = program.n_rows
@@ -147,8 +147,8 @@ def make_step(
         Phi = np.block([[program.A, program.B], [Cr, Dr], [-Cr, -Dr]])
     else:
         Phi = np.block([[program.A, program.B], [program.C, program.D]])
-    Phi = np.ascontiguousarray(np.vstack([Phi, np.r_[np.zeros(nw), np.ones(nz)]]))
-    n_out = Phi.shape[0] - 1
+    Phi = np.ascontiguousarray(Phi)
+    n_out = Phi.shape[0]
     thr = np.full(rows, np.inf) if thresholds is None else thresholds
     thr2 = np.concatenate([thr, thr])
     k, n = persistence.k, persistence.n
@@ -190,20 +190,18 @@ def make_step(
             _signal(u, m, "u")
         try:
             v = concatenate((state.xi, y, u if m else empty))
-            res = Phi.dot(v)
         except (ValueError, TypeError) as exc:
             raise ShapeError(f"y, u: cannot read the sample ({exc})", argument="y") from exc
         state.samples += 1
-        if not isfinite(res[-1]):  # a missing sample: flagged, state not advanced
+        if not isfinite(v.dot(v)):  # a missing sample: flagged, state not advanced
             state.pending = restart
             conf, code = confirmed(0, zero_raw)
             return MonitorStep(nan_rows.copy(), conf, code)
         state.last = v[nw:]
         if state.pending is not None:
-            xi0 = initial_state(program, state.pending, v[nw:])
+            v[:nw] = initial_state(program, state.pending, v[nw:])
             state.pending = None
-            v = concatenate((xi0, v[nw:]))
-            res = Phi.dot(v)
+        res = Phi.dot(v)
         state.xi = res[:nw]
         if fast:
             r = res[nw : nw + rows]

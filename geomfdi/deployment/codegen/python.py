@@ -85,7 +85,7 @@ THRESHOLD = {_array(spec.thresholds)}
 STRUCTURE = np.array({spec.structure.astype(int).tolist()!r}, dtype=bool).reshape(
     {spec.n_rows}, {spec.n_faults}
 )
-PHI = np.vstack([np.hstack([A, B]), np.hstack([C, D]), np.r_[np.zeros(NW), np.ones(NY + NU)]])
+PHI = np.vstack([np.hstack([A, B]), np.hstack([C, D])])
 _DECISIONS = {{}}
 INITIAL, RESTART = {spec.initial!r}, {spec.restart!r}
 
@@ -131,18 +131,18 @@ def step(state, y, u=()):
     v = np.concatenate((state.xi, y, u))
     if v.size != NW + NY + NU:
         raise ValueError("y, u: expected %d and %d values" % (NY, NU))
-    res = PHI.dot(v)
     state.samples += 1
-    if not math.isfinite(res[-1]):  # a missing sample (a non-finite entry in y or u)
+    if not math.isfinite(v.dot(v)):  # a missing sample (a non-finite entry in y or u)
         r = np.full(NR, math.nan)
         raw = np.zeros(NR, dtype=bool)
         state.pending = RESTART
     else:
         if state.pending is not None:
             _start(state, v[NW:])
-            res = PHI.dot(np.concatenate((state.xi, v[NW:])))
+            v[:NW] = state.xi
+        res = PHI.dot(v)
         state.xi = res[:NW]
-        c = res[NW:-1]
+        c = res[NW:]
 {{ROWS_CODE}}
         raw = np.abs(r) > THRESHOLD
     if N == 1:
