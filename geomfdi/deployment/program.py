@@ -81,10 +81,10 @@ class Program:
         ``"discrete"`` or ``"foh"`` (sampled from a continuous bank).
     structure : ndarray of bool, (n_rows, n_faults)
         Achieved structure used for isolation.
-    schur : (T, Z, C Z, stops) or None
+    schur : (T, Z, Z^H B, stops, output blocks) or None
         Block-diagonal Schur form ``A = Z T Z^H`` (one unitary block per generator) used
         by the loop-free recursion of :func:`run_program`; ``stops[i]`` ends the block of
-        state ``i``.
+        state ``i``; per generator its component rows, state columns and ``C_b Z_b``.
     """
 
     A: np.ndarray
@@ -99,7 +99,7 @@ class Program:
     dt: float
     hold: str
     structure: np.ndarray
-    schur: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+    schur: tuple[Any, ...] | None = None
 
     @property
     def nw(self) -> int:
@@ -219,7 +219,7 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
     else:
         steady = np.zeros((0, nz))
     rows: list[tuple[int, int] | None] = []
-    schur = _block_schur(A, C, [g.order for g in gens]) if nw else None
+    schur = _block_schur(A, B, C, gens) if nw else None
     o = 0
     for g in bank.generators:
         if g is None:
@@ -245,25 +245,38 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
 
 
 def _block_schur(
-    A: np.ndarray, C: np.ndarray, orders: list[int]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    A: np.ndarray, B: np.ndarray, C: np.ndarray, gens: list[ResidualGenerator]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[Any]]:
     """Schur form of the block-diagonal ``A``, one generator block at a time.
 
     The unitary basis keeps the rounding of the recursion at the level of the plain
     sample-by-sample update (a modal basis would amplify it by its condition number).
     """
     Ts, Zs, stops = [], [], []
-    i = 0
-    for n in orders:
+    groups: dict[tuple[int, int], list[Any]] = {}
+    i = o = 0
+    for g in gens:
+        n, p = g.order, g.n_outputs
         if n:
             T, Z = schur_form(A[i : i + n, i : i + n])
             Ts.append(T)
             Zs.append(Z)
             stops += [i + n] * n
+            groups.setdefault((p, n), []).append((o, i, C[o : o + p, i : i + n] @ Z))
         i += n
+        o += p
+    # generators of equal sizes share one batched product (rows, states, C_b Z_b)
+    out_blocks = [
+        (
+            np.array([np.arange(o, o + p) for o, _, _ in items]),
+            np.array([np.arange(i, i + n) for _, i, _ in items]),
+            np.array([cz for _, _, cz in items]),
+        )
+        for (p, n), items in groups.items()
+    ]
     T = scipy.linalg.block_diag(*Ts)
     Z = scipy.linalg.block_diag(*Zs)
-    return T, Z, C @ Z, np.array(stops, dtype=int)
+    return T, Z, Z.conj().T @ B, np.array(stops, dtype=int), out_blocks
 
 
 INITIAL = ("zero", "steady")
@@ -355,11 +368,15 @@ def run_program(
             xi = initial_state(program, pending, Zs[:, 0])
             pending = None
         if program.nw:
-            T, Zu, CZ, stops = program.schur
-            Zh = Zu.conj().T
-            g = (Zh @ (program.B @ Zs))[:, None, :]
-            zt = triangular_recursion(T, g, (Zh @ xi)[:, None], stops)[:, 0, :]
-            comp[:, s:e] = (CZ @ zt[:, :-1]).real + program.D @ Zs
+            T, Zu, ZhB, stops, out_blocks = program.schur
+            g = (ZhB @ Zs)[:, None, :]
+            zt = triangular_recursion(T, g, (Zu.conj().T @ xi)[:, None], stops)[:, 0, :]
+            seg = program.D @ Zs
+            for rows_idx, cols_idx, CZs in out_blocks:  # block-diagonal output product
+                states = zt[cols_idx, :-1]  # (blocks, n, L)
+                prod = np.einsum("bpn,bnl->bpl", CZs, states, optimize=False)
+                seg[rows_idx] += prod.real if np.iscomplexobj(prod) else prod
+            comp[:, s:e] = seg
             xi = (Zu @ zt[:, -1]).real
         else:
             comp[:, s:e] = program.D @ Zs
