@@ -304,3 +304,25 @@ def test_example_evaluate_recorded(tmp_path: Path) -> None:
     for name in ("residuals.png", "isolation.png", "recorded.csv", "bank.json"):
         assert (tmp_path / name).stat().st_size > 500
     assert (tmp_path / "c" / "seed001_monitor.c").exists()
+
+
+def test_alarm_episodes_match_their_definition() -> None:
+    from geomfdi.deployment.recorded import alarm_episodes
+
+    rng = np.random.default_rng(0)
+    for _ in range(100):
+        N, R = int(rng.integers(1, 60)), int(rng.integers(1, 4))
+        alarms = rng.random((R, N)) < rng.random()
+        iso = np.where(alarms.any(axis=0), rng.integers(-3, 3, N), -1)
+        t = np.arange(N) * 0.1
+        got = alarm_episodes(t, alarms, iso)
+        on = np.r_[False, alarms.any(axis=0), False]
+        starts = np.flatnonzero(on[1:] & ~on[:-1])
+        stops = np.flatnonzero(~on[1:] & on[:-1])
+        assert len(got) == starts.size
+        for ep, s, e in zip(got, starts, stops, strict=True):
+            assert (ep.start, ep.stop) == (t[s], t[e - 1])
+            assert ep.residuals == tuple(np.flatnonzero(alarms[:, s:e].any(axis=1)).tolist())
+            ok = np.flatnonzero(iso[s:e] >= 0)
+            assert ep.fault == (int(iso[s + ok[0]]) if ok.size else None)
+            assert ep.isolated_at == (t[s + ok[0]] if ok.size else None)

@@ -184,23 +184,31 @@ class AlarmEpisode:
 
 
 def alarm_episodes(t: np.ndarray, alarms: np.ndarray, isolated: np.ndarray) -> list[AlarmEpisode]:
-    """Alarm episodes of one record (see :class:`AlarmEpisode`)."""
+    """Alarm episodes of one record (see :class:`AlarmEpisode`), without a Python loop
+    over samples (one object per episode)."""
     on = alarms.any(axis=0).astype(np.int8)
     edges = np.flatnonzero(np.diff(np.concatenate(([0], on, [0]))))
-    out = []
-    for s, e in zip(edges[::2], edges[1::2], strict=True):
-        iso = np.flatnonzero(isolated[s:e] >= 0)
-        fault = int(isolated[s + iso[0]]) if iso.size else None
-        out.append(
-            AlarmEpisode(
-                float(t[s]),
-                float(t[e - 1]),
-                tuple(int(r) for r in np.flatnonzero(alarms[:, s:e].any(axis=1))),
-                fault,
-                float(t[s + iso[0]]) if iso.size else None,
-            )
+    starts, stops = edges[::2], edges[1::2]
+    if starts.size == 0:
+        return []
+    # rows alarming in each episode: OR over [start_i, start_{i+1}) (zeros between episodes)
+    rows = np.logical_or.reduceat(alarms, starts, axis=1).T.tolist()
+    hits = np.flatnonzero(isolated >= 0)
+    first = np.searchsorted(hits, starts)
+    first_k = hits[np.minimum(first, max(hits.size - 1, 0))] if hits.size else starts
+    found = (first < hits.size) & (first_k < stops) if hits.size else np.zeros(starts.size, bool)
+    ts, te, tk = t[starts].tolist(), t[stops - 1].tolist(), t[first_k].tolist()
+    faults = isolated[first_k].tolist()
+    return [
+        AlarmEpisode(
+            ts[i],
+            te[i],
+            tuple(r for r, b in enumerate(rows[i]) if b),
+            int(faults[i]) if found[i] else None,
+            tk[i] if found[i] else None,
         )
-    return out
+        for i in range(starts.size)
+    ]
 
 
 @dataclass
