@@ -50,6 +50,7 @@ class CodeSpec:
     structure: np.ndarray
     initial: str  # "zero", "steady" or "explicit"
     restart: str
+    orders: tuple[int, ...]  # generator orders (existing generators, in row order)
 
     @property
     def nw(self) -> int:
@@ -131,4 +132,5 @@ def code_spec(
         structure=np.asarray(p.structure, dtype=bool),
         initial=init if isinstance(init, str) else "explicit",
         restart=mon._restart,
+        orders=tuple(g.order for g in mon.bank.generators if g is not None),
     )
