@@ -373,10 +373,21 @@ def run_program(
             zt = triangular_recursion(T, g, (Zu.conj().T @ xi)[:, None], stops)[:, 0, :]
             seg = program.D @ Zs
             for rows_idx, cols_idx, CZs in out_blocks:  # block-diagonal output product
-                states = zt[cols_idx, :-1]  # (blocks, n, L)
+                nb, n = cols_idx.shape
+                if cols_idx.size == program.nw:  # every generator: a view, no gather
+                    states = zt[:, :-1].reshape(nb, n, -1)
+                else:
+                    states = zt[cols_idx, :-1]  # (blocks, n, L)
                 prod = np.einsum("bpn,bnl->bpl", CZs, states, optimize=False)
-                seg[rows_idx] += prod.real if np.iscomplexobj(prod) else prod
-            comp[:, s:e] = seg
+                prod = prod.real if np.iscomplexobj(prod) else prod
+                if rows_idx.size == program.nc:
+                    seg += prod.reshape(program.nc, -1)
+                else:
+                    seg[rows_idx] += prod
+            if e - s == L:
+                comp = seg
+            else:
+                comp[:, s:e] = seg
             xi = (Zu @ zt[:, -1]).real
         else:
             comp[:, s:e] = program.D @ Zs
