@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from geomfdi._validation import as_vector
 from geomfdi.deployment._lti import discretize_hold, schur_form, triangular_recursion
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
@@ -297,8 +298,6 @@ def check_initial(initial: Any, program: Program) -> Any:
                 argument="initial",
             )
         return initial
-    from geomfdi._validation import as_vector
-
     return as_vector(initial, "initial", length=program.nw).copy()
 
 
