@@ -16,6 +16,10 @@ __all__ = [
     "NotIsolableError",
     "RankDeficientError",
     "ModelFileError",
+    "TimeGridError",
+    "NotDiscreteError",
+    "BankFileError",
+    "SchemaVersionError",
 ]
 
 
@@ -69,3 +73,32 @@ class NotIsolableError(DesignError):
 
 class ModelFileError(GeomFDIError):
     """A model file (TOML) is missing an entry or holds an invalid one."""
+
+
+# ------------------------------------------------------- deployment (evaluate, save/load)
+class TimeGridError(GeomFDIError):
+    """A time vector is not finite, not strictly increasing, or not uniformly spaced."""
+
+
+class NotDiscreteError(GeomFDIError):
+    """A discrete-time bank is needed (code generation); discretise the bank first."""
+
+
+class BankFileError(GeomFDIError):
+    """A saved bank or monitor file is unreadable, truncated, tampered with or invalid.
+
+    Attributes
+    ----------
+    path : str or None
+        The file, when the data came from one.
+    """
+
+    def __init__(
+        self, message: str, *, path: str | None = None, argument: str | None = "path"
+    ) -> None:
+        super().__init__(message, argument=argument)
+        self.path = path
+
+
+class SchemaVersionError(BankFileError):
+    """A saved file was written with a newer (or unknown) schema version."""

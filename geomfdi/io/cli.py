@@ -429,7 +429,96 @@ def _parser() -> argparse.ArgumentParser:
             action="store_true",
             help="on an unexpected internal error, show the Python traceback",
         )
+    _add_deployment_parsers(sub)
     return p
+
+
+# ---------------------------------------------------- deployment: evaluate, codegen
+def _add_deployment_parsers(sub: Any) -> None:
+    """``evaluate`` and ``codegen``; their work is in :mod:`geomfdi.deployment.commands`."""
+    text = "run the designed bank on recorded data (CSV); write residuals, alarms, report.md"
+    ev = sub.add_parser("evaluate", help=text, description=text)
+    ev.add_argument("model", help="model file (TOML)")
+    ev.add_argument("data", help="CSV with a header row: t, y0, y1, ..., u0, ...")
+    text = "write C99 or Python code of the designed bank's online monitor"
+    cg = sub.add_parser("codegen", help=text, description=text)
+    cg.add_argument("model", help="model file (TOML)")
+    cg.add_argument("--lang", choices=("c", "python"), required=True)
+    cg.add_argument("--name", default="fdi_monitor", help="file and symbol prefix")
+    cg.add_argument("--dt", type=float, default=None, help="sample a continuous design at DT")
+    for sp in (ev, cg):
+        sp.add_argument("--out", type=Path, default=Path.cwd(), help="output directory")
+        sp.add_argument("--method", default=None, help="design method (default: the first)")
+        sp.add_argument("--threshold", type=float, default=None, help="override the threshold")
+        sp.add_argument("--persistence", default=None, help="D consecutive or K/N samples")
+        sp.add_argument("--initial", choices=("steady", "zero"), default="steady")
+        sp.add_argument("--no-plots", action="store_true", help="do not write PNG figures")
+        sp.add_argument("--quiet", action="store_true", help="print nothing but errors")
+        sp.add_argument("--traceback", action="store_true", help="show internal tracebacks")
+
+
+def _deployment_bank(args: Any) -> tuple[ModelSpec, str, ResidualBank, Any]:
+    spec = load_model(args.model)
+    banks = design_all(spec)
+    method = args.method or next(iter(banks))
+    if method not in banks:
+        raise GeomFDIError(
+            f"--method: {method!r} is not a design of the model file ({sorted(banks)})",
+            argument="method",
+        )
+    bank = banks[method]
+    threshold = args.threshold if args.threshold is not None else _threshold(spec, bank)
+    return spec, method, bank, threshold
+
+
+def _run_deployment(args: Any) -> int:
+    from geomfdi.deployment import commands
+
+    try:
+        spec, method, bank, threshold = _deployment_bank(args)
+        persistence = commands.parse_persistence(args.persistence)
+        if args.command == "evaluate":
+            summary = commands.evaluate_files(
+                bank,
+                threshold,
+                args.data,
+                args.out,
+                model=spec.name,
+                method=method,
+                persistence=persistence,
+                initial=args.initial,
+                plots=not args.no_plots,
+            )
+            text = summary["report"] + f"\nwritten to {args.out}"
+        else:
+            paths = commands.codegen_files(
+                bank,
+                threshold,
+                args.lang,
+                args.out,
+                name=args.name,
+                dt=args.dt,
+                persistence=persistence,
+                initial=args.initial,
+            )
+            text = "written: " + ", ".join(str(p) for p in paths)
+    except (GeomFDIError, OSError) as exc:
+        print(f"geomfdi: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    except Exception as exc:  # an internal error: one line unless asked for the traceback
+        if args.traceback:
+            raise
+        print(
+            f"geomfdi: error: internal error {type(exc).__name__}: {_one_line(exc)}",
+            file=sys.stderr,
+        )
+        return 1
+    if not args.quiet:
+        print(text)
+    return 0
+
+
+# ---------------------------------------------------------------------------------
 
 
 def _one_line(text: str) -> str:
@@ -446,6 +535,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ``geomfdi: warning: ...`` lines unless ``--quiet``.
     """
     args = _parser().parse_args(argv)
+    if args.command in ("evaluate", "codegen"):
+        return _run_deployment(args)
     steps = {
         "design": ("design",),
         "verify": ("design", "verify"),

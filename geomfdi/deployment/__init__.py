@@ -1,0 +1,28 @@
+"""Deployment of residual banks: evaluation on recorded and live data, save/load, code.
+
+``evaluate`` (recorded data), ``Monitor`` (sample by sample), ``discretize_bank``
+(``bank.discretize``), ``save_bank`` / ``load_bank`` / ``save_monitor`` /
+``load_monitor`` (versioned JSON) and the ``codegen`` module (C99 and Python).  See the
+user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
+"""
+
+from geomfdi.deployment.decide import Persistence
+from geomfdi.deployment.discretize import discretize_bank
+from geomfdi.deployment.monitor import Monitor, MonitorOutput, MonitorStep
+from geomfdi.deployment.persistence import load_bank, load_monitor, save_bank, save_monitor
+from geomfdi.deployment.recorded import AlarmEpisode, EvaluationResult, evaluate
+
+__all__ = [
+    "AlarmEpisode",
+    "EvaluationResult",
+    "Monitor",
+    "MonitorOutput",
+    "MonitorStep",
+    "Persistence",
+    "discretize_bank",
+    "evaluate",
+    "load_bank",
+    "load_monitor",
+    "save_bank",
+    "save_monitor",
+]

@@ -1,0 +1,136 @@
+"""What generated code needs: the fused matrices, decisions and start-up rules.
+
+Both generators (C and Python) emit exactly the per-sample algorithm of
+:class:`geomfdi.Monitor` (see :mod:`geomfdi.deployment.online`):
+
+1. ``z = [y; u]``; if an entry is not finite the sample is *missing*: residuals ``nan``,
+   a raw alarm pattern of zeros enters the persistence window, and the next valid sample
+   restarts the generators (``restart`` rule);
+2. at the first valid sample of a segment ``xi = S z`` (steady), ``-J z`` (zero) or
+   ``w0 - J z`` (explicit ``w0``);
+3. ``c = C xi + D z``, ``xi <- A xi + B z``; residual of row ``i`` = ``c[a]`` or
+   ``sqrt(c[a]^2 + ... )`` (sequential sum), ``0`` for a missing generator;
+4. raw alarm ``|r_i| > threshold_i``; k-of-n ring buffer of raw alarms; confirmed when the
+   count reaches ``k``;
+5. isolation: the structure column equal to the confirmed pattern (``-1`` no alarm,
+   ``-2`` unexplained, ``-3`` ambiguous), as :func:`geomfdi.isolate`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from geomfdi.errors import GeomFDIError, NotDiscreteError
+
+__all__ = ["CodeSpec", "code_spec", "check_name"]
+
+
+@dataclass(frozen=True)
+class CodeSpec:
+    """Numbers of the generated code (module docstring)."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    J: np.ndarray
+    S: np.ndarray
+    W0: np.ndarray
+    rows: tuple[tuple[int, int] | None, ...]
+    q: int
+    m: int
+    dt: float
+    thresholds: np.ndarray  # +inf: row never alarms
+    k: int
+    n: int
+    structure: np.ndarray
+    initial: str  # "zero", "steady" or "explicit"
+    restart: str
+    orders: tuple[int, ...]  # generator orders (existing generators, in row order)
+
+    @property
+    def nw(self) -> int:
+        return self.A.shape[0]
+
+    @property
+    def nc(self) -> int:
+        return self.C.shape[0]
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.rows)
+
+    @property
+    def n_faults(self) -> int:
+        return self.structure.shape[1]
+
+
+def check_name(name: str) -> str:
+    """A C identifier / Python module name (letters, digits, underscores)."""
+    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+        raise GeomFDIError(
+            f"name: must be an identifier (letters, digits, _), got {name!r}", argument="name"
+        )
+    return name
+
+
+def code_spec(
+    source: Any,
+    *,
+    threshold: Any = None,
+    persistence: Any = None,
+    initial: Any = "steady",
+) -> CodeSpec:
+    """The :class:`CodeSpec` of a :class:`~geomfdi.Monitor` or a discrete bank.
+
+    A monitor carries its own threshold, persistence and start-up rule; for a bank they
+    are given here (as for :class:`~geomfdi.Monitor`).
+    """
+    from geomfdi.deployment.monitor import Monitor
+
+    if isinstance(source, Monitor):
+        mon = source
+    else:
+        from geomfdi.deployment.program import as_bank
+
+        bank = as_bank(source)
+        if bank.dt <= 0:
+            raise NotDiscreteError(
+                "bank: code is generated for discrete banks only; sample this continuous "
+                "bank first with bank.discretize(dt) (or design on a discrete plant)",
+                argument="bank",
+            )
+        mon = Monitor(bank, threshold=threshold, persistence=persistence, initial=initial)
+    if mon.bank.dt <= 0:
+        raise NotDiscreteError(
+            "monitor: code is generated for discrete banks only; build the monitor on "
+            "bank.discretize(dt)",
+            argument="monitor",
+        )
+    p = mon.program
+    thr = np.full(p.n_rows, np.inf) if mon.thresholds is None else mon.thresholds
+    init = mon.initial
+    return CodeSpec(
+        A=p.A,
+        B=p.B,
+        C=p.C,
+        D=p.D,
+        J=p.J,
+        S=p.steady if p.steady is not None else np.zeros((p.nw, p.nz)),
+        W0=np.zeros(p.nw) if isinstance(init, str) else np.asarray(init, dtype=float),
+        rows=p.rows,
+        q=p.q,
+        m=p.m,
+        dt=p.dt,
+        thresholds=np.asarray(thr, dtype=float),
+        k=mon.persistence.k,
+        n=mon.persistence.n,
+        structure=np.asarray(p.structure, dtype=bool),
+        initial=init if isinstance(init, str) else "explicit",
+        restart=mon._restart,
+        orders=tuple(g.order for g in mon.bank.generators if g is not None),
+    )

@@ -1,0 +1,202 @@
+"""The ``geomfdi evaluate`` and ``geomfdi codegen`` commands (their work, not their parsing).
+
+``geomfdi evaluate MODEL.toml DATA.csv --out DIR`` designs the model's bank, reads the
+CSV (a header row naming the columns ``t`` or ``time``, outputs ``y0, y1, ...`` and
+inputs ``u0, ...``; empty or ``nan`` cells are missing samples), runs
+:func:`geomfdi.evaluate` and writes ``residuals.csv``, ``alarms.csv`` (confirmed alarms and
+the isolation decision per sample), ``report.md`` (thresholds, masked windows, alarm
+episodes with isolation) and ``residuals.png``.
+
+``geomfdi codegen MODEL.toml --lang c|python --out DIR`` writes the monitor's code
+(:mod:`geomfdi.deployment.codegen`) for the model's discrete bank, or for a continuous
+design sampled at ``--dt``.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from geomfdi.deployment.decide import as_persistence
+from geomfdi.deployment.recorded import EvaluationResult, channel_columns, evaluate
+from geomfdi.errors import GeomFDIError, ShapeError
+
+__all__ = ["read_csv", "evaluate_files", "codegen_files", "parse_persistence"]
+
+
+def parse_persistence(text: str | None) -> Any:
+    """``"3"`` (3 consecutive samples) or ``"2/3"`` (2 of 3) from the command line."""
+    if text is None:
+        return None
+    try:
+        parts = [int(p) for p in str(text).split("/")]
+    except ValueError:
+        parts = []
+    if len(parts) == 1:
+        return as_persistence(parts[0])
+    if len(parts) == 2:
+        return as_persistence(tuple(parts))
+    raise GeomFDIError(
+        f"--persistence: expected D or K/N (integers), got {text!r}", argument="persistence"
+    )
+
+
+def read_csv(path: str | Path, q: int, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``t, y (q, N), u (m, N)`` from a CSV with a header row (module docstring)."""
+    path = Path(path)
+    with path.open(newline="", encoding="utf-8") as fh:
+        header = next(csv.reader(fh), None)
+    if not header:
+        raise ShapeError(f"{path}: empty file (expected a header row)", argument="data")
+    header = [h.strip() for h in header]
+    ys, us = channel_columns(header, "y"), channel_columns(header, "u")
+    tcol = next((c for c in ("t", "time") if c in header), None)
+    if tcol is None:
+        raise ShapeError(f"{path}: no time column (name it t or time)", argument="data")
+    if len(ys) != q or len(us) != m:
+        raise ShapeError(
+            f"{path}: the bank reads {q} outputs and {m} inputs; the header has "
+            f"{len(ys)} output columns {ys} and {len(us)} input columns {us}",
+            argument="data",
+        )
+    data = np.genfromtxt(path, delimiter=",", skip_header=1, dtype=float, ndmin=2)
+    if data.ndim != 2 or data.shape[1] != len(header):
+        raise ShapeError(
+            f"{path}: expected {len(header)} columns per row, got shape {data.shape}",
+            argument="data",
+        )
+    col = {h: i for i, h in enumerate(header)}
+    t = data[:, col[tcol]]
+    y = data[:, [col[c] for c in ys]].T
+    u = data[:, [col[c] for c in us]].T if us else np.zeros((0, data.shape[0]))
+    return t, y, u
+
+
+def _write_table(path: Path, header: list[str], columns: list[np.ndarray]) -> None:
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        for row in zip(*columns, strict=True):
+            w.writerow(
+                [repr(float(x)) if isinstance(x, float | np.floating) else int(x) for x in row]
+            )
+
+
+def _fmt(x: float | None) -> str:
+    return "-" if x is None else f"{x:.6g}"
+
+
+def _report(res: EvaluationResult, model: str, data: str, method: str) -> str:
+    lines = [
+        f"# Residual evaluation: {model}",
+        "",
+        f"Data: `{data}`, {res.t.size} samples, t = {res.t[0]:g} .. {res.t[-1]:g} s, "
+        f"dt = {res.info['dt']:g} s; design `{method}`; start-up `{res.info['initial']}`; "
+        f"persistence {res.persistence.k} of {res.persistence.n}.",
+        "",
+        "| residual | threshold | max abs(r) | alarming samples |",
+        "|---|---|---|---|",
+    ]
+    for i, lab in enumerate(res.residual_labels):
+        thr = "-" if res.threshold is None else _fmt(float(res.threshold.values[i]))
+        row = res.residuals[i]
+        peak = float(np.nanmax(np.abs(row))) if np.isfinite(row).any() else float("nan")
+        lines.append(f"| {lab} | {thr} | {peak:.6g} | {int(res.alarms[i].sum())} |")
+    lines += ["", "## Masked windows (missing samples)", ""]
+    lines += [f"- {a:g} .. {b:g} s" for a, b in res.gaps] or ["none"]
+    lines += ["", "## Alarm episodes", ""]
+    if res.episodes:
+        lines += [
+            "| start | stop | residuals | isolated fault | isolated at |",
+            "|---|---|---|---|---|",
+        ]
+        for ep in res.episodes:
+            fault = "-" if ep.fault is None else res.fault_labels[ep.fault]
+            rs = ", ".join(res.residual_labels[r] for r in ep.residuals)
+            lines.append(
+                f"| {ep.start:g} | {ep.stop:g} | {rs} | {fault} | {_fmt(ep.isolated_at)} |"
+            )
+    else:
+        lines.append("none")
+    return "\n".join(lines) + "\n"
+
+
+def evaluate_files(
+    bank: Any,
+    threshold: Any,
+    data: str | Path,
+    out: Path,
+    *,
+    model: str = "model",
+    method: str = "",
+    persistence: Any = None,
+    initial: str = "steady",
+    plots: bool = True,
+) -> dict[str, Any]:
+    """Evaluate ``bank`` on the CSV ``data``; write the outputs to ``out`` (module docstring).
+
+    Returns a summary dict (``report`` text, ``episodes``, ``gaps``, file paths).
+    """
+    gens = [g for g in bank.generators if g is not None]
+    if not gens:
+        raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
+    t, y, u = read_csv(data, gens[0].q, gens[0].m)
+    res = evaluate(bank, y, u, t, threshold=threshold, persistence=persistence, initial=initial)
+    out.mkdir(parents=True, exist_ok=True)
+    _write_table(out / "residuals.csv", ["t", *res.residual_labels], [res.t, *list(res.residuals)])
+    _write_table(
+        out / "alarms.csv",
+        ["t", *res.residual_labels, "isolated"],
+        [res.t, *[a.astype(int) for a in res.alarms], res.isolated],
+    )
+    report = _report(res, model, str(data), method)
+    (out / "report.md").write_text(report, encoding="utf-8")
+    files = ["residuals.csv", "alarms.csv", "report.md"]
+    if plots:
+        from geomfdi.plotting.residuals import save_png
+
+        save_png(res.plot(title=f"{model}: {Path(data).name}"), out / "residuals.png")
+        files.append("residuals.png")
+    return {
+        "report": report,
+        "files": files,
+        "episodes": [ep.__dict__ for ep in res.episodes],
+        "gaps": res.gaps,
+        "result": res,
+    }
+
+
+def codegen_files(
+    bank: Any,
+    threshold: Any,
+    lang: str,
+    out: Path,
+    *,
+    name: str = "fdi_monitor",
+    dt: float | None = None,
+    persistence: Any = None,
+    initial: str = "steady",
+) -> list[Path]:
+    """Write the monitor code for ``bank`` (sampled with zero-order hold at ``dt`` when
+    continuous) in ``lang`` (``"c"`` or ``"python"``) to ``out``."""
+    from geomfdi.deployment import codegen
+    from geomfdi.deployment.discretize import discretize_bank
+    from geomfdi.errors import NotDiscreteError
+
+    if bank.dt <= 0:
+        if dt is None:
+            raise NotDiscreteError(
+                "--dt: the model's bank is continuous; give the sampling period to "
+                "discretise it (or set plant.dt in the model)",
+                argument="dt",
+            )
+        bank = discretize_bank(bank, dt, "zoh")
+    kw = {"threshold": threshold, "persistence": persistence, "initial": initial}
+    if lang == "c":
+        return list(codegen.c(bank, name, out, **kw))
+    if lang == "python":
+        return [codegen.python(bank, name, out, **kw)]
+    raise GeomFDIError(f"--lang: must be c or python, got {lang!r}", argument="lang")

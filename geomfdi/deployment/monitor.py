@@ -1,0 +1,192 @@
+"""Online residual evaluation: :class:`Monitor`.
+
+A monitor runs a bank sample by sample (:meth:`Monitor.step`) or chunk by chunk
+(:meth:`Monitor.feed`) with the same fused recursion, start-up rule, missing-sample
+handling, threshold, k-of-n persistence and isolation as :func:`geomfdi.evaluate`, so
+step-by-step, chunked and recorded evaluation agree (residuals to rounding, decisions
+exactly).  Its :attr:`Monitor.state` is a plain dict (JSON-serialisable) and
+:meth:`Monitor.save` writes the whole monitor to a versioned JSON file.  See the user
+guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from geomfdi.deployment.decide import as_persistence, threshold_values
+from geomfdi.deployment.online import (
+    MonitorOutput,
+    MonitorState,
+    MonitorStep,
+    feed_chunk,
+    make_step,
+)
+from geomfdi.deployment.program import Program, as_bank, build_program, check_initial, restart_rule
+from geomfdi.errors import GeomFDIError, ShapeError
+
+__all__ = ["Monitor", "MonitorStep", "MonitorOutput"]
+
+
+class Monitor:
+    """Online state machine evaluating a residual bank one sample at a time.
+
+    Parameters
+    ----------
+    bank : ResidualBank or ResidualGenerator
+        Discrete, or continuous with ``dt`` (sampled with a first-order hold).
+    dt : float, optional
+        Sampling period (required for a continuous bank).
+    threshold : None, float, (n_residuals,) or Threshold
+        Alarm when ``|r_i| > threshold_i`` (the ``"abs"`` statistic).
+    persistence : None, int, (k, n) or Persistence
+        k-of-n confirmation (:mod:`geomfdi.deployment.decide`).
+    isolation : bool
+        Compute the isolation decision per sample.
+    initial : {"steady", "zero"} or array_like
+        Generator state at the first sample, as in :func:`geomfdi.evaluate`.
+
+    Examples
+    --------
+    >>> import numpy as np, geomfdi as gf
+    >>> g = gf.ResidualGenerator([[0.5]], [[-0.5]], [[0.0]], [[1.0]], [[1.0]], [[0.0]], dt=0.1)
+    >>> mon = gf.Monitor(g, threshold=0.4, persistence=2)
+    >>> [bool(mon.step([y], [0.0]).alarms[0]) for y in (1.0, 1.0, 2.0, 2.0, 2.0)]
+    [False, False, False, True, False]
+    """
+
+    def __init__(
+        self,
+        bank: Any,
+        dt: float | None = None,
+        threshold: Any = None,
+        persistence: Any = None,
+        isolation: bool = True,
+        initial: Any = "steady",
+    ) -> None:
+        self.bank = as_bank(bank)
+        self.program = build_program(self.bank, dt)
+        self.dt = self.program.dt
+        self.thresholds = threshold_values(threshold, self.program.n_rows, self.program.present)
+        self.persistence = as_persistence(persistence)
+        self.isolation = bool(isolation)
+        self.initial = check_initial(initial, self.program)
+        self._restart = restart_rule(self.program, self.initial)
+        self.reset()
+
+    @property
+    def n_residuals(self) -> int:
+        return self.program.n_rows
+
+    def reset(self) -> None:
+        """Back to the state before the first sample."""
+        self._state = MonitorState(self.program, self.persistence, self.initial)
+        self._step = make_step(
+            self.program,
+            self._state,
+            self.thresholds,
+            self.persistence,
+            self.isolation,
+            self._restart,
+        )
+
+    def step(self, y: Any, u: Any = None) -> MonitorStep:
+        """One sample ``y`` (q,), ``u`` (m,): residual per bank row, confirmed alarms and
+        the isolation decision.  A sample with a non-finite entry gives ``nan`` residuals,
+        no alarm, and restarts the generators at the next valid sample."""
+        return self._step(y, u)
+
+    def feed(self, Y: Any, U: Any = None) -> MonitorOutput:
+        """A chunk of samples ``Y`` (q, L), ``U`` (m, L), without a per-sample loop."""
+        return feed_chunk(
+            self.program,
+            self._state,
+            Y,
+            U,
+            self.thresholds,
+            self.persistence,
+            self.isolation,
+            self._restart,
+        )
+
+    @property
+    def state(self) -> dict[str, Any]:
+        """The current state as plain lists (generator state ``xi``, pending start-up
+        rule, raw alarms of the last ``n`` samples oldest first, samples seen)."""
+        return state_dict(self._state, self.program)
+
+    @state.setter
+    def state(self, value: dict[str, Any]) -> None:
+        set_state(self._state, self.program, self.persistence, value)
+
+    def save(self, path: str | Path) -> Path:
+        """Write the monitor (bank, settings and state) to a versioned JSON file."""
+        from geomfdi.deployment.persistence import save_monitor
+
+        return save_monitor(self, path)
+
+    def __repr__(self) -> str:
+        p = self.persistence
+        thr = "set" if self.thresholds is not None else None
+        return (
+            f"Monitor(rows={self.n_residuals}, order={self.program.nw}, dt={self.dt:g}, "
+            f"persistence={p.k}-of-{p.n}, threshold={thr})"
+        )
+
+
+def _pending_json(pending: Any) -> Any:
+    if pending is None or isinstance(pending, str):
+        return pending
+    return [float(x) for x in pending]
+
+
+def state_dict(state: MonitorState, program: Program) -> dict[str, Any]:
+    """The state of a monitor as a JSON-ready dict (see :attr:`Monitor.state`)."""
+    return {
+        "xi": [float(x) for x in state.xi],
+        "last_sample": [float(x) for x in state.last],
+        "pending": _pending_json(state.pending),
+        "ring": state.ordered_ring().astype(int).tolist(),
+        "samples": int(state.samples),
+    }
+
+
+def set_state(state: MonitorState, program: Any, persistence: Any, value: Any) -> None:
+    """Restore a state written by :func:`state_dict` (checked)."""
+    if not isinstance(value, dict):
+        raise GeomFDIError("state: expected a dict", argument="state")
+    need = {"xi", "last_sample", "pending", "ring", "samples"}
+    if set(value) != need:
+        raise GeomFDIError(f"state: expected the keys {sorted(need)}", argument="state")
+    xi = np.asarray(value["xi"], dtype=float)
+    last = np.asarray(value["last_sample"], dtype=float)
+    ring = np.asarray(value["ring"])
+    if xi.shape != (program.nw,) or last.shape != (program.nz,):
+        raise ShapeError(
+            f"state: xi must have {program.nw} and last_sample {program.nz} entries",
+            argument="state",
+        )
+    if ring.shape != (persistence.n, program.n_rows) or not np.isin(ring, (0, 1)).all():
+        raise ShapeError(
+            f"state: ring must be a 0/1 array of shape ({persistence.n}, {program.n_rows})",
+            argument="state",
+        )
+    pending = value["pending"]
+    if pending is not None and not isinstance(pending, str):
+        pending = np.asarray(pending, dtype=float)
+        if pending.shape != (program.nw,):
+            raise ShapeError(
+                f"state: pending state must have {program.nw} entries", argument="state"
+            )
+    elif isinstance(pending, str) and pending not in ("zero", "steady"):
+        raise GeomFDIError(f"state: unknown pending rule {pending!r}", argument="state")
+    samples = value["samples"]
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 0:
+        raise GeomFDIError("state: samples must be an integer >= 0", argument="state")
+    state.xi = xi
+    state.last = last
+    state.pending = pending
+    state.set_ring(ring.astype(bool))
+    state.samples = samples

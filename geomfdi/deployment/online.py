@@ -1,0 +1,268 @@
+"""The per-sample step and the chunked update of an online monitor.
+
+State of a monitor (all in preallocated arrays, updated in place):
+
+* ``v = [xi; z]``: the fused generator state ``xi`` followed by the current sample
+  ``z = [y; u]``, so that one product ``Phi v`` with ``Phi = [[A, B], [C, D]]`` gives the
+  next state and the residual components (:mod:`geomfdi.deployment.program`);
+* ``pending``: the initial-state rule still to apply (start, or after a missing sample);
+* ``ring`` (``n`` x rows, bool), ``pos``, ``count``: the raw alarms of the last ``n``
+  samples (oldest at ``pos``) and their per-row sum, for the k-of-n rule of
+  :mod:`geomfdi.deployment.decide`.
+
+:func:`make_step` builds the one-sample update as a closure over these arrays (no
+attribute look-ups, no allocation but the returned copies); :func:`feed_chunk` runs a
+whole chunk with the loop-free recursion and leaves the same state behind, so any mix of
+steps and chunks gives the same residuals (to rounding) and the same decisions.  See the
+user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from geomfdi.deployment.decide import Persistence, confirm, decision_code
+from geomfdi.deployment.program import Program, initial_state, run_program
+from geomfdi.errors import ShapeError
+from geomfdi.evaluation.decision import isolate
+
+__all__ = ["MonitorStep", "MonitorOutput", "MonitorState", "make_step", "feed_chunk"]
+
+
+class MonitorStep(NamedTuple):
+    """Outcome of one :meth:`Monitor.step`: residual per bank row, confirmed alarms, and
+    the isolation decision (fault index, or ``-1`` / ``-2`` / ``-3``; ``None`` when
+    isolation is off)."""
+
+    residuals: np.ndarray
+    alarms: np.ndarray
+    isolated: int | None
+
+
+@dataclass
+class MonitorOutput:
+    """Outcome of :meth:`Monitor.feed` on ``L`` samples.
+
+    Attributes
+    ----------
+    residuals : ndarray, (n_residuals, L)
+    raw_alarms, alarms : ndarray of bool, (n_residuals, L)
+    isolated : ndarray of int (L,) or None
+    masked : ndarray of bool, (L,)
+    """
+
+    residuals: np.ndarray
+    raw_alarms: np.ndarray
+    alarms: np.ndarray
+    isolated: np.ndarray | None
+    masked: np.ndarray
+
+
+class MonitorState:
+    """The mutable state of a monitor (module docstring).
+
+    ``xi`` (generator state), ``last`` (the last sample ``z``), ``pending`` (start-up
+    rule still to apply), ``history`` (the raw alarm patterns of the last ``n`` samples,
+    oldest first, each packed into an int with ``width`` bits per row) and ``packed``
+    (their per-row sums, packed the same way), ``samples`` (samples seen).
+    """
+
+    def __init__(self, program: Program, persistence: Persistence, pending: Any) -> None:
+        self.rows = program.n_rows
+        self.width = persistence.n.bit_length()
+        self.xi = np.zeros(program.nw)
+        self.last = np.zeros(program.nz)
+        self.pending = pending
+        self.history: deque[int] = deque([0] * persistence.n)
+        self.packed = 0
+        self.samples = 0
+
+    def pack(self, bits: Any) -> int:
+        """One alarm pattern (bool per row) as an int, ``width`` bits per row."""
+        w = self.width
+        return sum(1 << (w * i) for i, b in enumerate(bits) if b)
+
+    def counts(self, packed: int) -> np.ndarray:
+        """Per-row counts from a packed int."""
+        mask = (1 << self.width) - 1
+        return np.array([(packed >> (self.width * i)) & mask for i in range(self.rows)])
+
+    def ordered_ring(self) -> np.ndarray:
+        """The raw alarms of the last ``n`` samples, oldest first (``(n, rows)`` bool)."""
+        return np.array([self.counts(p) for p in self.history], dtype=bool).reshape(
+            len(self.history), self.rows
+        )
+
+    def set_ring(self, ordered: np.ndarray) -> None:
+        self.history = deque(self.pack(row) for row in ordered)
+        self.packed = sum(self.history)
+
+
+def _signal(value: Any, size: int, name: str) -> None:
+    if value is None:
+        if size:
+            raise ShapeError(f"{name}: expected {size} values, got None", argument=name)
+        return
+    if np.ndim(value) != 1 or len(value) != size:
+        raise ShapeError(
+            f"{name}: expected {size} values, got shape {np.shape(value)}", argument=name
+        )
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
+
+
+def make_step(
+    program: Program,
+    state: MonitorState,
+    thresholds: np.ndarray | None,
+    persistence: Persistence,
+    isolation: bool,
+    restart: str,
+) -> Any:
+    """The one-sample update ``step(y, u) -> MonitorStep`` over ``state``.
+
+    One fused product per sample: ``res = Phi [xi; z]`` with rows ``[A B]`` (next
+    state), ``[C D]`` and ``[-C -D]`` (the residual rows and their negatives, so that
+    ``|r| > threshold`` is one comparison).  A sample is missing when ``v . v`` is not
+    finite (a ``nan`` or an infinite entry).  The raw alarm pattern, its k-of-n counts
+    and the isolation decision are looked up in caches keyed by the packed pattern.
+    """
+    nw, q, m, nz = program.nw, program.q, program.m, program.nz
+    rows = program.n_rows
+    fast = all(s is None or s[1] - s[0] == 1 for s in program.rows)
+    if fast:  # one residual row per bank row (zero rows for missing generators)
+        Cr = np.zeros((rows, nw))
+        Dr = np.zeros((rows, nz))
+        for i, s in enumerate(program.rows):
+            if s is not None:
+                Cr[i], Dr[i] = program.C[s[0]], program.D[s[0]]
+        Phi = np.block([[program.A, program.B], [Cr, Dr], [-Cr, -Dr]])
+    else:
+        Phi = np.block([[program.A, program.B], [program.C, program.D]])
+    Phi = np.ascontiguousarray(Phi)
+    n_out = Phi.shape[0]
+    thr = np.full(rows, np.inf) if thresholds is None else thresholds
+    thr2 = np.concatenate([thr, thr])
+    k, n = persistence.k, persistence.n
+    structure = program.structure
+    raw_cache: dict[bytes, tuple[int, np.ndarray]] = {}
+    dec_cache: dict[int, tuple[np.ndarray, int | None]] = {}
+    nan_rows = np.full(rows, np.nan)
+    concatenate, isfinite = np.concatenate, math.isfinite
+    empty = np.zeros(0)
+
+    def decision(conf: np.ndarray) -> int | None:
+        return decision_code(conf, structure) if isolation else None
+
+    def raw_entry(key: bytes, raw: np.ndarray) -> tuple[int, np.ndarray]:
+        entry = raw_cache[key] = (state.pack(raw), _read_only(raw))
+        return entry
+
+    def confirmed(code: int, raw: np.ndarray) -> tuple[np.ndarray, int | None]:
+        if n == 1:
+            dec = dec_cache.get(code)
+            if dec is None:
+                dec = dec_cache[code] = (raw, decision(raw))
+            return dec
+        hist = state.history
+        hist.append(code)
+        packed = state.packed = state.packed + code - hist.popleft()
+        dec = dec_cache.get(packed)
+        if dec is None:
+            conf = _read_only(state.counts(packed) >= k)
+            dec = dec_cache[packed] = (conf, decision(conf))
+        return dec
+
+    zero_raw = np.zeros(rows, dtype=bool)
+
+    def step(y: Any, u: Any = None) -> MonitorStep:
+        if len(y) != q:
+            _signal(y, q, "y")
+        if m and (u is None or len(u) != m):
+            _signal(u, m, "u")
+        try:
+            v = concatenate((state.xi, y, u if m else empty))
+        except (ValueError, TypeError) as exc:
+            raise ShapeError(f"y, u: cannot read the sample ({exc})", argument="y") from exc
+        state.samples += 1
+        if not isfinite(v.dot(v)):  # a missing sample: flagged, state not advanced
+            state.pending = restart
+            conf, code = confirmed(0, zero_raw)
+            return MonitorStep(nan_rows.copy(), conf, code)
+        state.last = v[nw:]
+        if state.pending is not None:
+            v[:nw] = initial_state(program, state.pending, v[nw:])
+            state.pending = None
+        res = Phi.dot(v)
+        state.xi = res[:nw]
+        if fast:
+            r = res[nw : nw + rows]
+            key = (res[nw:n_out] > thr2).tobytes()
+            entry = raw_cache.get(key)
+            if entry is None:
+                raw = res[nw:n_out] > thr2
+                entry = raw_entry(key, raw[:rows] | raw[rows:])
+        else:
+            r = program.row_values(res[nw:n_out, None])[:, 0]
+            raw = np.abs(r) > thr
+            key = raw.tobytes()
+            entry = raw_cache.get(key) or raw_entry(key, raw)
+        conf, code = confirmed(entry[0], entry[1])
+        return MonitorStep(r, conf, code)
+
+    return step
+
+
+def feed_chunk(
+    program: Program,
+    state: MonitorState,
+    Y: Any,
+    U: Any,
+    thresholds: np.ndarray | None,
+    persistence: Persistence,
+    isolation: bool,
+    restart: str,
+) -> MonitorOutput:
+    """Run ``L`` samples (``Y`` (q, L), ``U`` (m, L)) and update ``state`` in place."""
+    from geomfdi._validation import as_real_array
+
+    Y = as_real_array(Y, "Y", allow_nonfinite=True)
+    if Y.ndim != 2 or Y.shape[0] != program.q:
+        raise ShapeError(f"Y: expected ({program.q}, L), got shape {Y.shape}", argument="Y")
+    L = Y.shape[1]
+    if U is None:
+        U = np.zeros((program.m, L))
+        if program.m:
+            raise ShapeError(f"U: the bank reads {program.m} inputs; pass U", argument="U")
+    U = as_real_array(U, "U", allow_nonfinite=True)
+    if U.shape != (program.m, L):
+        raise ShapeError(f"U: expected ({program.m}, {L}), got shape {U.shape}", argument="U")
+    Z = np.vstack([Y, U])
+    comp, valid, xi, pending = run_program(program, Z, state.xi, state.pending, restart)
+    state.xi = xi
+    if valid.any():
+        state.last = Z[:, np.flatnonzero(valid)[-1]].copy()
+    state.pending = pending
+    state.samples += L
+    residuals = program.row_values(comp)
+    residuals[:, ~valid] = np.nan
+    ordered = state.ordered_ring()
+    if thresholds is None:
+        raw = np.zeros(residuals.shape, dtype=bool)
+    else:
+        v = thresholds[:, None]
+        raw = (residuals > v) | (residuals < -v)
+    alarms = confirm(raw, persistence, ordered[1:].T)
+    n = persistence.n
+    full = np.concatenate([ordered, raw.T], axis=0)
+    state.set_ring(full[full.shape[0] - n :])
+    isolated = isolate(alarms, program.structure).isolated if isolation else None
+    return MonitorOutput(residuals, raw, alarms, isolated, ~valid)

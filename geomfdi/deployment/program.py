@@ -1,0 +1,395 @@
+"""The sampled, fused form of a residual bank that every deployment path runs.
+
+All existing generators of a bank are stacked into one discrete-time system on the
+signal ``z = [y; u]`` (measured outputs, then known inputs)::
+
+    xi[k+1] = A xi[k] + B z[k]
+    c[k]    = C xi[k] + D z[k]            (residual components of every generator)
+
+with ``A`` block diagonal (the generators' ``F``), ``B = [-E, G]``, ``C`` block diagonal
+(the ``M``) and ``D = [-H, K]``.  Bank row ``i`` reads its components ``c[k]`` as the
+residual itself (one component) or as their Euclidean norm (several), like
+:func:`geomfdi.simulate`; rows of missing generators are zero.
+
+A *continuous* bank is sampled exactly for inputs linear between samples (first-order
+hold, the convention of :func:`control.forced_response` and :func:`geomfdi.simulate`),
+``w[k+1] = Ad w[k] + B0 z[k] + B1 z[k+1]``, and put in the standard form with the
+state ``xi = w - B1 z``: ``A = Ad``, ``B = B0 + Ad B1``, ``D = D_c + C B1``.  A discrete
+bank is used as it is (``xi = w``).
+
+The same matrices drive :func:`geomfdi.evaluate` (loop-free recursion over a record),
+:class:`geomfdi.Monitor` (one sample at a time) and the generated C and Python code, so
+the three agree to rounding.  See the user guide, *Theory: residual evaluation*
+(``docs/theory/evaluation.md``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+
+from geomfdi._validation import as_vector
+from geomfdi.deployment._lti import discretize_hold, schur_form, triangular_recursion
+from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
+
+__all__ = ["Program", "build_program", "as_bank", "check_initial", "initial_state", "run_program"]
+
+
+def as_bank(bank: Any) -> ResidualBank:
+    """A :class:`ResidualBank` from a bank or a single generator (one row, no faults)."""
+    if isinstance(bank, ResidualBank):
+        return bank
+    if isinstance(bank, ResidualGenerator):
+        return ResidualBank(
+            [bank],
+            np.zeros((1, 0), dtype=bool),
+            np.zeros((1, 0), dtype=bool),
+            np.zeros(0, dtype=bool),
+            ["ok"],
+            [],
+            bank.dt,
+            bank.method,
+        )
+    raise GeomFDIError(
+        f"bank: expected a ResidualBank or ResidualGenerator, got {type(bank).__name__}",
+        argument="bank",
+    )
+
+
+@dataclass(frozen=True)
+class Program:
+    """The fused discrete form of a bank (module docstring).
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray
+        ``(nw, nw)``, ``(nw, nz)``, ``(nc, nw)``, ``(nc, nz)`` with ``nz = q + m``.
+    J : ndarray, (nw, nz)
+        ``xi = w - J z``: the first-order-hold shift (zero for a discrete bank).
+    steady : ndarray (nw, nz) or None
+        ``xi = steady @ z`` is the fixed point for a constant ``z``
+        (``(I - A)^-1 B``); ``None`` when ``I - A`` is singular (a pole at ``z = 1``).
+    rows : tuple of (int, int) or None
+        Component slice ``c[start:stop]`` of each bank row; ``None`` for missing rows.
+    q, m : int
+    dt : float
+        The sampling period.
+    hold : str
+        ``"discrete"`` or ``"foh"`` (sampled from a continuous bank).
+    structure : ndarray of bool, (n_rows, n_faults)
+        Achieved structure used for isolation.
+    schur : (T, Z, Z^H B, stops, output blocks) or None
+        Block-diagonal Schur form ``A = Z T Z^H`` (one unitary block per generator) used
+        by the loop-free recursion of :func:`run_program`; ``stops[i]`` ends the block of
+        state ``i``; per generator its component rows, state columns and ``C_b Z_b``.
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    J: np.ndarray
+    steady: np.ndarray | None
+    rows: tuple[tuple[int, int] | None, ...]
+    q: int
+    m: int
+    dt: float
+    hold: str
+    structure: np.ndarray
+    schur: tuple[Any, ...] | None = None
+
+    @property
+    def nw(self) -> int:
+        return self.A.shape[0]
+
+    @property
+    def nz(self) -> int:
+        return self.q + self.m
+
+    @property
+    def nc(self) -> int:
+        return self.C.shape[0]
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.rows)
+
+    @property
+    def present(self) -> list[int]:
+        return [i for i, s in enumerate(self.rows) if s is not None]
+
+    @property
+    def scalar_rows(self) -> bool:
+        """True when every bank row exists and has exactly one component, in order."""
+        return all(s is not None and s == (i, i + 1) for i, s in enumerate(self.rows))
+
+    def row_values(self, comp: np.ndarray) -> np.ndarray:
+        """Bank-row residuals from components ``comp`` (``(nc, ...)``): value or norm."""
+        out = np.zeros((self.n_rows, *comp.shape[1:]))
+        for i, s in enumerate(self.rows):
+            if s is None:
+                continue
+            a, b = s
+            if b - a == 1:
+                out[i] = comp[a]
+            else:  # sequential sum of squares, the order of the generated code
+                acc = comp[a] * comp[a]
+                for c in range(a + 1, b):
+                    acc = acc + comp[c] * comp[c]
+                out[i] = np.sqrt(acc)
+        return out
+
+
+def _stack(gens: list[ResidualGenerator]) -> tuple[np.ndarray, ...]:
+    q, m = gens[0].q, gens[0].m
+    nw = sum(g.order for g in gens)
+    nc = sum(g.n_outputs for g in gens)
+    F = np.zeros((nw, nw))
+    Bz = np.zeros((nw, q + m))
+    M = np.zeros((nc, nw))
+    Dz = np.zeros((nc, q + m))
+    i = o = 0
+    for g in gens:
+        F[i : i + g.order, i : i + g.order] = g.F
+        Bz[i : i + g.order] = np.hstack([-g.E, g.G])
+        M[o : o + g.n_outputs, i : i + g.order] = g.M
+        Dz[o : o + g.n_outputs] = np.hstack([-g.H, g.K])
+        i += g.order
+        o += g.n_outputs
+    return F, Bz, M, Dz
+
+
+def build_program(bank: Any, dt: float | None = None) -> Program:
+    """The fused discrete form of ``bank`` (module docstring).
+
+    Parameters
+    ----------
+    bank : ResidualBank or ResidualGenerator
+    dt : float, optional
+        Sampling period.  Required for a continuous bank; for a discrete bank it must
+        equal the bank's ``dt`` (relative ``1e-6``) when given.
+
+    Returns
+    -------
+    Program
+    """
+    bank = as_bank(bank)
+    gens = [g for g in bank.generators if g is not None]
+    if not gens:
+        raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
+    q, m = gens[0].q, gens[0].m
+    for g in gens:
+        if (g.q, g.m) != (q, m):
+            raise ShapeError(
+                "bank: the generators read different numbers of signals", argument="bank"
+            )
+    F, Bz, M, Dz = _stack(gens)
+    nw, nz = F.shape[0], q + m
+    bdt = float(bank.dt)
+    if bdt > 0:
+        if dt is not None and abs(float(dt) - bdt) > 1e-6 * bdt:
+            raise GeomFDIError(
+                f"dt: {float(dt):g} differs from the discrete bank's sampling period {bdt:g}",
+                argument="dt",
+            )
+        A, B, C, D, J, hold, step = F, Bz, M, Dz, np.zeros((nw, nz)), "discrete", bdt
+    else:
+        if dt is None:
+            raise GeomFDIError(
+                "dt: a continuous bank needs the sampling period of the data "
+                "(or discretise it with bank.discretize(dt))",
+                argument="dt",
+            )
+        step = float(dt)
+        if not np.isfinite(step) or step <= 0:
+            raise GeomFDIError(f"dt: must be finite and > 0, got {dt}", argument="dt")
+        dis = discretize_hold(F, Bz, step, "foh")
+        A, J = dis.Ad, dis.B1
+        B = dis.B0 + dis.Ad @ dis.B1
+        C, D = M, Dz + M @ dis.B1
+        hold = "foh"
+    steady = None
+    if nw:
+        IA = np.eye(nw) - A
+        if np.linalg.cond(IA) < 1e12:
+            steady = np.linalg.solve(IA, B)
+    else:
+        steady = np.zeros((0, nz))
+    rows: list[tuple[int, int] | None] = []
+    schur = _block_schur(A, B, C, gens) if nw else None
+    o = 0
+    for g in bank.generators:
+        if g is None:
+            rows.append(None)
+            continue
+        rows.append((o, o + g.n_outputs))
+        o += g.n_outputs
+    return Program(
+        np.ascontiguousarray(A),
+        np.ascontiguousarray(B),
+        np.ascontiguousarray(C),
+        np.ascontiguousarray(D),
+        np.ascontiguousarray(J),
+        steady,
+        tuple(rows),
+        q,
+        m,
+        step,
+        hold,
+        np.asarray(bank.structure, dtype=bool),
+        schur,
+    )
+
+
+def _block_schur(
+    A: np.ndarray, B: np.ndarray, C: np.ndarray, gens: list[ResidualGenerator]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[Any]]:
+    """Schur form of the block-diagonal ``A``, one generator block at a time.
+
+    The unitary basis keeps the rounding of the recursion at the level of the plain
+    sample-by-sample update (a modal basis would amplify it by its condition number).
+    """
+    Ts, Zs, stops = [], [], []
+    groups: dict[tuple[int, int], list[Any]] = {}
+    i = o = 0
+    for g in gens:
+        n, p = g.order, g.n_outputs
+        if n:
+            T, Z = schur_form(A[i : i + n, i : i + n])
+            Ts.append(T)
+            Zs.append(Z)
+            stops += [i + n] * n
+            groups.setdefault((p, n), []).append((o, i, C[o : o + p, i : i + n] @ Z))
+        i += n
+        o += p
+    # generators of equal sizes share one batched product (rows, states, C_b Z_b)
+    out_blocks = [
+        (
+            np.array([np.arange(o, o + p) for o, _, _ in items]),
+            np.array([np.arange(i, i + n) for _, i, _ in items]),
+            np.array([cz for _, _, cz in items]),
+        )
+        for (p, n), items in groups.items()
+    ]
+    T = scipy.linalg.block_diag(*Ts)
+    Z = scipy.linalg.block_diag(*Zs)
+    return T, Z, Z.conj().T @ B, np.array(stops, dtype=int), out_blocks
+
+
+INITIAL = ("zero", "steady")
+
+
+def check_initial(initial: Any, program: Program) -> Any:
+    """Validate ``initial``: ``"zero"``, ``"steady"`` or a generator state ``(nw,)``."""
+    if isinstance(initial, str):
+        if initial not in INITIAL:
+            raise GeomFDIError(
+                f"initial: must be 'zero', 'steady' or a state vector, got {initial!r}",
+                argument="initial",
+            )
+        if initial == "steady" and program.steady is None:
+            raise GeomFDIError(
+                "initial: 'steady' needs I - A invertible; a generator has a pole at z = 1 "
+                "(use 'zero' or an explicit state)",
+                argument="initial",
+            )
+        return initial
+    return as_vector(initial, "initial", length=program.nw).copy()
+
+
+def initial_state(program: Program, initial: Any, z0: np.ndarray) -> np.ndarray:
+    """``xi`` at the first sample of a segment whose first input is ``z0``.
+
+    ``"zero"``: generator state ``w = 0``; ``"steady"``: the fixed point for ``z0`` held
+    constant; an array: that generator state ``w``.  In the ``xi`` coordinates
+    ``xi = w - J z0``.
+    """
+    if isinstance(initial, str):
+        if initial == "steady":
+            return program.steady @ z0
+        return -(program.J @ z0)
+    return initial - program.J @ z0
+
+
+def restart_rule(program: Program, initial: Any) -> str:
+    """How a segment after a gap of missing samples restarts: ``"zero"`` when asked
+    for (or when no steady state exists), else ``"steady"``."""
+    if isinstance(initial, str) and initial == "zero":
+        return "zero"
+    return "steady" if program.steady is not None else "zero"
+
+
+def run_program(
+    program: Program, Z: np.ndarray, xi: np.ndarray, pending: Any, restart: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
+    """Run the fused recursion over the samples ``Z`` (``(nz, L)``) without a time loop.
+
+    Parameters
+    ----------
+    program : Program
+    Z : ndarray, (nz, L)
+        ``[y; u]`` per sample; a column with a non-finite entry is a *missing* sample.
+    xi : ndarray, (nw,)
+        State before the first sample (ignored while ``pending`` is set).
+    pending : None, str or ndarray
+        ``None``: ``xi`` is valid.  Otherwise the :func:`initial_state` rule applied at
+        the next valid sample.
+    restart : str
+        Rule for the first valid sample after missing ones.
+
+    Returns
+    -------
+    comp : ndarray, (nc, L)
+        Residual components; ``nan`` on missing samples (the state is not advanced
+        through them: the next valid sample restarts the recursion with ``restart``).
+    valid : ndarray of bool, (L,)
+    xi : ndarray, (nw,)
+        State after the last sample.
+    pending : None or rule
+        Set when the record ends on missing samples (or was empty and still pending).
+    """
+    L = Z.shape[1]
+    valid = np.isfinite(Z).all(axis=0)
+    comp = np.full((program.nc, L), np.nan)
+    if L == 0:
+        return comp, valid, xi, pending
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], valid.astype(np.int8), [0]))))
+    xi = np.array(xi, dtype=float)
+    for s, e in zip(edges[::2], edges[1::2], strict=True):
+        if s > 0:  # missing samples before this segment
+            pending = restart
+        Zs = Z[:, s:e]
+        if pending is not None:
+            xi = initial_state(program, pending, Zs[:, 0])
+            pending = None
+        if program.nw:
+            T, Zu, ZhB, stops, out_blocks = program.schur
+            g = (ZhB @ Zs)[:, None, :]
+            zt = triangular_recursion(T, g, (Zu.conj().T @ xi)[:, None], stops)[:, 0, :]
+            seg = program.D @ Zs
+            for rows_idx, cols_idx, CZs in out_blocks:  # block-diagonal output product
+                nb, n = cols_idx.shape
+                if cols_idx.size == program.nw:  # every generator: a view, no gather
+                    states = zt[:, :-1].reshape(nb, n, -1)
+                else:
+                    states = zt[cols_idx, :-1]  # (blocks, n, L)
+                prod = np.einsum("bpn,bnl->bpl", CZs, states, optimize=False)
+                prod = prod.real if np.iscomplexobj(prod) else prod
+                if rows_idx.size == program.nc:
+                    seg += prod.reshape(program.nc, -1)
+                else:
+                    seg[rows_idx] += prod
+            if e - s == L:
+                comp = seg
+            else:
+                comp[:, s:e] = seg
+            xi = (Zu @ zt[:, -1]).real
+        else:
+            comp[:, s:e] = program.D @ Zs
+    if not valid[-1]:
+        pending = restart
+    return comp, valid, xi, pending

@@ -1,0 +1,478 @@
+"""Residual evaluation on recorded data: :func:`evaluate`.
+
+A designed bank is run on logged measurements ``y`` and known inputs ``u`` sampled on a
+uniform grid.  The recursion is the fused sampled form of the bank
+(:mod:`geomfdi.deployment.program`: exact first-order-hold sampling of a continuous
+bank, as :func:`geomfdi.simulate` and :func:`control.forced_response` do; a discrete
+bank as it is), solved without a per-sample Python loop by the same LTI core as
+:func:`geomfdi.simulate`.  Decisions (threshold, k-of-n persistence, isolation on the
+achieved structure) follow :mod:`geomfdi.deployment.decide`.
+
+*Start-up.*  ``initial="steady"`` starts every generator at the fixed point for the
+first sample held constant (``xi0 = (I - A)^-1 B z[0]``): on healthy data in steady
+state there is no start-up transient, otherwise the transient decays with the
+generators' poles.  ``"zero"`` starts at ``w = 0`` (a transient of the size of the
+healthy output, decaying with the same poles); an explicit vector gives the generator
+states (all existing generators stacked in row order).
+
+*Missing samples.*  A sample with a non-finite ``y`` or ``u`` entry is *masked*: its
+residuals are ``nan``, it never alarms, and the recursion is not run through it; the
+next valid sample restarts the generators (``"steady"``, or ``"zero"`` when
+``initial="zero"``).  The masked windows are listed in ``result.gaps``.
+
+See the user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from geomfdi._validation import as_positive, as_real_array
+from geomfdi.deployment.decide import Persistence, as_persistence, confirm
+from geomfdi.deployment.program import (
+    Program,
+    as_bank,
+    build_program,
+    check_initial,
+    restart_rule,
+    run_program,
+)
+from geomfdi.errors import GeomFDIError, ShapeError, TimeGridError
+from geomfdi.evaluation.decision import (
+    FaultEvent,
+    Threshold,
+    as_threshold,
+    detection_events,
+    isolate,
+)
+
+__all__ = ["evaluate", "EvaluationResult", "AlarmEpisode", "check_time", "channel_columns"]
+
+_TIME_RTOL = 1e-6
+
+
+def check_time(t: Any, N: int | None = None, name: str = "t") -> tuple[np.ndarray, float]:
+    """Validate a uniform, strictly increasing, finite time vector; return it and its step.
+
+    Raises :class:`~geomfdi.errors.TimeGridError` naming the first offending sample
+    (non-finite, not increasing, or a step differing from the mean step by more than a
+    relative ``1e-6``) and :class:`~geomfdi.errors.ShapeError` when its length is not ``N``.
+    """
+    t = as_real_array(t, name, allow_nonfinite=True)
+    if t.ndim != 1:
+        raise ShapeError(f"{name}: must be 1-D, got shape {t.shape}", argument=name)
+    if N is not None and t.size != N:
+        raise ShapeError(f"{name}: has {t.size} samples, the data have {N}", argument=name)
+    if t.size < 2:
+        raise TimeGridError(f"{name}: needs at least 2 samples, got {t.size}", argument=name)
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise TimeGridError(f"{name}: non-finite time at sample {bad[0]}", argument=name)
+    d = np.diff(t)
+    back = np.flatnonzero(d <= 0)
+    if back.size:
+        k = int(back[0])
+        raise TimeGridError(
+            f"{name}: not strictly increasing (t[{k + 1}] = {t[k + 1]!r} <= t[{k}] = {t[k]!r})",
+            argument=name,
+        )
+    step = (t[-1] - t[0]) / (t.size - 1)
+    dev = np.abs(d - step)
+    worst = int(np.argmax(dev))
+    if dev[worst] > _TIME_RTOL * step:
+        raise TimeGridError(
+            f"{name}: not uniformly spaced (step {d[worst]!r} between samples {worst} and "
+            f"{worst + 1}, mean step {step!r}); resample the record first",
+            argument=name,
+        )
+    return t, float(step)
+
+
+def channel_columns(columns: Sequence[str], prefix: str) -> list[str]:
+    """Column names ``y0, y1, ...`` (also ``y[0]``, ``y_0``) in channel order."""
+    pat = re.compile(rf"^{prefix}(?:\[(\d+)\]|_?(\d+))$")
+    found = {}
+    for c in columns:
+        mt = pat.match(str(c).strip())
+        if mt:
+            found[int(mt.group(1) or mt.group(2))] = c
+    if found and sorted(found) != list(range(len(found))):
+        raise ShapeError(
+            f"columns: the {prefix} channels {sorted(found)} are not numbered 0..{len(found) - 1}",
+            argument="columns",
+        )
+    return [found[i] for i in sorted(found)]
+
+
+def _from_frame(
+    df: Any, outputs: Sequence[str] | None, inputs: Sequence[str] | None, time: str | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    cols = list(df.columns)
+    outputs = list(outputs) if outputs is not None else channel_columns(cols, "y")
+    inputs = list(inputs) if inputs is not None else channel_columns(cols, "u")
+    if not outputs:
+        raise ShapeError(
+            "y: the DataFrame has no output columns (name them y0, y1, ... or pass outputs=)",
+            argument="y",
+        )
+    missing = [c for c in [*outputs, *inputs] if c not in df.columns]
+    if missing:
+        raise ShapeError(f"columns: not in the DataFrame: {missing}", argument="columns")
+    if time is None:
+        time = next((c for c in ("t", "time") if c in df.columns), None)
+    t = None
+    if time is not None:
+        if time not in df.columns:
+            raise ShapeError(f"time: column {time!r} is not in the DataFrame", argument="time")
+        t = df[time].to_numpy(dtype=float)
+    y = df[outputs].to_numpy(dtype=float).T
+    u = df[inputs].to_numpy(dtype=float).T if inputs else np.zeros((0, y.shape[1]))
+    return y, u, t
+
+
+def _signals(y: Any, u: Any, q: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+    y = as_real_array(y, "y", allow_nonfinite=True)
+    if y.ndim == 1 and q == 1:
+        y = y[None]
+    if y.ndim != 2 or y.shape[0] != q:
+        raise ShapeError(
+            f"y: expected ({q}, N) for the bank's {q} outputs, got {y.shape}", argument="y"
+        )
+    N = y.shape[1]
+    if u is None:
+        if m:
+            raise ShapeError(f"u: the bank reads {m} inputs; pass u ({m}, N)", argument="u")
+        return y, np.zeros((0, N))
+    u = as_real_array(u, "u", allow_nonfinite=True)
+    if u.ndim == 1 and m == 1:
+        u = u[None]
+    if u.ndim != 2 or u.shape[0] != m:
+        raise ShapeError(
+            f"u: expected ({m}, N) for the bank's {m} inputs, got {u.shape}", argument="u"
+        )
+    if u.shape[1] != N:
+        raise ShapeError(f"u: has {u.shape[1]} samples, y has {N}", argument="u")
+    return y, u
+
+
+@dataclass(frozen=True)
+class AlarmEpisode:
+    """A maximal run of samples where some residual's confirmed alarm is on.
+
+    Attributes
+    ----------
+    start, stop : float
+        Times of the first and last alarming samples.
+    residuals : tuple of int
+        Bank rows that alarm during the episode.
+    fault : int or None
+        The first isolation decision ``>= 0`` in the episode (structure column), if any.
+    isolated_at : float or None
+        When that decision was first reached.
+    """
+
+    start: float
+    stop: float
+    residuals: tuple[int, ...]
+    fault: int | None
+    isolated_at: float | None
+
+
+def alarm_episodes(t: np.ndarray, alarms: np.ndarray, isolated: np.ndarray) -> list[AlarmEpisode]:
+    """Alarm episodes of one record (see :class:`AlarmEpisode`), without a Python loop
+    over samples (one object per episode)."""
+    on = alarms.any(axis=0).astype(np.int8)
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], on, [0]))))
+    starts, stops = edges[::2], edges[1::2]
+    if starts.size == 0:
+        return []
+    # rows alarming in each episode: OR over [start_i, start_{i+1}) (zeros between episodes)
+    rows = np.logical_or.reduceat(alarms, starts, axis=1).T.tolist()
+    hits = np.flatnonzero(isolated >= 0)
+    first = np.searchsorted(hits, starts)
+    first_k = hits[np.minimum(first, max(hits.size - 1, 0))] if hits.size else starts
+    found = (first < hits.size) & (first_k < stops) if hits.size else np.zeros(starts.size, bool)
+    ts, te, tk = t[starts].tolist(), t[stops - 1].tolist(), t[first_k].tolist()
+    faults = isolated[first_k].tolist()
+    return [
+        AlarmEpisode(
+            ts[i],
+            te[i],
+            tuple(r for r, b in enumerate(rows[i]) if b),
+            int(faults[i]) if found[i] else None,
+            tk[i] if found[i] else None,
+        )
+        for i in range(starts.size)
+    ]
+
+
+@dataclass
+class EvaluationResult:
+    """Outcome of :func:`evaluate`.
+
+    Attributes
+    ----------
+    t : ndarray, (N,)
+    residuals : ndarray, (n_residuals, N)
+        One row per bank row (the norm for a generator with several components; zero for
+        missing generators); ``nan`` on masked samples.
+    components : ndarray, (n_components, N)
+        The components of every existing generator, stacked in row order.
+    masked : ndarray of bool, (N,)
+        Samples with a non-finite ``y`` or ``u`` (module docstring).
+    gaps : list of (float, float)
+        First and last time of every masked window.
+    raw_alarms, alarms : ndarray of bool, (n_residuals, N)
+        Threshold crossings, and the alarms confirmed by the persistence rule (all False
+        without a threshold).
+    isolated : ndarray of int, (N,)
+    candidates, suspects : ndarray of bool, (n_faults, N)
+        Isolation on the confirmed alarms (:func:`geomfdi.isolate`).
+    events : list of FaultEvent
+        Detection/isolation of the fault signals passed as ``faults`` (as in
+        :func:`geomfdi.simulate`); empty otherwise.
+    episodes : list of AlarmEpisode
+    threshold : Threshold or None
+    persistence : Persistence
+    structure : ndarray of bool
+    fault_labels, residual_labels : list of str
+    info : dict
+        ``dt``, ``hold``, ``initial``, ``restart``, final generator state ``xi``.
+    """
+
+    t: np.ndarray
+    residuals: np.ndarray
+    components: np.ndarray
+    masked: np.ndarray
+    gaps: list[tuple[float, float]]
+    raw_alarms: np.ndarray
+    alarms: np.ndarray
+    isolated: np.ndarray
+    candidates: np.ndarray
+    suspects: np.ndarray
+    events: list[FaultEvent]
+    episodes: list[AlarmEpisode]
+    threshold: Threshold | None
+    persistence: Persistence
+    structure: np.ndarray
+    fault_labels: list[str]
+    residual_labels: list[str]
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def first_alarm(self) -> float | None:
+        """Time of the first confirmed alarm (``None``: none)."""
+        hit = np.flatnonzero(self.alarms.any(axis=0))
+        return float(self.t[hit[0]]) if hit.size else None
+
+    def plot(self, **kwargs: Any) -> Any:
+        """Residual traces with thresholds and confirmed alarms (a matplotlib Figure);
+        masked samples are drawn at zero."""
+        from geomfdi.plotting.residuals import plot_residuals
+
+        kwargs.setdefault("alarms", self.alarms)
+        return plot_residuals(
+            self.t,
+            np.nan_to_num(self.residuals, nan=0.0),
+            threshold=self.threshold,
+            labels=self.residual_labels,
+            **kwargs,
+        )
+
+
+def _gaps(t: np.ndarray, masked: np.ndarray) -> list[tuple[float, float]]:
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], masked.astype(np.int8), [0]))))
+    return [(float(t[s]), float(t[e - 1])) for s, e in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def _fault_label(f: Any) -> str:
+    return str(getattr(f, "name", None) or f)
+
+
+def decide(
+    program: Program,
+    residuals: np.ndarray,
+    thr: Threshold | None,
+    persistence: Persistence,
+    history: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Raw and confirmed alarms of ``residuals`` (``(n_rows, L)``), given the raw
+    alarms of the ``n - 1`` previous samples in ``history``."""
+    if thr is None:
+        raw = np.zeros(residuals.shape, dtype=bool)
+    elif thr.statistic == "abs" or thr.window == 1:
+        v = thr.values[:, None]
+        raw = (residuals > v) | (residuals < -v)  # nan never alarms
+    else:
+        s = thr.statistic_of(np.nan_to_num(residuals, nan=0.0))
+        raw = (s > thr.values[:, None]) & np.isfinite(residuals)
+    return raw, confirm(raw, persistence, history)
+
+
+def evaluate(
+    bank: Any,
+    y: Any,
+    u: Any = None,
+    t: Any = None,
+    *,
+    dt: float | None = None,
+    threshold: Any = None,
+    persistence: Any = None,
+    initial: Any = "steady",
+    faults: Sequence[Any] = (),
+    outputs: Sequence[str] | None = None,
+    inputs: Sequence[str] | None = None,
+    time: str | None = None,
+) -> EvaluationResult:
+    """Run a residual bank on recorded data and decide on alarms and isolation.
+
+    Parameters
+    ----------
+    bank : ResidualBank or ResidualGenerator
+        Continuous (sampled with a first-order hold at the grid step) or discrete (its
+        ``dt`` must equal the grid step).
+    y : array_like (q, N), or pandas.DataFrame
+        Measured outputs.  A DataFrame holds every signal in named columns: outputs
+        ``y0, y1, ...`` (or ``y[0]``, ``y_0``), inputs ``u0, ...`` and time ``t`` /
+        ``time`` unless ``outputs``, ``inputs``, ``time`` name them.
+    u : array_like (m, N), optional
+        Known inputs (required when the bank reads inputs).
+    t : array_like (N,), optional
+        Uniform, strictly increasing sample times.  Either ``t`` or ``dt``.
+    dt : float, optional
+        Sampling period when ``t`` is not given (times ``k dt``).
+    threshold : None, float, (n_residuals,) or Threshold
+        Decision thresholds on ``|r|`` (or a :class:`Threshold`, also on the moving RMS).
+    persistence : None, int, (k, n) or Persistence
+        k-of-n confirmation of raw alarms (an int ``d``: ``d`` consecutive samples).
+    initial : {"steady", "zero"} or array_like (nw,)
+        Generator state at the first sample (module docstring).
+    faults : sequence of fault signals, optional
+        Known fault signals (``GainFault`` ...) to time detection and isolation as
+        :func:`geomfdi.simulate` does (``result.events``).
+
+    Returns
+    -------
+    EvaluationResult
+
+    Raises
+    ------
+    TimeGridError
+        Non-finite, non-increasing or non-uniform time; a grid step that differs from a
+        discrete bank's ``dt``.
+    ShapeError
+        Mismatched lengths or channel counts.
+
+    Notes
+    -----
+    Recursion ``xi[k+1] = A xi[k] + B z[k]``, ``c[k] = C xi[k] + D z[k]`` with
+    ``z = [y; u]`` (:mod:`geomfdi.deployment.program`), solved over the whole record by
+    the loop-free LTI core; decisions ``|r_i| > threshold_i``, k-of-n persistence and
+    isolation on the achieved structure (:mod:`geomfdi.deployment.decide`).  See the
+    user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
+
+    Examples
+    --------
+    >>> import numpy as np, geomfdi as gf
+    >>> g = gf.ResidualGenerator([[0.5]], [[-0.5]], [[0.0]], [[1.0]], [[1.0]], [[0.0]], dt=0.1)
+    >>> y = np.ones((1, 50)); y[0, 30:] += 1.0
+    >>> res = gf.evaluate(g, y, np.zeros((1, 50)), dt=0.1, threshold=0.4)
+    >>> res.first_alarm, bool(np.all(res.residuals[0, :30] == 0))
+    (3.0, True)
+    """
+    bank = as_bank(bank)
+    if _is_frame(y):
+        if u is not None:
+            raise GeomFDIError("u: give the inputs as columns of the DataFrame", argument="u")
+        y, u, t_frame = _from_frame(y, outputs, inputs, time)
+        if t is None:
+            t = t_frame
+    gens = [g for g in bank.generators if g is not None]
+    if not gens:
+        raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
+    y, u = _signals(y, u, gens[0].q, gens[0].m)
+    N = y.shape[1]
+    if t is not None:
+        t, step = check_time(t, N)
+    elif dt is not None:
+        step = as_positive(dt, "dt")
+        if N < 1:
+            raise ShapeError("y: no samples", argument="y")
+        t = np.arange(N) * step
+    else:
+        raise GeomFDIError("t: give the sample times t or the sampling period dt", argument="t")
+    if bank.dt > 0 and abs(step - bank.dt) > _TIME_RTOL * bank.dt:
+        raise TimeGridError(
+            f"t: the grid step {step!r} differs from the discrete bank's dt = {bank.dt!r}",
+            argument="t",
+        )
+    program = build_program(bank, None if bank.dt > 0 else step)
+    initial = check_initial(initial, program)
+    restart = restart_rule(program, initial)
+    Z = np.vstack([y, u])
+    comp, valid, xi, _ = run_program(program, Z, np.zeros(program.nw), initial, restart)
+    residuals = program.row_values(comp)
+    residuals[:, ~valid] = np.nan
+    thr = as_threshold(threshold, program.n_rows, program.present)
+    pers = as_persistence(persistence)
+    raw, alarms = decide(
+        program, residuals, thr, pers, np.zeros((program.n_rows, pers.n - 1), dtype=bool)
+    )
+    iso = isolate(alarms, program.structure)
+    fl = list(faults)
+    events: list[FaultEvent] = []
+    if fl:
+        from geomfdi.simulation.signals import validate_faults
+
+        fl = validate_faults(fl, program.q)
+        events = detection_events(t, alarms, iso.isolated, fl, _fault_indices(bank, fl))
+    return EvaluationResult(
+        t=t,
+        residuals=residuals,
+        components=comp,
+        masked=~valid,
+        gaps=_gaps(t, ~valid),
+        raw_alarms=raw,
+        alarms=alarms,
+        isolated=iso.isolated,
+        candidates=iso.candidates,
+        suspects=iso.suspects,
+        events=events,
+        episodes=alarm_episodes(t, alarms, iso.isolated),
+        threshold=thr,
+        persistence=pers,
+        structure=program.structure,
+        fault_labels=[_fault_label(f) for f in bank.faults],
+        residual_labels=[f"r[{k}]" for k in range(program.n_rows)],
+        info={
+            "dt": step,
+            "hold": program.hold,
+            "initial": initial if isinstance(initial, str) else "explicit",
+            "restart": restart,
+            "xi": xi,
+        },
+    )
+
+
+def _fault_indices(bank: Any, signals: Sequence[Any]) -> list[int | None]:
+    from geomfdi.model.faults import SensorFault
+
+    out: list[int | None] = []
+    for f in signals:
+        j = None
+        for idx, df in enumerate(bank.faults):
+            if isinstance(df, SensorFault) and df.i == f.sensor:
+                j = idx
+                break
+        out.append(j)
+    return out
+
+
+def _is_frame(obj: Any) -> bool:
+    mod = type(obj).__module__
+    return mod.startswith("pandas") and hasattr(obj, "columns")

@@ -1,0 +1,25 @@
+"""Banks shared by the deployment tests (designed once per test session)."""
+
+from __future__ import annotations
+
+from functools import cache
+
+import numpy as np
+
+import geomfdi as gf
+
+A = np.array([[1.0, 1, 1], [0, 1, 0], [2, 0, 1]])
+B = np.array([[1.0, 0, 1], [0, 1, 1], [0, 1, 0]])
+C = np.array([[0.0, 1, 0], [0, 0, 1], [1, 0, 2]])
+DT = 0.01
+
+
+@cache
+def seed_bank() -> gf.ResidualBank:
+    """The sensor-fault bank of the plant of Hou, Wen & Chen (2011), section 4."""
+    return gf.design_sensor_bank(gf.Plant(A, B, C))
+
+
+def sampled_bank() -> gf.ResidualBank:
+    """The same bank sampled with a zero-order hold at ``DT`` (well conditioned)."""
+    return seed_bank().discretize(DT)

@@ -1,0 +1,189 @@
+"""Generated C and Python monitors reproduce gf.evaluate (residuals, alarms, isolation)."""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+import shutil
+import subprocess
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+import pytest
+from deploy_banks import DT, sampled_bank, seed_bank
+
+import geomfdi as gf
+from geomfdi.errors import GeomFDIError, NotDiscreteError
+from geomfdi.io.cli import main
+
+CC = shutil.which("cc")
+CFLAGS = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2"]
+needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler (cc) on this system")
+N = 100_000
+
+
+def _data(q: int, m: int, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * DT
+    Y = np.vstack([np.sin((i + 1) * 0.3 * t) for i in range(q)]) + 0.3 * rng.normal(size=(q, n))
+    U = np.vstack([np.cos((j + 1) * 0.2 * t) for j in range(m)])
+    Y[1, n // 20 : n // 20 + 4] = np.nan  # missing samples
+    U[0, 7 * n // 10] = np.inf
+    Y[0, 3 * n // 10 : 3 * n // 10 + 400] += 2.0  # a fault-like step
+    return Y, U
+
+
+def _bank_with_vector_row() -> gf.ResidualBank:
+    rng = np.random.default_rng(4)
+    g1 = gf.ResidualGenerator(
+        np.diag([0.5, 0.8]), rng.normal(size=(2, 2)), rng.normal(size=(2, 1)),
+        rng.normal(size=(2, 2)), rng.normal(size=(2, 2)), rng.normal(size=(2, 1)), dt=DT,
+    )  # fmt: skip
+    g2 = gf.ResidualGenerator(
+        [[0.3]], [[1.0, -1.0]], [[0.5]], [[1.0]], [[0.0, 1.0]], [[0.0]], dt=DT
+    )
+    S = np.array([[1, 0], [0, 0], [1, 1]], dtype=bool)
+    return gf.ResidualBank([g1, None, g2], S, S, np.ones(2, bool), ["ok", "none", "ok"], [], DT)
+
+
+def _compile(c_file: Path, out: Path) -> ctypes.CDLL:
+    lib = out / f"lib{c_file.stem}.so"
+    proc = subprocess.run(
+        [CC, *CFLAGS, "-shared", "-fPIC", "-o", str(lib), str(c_file), "-lm"],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 0, proc.stderr
+    return ctypes.CDLL(str(lib))
+
+
+def _run_c(lib: ctypes.CDLL, name: str, Y: np.ndarray, U: np.ndarray, rows: int) -> tuple:
+    n = Y.shape[1]
+    state = ctypes.create_string_buffer(getattr(lib, f"{name}_state_size")())
+    getattr(lib, f"{name}_init")(state)
+    Yc, Uc = np.ascontiguousarray(Y.T), np.ascontiguousarray(U.T)
+    R = np.zeros((n, rows))
+    Al = np.zeros((n, rows), dtype=np.intc)
+    iso = np.zeros(n, dtype=np.intc)
+    run = getattr(lib, f"{name}_run")
+    run.argtypes = [ctypes.c_void_p, ctypes.c_long] + [ctypes.c_void_p] * 5
+    ptr = lambda a: a.ctypes.data_as(ctypes.c_void_p)  # noqa: E731
+    run(state, n, ptr(Yc), ptr(Uc), ptr(R), ptr(Al), ptr(iso))
+    return R.T, Al.T.astype(bool), iso.astype(int)
+
+
+def _load(path: Path) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _check(
+    res: gf.deployment.EvaluationResult, R: np.ndarray, Al: np.ndarray, iso: np.ndarray
+) -> None:
+    np.testing.assert_array_equal(np.isnan(R), np.isnan(res.residuals))
+    assert np.nanmax(np.abs(R - res.residuals)) <= 1e-12
+    np.testing.assert_array_equal(Al, res.alarms)
+    np.testing.assert_array_equal(iso, res.isolated)
+
+
+@pytest.fixture(scope="module")
+def case() -> tuple:
+    bank = sampled_bank()
+    Y, U = _data(3, 3, N)
+    kw = {"threshold": [0.9, 0.8, 0.8], "persistence": (2, 3)}
+    res = gf.evaluate(bank, Y, U, dt=DT, **kw)
+    assert res.alarms.any() and res.masked.sum() == 5 and len(set(res.isolated.tolist())) >= 3
+    return bank, Y, U, kw, res
+
+
+@needs_cc
+def test_generated_c_matches_evaluate(case: tuple, tmp_path: Path) -> None:
+    bank, Y, U, kw, res = case
+    mon = gf.Monitor(bank, **kw)
+    h, c = gf.codegen.c(mon, "fdi", tmp_path)
+    src = c.read_text() + h.read_text()
+    code = "\n".join(ln for ln in src.splitlines() if not ln.lstrip().startswith(("/*", "*")))
+    assert "malloc" not in code and "static const double" in code
+    lib = _compile(c, tmp_path)
+    _check(res, *_run_c(lib, "fdi", Y, U, 3))
+
+
+@needs_cc
+def test_generated_c_uses_no_libm_beyond_fabs_sqrt(case: tuple, tmp_path: Path) -> None:
+    bank, *_ = case
+    _, c = gf.codegen.c(_bank_with_vector_row(), "vec", tmp_path, threshold=1.0)
+    obj = tmp_path / "vec.o"
+    proc = subprocess.run([CC, *CFLAGS, "-fno-builtin", "-c", "-o", str(obj), str(c)],
+                          capture_output=True, text=True)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    nm = shutil.which("nm")
+    if nm is None:
+        pytest.skip("no nm to list the object's symbols")
+    undefined = subprocess.run([nm, "-u", str(obj)], capture_output=True, text=True).stdout.split()
+    calls = {s for s in undefined if s not in ("U", "w") and not s.startswith("_")}
+    assert calls <= {"fabs", "sqrt"}, calls
+    assert "sqrt" in calls  # the vector residual's norm
+
+
+@needs_cc
+def test_generated_c_vector_rows_and_bank_source(tmp_path: Path) -> None:
+    bank = _bank_with_vector_row()
+    Y, U = _data(2, 1, 20_000, seed=3)
+    kw = {"threshold": [1.5, 1.0, 1.0], "persistence": 2, "initial": "zero"}
+    res = gf.evaluate(bank, Y, U, dt=DT, **kw)
+    assert res.alarms[0].any() and res.alarms[2].any()
+    _, c = gf.codegen.c(bank, "vec", tmp_path, **kw)
+    _check(res, *_run_c(_compile(c, tmp_path), "vec", Y, U, 3))
+    mod = _load(gf.codegen.python(bank, "vec_py", tmp_path, **kw))
+    R, Al, iso = mod.run(Y.T, U.T)
+    _check(res, R.T, Al.T, iso)
+
+
+@pytest.mark.slow
+def test_generated_python_matches_evaluate(case: tuple, tmp_path: Path) -> None:
+    bank, Y, U, kw, res = case
+    path = gf.codegen.python(gf.Monitor(bank, **kw), "fdi_py", tmp_path)
+    text = path.read_text()
+    imports = {ln.split()[1] for ln in text.splitlines() if ln.startswith("import ")}
+    assert imports <= {"math", "numpy"} and "from " not in text.replace("float.fromhex", "")
+    mod = _load(path)
+    R, Al, iso = mod.run(Y.T, U.T)
+    _check(res, R.T, Al.T, iso)
+    state = mod.init()  # step by step from a fresh state gives the same first samples
+    for k in range(50):
+        r, a, i = mod.step(state, Y[:, k], U[:, k])
+        np.testing.assert_array_equal(r, R[k])
+        assert i == iso[k]
+
+
+def test_continuous_bank_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(NotDiscreteError, match="discretize"):
+        gf.codegen.c(seed_bank(), "x", tmp_path)
+    with pytest.raises(NotDiscreteError, match="discretize"):
+        gf.codegen.python(gf.Monitor(seed_bank(), dt=DT), "x", tmp_path)
+    with pytest.raises(GeomFDIError, match="name: must be an identifier"):
+        gf.codegen.c(sampled_bank(), "bad-name", tmp_path)
+
+
+@pytest.mark.slow
+@needs_cc
+def test_cli_codegen(tmp_path: Path) -> None:
+    model = tmp_path / "model.toml"
+    model.write_text(
+        "[plant]\nA = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]\nB = [[1, 0, 1], [0, 1, 1], [0, 1, 0]]\n"
+        "C = [[0, 1, 0], [0, 0, 1], [1, 0, 2]]\n"
+    )
+    out = tmp_path / "gen"
+    args = ["codegen", str(model), "--lang", "c", "--out", str(out), "--quiet"]
+    assert main([*args, "--threshold", "0.5"]) == 2  # continuous design without --dt
+    assert main([*args, "--threshold", "0.5", "--dt", "0.01", "--persistence", "2/3"]) == 0
+    lib = _compile(out / "fdi_monitor.c", out)
+    bank = seed_bank().discretize(0.01)
+    Y, U = _data(3, 3, 8000, seed=9)
+    res = gf.evaluate(bank, Y, U, dt=0.01, threshold=0.5, persistence=(2, 3))
+    _check(res, *_run_c(lib, "fdi_monitor", Y, U, 3))
+    py = ["codegen", str(model), "--lang", "python", "--out", str(out), "--dt", "0.01", "--quiet"]
+    assert main(py) == 0 and (out / "fdi_monitor.py").exists()

@@ -1,0 +1,197 @@
+"""gf.Monitor: step-by-step, chunked and recorded evaluation agree; state and errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from deploy_banks import DT, sampled_bank, seed_bank
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+import geomfdi as gf
+from geomfdi.errors import GeomFDIError, ShapeError
+
+
+@pytest.fixture(scope="module")
+def bank() -> gf.ResidualBank:
+    return sampled_bank()
+
+
+def _data(q: int, m: int, N: int, seed: int, gaps: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    t = np.arange(N) * DT
+    Y = np.vstack([np.sin((i + 1) * t) for i in range(q)]) + 0.3 * rng.normal(size=(q, N))
+    U = np.vstack([np.cos((j + 1) * 0.7 * t) for j in range(m)]) + 0.1 * rng.normal(size=(m, N))
+    if gaps and N > 50:
+        Y[rng.integers(q), rng.integers(10, N - 10)] = np.nan
+        Y[0, N // 2 : N // 2 + 3] = np.inf
+    return Y, U
+
+
+def _stepwise(mon: gf.Monitor, Y: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, ...]:
+    out = [mon.step(Y[:, k], U[:, k]) for k in range(Y.shape[1])]
+    R = np.array([o.residuals for o in out]).T
+    Al = np.array([o.alarms for o in out]).T
+    iso = np.array([o.isolated for o in out])
+    return R, Al, iso
+
+
+def _chunked(mon: gf.Monitor, Y: np.ndarray, U: np.ndarray, rng: np.random.Generator) -> tuple:
+    Rs, As, Is = [], [], []
+    k, N = 0, Y.shape[1]
+    while k < N:
+        if rng.random() < 0.3:  # mix single steps into the chunks
+            o = mon.step(Y[:, k], U[:, k])
+            Rs.append(o.residuals[:, None])
+            As.append(o.alarms[:, None])
+            Is.append([o.isolated])
+            k += 1
+            continue
+        L = int(rng.integers(0, 97))
+        o = mon.feed(Y[:, k : k + L], U[:, k : k + L])
+        Rs.append(o.residuals)
+        As.append(o.alarms)
+        Is.append(o.isolated)
+        k += L
+    return np.hstack(Rs), np.hstack(As), np.concatenate(Is)
+
+
+def _agree(
+    res: gf.deployment.EvaluationResult, R: np.ndarray, Al: np.ndarray, iso: np.ndarray
+) -> None:
+    np.testing.assert_array_equal(np.isnan(R), np.isnan(res.residuals))
+    scale = max(1.0, float(np.nanmax(np.abs(res.residuals))))
+    assert np.nanmax(np.abs(R - res.residuals)) <= 1e-12 * scale
+    np.testing.assert_array_equal(Al, res.alarms)
+    np.testing.assert_array_equal(iso, res.isolated)
+
+
+@pytest.mark.parametrize("persistence", [None, (2, 3), 4])
+def test_step_chunks_and_evaluate_agree(bank: gf.ResidualBank, persistence: object) -> None:
+    Y, U = _data(3, 3, 3000, seed=1)
+    kw = {"threshold": 0.35, "persistence": persistence}
+    res = gf.evaluate(bank, Y, U, dt=DT, **kw)
+    assert res.alarms.any() and (res.isolated >= 0).any() and res.masked.sum() == 4
+    mon = gf.Monitor(bank, **kw)
+    _agree(res, *_stepwise(mon, Y, U))
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        mon.reset()
+        _agree(res, *_chunked(mon, Y, U, rng))
+
+
+def test_continuous_bank_with_dt(bank: gf.ResidualBank) -> None:
+    cbank = seed_bank()
+    Y, U = _data(3, 3, 800, seed=2)
+    res = gf.evaluate(cbank, Y, U, dt=DT, threshold=0.35, initial="zero")
+    mon = gf.Monitor(cbank, dt=DT, threshold=0.35, initial="zero")
+    _agree(res, *_stepwise(mon, Y, U))
+    with pytest.raises(GeomFDIError, match="dt: a continuous bank needs"):
+        gf.Monitor(cbank)
+    with pytest.raises(GeomFDIError, match="differs from the discrete bank"):
+        gf.Monitor(bank, dt=0.02)
+
+
+def test_vector_residuals_and_missing_rows() -> None:
+    rng = np.random.default_rng(4)
+    g1 = gf.ResidualGenerator(
+        np.diag([0.5, 0.8]), rng.normal(size=(2, 2)), rng.normal(size=(2, 1)),
+        rng.normal(size=(2, 2)), rng.normal(size=(2, 2)), rng.normal(size=(2, 1)), dt=DT,
+    )  # fmt: skip
+    g2 = gf.ResidualGenerator(
+        [[0.3]], [[1.0, -1.0]], [[0.5]], [[1.0]], [[0.0, 1.0]], [[0.0]], dt=DT
+    )
+    S = np.array([[1, 0], [0, 0], [1, 1]], dtype=bool)
+    bank = gf.ResidualBank(
+        [g1, None, g2], S, S, np.array([True, True]), ["ok", "missing", "ok"], [], DT
+    )
+    Y, U = _data(2, 1, 600, seed=3)
+    res = gf.evaluate(bank, Y, U, dt=DT, threshold=[1.5, 1.0, 1.0], persistence=(2, 2))
+    valid = ~res.masked
+    assert np.all(res.residuals[1, valid] == 0)
+    np.testing.assert_allclose(
+        res.residuals[0, valid], np.linalg.norm(res.components[:2, valid], axis=0), rtol=1e-15
+    )
+    mon = gf.Monitor(bank, threshold=[1.5, 1.0, 1.0], persistence=(2, 2))
+    _agree(res, *_stepwise(mon, Y, U))
+    mon.reset()
+    _agree(res, *_chunked(mon, Y, U, np.random.default_rng(1)))
+
+
+def test_state_is_serialisable_and_restores(bank: gf.ResidualBank) -> None:
+    Y, U = _data(3, 3, 1000, seed=5)
+    mon = gf.Monitor(bank, threshold=0.35, persistence=(2, 3))
+    full = _stepwise(mon, Y, U)
+    mon.reset()
+    mon.feed(Y[:, :400], U[:, :400])
+    mon.step(Y[:, 400], U[:, 400])
+    state = json.loads(json.dumps(mon.state))
+    assert state["samples"] == 401 and len(state["ring"]) == 3
+    other = gf.Monitor(bank, threshold=0.35, persistence=(2, 3))
+    other.state = state
+    rest = _stepwise(other, Y[:, 401:], U[:, 401:])
+    assert np.nanmax(np.abs(rest[0] - full[0][:, 401:])) <= 1e-12
+    np.testing.assert_array_equal(rest[1], full[1][:, 401:])
+    np.testing.assert_array_equal(rest[2], full[2][401:])
+    with pytest.raises(ShapeError, match="ring"):
+        other.state = {**state, "ring": [[0, 1, 2]]}
+
+
+def test_step_errors_and_reset(bank: gf.ResidualBank) -> None:
+    mon = gf.Monitor(bank, threshold=0.35)
+    with pytest.raises(ShapeError, match="y: expected 3 values"):
+        mon.step([1.0, 2.0], [0.0, 0.0, 0.0])
+    with pytest.raises(ShapeError, match="u: expected 3 values"):
+        mon.step([1.0, 2.0, 3.0], None)
+    with pytest.raises(ShapeError, match="U: expected"):
+        mon.feed(np.zeros((3, 5)), np.zeros((2, 5)))
+    with pytest.raises(GeomFDIError, match="moving-RMS"):
+        gf.Monitor(bank, threshold=gf.Threshold(np.ones(3), statistic="rms", window=5))
+    first = mon.step([1.0, 2.0, 3.0], [0.1, 0.2, 0.3]).residuals.copy()
+    mon.step([5.0, 2.0, 3.0], [0.1, 0.2, 0.3])
+    mon.reset()
+    np.testing.assert_array_equal(mon.step([1.0, 2.0, 3.0], [0.1, 0.2, 0.3]).residuals, first)
+
+
+@st.composite
+def _random_case(draw: st.DrawFn) -> tuple:
+    seed = draw(st.integers(0, 2**31 - 1))
+    n = draw(st.integers(2, 3))
+    q = draw(st.integers(2, 3))
+    m = draw(st.integers(1, 2))
+    k = draw(st.integers(1, 3))
+    nn = draw(st.integers(k, 4))
+    chunk_seed = draw(st.integers(0, 2**31 - 1))
+    return seed, n, q, m, (k, nn), chunk_seed
+
+
+@pytest.mark.slow
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(_random_case())
+def test_property_random_banks(case: tuple) -> None:
+    seed, n, q, m, persistence, chunk_seed = case
+    rng = np.random.default_rng(seed)
+    plant = gf.Plant(rng.normal(size=(n, n)), rng.normal(size=(n, m)), rng.normal(size=(q, n)))
+    faults = [gf.SensorFault(i) for i in range(q)]
+    try:
+        cbank = gf.design_bank(plant, faults, np.eye(q, dtype=bool))
+    except GeomFDIError:
+        assume(False)
+    assume(cbank.present)
+    dbank = cbank.discretize(DT, method=("zoh", "tustin")[seed % 2])
+    order = sum(g.order for g in dbank.generators if g is not None)
+    # residuals on the test data are O(1): keep designs whose states stay moderate
+    assume(all(np.linalg.norm(g.F, 2) < 10 for g in dbank.generators if g is not None))
+    Y, U = _data(q, m, 400, seed)
+    res0 = gf.evaluate(dbank, Y, U, dt=DT)
+    # thresholds between samples (a sample exactly at a threshold is decided by rounding)
+    thr = np.nanquantile(np.abs(res0.residuals), 0.8, axis=1) * (1 + 1e-7)
+    thr[thr <= 0] = 1.0
+    res = gf.evaluate(dbank, Y, U, dt=DT, threshold=thr, persistence=persistence)
+    mon = gf.Monitor(dbank, threshold=thr, persistence=persistence)
+    _agree(res, *_stepwise(mon, Y, U))
+    mon.reset()
+    _agree(res, *_chunked(mon, Y, U, np.random.default_rng(chunk_seed)))
+    assert order == res.info["xi"].size
