@@ -181,7 +181,7 @@ def make_step(
             dec = dec_cache[packed] = (conf, decision(conf))
         return dec
 
-    zero_raw = np.zeros(rows, dtype=bool)
+    zero_raw = _read_only(np.zeros(rows, dtype=bool))
 
     def step(y: Any, u: Any = None) -> MonitorStep:
         if len(y) != q:
