@@ -144,4 +144,6 @@ def main(argv: Sequence[str] | None = None) -> dict[str, dict[str, float]]:
 
 
 if __name__ == "__main__":
-    main()
+    from _threads import run_thread_modes
+
+    run_thread_modes(main)

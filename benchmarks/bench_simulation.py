@@ -31,16 +31,9 @@ time ``forced_response`` at every size instead of extrapolating).
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
-
-if __name__ == "__main__":
-    # single-threaded BLAS when run as a script: forced_response is a single-threaded
-    # Python loop, and small multithreaded BLAS calls stall on a busy machine
-    for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(_var, "1")
 
 import numpy as np  # noqa: E402
 
@@ -303,4 +296,6 @@ def main(argv: list[str] | None = None) -> list[dict]:
 
 
 if __name__ == "__main__":
-    main()
+    from _threads import run_thread_modes
+
+    run_thread_modes(main)

@@ -41,6 +41,7 @@ def _register(module: str, *names: str) -> None:
 _register("geomfdi.model.faults", "ActuatorFault", "Fault", "SensorFault")
 _register("geomfdi.model.plant", "Plant")
 _register("geomfdi.tolerance", "CloseRankWarning", "set_rtol")
+_register("geomfdi._threads", "get_blas_threads", "set_blas_threads")
 _register(
     "geomfdi.geometry.conditioned_invariant",
     "FriendSet",
@@ -174,6 +175,7 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi import errors, tolerance  # noqa: F401
+    from geomfdi._threads import get_blas_threads, set_blas_threads  # noqa: F401
     from geomfdi.diagnosability.window import (  # noqa: F401
         ApplicabilityReport,
         DiagnosabilityTable,

@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_int, as_probability, as_real_array, as_vector
 from geomfdi.errors import GeomFDIError, ShapeError
 
@@ -417,6 +418,7 @@ def detection_events(
     return out
 
 
+@limit_blas_threads
 def calibrate_threshold(
     plant: Any,
     bank: Any,

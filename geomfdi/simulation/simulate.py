@@ -90,6 +90,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_int, as_matrix, as_real_array
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.evaluation.decision import (
@@ -1434,6 +1435,7 @@ def _labels(view: _BankView) -> list[str]:
     return [f"r[{k}]" for k in range(len(view.generators))]
 
 
+@limit_blas_threads
 def simulate(
     plant: Plant,
     bank: ResidualBank | ResidualGenerator,
@@ -1559,6 +1561,7 @@ def simulate(
     )
 
 
+@limit_blas_threads
 def simulate_batch(
     plant: Plant,
     bank: ResidualBank | ResidualGenerator,

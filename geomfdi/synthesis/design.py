@@ -43,6 +43,7 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_indices, as_real_array
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
 from geomfdi.geometry.subspace import Subspace, _norm2, pinv
@@ -645,6 +646,7 @@ def _build(
     return g
 
 
+@limit_blas_threads
 def design_residual_generator(
     plant: Plant,
     faults: Sequence[Fault],
@@ -761,6 +763,7 @@ def _row_poles(poles: Any, rows: int) -> list[Any]:
     return [poles] * rows
 
 
+@limit_blas_threads
 def design_bank(
     plant: Plant,
     faults: Sequence[Fault],
@@ -890,6 +893,7 @@ def design_bank(
     )
 
 
+@limit_blas_threads
 def design_sensor_bank(
     plant: Plant,
     *,

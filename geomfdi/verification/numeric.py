@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi.errors import GeomFDIError
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
@@ -388,6 +389,7 @@ def _unpack(obj: Any, plant: Plant, faults: Any):
     return gens, faults, req
 
 
+@limit_blas_threads
 def verify(
     bank_or_generator: ResidualBank | ResidualGenerator,
     plant: Plant,
