@@ -249,5 +249,6 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator  # noqa: F401
     from geomfdi.synthesis.realization import minimal_realization, reachable_subspace  # noqa: F401
     from geomfdi.synthesis.transforms import pseudo_actuator_model  # noqa: F401
+    from geomfdi.tolerance import CloseRankWarning, set_rtol  # noqa: F401
     from geomfdi.verification.numeric import VerificationReport, verify  # noqa: F401
     from geomfdi.verification.symbolic import SymbolicReport, verify_symbolic  # noqa: F401
