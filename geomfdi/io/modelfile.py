@@ -2,7 +2,7 @@
 
 A model file has four parts (sensor and input indices are 0-based)::
 
-    name = "seed 001 example"
+    name = "Hou, Wen & Chen 2011, section 4"
 
     [plant]                      # A, C required; B, D, Bd, Dd optional; dt = 0 (continuous)
     A = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]
