@@ -30,6 +30,7 @@ from typing import Any, Literal
 import numpy as np
 from scipy import stats
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import (
     as_index,
     as_int,
@@ -959,6 +960,7 @@ class WindowModel:
         return max(pi - alpha, 0.0) / (1.0 - alpha)
 
     # ------------------------------------------------------------------ tables, reports
+    @limit_blas_threads
     def table(self, theta: Any, method: TableMethod = "kl", **options: Any) -> DiagnosabilityTable:
         """Shortcut for :func:`diagnosability_table` on this model."""
         return diagnosability_table(self, theta, method, **options)
@@ -1080,6 +1082,7 @@ def _profiles(theta: Any, p: int, s: int, name: str = "theta") -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- tables
+@limit_blas_threads
 def diagnosability_table(
     model: WindowModel,
     theta: Any,
