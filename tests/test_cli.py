@@ -518,7 +518,7 @@ b = [0, 0, 0, 1]
     assert cli.main(["design", str(path)]) == 0
     report = capsys.readouterr().out
     assert "n = 4 states" in report
-    assert "dim S* = 6 = the design model's dimension (plant n = 4 + 2 output-filter" in report
+    assert "dim S* = n_d = 6 (the design model's dimension: plant n = 4 + 2 output-filter" in report
     assert "n = 6" not in report
 
 

@@ -506,12 +506,13 @@ def _first_markov(model: DesignModel, c: dict[str, Any], j: int) -> float:
 
 
 def _dims(model: DesignModel) -> str:
-    """The design model's dimension, with the plant's ``n`` and the filter states apart."""
+    """``dim S* = n ...`` with the plant's ``n`` and the design model's dimension apart."""
     extra = model.n - model.n_plant
     if extra == 0:
-        return "n, the plant's state dimension"
+        return f"dim S* = n = {model.n} (the plant's state dimension)"
     return (
-        f"the design model's dimension (plant n = {model.n_plant} + {extra} output-filter states)"
+        f"dim S* = n_d = {model.n} (the design model's dimension: plant n = {model.n_plant} "
+        f"+ {extra} output-filter states)"
     )
 
 
@@ -541,9 +542,7 @@ def _existence(
             else:
                 reasons.append(f"fault {j}: L_{j} = 0 (it does not act on the design model)")
         elif S.dim == n:
-            reasons.append(
-                f"fault {j}: dim S* = {n} = {_dims(model)}: decoupling the others leaves nothing"
-            )
+            reasons.append(f"fault {j}: {_dims(model)}: decoupling the others leaves nothing")
         elif S.contains(Subspace(Lj)):
             reasons.append(
                 f"fault {j}: Im L_{j} ⊆ S* (dim {S.dim}): it is not isolable from faults "
@@ -576,7 +575,7 @@ def _build(
     c = _construct(model, S, poles, margin, row, target)
     if c["H"].shape[0] == 0:
         why = [
-            f"dim S* = {model.n} = {_dims(model)} and no parity relation reads the targets: "
+            f"{_dims(model)} and no parity relation reads the targets: "
             "decoupling "
             f"faults {list(decouple)} leaves nothing"
         ]
