@@ -100,24 +100,47 @@ def decimate_minmax(t: Any, r: Any, columns: int = FIGURE_COLUMNS) -> np.ndarray
     return np.unique(np.concatenate(keep))
 
 
-def _draw_structure(bank: ResidualBank, title: str, path: Path) -> str:
+def _draw_structure(kwargs: dict[str, Any], path: Path) -> str:
     """Worker: the structure figure of one bank, saved as PNG."""
     from geomfdi.plotting.residuals import plot_structure, save_png
 
-    return save_png(plot_structure(bank, title=title), path, dpi=FIGURE_DPI).name
+    return save_png(plot_structure(**kwargs), path, dpi=FIGURE_DPI).name
+
+
+def _structure_figure_args(bank: ResidualBank, title: str) -> dict[str, Any]:
+    """The arguments of :func:`plot_structure` for ``bank`` (plain arrays and labels, so a
+    worker does not load the synthesis code to unpickle a bank)."""
+    return {
+        "structure": np.asarray(bank.structure),
+        "requested": np.asarray(bank.requested),
+        "fault_labels": [getattr(f, "name", f"fault {j}") for j, f in enumerate(bank.faults)],
+        "title": title,
+    }
 
 
 def _draw_residuals(kwargs: dict[str, Any], path: Path) -> str:
-    """Worker: one residual figure from (decimated) traces, saved as PNG."""
+    """Worker: one residual figure from (decimated) traces, saved as PNG.
+
+    The stacked axes get fixed margins (in inches) instead of the constrained layout,
+    which would cost a second drawing pass per figure.
+    """
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
+
     from geomfdi.plotting.residuals import plot_residuals, save_png
 
-    return save_png(plot_residuals(**kwargs), path, dpi=FIGURE_DPI).name
+    fig = plot_residuals(**kwargs)
+    w, h = fig.get_size_inches()
+    fig.set_layout_engine(PlaceHolderLayoutEngine(adjust_compatible=True, colorbar_gridspec=True))
+    top = 0.55 if kwargs.get("title") else 0.2
+    fig.subplots_adjust(left=0.9 / w, right=1 - 0.2 / w, bottom=0.55 / h, top=1 - top / h)
+    return save_png(fig, path, dpi=FIGURE_DPI).name
 
 
 def _warm_up() -> None:
     """Worker: import the plotting stack before the first figure arrives."""
     import matplotlib.backends.backend_agg  # noqa: F401
 
+    import geomfdi.evaluation.decision  # noqa: F401
     import geomfdi.plotting.residuals  # noqa: F401
 
 
@@ -162,8 +185,8 @@ class _Figures:
 
             methods = multiprocessing.get_all_start_methods()
             ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
-            # one core stays with the main process (design, verification, simulation)
-            workers = max(1, min(4, (os.cpu_count() or 1) - 1))
+            # the main process mostly waits once the simulations are done
+            workers = max(1, min(4, os.cpu_count() or 1))
             try:
                 self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
                 for _ in range(workers):  # load matplotlib while the main process works
@@ -510,16 +533,21 @@ def run_model(
     say = _say(progress)
     if out is not None:
         check_outputs(spec, out, [o.method for o in spec.methods], plots=plots)
-    say(f"designing {len(spec.methods)} bank(s): {', '.join(o.method for o in spec.methods)}")
-    banks = design_all(spec)
-    summary: dict[str, Any] = {
-        "model": spec.name,
-        "source": spec.source,
-        "plant": {"n": spec.plant.n, "m": spec.plant.m, "q": spec.plant.q, "dt": spec.plant.dt},
-        "design": {m: _bank_json(b) for m, b in banks.items()},
-    }
-    figs = _Figures(plots and out is not None)
+    figs = _Figures(plots and out is not None)  # workers load matplotlib during the design
     try:
+        say(f"designing {len(spec.methods)} bank(s): {', '.join(o.method for o in spec.methods)}")
+        banks = design_all(spec)
+        summary: dict[str, Any] = {
+            "model": spec.name,
+            "source": spec.source,
+            "plant": {
+                "n": spec.plant.n,
+                "m": spec.plant.m,
+                "q": spec.plant.q,
+                "dt": spec.plant.dt,
+            },
+            "design": {m: _bank_json(b) for m, b in banks.items()},
+        }
         _run_steps(spec, banks, summary, out, steps, plots, symbolic, progress, figs)
         if figs.jobs:
             say(f"writing the report and {len(figs.jobs)} figure(s)")
@@ -567,7 +595,9 @@ def _run_steps(
         out.mkdir(parents=True, exist_ok=True)
         for m, b in banks.items():
             png = out / f"structure_{m}.png"
-            figs.submit(png.name, _draw_structure, b, f"structure — {m}", png)
+            figs.submit(
+                png.name, _draw_structure, _structure_figure_args(b, f"structure — {m}"), png
+            )
             figures.append((f"achieved structure — {m}", png.name))
     if "verify" in steps:
         summary["verification"] = {}
