@@ -211,4 +211,6 @@ def main(argv: list[str] | None = None) -> list[dict]:
 
 
 if __name__ == "__main__":
-    main()
+    from _threads import run_thread_modes
+
+    run_thread_modes(main)

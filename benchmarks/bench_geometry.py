@@ -25,12 +25,6 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-# Run as a script: single-threaded BLAS unless the caller says otherwise (thread start-up
-# and contention otherwise dominate the small sizes and make the ratios irreproducible).
-if __name__ == "__main__":
-    for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(_var, "1")
-
 import numpy as np  # noqa: E402
 import scipy.linalg  # noqa: E402
 
@@ -161,4 +155,6 @@ def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
 
 
 if __name__ == "__main__":
-    main()
+    from _threads import run_thread_modes
+
+    run_thread_modes(main)

@@ -177,4 +177,6 @@ def _timed(fn) -> float:
 
 
 if __name__ == "__main__":
-    main()
+    from _threads import run_thread_modes
+
+    run_thread_modes(main)

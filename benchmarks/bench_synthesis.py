@@ -33,17 +33,10 @@ Run ``python benchmarks/bench_synthesis.py`` (``--quick`` for a smoke run).
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 import warnings
 from pathlib import Path
-
-if __name__ == "__main__":
-    # single-threaded BLAS when run as a script: the design makes many small LAPACK
-    # calls, which stall badly on a busy machine when BLAS spins up threads for each
-    for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(_var, "1")
 
 import numpy as np  # noqa: E402
 
@@ -258,4 +251,6 @@ def main(argv=None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    from _threads import run_thread_modes
+
+    run_thread_modes(main)

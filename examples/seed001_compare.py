@@ -1,4 +1,5 @@
-"""Seed 001: the paper's residual bank against the exact one, sensor-1 gain fault at 8 s.
+"""Seed 001: the paper's residual bank against the exact one, gain fault on sensor 0 at 8 s
+(the paper's sensor 1; geomfdi numbers sensors from 0).
 
 Closed loop u = v - K x with the numbers of Hou, Wen, Chen (2011), section 4.  Both banks
 are scaled like the paper (unit first Markov parameter: M = 1, p_j L_j = +-1), so the
@@ -54,13 +55,13 @@ def run(out: Path) -> dict[str, np.ndarray]:
             ax.axhline(THRESHOLD, color="tab:red", ls="--", lw=0.8)
             ax.axhline(-THRESHOLD, color="tab:red", ls="--", lw=0.8)
             ax.axvline(8.0, color="k", ls=":", lw=0.8)
-            ax.set_ylabel(f"r{r + 1}")
+            ax.set_ylabel(f"r[{r}]")
             ax.grid(alpha=0.3)
         axes[0, col].set_title(
             f"{name}\nmax|r| on [8, 20] s = " + ", ".join(f"{x:.3g}" for x in peaks[name])
         )
         axes[2, col].set_xlabel("t [s]")
-    fig.suptitle("Sensor 1 gain fault (eta = 1.5, lambda = 0.02) at t = 8 s; threshold 0.06")
+    fig.suptitle("Sensor 0 gain fault (eta = 1.5, lambda = 0.02) at t = 8 s; threshold 0.06")
     out.mkdir(parents=True, exist_ok=True)
     fig.savefig(out / "seed001_residuals.png", dpi=110)
     return peaks

@@ -7,7 +7,8 @@ non-zero when
 
 where ``scale`` is the norm of the data that produced ``X`` (``||A||_2`` for an image
 ``A Z``, ``||C||_2`` for ``C Z``; 1 for stacks of orthonormal bases) and ``rtol``
-defaults to ``1e3 * n * eps`` with ``n`` the ambient dimension (math.md §3).  The
+defaults to ``1e3 * n * eps`` with ``n`` the ambient dimension (see the user guide,
+*Theory: the geometric approach*, ``docs/theory/geometric-approach.md``).  The
 decision is always taken on the *un-normalised* product, never on a re-orthonormalised
 one.
 

@@ -303,6 +303,42 @@ BAD_MODELS = {
         _variant("step = 0.01", "step = 1e-9"),
         ["simulation.step", "samples"],
     ),
+    "negative-margin": (
+        _variant("[simulation]", "[design]\nmargin = -1\n\n[simulation]"),
+        ["design.exact.margin", "positive"],
+    ),
+    "negative-filter-pole": (
+        _variant("[simulation]", "[design]\nfilter_pole = -1\n\n[simulation]"),
+        ["design.exact.filter_pole", "positive"],
+    ),
+    "integer-beyond-float-in-matrix": (
+        _variant("A = [[-1, 0], [1, -2]]", "A = [[-1, 1" + "0" * 400 + "], [1, -2]]"),
+        ["plant.A[0][1]", "too large"],
+    ),
+    "integer-beyond-float-in-number": (
+        _variant("t_end = 2.0", "t_end = 1" + "0" * 400),
+        ["simulation.t_end", "too large"],
+    ),
+    "integer-beyond-float-in-expression": (
+        _variant('u = ["sin(t)"]', "u = [1" + "0" * 400 + "]"),
+        ["simulation.u[0]", "finite"],
+    ),
+    "grid-overflow": (
+        _variant("t_end = 2.0\nstep = 0.01", "t_end = 1e308\nstep = 1e-308"),
+        ["simulation.step", "more than 1e308 samples", "at most"],
+    ),
+    "calibration-runs-over-the-cap": (
+        _variant("threshold = 0.05", "threshold = {false_alarm_rate = 1e-3, runs = 1000000000}"),
+        ["simulation.threshold.runs", "at most 10000"],
+    ),
+    "arrays-nested-too-deep": (
+        _variant('u = ["sin(t)"]', 'u = [[[["sin(t)"]]]]'),
+        ["simulation.u", "nested more than 3 levels"],
+    ),
+    "arrays-nested-beyond-the-parser": (
+        _variant('u = ["sin(t)"]', "u = " + "[" * 100_000 + "]" * 100_000),
+        ["nested too deeply"],
+    ),
 }
 
 
@@ -419,3 +455,170 @@ def test_disturbance_signals_are_parsed(tmp_path: Path) -> None:
     assert spec.scenarios[0].d is None
     np.testing.assert_array_equal(spec.scenarios[1].d(t), [[2.0] * 4])
     np.testing.assert_array_equal(spec.u(t), [np.sin(t)])
+
+
+# ------------------------------------------------------------------ labels, limits, output
+
+
+def _scenario_sensors(name: str) -> set[int]:
+    """Sensor numbers a scenario name mentions ("sensor 0", "sensors 1, 2")."""
+    found: set[int] = set()
+    for m in re.finditer(r"sensors? ((?:\d+(?:, | and |, and )?)+)", name):
+        found |= {int(x) for x in re.findall(r"\d+", m.group(1))}
+    return found
+
+
+def test_scenario_sensor_helper() -> None:
+    assert _scenario_sensors("sensors 1, 2 abrupt at 8 s, sensor 0 time-varying") == {0, 1, 2}
+    assert _scenario_sensors("gain steps on all three sensors at 8 s") == set()
+
+
+@pytest.mark.parametrize("model", EXAMPLES, ids=lambda p: p.stem)
+def test_example_sensor_labels_are_the_0_based_indices(model: Path) -> None:
+    """A scenario title names the sensors its faults touch, with the file's 0-based index."""
+    spec = load_model(model)
+    for sc in spec.scenarios:
+        named = _scenario_sensors(sc.name)
+        touched = {f.sensor for f in sc.faults}
+        assert named <= touched, (sc.name, touched)
+
+
+def test_report_numbers_sensors_from_0(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["design", str(ROOT / "examples" / "seed001.toml"), "--no-plots"]) == 0
+    report = capsys.readouterr().out
+    assert "numbered from 0" in report
+    assert "| r0 | 1 | 0 | ok |" in report  # the paper's first residual sees sensor 0
+
+
+def test_report_gives_plant_n_and_design_dimension_apart(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Decoupling both sensors of a 4-state plant: dim S* is the design model's 6."""
+    path = tmp_path / "four.toml"
+    path.write_text(
+        """
+[plant]
+A = [[0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1], [-1, -2, -3, -4]]
+B = [[0], [0], [0], [1]]
+C = [[1, 0, 0, 0], [0, 1, 0, 0]]
+[design]
+structure = [[0, 0, 1]]
+[[design.faults]]
+type = "sensor"
+sensor = 0
+[[design.faults]]
+type = "sensor"
+sensor = 1
+[[design.faults]]
+type = "actuator"
+b = [0, 0, 0, 1]
+""",
+        encoding="utf-8",
+    )
+    assert cli.main(["design", str(path)]) == 0
+    report = capsys.readouterr().out
+    assert "n = 4 states" in report
+    assert "dim S* = n_d = 6 (the design model's dimension: plant n = 4 + 2 output-filter" in report
+    assert "n = 6" not in report
+
+
+def test_long_scenario_name_gives_a_short_file_name(tmp_path: Path) -> None:
+    path = tmp_path / "long.toml"
+    path.write_text(_variant('name = "bias on sensor 0"', f'name = "{"x" * 300}"'))
+    out = tmp_path / "out"
+    assert cli.main(["simulate", str(path), "--out", str(out), "--quiet"]) == 0
+    (png,) = out.glob("residuals_*.png")
+    assert len(png.stem) <= cli.MAX_STEM + len("residuals__exact")
+    assert png.name in (out / "report.md").read_text(encoding="utf-8")
+
+
+def test_unique_stems_after_shortening() -> None:
+    text = BASE + BASE[BASE.index("[[scenario]]") :]
+    long = f'name = "{"y" * 200}"'
+    spec = parse_model(__import__("tomllib").loads(text.replace('name = "bias on sensor 0"', long)))
+    stems = cli._unique_names(spec)
+    assert len(set(stems)) == 2 and all(len(s) <= cli.MAX_STEM + 2 for s in stems)
+
+
+def test_output_problems_are_found_before_any_work(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    path = tmp_path / "tiny.toml"
+    path.write_text(BASE, encoding="utf-8")
+    blocker = tmp_path / "a-file"
+    blocker.write_text("", encoding="utf-8")
+
+    def no_design(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the design ran before the output was checked")
+
+    monkeypatch.setattr(cli, "design_all", no_design)
+    assert cli.main(["run", str(path), "--out", str(blocker / "sub")]) == 2
+    assert "a-file" in _error_line(capsys)
+    spec = load_model(path)
+    monkeypatch.setattr(os, "pathconf", lambda *a: 20)
+    with pytest.raises(cli.GeomFDIError, match="longer than 20 bytes"):
+        cli.check_outputs(spec, tmp_path / "o", ["exact"])
+
+
+def test_closed_pipe_ends_quietly(tmp_path: Path) -> None:
+    """``geomfdi design ... --json | head``: no traceback when the reader goes away."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "geomfdi.io.cli", "design", str(EXAMPLES[0]), "--json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env={**os.environ, "MPLBACKEND": "Agg"},
+    )
+    proc.stdout.close()  # the reader is gone before anything is written
+    err = proc.stderr.read().decode()
+    proc.stderr.close()
+    assert proc.wait(timeout=300) == 141
+    assert "Traceback" not in err and "BrokenPipe" not in err, err
+
+
+def test_progress_goes_to_stderr_unless_quiet(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "tiny.toml"
+    path.write_text(BASE, encoding="utf-8")
+    out = tmp_path / "out"
+    assert cli.main(["simulate", str(path), "--out", str(out), "--progress", "--json"]) == 0
+    captured = capsys.readouterr()
+    assert "geomfdi: designing 1 bank(s): exact" in captured.err
+    assert "geomfdi: [1/1] simulating bias on sensor 0 (exact)" in captured.err
+    json.loads(captured.out)  # stdout keeps only the JSON
+    assert cli.main(["simulate", str(path), "--out", str(out), "--progress", "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_decimation_keeps_every_bucket_extreme() -> None:
+    rng = np.random.default_rng(0)
+    r = rng.standard_normal((3, 10_007)).cumsum(axis=1)
+    cols = 50
+    idx = cli.decimate_minmax(np.arange(r.shape[1]), r, columns=cols)
+    assert np.all(np.diff(idx) > 0) and idx[0] == 0 and idx[-1] == r.shape[1] - 1
+    assert idx.size <= 3 * cols * 2 + r.shape[1] % cols + 1 + cols
+    width = r.shape[1] // cols
+    for b in range(cols):
+        lo, hi = b * width, (b + 1) * width
+        kept = idx[(idx >= lo) & (idx < hi)]
+        np.testing.assert_array_equal(r[:, kept].max(axis=1), r[:, lo:hi].max(axis=1))
+        np.testing.assert_array_equal(r[:, kept].min(axis=1), r[:, lo:hi].min(axis=1))
+    short = cli.decimate_minmax(np.arange(30), r[:, :30], columns=50)
+    np.testing.assert_array_equal(short, np.arange(30))
+
+
+def test_figure_alarms_follow_the_decimation() -> None:
+    """An alarm of one sample inside a bucket still shades the decimated figure."""
+
+    class Res:
+        t = np.linspace(0, 1, 100_000)
+        residuals = np.zeros((1, 100_000))
+        threshold = 0.5
+        alarms = np.zeros((1, 100_000), dtype=bool)
+        onsets: list[float] = []
+        residual_labels = ["r[0]"]
+
+    Res.alarms[0, 54_321] = True
+    args = cli._residual_figure_args(Res, "t")
+    assert args["t"].size < 5000
+    assert args["alarms"].any() and args["alarms"].sum() < 10

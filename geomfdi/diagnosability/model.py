@@ -18,6 +18,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_index, as_int, as_matrix, as_vector
 from geomfdi.diagnosability import applicability as _applicability
 from geomfdi.diagnosability import indices as _indices
@@ -343,6 +344,7 @@ class WindowModel:
         """``(P_I - alpha) / (1 - alpha)``; see :func:`.indices.probabilistic_isolability`."""
         return _indices.probabilistic_isolability(self, i, j, theta, alpha, method=method)
 
+    @limit_blas_threads
     def table(self, theta: Any, method: TableMethod = "kl", **options: Any) -> DiagnosabilityTable:
         """Shortcut for :func:`diagnosability_table` on this model."""
         return _tables.diagnosability_table(self, theta, method, **options)

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_int, as_positive, as_probability, as_real_array, as_vector
 from geomfdi.diagnosability.results import DiagnosabilityTable
 from geomfdi.errors import GeomFDIError, ShapeError
@@ -41,6 +42,7 @@ def _profiles(theta: Any, p: int, s: int, name: str = "theta") -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- tables
+@limit_blas_threads
 def diagnosability_table(
     model: WindowModel,
     theta: Any,

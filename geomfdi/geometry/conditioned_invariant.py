@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_matrix, as_real_array
 from geomfdi.errors import ShapeError
 from geomfdi.geometry.subspace import Subspace, apply, intersect_kernel, pinv
@@ -110,6 +111,7 @@ def _as_subspace(L: Any, n: int, name: str = "L") -> Subspace:
     return Subspace(arr)
 
 
+@limit_blas_threads
 def min_conditioned_invariant(A: Any, C: Any, L: Any, *, exact: bool = False) -> InvariantSubspace:
     """W* = inf W(A, C, L): the minimal (C, A)-conditioned invariant containing Im L.
 

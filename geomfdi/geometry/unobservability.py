@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_matrix
 from geomfdi.errors import ShapeError
 from geomfdi.geometry.conditioned_invariant import (
@@ -41,6 +42,7 @@ __all__ = [
 ]
 
 
+@limit_blas_threads
 def min_unobservability_subspace(
     A: Any, C: Any, L: Any, *, exact: bool = False
 ) -> InvariantSubspace:

@@ -8,6 +8,12 @@ writes ``report.md``, ``summary.json`` and PNG figures to the working directory 
 error and exit code 2; an unexpected internal error a one-line error and exit code 1
 (``--traceback`` shows the Python traceback instead).
 
+Progress goes to stderr as plain ``geomfdi: ...`` lines (shown when stderr is a terminal,
+or with ``--progress``; never with ``--quiet``).  The PNG figures are drawn in worker
+processes while the simulations run, from traces decimated to the minimum and maximum of
+each pixel column (peaks are kept); ``--no-plots`` skips them.  Sensors, inputs, faults
+and residuals are numbered from 0, as in the Python API and the model files.
+
 The report has one table per design (order, faults seen, diagnostics), a verification
 table (numerical leakage and, for plants with at most ``SYMBOLIC_MAX_N`` states, the
 exact sympy check), the thresholds and, per scenario and method, ``max |r|`` per residual,
@@ -19,10 +25,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import sys
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -32,13 +39,186 @@ from geomfdi.errors import GeomFDIError
 from geomfdi.io.modelfile import ModelSpec, load_model
 from geomfdi.synthesis.generator import ResidualBank
 
-__all__ = ["main", "design_all", "run_model"]
+__all__ = ["main", "design_all", "run_model", "check_outputs", "decimate_minmax"]
 
 SYMBOLIC_MAX_N = 10
 
+MAX_STEM = 80
+"""Longest file-name stem taken from a scenario name (longer names are shortened)."""
+
+FIGURE_DPI = 100
+FIGURE_COLUMNS = 800
+"""Pixel columns of a residual figure: traces keep at most their min and max per column."""
+
 
 def _slug(text: str) -> str:
-    return re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-") or "scenario"
+    slug = re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")[:MAX_STEM].strip("-")
+    return slug or "scenario"
+
+
+def _say(enabled: bool) -> Callable[[str], None]:
+    """A progress printer: ``geomfdi: <text>`` lines on stderr, or nothing."""
+
+    def say(text: str) -> None:
+        if enabled:
+            print(f"geomfdi: {text}", file=sys.stderr, flush=True)
+
+    return say
+
+
+def decimate_minmax(t: Any, r: Any, columns: int = FIGURE_COLUMNS) -> np.ndarray:
+    """Indices of the samples that draw ``r`` (rows: traces over ``t``) at ``columns`` pixels.
+
+    The samples are split into ``columns`` consecutive buckets; each bucket keeps its first
+    sample and, for every trace, the sample of its minimum and of its maximum, so the
+    drawn envelope (and every peak) is the one of the full trace.  Returns the sorted
+    indices (all of them when there are at most ``2 * columns`` samples).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> r = np.zeros((1, 10_000)); r[0, 1234] = 5.0
+    >>> idx = decimate_minmax(np.arange(10_000), r, columns=100)
+    >>> bool(1234 in idx), bool(len(idx) <= 301)
+    (True, True)
+    """
+    r = np.atleast_2d(np.asarray(r))
+    n = r.shape[1]
+    if n <= 2 * columns:
+        return np.arange(n)
+    width = n // columns
+    body = columns * width
+    blocks = r[:, :body].reshape(r.shape[0], columns, width)
+    offset = np.arange(columns) * width
+    keep = [
+        offset,
+        (blocks.argmin(axis=2) + offset).ravel(),
+        (blocks.argmax(axis=2) + offset).ravel(),
+    ]
+    keep.append(np.arange(body, n))  # the tail that does not fill a bucket
+    keep.append(np.array([n - 1]))
+    return np.unique(np.concatenate(keep))
+
+
+def _draw_structure(kwargs: dict[str, Any], path: Path) -> str:
+    """Worker: the structure figure of one bank, saved as PNG."""
+    from geomfdi.plotting.residuals import plot_structure, save_png
+
+    return save_png(plot_structure(**kwargs), path, dpi=FIGURE_DPI).name
+
+
+def _structure_figure_args(bank: ResidualBank, title: str) -> dict[str, Any]:
+    """The arguments of :func:`plot_structure` for ``bank`` (plain arrays and labels, so a
+    worker does not load the synthesis code to unpickle a bank)."""
+    return {
+        "structure": np.asarray(bank.structure),
+        "requested": np.asarray(bank.requested),
+        "fault_labels": [getattr(f, "name", f"fault {j}") for j, f in enumerate(bank.faults)],
+        "title": title,
+    }
+
+
+def _draw_residuals(kwargs: dict[str, Any], path: Path) -> str:
+    """Worker: one residual figure from (decimated) traces, saved as PNG.
+
+    The stacked axes get fixed margins (in inches) instead of the constrained layout,
+    which would cost a second drawing pass per figure.
+    """
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
+
+    from geomfdi.plotting.residuals import plot_residuals, save_png
+
+    fig = plot_residuals(**kwargs)
+    w, h = fig.get_size_inches()
+    fig.set_layout_engine(PlaceHolderLayoutEngine(adjust_compatible=True, colorbar_gridspec=True))
+    top = 0.55 if kwargs.get("title") else 0.2
+    fig.subplots_adjust(left=0.9 / w, right=1 - 0.2 / w, bottom=0.55 / h, top=1 - top / h)
+    return save_png(fig, path, dpi=FIGURE_DPI).name
+
+
+def _warm_up() -> None:
+    """Worker: import the plotting stack before the first figure arrives."""
+    import matplotlib.backends.backend_agg  # noqa: F401
+
+    import geomfdi.evaluation.decision  # noqa: F401
+    import geomfdi.plotting.residuals  # noqa: F401
+
+
+def _residual_figure_args(res: Any, title: str) -> dict[str, Any]:
+    """The arguments of :func:`plot_residuals` for ``res``, traces decimated per pixel."""
+    th = res.threshold
+    alarms = res.alarms if th is not None else None
+    t, r = res.t, res.residuals
+    if getattr(th, "statistic", "abs") == "abs" and t.size > 2 * FIGURE_COLUMNS:
+        # (a moving statistic needs every sample: drawn in full)
+        idx = decimate_minmax(t, r)
+        if alarms is not None:  # an alarm anywhere in a bucket shades its kept samples
+            a = np.asarray(alarms, dtype=bool)
+            width = t.size // FIGURE_COLUMNS
+            anyb = np.logical_or.reduceat(a, np.arange(FIGURE_COLUMNS) * width, axis=1)
+            alarms = anyb[:, np.minimum(idx // width, FIGURE_COLUMNS - 1)]
+        t, r = t[idx], r[:, idx]
+    return {
+        "t": t,
+        "residuals": r,
+        "threshold": th,
+        "onsets": sorted(set(res.onsets)),
+        "labels": res.residual_labels,
+        "alarms": alarms,
+        "title": title,
+    }
+
+
+class _Figures:
+    """PNG figures drawn by worker processes while the main process goes on.
+
+    Falls back to drawing in this process when no process pool can be started.
+    """
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled
+        self.pool: Any = None
+        self.jobs: list[tuple[Any, Any]] = []
+        if enabled:
+            import multiprocessing
+            from concurrent.futures import ProcessPoolExecutor
+
+            methods = multiprocessing.get_all_start_methods()
+            ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
+            # the main process mostly waits once the simulations are done
+            workers = max(1, min(4, os.cpu_count() or 1))
+            try:
+                self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+                for _ in range(workers):  # load matplotlib while the main process works
+                    self.pool.submit(_warm_up)
+            except (OSError, NotImplementedError, ValueError, RuntimeError):
+                self.pool = None
+
+    def submit(self, key: Any, fn: Callable[..., str], *args: Any) -> None:
+        if not self.enabled:
+            return
+        if self.pool is not None:
+            try:
+                self.jobs.append((key, self.pool.submit(fn, *args)))
+                return
+            except RuntimeError:  # the pool broke: draw here
+                self.pool = None
+        self.jobs.append((key, fn(*args)))
+
+    def results(self) -> dict[Any, str]:
+        """Wait for every figure; ``{key: file name}``."""
+        out = {}
+        try:
+            for key, job in self.jobs:
+                out[key] = job if isinstance(job, str) else job.result()
+        finally:
+            self.close()
+        return out
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+            self.pool = None
 
 
 def _with_context(exc: GeomFDIError, where: str) -> GeomFDIError:
@@ -187,6 +367,42 @@ def _events(res: Any) -> list[dict[str, Any]]:
     return rows
 
 
+def check_outputs(
+    spec: ModelSpec, out: Path, methods: Sequence[str], *, plots: bool = True
+) -> None:
+    """Check, before any work, that every file of a run can be created in ``out``.
+
+    The directory is created if needed and must be writable; every file name (report,
+    summary, figures named after the scenarios) must fit the file system's limit.
+
+    Raises
+    ------
+    GeomFDIError
+        Naming the directory or the file (argument ``out``).
+    """
+    names = ["report.md", "summary.json"]
+    if plots:
+        names += [f"structure_{m}.png" for m in methods]
+        names += [f"residuals_{stem}_{m}.png" for stem in _unique_names(spec) for m in methods]
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise GeomFDIError(
+            f"--out {out}: cannot create the directory ({exc.strerror or exc})", argument="out"
+        ) from exc
+    try:
+        limit = os.pathconf(out, "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):
+        limit = 255
+    for name in names:
+        if len(os.fsencode(name)) > limit:
+            raise GeomFDIError(
+                f"--out {out}: file name {name!r} longer than {limit} bytes", argument="out"
+            )
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise GeomFDIError(f"--out {out}: the directory is not writable", argument="out")
+
+
 def _unique_names(spec: ModelSpec) -> list[str]:
     """File-name stems of the scenarios, made unique when two names give the same slug."""
     seen: dict[str, int] = {}
@@ -205,21 +421,24 @@ def _simulate(
     plots: bool,
     progress: bool,
     thresholds: dict[str, Any],
+    figures: _Figures | None = None,
 ) -> list[dict[str, Any]]:
-    from tqdm.auto import tqdm
-
-    from geomfdi.plotting.residuals import save_png
     from geomfdi.simulation.noise import Noise
     from geomfdi.simulation.simulate import simulate
 
+    say = _say(progress)
     rows = []
     stems = dict(zip((id(sc) for sc in spec.scenarios), _unique_names(spec), strict=True))
     jobs = [(sc, m) for sc in spec.scenarios for m in banks]
-    for sc, method in tqdm(jobs, desc="simulating", disable=not progress, leave=False):
+    for k, (sc, method) in enumerate(jobs):
         bank = banks[method]
         if not bank.present:
+            say(f"[{k + 1}/{len(jobs)}] {sc.name} ({method}): no residual, skipped")
             continue
+        say(f"[{k + 1}/{len(jobs)}] simulating {sc.name} ({method})")
         if method not in thresholds:
+            if isinstance(spec.threshold, dict):
+                say(f"calibrating the threshold ({method}, {spec.threshold['runs']} runs)")
             try:
                 thresholds[method] = _threshold(spec, bank)
             except GeomFDIError as exc:
@@ -256,13 +475,11 @@ def _simulate(
             "false_alarm_rate": res.false_alarm_rate(),
             "final_isolation": int(res.isolated[-1]) if res.isolated.size else None,
         }
-        if plots and out is not None:
-            fig = res.plot(title=f"{sc.name} — {method}")
-            png = save_png(fig, out / f"residuals_{stems[id(sc)]}_{method}.png")
+        if plots and out is not None and figures is not None:
+            png = out / f"residuals_{stems[id(sc)]}_{method}.png"
+            args = _residual_figure_args(res, f"{sc.name} — {method}")
+            figures.submit(png.name, _draw_residuals, args, png)
             row["figure"] = png.name
-            import matplotlib.pyplot as plt
-
-            plt.close(fig)
         rows.append(row)
     return rows
 
@@ -311,37 +528,86 @@ def run_model(
     symbolic: bool = True,
     progress: bool = False,
 ) -> dict[str, Any]:
-    """Design, verify and simulate ``spec``; write the report into ``out``."""
-    banks = design_all(spec)
-    summary: dict[str, Any] = {
-        "model": spec.name,
-        "source": spec.source,
-        "plant": {"n": spec.plant.n, "m": spec.plant.m, "q": spec.plant.q, "dt": spec.plant.dt},
-        "design": {m: _bank_json(b) for m, b in banks.items()},
-    }
+    """Design, verify and simulate ``spec``; write the report into ``out``.
+
+    ``progress`` prints ``geomfdi: ...`` lines on stderr; with ``out`` and ``plots`` the
+    figures are drawn by worker processes while the verification and the simulations run.
+    """
+    say = _say(progress)
+    if out is not None:
+        check_outputs(spec, out, [o.method for o in spec.methods], plots=plots)
+    figs = _Figures(plots and out is not None)  # workers load matplotlib during the design
+    try:
+        say(f"designing {len(spec.methods)} bank(s): {', '.join(o.method for o in spec.methods)}")
+        banks = design_all(spec)
+        summary: dict[str, Any] = {
+            "model": spec.name,
+            "source": spec.source,
+            "plant": {
+                "n": spec.plant.n,
+                "m": spec.plant.m,
+                "q": spec.plant.q,
+                "dt": spec.plant.dt,
+            },
+            "design": {m: _bank_json(b) for m, b in banks.items()},
+        }
+        _run_steps(spec, banks, summary, out, steps, plots, symbolic, progress, figs)
+        if figs.jobs:
+            say(f"writing the report and {len(figs.jobs)} figure(s)")
+        figs.results()
+    finally:
+        figs.close()
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "report.md").write_text(summary["report"] + "\n", encoding="utf-8")
+        (out / "summary.json").write_text(
+            json.dumps(
+                {k: v for k, v in summary.items() if k != "report"}, indent=2, default=_json_default
+            ),
+            encoding="utf-8",
+        )
+    return summary
+
+
+def _run_steps(
+    spec: ModelSpec,
+    banks: dict[str, ResidualBank],
+    summary: dict[str, Any],
+    out: Path | None,
+    steps: Sequence[str],
+    plots: bool,
+    symbolic: bool,
+    progress: bool,
+    figs: _Figures,
+) -> None:
+    """The report's text (``summary["report"]``) and the figures of :func:`run_model`."""
+    say = _say(progress)
     lines = [
         f"# geomfdi report: {spec.name}",
         "",
-        f"Plant: n = {spec.plant.n}, m = {spec.plant.m}, q = {spec.plant.q}, "
-        + (f"dt = {spec.plant.dt:g}." if spec.plant.dt else "continuous time."),
+        f"Plant: n = {spec.plant.n} states, m = {spec.plant.m} inputs, q = {spec.plant.q} "
+        "sensors, "
+        + (f"dt = {spec.plant.dt:g}." if spec.plant.dt else "continuous time.")
+        + " Sensors, faults and residuals are numbered from 0.",
         "",
     ]
     for m, b in banks.items():
         lines += _design_table(m, b)
     figures: list[tuple[str, str]] = []
     if out is not None and plots:
-        import matplotlib.pyplot as plt
-
-        from geomfdi.plotting.residuals import plot_structure, save_png
-
         out.mkdir(parents=True, exist_ok=True)
         for m, b in banks.items():
-            fig = plot_structure(b, title=f"structure — {m}")
-            png = save_png(fig, out / f"structure_{m}.png")
+            png = out / f"structure_{m}.png"
+            figs.submit(
+                png.name, _draw_structure, _structure_figure_args(b, f"structure — {m}"), png
+            )
             figures.append((f"achieved structure — {m}", png.name))
-            plt.close(fig)
     if "verify" in steps:
-        summary["verification"] = {m: _verify(spec, b, symbolic) for m, b in banks.items()}
+        summary["verification"] = {}
+        for m, b in banks.items():
+            exact = symbolic and spec.plant.n <= SYMBOLIC_MAX_N and b.present
+            say(f"verifying {m}" + (" (numerically and exactly)" if exact else ""))
+            summary["verification"][m] = _verify(spec, b, symbolic)
         lines += [
             "### Verification",
             "",
@@ -358,7 +624,7 @@ def run_model(
         lines.append("")
     if "simulate" in steps and spec.scenarios:
         thresholds: dict[str, Any] = {}
-        rows = _simulate(spec, banks, out, plots, progress, thresholds)
+        rows = _simulate(spec, banks, out, plots, progress, thresholds, figs)
         summary["simulation"] = rows
         summary["thresholds"] = {
             m: _threshold_values(th, banks[m].structure.shape[0]) for m, th in thresholds.items()
@@ -372,16 +638,6 @@ def run_model(
         lines += [f"![{caption}]({name})" for caption, name in figures]
         lines.append("")
     summary["report"] = "\n".join(lines)
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "report.md").write_text(summary["report"] + "\n", encoding="utf-8")
-        (out / "summary.json").write_text(
-            json.dumps(
-                {k: v for k, v in summary.items() if k != "report"}, indent=2, default=_json_default
-            ),
-            encoding="utf-8",
-        )
-    return summary
 
 
 def _json_default(obj: Any) -> Any:
@@ -424,6 +680,11 @@ def _parser() -> argparse.ArgumentParser:
             "--no-symbolic", action="store_true", help="skip the exact (sympy) verification"
         )
         sp.add_argument("--quiet", action="store_true", help="print nothing but errors")
+        sp.add_argument(
+            "--progress",
+            action="store_true",
+            help="show progress on stderr even when it is not a terminal",
+        )
         sp.add_argument(
             "--traceback",
             action="store_true",
@@ -528,10 +789,13 @@ def _one_line(text: str) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``geomfdi`` console script; returns the exit code.
 
-    Exit codes: 0 success; 2 bad command line, unreadable or invalid model file, or a
-    design/simulation the model does not allow (one line ``geomfdi: error: ...`` on
-    stderr); 1 an unexpected internal error (one line, or the traceback with
-    ``--traceback``).  After a successful run, warnings are printed as
+    Exit codes: 0 success; 2 bad command line, unreadable or invalid model file, an
+    option out of range, a design/simulation the model does not allow, an output file
+    that cannot be created (checked before any work), a system limit (memory, disk)
+    (one line ``geomfdi: error: ...`` on stderr); 1 an unexpected internal error (one
+    line, or the traceback with ``--traceback``); 141 the reader of stdout stopped early
+    (``geomfdi design m.toml --json | head``), like a program ended by SIGPIPE, without
+    a message.  After a successful run, warnings are printed as
     ``geomfdi: warning: ...`` lines unless ``--quiet``.
     """
     args = _parser().parse_args(argv)
@@ -558,13 +822,16 @@ def main(argv: Sequence[str] | None = None) -> int:
                 steps=steps[args.command],
                 plots=not args.no_plots,
                 symbolic=not args.no_symbolic,
-                progress=sys.stderr.isatty() and not args.quiet,
+                progress=not args.quiet and (args.progress or sys.stderr.isatty()),
             )
     except GeomFDIError as exc:
         print(f"geomfdi: error: {_one_line(exc)}", file=sys.stderr)
         return 2
     except OSError as exc:
         print(f"geomfdi: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("geomfdi: error: out of memory (use a shorter grid or fewer runs)", file=sys.stderr)
         return 2
     except Exception as exc:  # an internal error: one line unless asked for the traceback
         if args.traceback:
@@ -575,6 +842,22 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
+    try:
+        _print_results(args, summary, caught, out)
+    except BrokenPipeError:
+        # the reader went away (``| head``): stop quietly, as a program ended by SIGPIPE;
+        # stdout is pointed at devnull so that the interpreter's final flush is silent
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+        return 141
+    return 0
+
+
+def _print_results(
+    args: argparse.Namespace, summary: dict[str, Any], caught: list, out: Any
+) -> None:
+    """Warnings on stderr, then the report or the JSON on stdout."""
     if not args.quiet:
         shown = set()
         for w in caught:
@@ -592,7 +875,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(summary["report"])
         if out is not None and args.command in ("run", "simulate"):
             print(f"\nwritten to {out}")
-    return 0
+    sys.stdout.flush()
 
 
 if __name__ == "__main__":  # pragma: no cover

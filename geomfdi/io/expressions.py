@@ -150,7 +150,10 @@ def _eval(node: ast.AST, t: np.ndarray) -> Any:
     if isinstance(node, ast.Expression):
         return _eval(node.body, t)
     if isinstance(node, ast.Constant):
-        return float(node.value)
+        try:
+            return float(node.value)
+        except OverflowError:  # an integer literal beyond the float range
+            return float("inf") if node.value > 0 else float("-inf")
     if isinstance(node, ast.Name):
         return t if node.id == "t" else _CONSTANTS[node.id]
     if isinstance(node, ast.UnaryOp):
@@ -205,7 +208,10 @@ def compile_expression(text: Any, where: str) -> Callable[[np.ndarray], np.ndarr
             f"{where}: expected a number or an expression of t, got {text!r}", argument=where
         )
     if isinstance(text, int | float):
-        value = float(text)
+        try:
+            value = float(text)
+        except OverflowError:
+            value = float("inf")
         if not np.isfinite(value):
             raise ModelFileError(f"{where}: must be finite, got {value}", argument=where)
         return lambda t: np.full(np.shape(t), value)

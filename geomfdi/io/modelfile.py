@@ -2,7 +2,7 @@
 
 A model file has four parts (sensor and input indices are 0-based)::
 
-    name = "seed 001 example"
+    name = "Hou, Wen & Chen 2011, section 4"
 
     [plant]                      # A, C required; B, D, Bd, Dd optional; dt = 0 (continuous)
     A = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]
@@ -68,10 +68,27 @@ from geomfdi.io.expressions import compile_expression
 from geomfdi.model.faults import ActuatorFault, Fault, SensorFault
 from geomfdi.model.plant import Plant
 
-__all__ = ["ModelSpec", "MethodOptions", "Scenario", "load_model", "parse_model", "MAX_SAMPLES"]
+__all__ = [
+    "ModelSpec",
+    "MethodOptions",
+    "Scenario",
+    "load_model",
+    "parse_model",
+    "MAX_SAMPLES",
+    "MAX_RUNS",
+    "MAX_NESTING",
+]
 
 MAX_SAMPLES = 10_000_000
 """Largest simulation grid a model file may ask for."""
+
+MAX_RUNS = 10_000
+"""Most noise-only runs a calibrated threshold (``threshold = {runs = ...}``) may ask for."""
+
+MAX_NESTING = 3
+"""Deepest nesting of arrays in a model file (a matrix is 2)."""
+
+_FLOAT_MAX = float(np.finfo(float).max)
 
 _TOP = {"name", "description", "plant", "design", "simulation", "scenario"}
 _PLANT = {"A", "B", "C", "D", "Bd", "Dd", "dt"}
@@ -168,6 +185,8 @@ class _Ctx:
     ) -> float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.err(where, f"expected a number, got {value!r}")
+        if isinstance(value, int) and abs(value) > _FLOAT_MAX:
+            raise self.err(where, "expected a finite number, got an integer too large for a float")
         x = float(value)
         if not np.isfinite(x) or (positive and x <= 0) or (nonnegative and x < 0):
             kind = "positive " if positive else "non-negative " if nonnegative else ""
@@ -191,6 +210,8 @@ class _Ctx:
             for c, x in enumerate(row):
                 if isinstance(x, bool) or not isinstance(x, int | float):
                     raise self.err(f"{where}[{r}][{c}]", f"expected a number, got {x!r}")
+                if isinstance(x, int) and abs(x) > _FLOAT_MAX:
+                    raise self.err(f"{where}[{r}][{c}]", "integer too large for a float")
         widths = {len(row) for row in rows}
         if len(widths) > 1:
             raise self.err(where, f"rows have different lengths {sorted(widths)}")
@@ -308,7 +329,23 @@ def _design_faults(ctx: _Ctx, items: Any, plant: Plant) -> list[Fault]:
     return out
 
 
-def _method_options(ctx: _Ctx, d: dict[str, Any]) -> list[MethodOptions]:
+def _filter_pole(ctx: _Ctx, value: Any, where: str, plant: Plant) -> float:
+    """The output-filter parameter ``a``: ``a > 0`` (continuous), ``0 < a < 1`` (discrete)."""
+    a = ctx.number(value, where, positive=True)
+    if plant.is_discrete and a >= 1:
+        raise ctx.err(where, f"expected 0 < filter_pole < 1 for a discrete plant, got {value!r}")
+    return a
+
+
+def _margin(ctx: _Ctx, value: Any, where: str, plant: Plant) -> float:
+    """Stability margin: ``Re λ <= -margin`` (continuous) or ``|λ| <= margin < 1`` (discrete)."""
+    m = ctx.number(value, where, positive=True)
+    if plant.is_discrete and m >= 1:
+        raise ctx.err(where, f"expected 0 < margin < 1 for a discrete plant, got {value!r}")
+    return m
+
+
+def _method_options(ctx: _Ctx, d: dict[str, Any], plant: Plant) -> list[MethodOptions]:
     methods = d.get("methods", ["exact"])
     if isinstance(methods, str):
         methods = [methods]
@@ -334,8 +371,8 @@ def _method_options(ctx: _Ctx, d: dict[str, Any]) -> list[MethodOptions]:
                 meth,
                 poles,
                 norm,
-                None if fp is None else ctx.number(fp, f"design.{meth}.filter_pole"),
-                None if mg is None else ctx.number(mg, f"design.{meth}.margin", positive=True),
+                None if fp is None else _filter_pole(ctx, fp, f"design.{meth}.filter_pole", plant),
+                None if mg is None else _margin(ctx, mg, f"design.{meth}.margin", plant),
             )
         )
     return out
@@ -422,6 +459,7 @@ def _signals(ctx: _Ctx, value: Any, where: str, length: int, what: str, grid: np
 def parse_model(data: dict[str, Any], source: str = "<model>") -> ModelSpec:
     """Validate a parsed TOML document and build a :class:`ModelSpec`."""
     ctx = _Ctx(source)
+    _check_nesting(ctx, data, "")
     ctx.keys(data, _TOP, "top level")
     if "plant" not in data:
         raise ctx.err("plant", "missing [plant] table")
@@ -438,7 +476,7 @@ def parse_model(data: dict[str, Any], source: str = "<model>") -> ModelSpec:
             raise ctx.err("design.structure", "entries must be 0 or 1")
     else:
         S = np.eye(len(faults))
-    methods = _method_options(ctx, d)
+    methods = _method_options(ctx, d, plant)
     spec = ModelSpec(
         str(data.get("name", Path(source).stem)), plant, faults, S, methods, source=source
     )
@@ -463,12 +501,15 @@ def parse_model(data: dict[str, Any], source: str = "<model>") -> ModelSpec:
             )
         if t_end <= t0:
             raise ctx.err("simulation.t_end", f"must exceed t_start = {t0}")
-        N = int(round((t_end - t0) / step)) + 1
-        if N > MAX_SAMPLES:
+        with np.errstate(over="ignore"):
+            span = (t_end - t0) / step
+        if not np.isfinite(span) or span + 1 > MAX_SAMPLES:
+            count = f"{span + 1:.3g}" if np.isfinite(span) else "more than 1e308"
             raise ctx.err(
                 "simulation.step",
-                f"the grid would hold {N} samples (at most {MAX_SAMPLES}); use a larger step",
+                f"the grid would hold {count} samples (at most {MAX_SAMPLES}); use a larger step",
             )
+        N = int(round(span)) + 1
         if N < 2:
             raise ctx.err("simulation.step", f"must be smaller than t_end - t_start, got {step}")
         spec.t = t0 + step * np.arange(N)
@@ -494,6 +535,11 @@ def parse_model(data: dict[str, Any], source: str = "<model>") -> ModelSpec:
                 if far >= 1:
                     raise ctx.err("simulation.threshold.false_alarm_rate", "must be < 1")
                 runs = ctx.integer(th.get("runs", 4), "simulation.threshold.runs", minimum=1)
+                if runs > MAX_RUNS:
+                    raise ctx.err(
+                        "simulation.threshold.runs",
+                        f"at most {MAX_RUNS} calibration runs, got {runs}",
+                    )
                 spec.threshold = {"false_alarm_rate": far, "runs": runs}
             elif isinstance(th, list):
                 spec.threshold = ctx.vector(th, "simulation.threshold", len(S), positive=True)
@@ -563,4 +609,21 @@ def load_model(path: str | Path) -> ModelSpec:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ModelFileError(f"{p}: not valid TOML ({exc})") from exc
+    except RecursionError:
+        raise ModelFileError(
+            f"{p}: not a usable model file (arrays or tables nested too deeply; "
+            f"at most {MAX_NESTING} levels of arrays)"
+        ) from None
     return parse_model(data, str(p))
+
+
+def _check_nesting(ctx: _Ctx, value: Any, where: str, depth: int = 0) -> None:
+    """Refuse arrays nested deeper than :data:`MAX_NESTING` (tables reset the count)."""
+    if isinstance(value, dict):
+        for key, item in value.items():
+            _check_nesting(ctx, item, f"{where}.{key}" if where else str(key), 0)
+    elif isinstance(value, list):
+        if depth >= MAX_NESTING:
+            raise ctx.err(where, f"arrays nested more than {MAX_NESTING} levels deep")
+        for k, item in enumerate(value):
+            _check_nesting(ctx, item, f"{where}[{k}]", depth + 1)

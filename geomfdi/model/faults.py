@@ -1,9 +1,12 @@
-"""Fault descriptions for design: where a fault enters the plant (math.md §1–2).
+"""Fault descriptions for design: where a fault enters the plant.
 
 A fault is an additive signal ``f`` entering as ``x' = ... + Bf f`` and
-``y = ... + Df f``.  A sensor fault on output ``i`` is ``Bf = 0``, ``Df = e_i``: by
-Erratum 1 of math.md every gain, bias or stuck fault is such an additive output fault
-``phi_i = (eta_i - 1) C_i x + lambda_i`` on the *measured* y.
+``y = ... + Df f``.  A sensor fault on output ``i`` (0-based) is ``Bf = 0``,
+``Df = e_i``: every gain, bias or stuck fault is such an additive output fault
+``phi_i = (eta_i - 1) C_i x + lambda_i`` on the *measured* y, since a residual generator
+only sees the measured y (the first correction to Hou, Wen & Chen 2011 in the user guide,
+*Theory: errata*, ``docs/theory/errata.md``; see also *Theory: sensor-fault transforms*,
+``docs/theory/sensor-fault-transforms.md``).
 """
 
 from __future__ import annotations

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_int
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.evaluation.decision import (
@@ -37,6 +38,7 @@ from geomfdi.simulation.simulate import run_chunk
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
 
+@limit_blas_threads
 def simulate_batch(
     plant: Plant,
     bank: ResidualBank | ResidualGenerator,

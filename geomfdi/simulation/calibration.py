@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_int
 from geomfdi.errors import GeomFDIError
 from geomfdi.evaluation.decision import Threshold
@@ -18,6 +19,7 @@ from geomfdi.simulation.batch import simulate_batch
 __all__ = ["calibrate_threshold"]
 
 
+@limit_blas_threads
 def calibrate_threshold(
     plant: Any,
     bank: Any,

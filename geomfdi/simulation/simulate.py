@@ -93,6 +93,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi.evaluation.decision import (
     as_threshold,
     detection_events,
@@ -178,6 +179,7 @@ def run_chunk(
     )
 
 
+@limit_blas_threads
 def simulate(
     plant: Plant,
     bank: ResidualBank | ResidualGenerator,

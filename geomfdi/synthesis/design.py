@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_indices, as_real_array
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
@@ -161,6 +162,7 @@ def _weak_targets(
     return [j for j in target if np.isfinite(dc[j]) and dc[j] < FD_GAIN_TOL * top]
 
 
+@limit_blas_threads
 def design_residual_generator(
     plant: Plant,
     faults: Sequence[Fault],
@@ -327,6 +329,7 @@ def _joint_order(gens: list[ResidualGenerator | None]) -> int:
     return minimal_realization(F, B, C, np.zeros((len(present), q + m))).A.shape[0]
 
 
+@limit_blas_threads
 def design_bank(
     plant: Plant,
     faults: Sequence[Fault],
@@ -500,6 +503,7 @@ def design_bank(
     )
 
 
+@limit_blas_threads
 def design_sensor_bank(
     plant: Plant,
     *,

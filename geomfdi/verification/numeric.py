@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi.errors import GeomFDIError
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
@@ -135,6 +136,7 @@ def _unpack(obj: Any, plant: Plant, faults: Any):
     return gens, faults, req
 
 
+@limit_blas_threads
 def verify(
     bank_or_generator: ResidualBank | ResidualGenerator,
     plant: Plant,
