@@ -38,9 +38,25 @@ def _register(module: str, *names: str) -> None:
         _NAMES[name] = module
 
 
-_register("geomfdi.model.faults", "ActuatorFault", "Fault", "SensorFault")
-_register("geomfdi.model.plant", "Plant")
-_register("geomfdi.tolerance", "CloseRankWarning", "set_rtol")
+_register("geomfdi._threads", "get_blas_threads", "set_blas_threads")
+_register("geomfdi.deployment.monitor", "Monitor")
+_register("geomfdi.deployment.persistence", "load_bank", "load_monitor")
+_register("geomfdi.deployment.recorded", "evaluate")
+_register(
+    "geomfdi.diagnosability.bank", "BankDiagnosability", "bank_diagnosability", "bank_window_sweep"
+)
+_register("geomfdi.diagnosability.model", "WindowModel")
+_register(
+    "geomfdi.diagnosability.results",
+    "ApplicabilityReport",
+    "DiagnosabilityTable",
+    "FaultApplicability",
+    "StackedWindow",
+)
+_register("geomfdi.diagnosability.tables", "diagnosability_table")
+_register("geomfdi.evaluation.decision", "FaultEvent", "Threshold", "isolate")
+_register("geomfdi.evaluation.metrics", "DetectionMetrics")
+_register("geomfdi.evaluation.persistence", "Persistence")
 _register(
     "geomfdi.geometry.conditioned_invariant",
     "FriendSet",
@@ -66,58 +82,9 @@ _register(
     "min_unobservability_subspace",
     "unobservable_subspace",
 )
-_register("geomfdi.synthesis.realization", "minimal_realization", "reachable_subspace")
-_register(
-    "geomfdi.synthesis.design", "design_bank", "design_residual_generator", "design_sensor_bank"
-)
-_register("geomfdi.synthesis.generator", "ResidualBank", "ResidualGenerator")
-_register(
-    "geomfdi.synthesis.exact_generator",
-    "ExactResidualBank",
-    "ExactResidualGenerator",
-    "ExceptionalCondition",
-)
-_register("geomfdi.synthesis.transforms", "pseudo_actuator_model")
-_register("geomfdi.verification.numeric", "VerificationReport", "verify")
-_register("geomfdi.verification.symbolic", "SymbolicReport", "verify_symbolic")
-_register(
-    "geomfdi.evaluation.decision", "FaultEvent", "Threshold", "calibrate_threshold", "isolate"
-)
-_register(
-    "geomfdi.simulation.signals",
-    "BiasFault",
-    "GainFault",
-    "SensorFaultSignal",
-    "StuckFault",
-    "apply_faults",
-)
-_register("geomfdi.simulation.lti", "simulate_lti")
-_register("geomfdi.plotting.residuals", "plot_residuals", "plot_structure", "save_png")
-_register(
-    "geomfdi.simulation.simulate",
-    "BatchResult",
-    "InitialStateWarning",
-    "Noise",
-    "SimulationResult",
-    "simulate",
-    "simulate_batch",
-)
-_register("geomfdi.parity.model", "ParityFDI")
-_register("geomfdi.parity.results", "ParityDiagnosis")
-_register("geomfdi.diagnosability.model", "WindowModel")
-_register(
-    "geomfdi.diagnosability.bank", "BankDiagnosability", "bank_diagnosability", "bank_window_sweep"
-)
-_register(
-    "geomfdi.diagnosability.results",
-    "ApplicabilityReport",
-    "DiagnosabilityTable",
-    "FaultApplicability",
-    "StackedWindow",
-)
-_register("geomfdi.diagnosability.tables", "diagnosability_table")
-_register("geomfdi.plotting.diagnosability", "plot_isolability")
-_register("geomfdi.monitoring.monitor", "ARMonitor")
+_register("geomfdi.io.modelfile", "Scenario")
+_register("geomfdi.model.faults", "ActuatorFault", "Fault", "SensorFault")
+_register("geomfdi.model.plant", "Plant")
 _register(
     "geomfdi.monitoring.baselines",
     "BaselineResult",
@@ -127,11 +94,56 @@ _register(
     "innovation_glr",
     "latch_alarms",
 )
-_register("geomfdi.monitoring.kalman", "KalmanInnovations", "kalman_innovations")
-_register("geomfdi.parity.estimation", "FaultEstimate", "StateEstimate")
-_register("geomfdi.monitoring.results", "ARMonitorResult", "ARMonitorWarning", "ARStep")
-_register("geomfdi.plotting.monitoring", "plot_ar_monitor")
 _register("geomfdi.monitoring.innovations", "innovation_fault", "synthetic_innovations")
+_register("geomfdi.monitoring.kalman", "KalmanInnovations", "kalman_innovations")
+_register("geomfdi.monitoring.monitor", "ARMonitor")
+_register("geomfdi.monitoring.results", "ARMonitorResult", "ARMonitorWarning", "ARStep")
+_register("geomfdi.parity.estimation", "FaultEstimate", "StateEstimate")
+_register("geomfdi.parity.model", "ParityFDI")
+_register("geomfdi.parity.montecarlo", "RocCurve")
+_register("geomfdi.parity.results", "ParityDiagnosis")
+_register("geomfdi.plotting.diagnosability", "plot_isolability")
+_register("geomfdi.plotting.monitoring", "plot_ar_monitor")
+_register("geomfdi.plotting.parity", "plot_roc")
+_register("geomfdi.plotting.residuals", "plot_residuals", "plot_structure", "save_png")
+_register("geomfdi.simulation.batch", "simulate_batch")
+_register("geomfdi.simulation.calibration", "calibrate_threshold")
+_register("geomfdi.simulation.initial_state", "InitialStateWarning")
+_register(
+    "geomfdi.simulation.input_faults",
+    "ActuatorBiasFault",
+    "ActuatorGainFault",
+    "ActuatorStuckFault",
+    "AdditiveFault",
+)
+_register("geomfdi.simulation.lti", "simulate_lti")
+_register("geomfdi.simulation.noise", "Noise")
+_register("geomfdi.simulation.results", "BatchResult", "SimulationResult")
+_register(
+    "geomfdi.simulation.signals",
+    "BiasFault",
+    "FaultSignal",
+    "GainFault",
+    "SensorFaultSignal",
+    "StuckFault",
+    "apply_faults",
+)
+_register("geomfdi.simulation.simulate", "simulate")
+_register(
+    "geomfdi.synthesis.design", "design_bank", "design_residual_generator", "design_sensor_bank"
+)
+_register(
+    "geomfdi.synthesis.exact_generator",
+    "ExactResidualBank",
+    "ExactResidualGenerator",
+    "ExceptionalCondition",
+)
+_register("geomfdi.synthesis.generator", "ResidualBank", "ResidualGenerator")
+_register("geomfdi.synthesis.realization", "minimal_realization", "reachable_subspace")
+_register("geomfdi.synthesis.transforms", "pseudo_actuator_model")
+_register("geomfdi.tolerance", "CloseRankWarning", "set_rtol")
+_register("geomfdi.verification.numeric", "VerificationReport", "verify")
+_register("geomfdi.verification.symbolic", "SymbolicReport", "verify_symbolic")
 
 # public modules (``gf.parity.dodecahedron()``, ``gf.exact.kernel(...)``); the old flat
 # names stay as aliases of the modules that now hold them.
@@ -152,7 +164,6 @@ _MODULES: dict[str, str] = {
     "diagnosability": "geomfdi.diagnosability",
     "monitoring": "geomfdi.monitoring",
     "io": "geomfdi.io",
-    # the flat module names of earlier releases
     "plant": "geomfdi.model.plant",
     "faults": "geomfdi.model.faults",
     "subspace": "geomfdi.geometry.subspace",
@@ -168,6 +179,8 @@ _MODULES: dict[str, str] = {
     "modelfile": "geomfdi.io.modelfile",
     "expressions": "geomfdi.io.expressions",
     "cli": "geomfdi.io.cli",
+    "codegen": "geomfdi.deployment.codegen",
+    "deployment": "geomfdi.deployment",
 }
 
 __all__ = sorted([*_NAMES, *_MODULES, "__version__"])
@@ -190,95 +203,94 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi import errors, tolerance  # noqa: F401
-    from geomfdi.diagnosability.bank import (  # noqa: F401
+    from geomfdi._threads import get_blas_threads, set_blas_threads  # noqa: F401
+    from geomfdi.deployment.monitor import Monitor  # noqa: F401
+    from geomfdi.deployment.persistence import load_bank, load_monitor  # noqa: F401
+    from geomfdi.deployment.recorded import evaluate  # noqa: F401
+    from geomfdi.diagnosability.bank import (
         BankDiagnosability,
         bank_diagnosability,
         bank_window_sweep,
-    )
+    )  # noqa: F401
     from geomfdi.diagnosability.model import WindowModel  # noqa: F401
-    from geomfdi.diagnosability.results import (  # noqa: F401
+    from geomfdi.diagnosability.results import (
         ApplicabilityReport,
         DiagnosabilityTable,
         FaultApplicability,
         StackedWindow,
-    )
+    )  # noqa: F401
     from geomfdi.diagnosability.tables import diagnosability_table  # noqa: F401
-    from geomfdi.evaluation.decision import (  # noqa: F401
-        FaultEvent,
-        Threshold,
-        calibrate_threshold,
-        isolate,
-    )
-    from geomfdi.geometry.conditioned_invariant import (  # noqa: F401
+    from geomfdi.evaluation.decision import FaultEvent, Threshold, isolate  # noqa: F401
+    from geomfdi.evaluation.metrics import DetectionMetrics  # noqa: F401
+    from geomfdi.evaluation.persistence import Persistence  # noqa: F401
+    from geomfdi.geometry.conditioned_invariant import (
         FriendSet,
         InvariantSubspace,
         friend,
         friends,
         is_conditioned_invariant,
         min_conditioned_invariant,
-    )
-    from geomfdi.geometry.subspace import (  # noqa: F401
-        Subspace,
-        apply,
-        image,
-        kernel,
-        preimage,
-        principal_angles,
-    )
-    from geomfdi.geometry.unobservability import (  # noqa: F401
+    )  # noqa: F401
+    from geomfdi.geometry.subspace import Subspace, apply, image, kernel, preimage, principal_angles  # noqa: F401
+    from geomfdi.geometry.unobservability import (
         is_unobservability_subspace,
         measurement_map,
         min_unobservability_subspace,
         unobservable_subspace,
-    )
+    )  # noqa: F401
+    from geomfdi.io.modelfile import Scenario  # noqa: F401
     from geomfdi.model.faults import ActuatorFault, Fault, SensorFault  # noqa: F401
     from geomfdi.model.plant import Plant  # noqa: F401
-    from geomfdi.monitoring.baselines import (  # noqa: F401
+    from geomfdi.monitoring.baselines import (
         BaselineResult,
         coefficient_t2,
         innovation_chi2,
         innovation_cusum,
         innovation_glr,
         latch_alarms,
-    )
+    )  # noqa: F401
+    from geomfdi.monitoring.innovations import innovation_fault, synthetic_innovations  # noqa: F401
     from geomfdi.monitoring.kalman import KalmanInnovations, kalman_innovations  # noqa: F401
     from geomfdi.monitoring.monitor import ARMonitor  # noqa: F401
     from geomfdi.monitoring.results import ARMonitorResult, ARMonitorWarning, ARStep  # noqa: F401
-    from geomfdi.monitoring.innovations import innovation_fault, synthetic_innovations  # noqa: F401
     from geomfdi.parity.estimation import FaultEstimate, StateEstimate  # noqa: F401
     from geomfdi.parity.model import ParityFDI  # noqa: F401
+    from geomfdi.parity.montecarlo import RocCurve  # noqa: F401
     from geomfdi.parity.results import ParityDiagnosis  # noqa: F401
     from geomfdi.plotting.diagnosability import plot_isolability  # noqa: F401
     from geomfdi.plotting.monitoring import plot_ar_monitor  # noqa: F401
+    from geomfdi.plotting.parity import plot_roc  # noqa: F401
     from geomfdi.plotting.residuals import plot_residuals, plot_structure, save_png  # noqa: F401
+    from geomfdi.simulation.batch import simulate_batch  # noqa: F401
+    from geomfdi.simulation.calibration import calibrate_threshold  # noqa: F401
+    from geomfdi.simulation.initial_state import InitialStateWarning  # noqa: F401
+    from geomfdi.simulation.input_faults import (
+        ActuatorBiasFault,
+        ActuatorGainFault,
+        ActuatorStuckFault,
+        AdditiveFault,
+    )  # noqa: F401
     from geomfdi.simulation.lti import simulate_lti  # noqa: F401
-    from geomfdi.simulation.signals import (  # noqa: F401
+    from geomfdi.simulation.noise import Noise  # noqa: F401
+    from geomfdi.simulation.results import BatchResult, SimulationResult  # noqa: F401
+    from geomfdi.simulation.signals import (
         BiasFault,
+        FaultSignal,
         GainFault,
         SensorFaultSignal,
         StuckFault,
         apply_faults,
-    )
-    from geomfdi.simulation.simulate import (  # noqa: F401
-        BatchResult,
-        InitialStateWarning,
-        Noise,
-        SimulationResult,
-        simulate,
-        simulate_batch,
-    )
-    from geomfdi.synthesis.design import (  # noqa: F401
-        design_bank,
-        design_residual_generator,
-        design_sensor_bank,
-    )
-    from geomfdi.synthesis.exact_generator import (  # noqa: F401
+    )  # noqa: F401
+    from geomfdi.simulation.simulate import simulate  # noqa: F401
+    from geomfdi.synthesis.design import design_bank, design_residual_generator, design_sensor_bank  # noqa: F401
+    from geomfdi.synthesis.exact_generator import (
         ExactResidualBank,
         ExactResidualGenerator,
         ExceptionalCondition,
-    )
+    )  # noqa: F401
     from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator  # noqa: F401
     from geomfdi.synthesis.realization import minimal_realization, reachable_subspace  # noqa: F401
     from geomfdi.synthesis.transforms import pseudo_actuator_model  # noqa: F401
+    from geomfdi.tolerance import CloseRankWarning, set_rtol  # noqa: F401
     from geomfdi.verification.numeric import VerificationReport, verify  # noqa: F401
     from geomfdi.verification.symbolic import SymbolicReport, verify_symbolic  # noqa: F401
