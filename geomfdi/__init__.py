@@ -16,6 +16,7 @@ Use as ``import geomfdi as gf``. The package follows the data path of a design::
     geomfdi.diagnosability KL and directional indices
     geomfdi.monitoring     AR-model innovation monitoring
     geomfdi.io             model files and the command line
+    geomfdi.campaign       Monte-Carlo campaigns (seeds, sizes, onsets, models)
     geomfdi.plotting       figures
 
 Public names are loaded on first use (``gf.design_bank`` imports the synthesis
@@ -86,6 +87,34 @@ _register(
     "apply_faults",
 )
 _register("geomfdi.simulation.lti", "simulate_lti")
+_register(
+    "geomfdi.evaluation.covariance",
+    "ResidualNoiseModel",
+    "residual_noise_model",
+    "residual_noise_models",
+)
+_register(
+    "geomfdi.evaluation.statistics",
+    "AbsTest",
+    "ChiSquareTest",
+    "CusumTest",
+    "GLRTest",
+    "calibrate_max",
+    "chi2_window_threshold",
+    "cusum",
+    "cusum_arl",
+    "glr",
+    "glr_threshold_bound",
+    "sum_variances",
+    "weighted_chi2_sf",
+    "window_covariance",
+    "windowed_sum_of_squares",
+)
+_register("geomfdi.evaluation.roc", "RocCurve", "roc_curve", "wilson_interval")
+_register("geomfdi.campaign.runner", "Campaign")
+_register("geomfdi.campaign.result", "CampaignResult")
+_register("geomfdi.campaign.spec", "Scenario", "Uncertainty")
+_register("geomfdi.plotting.curves", "plot_detection", "plot_roc")
 _register("geomfdi.plotting.residuals", "plot_residuals", "plot_structure", "save_png")
 _register(
     "geomfdi.simulation.simulate",
@@ -136,6 +165,7 @@ _MODULES: dict[str, str] = {
     "diagnosability": "geomfdi.diagnosability",
     "monitoring": "geomfdi.monitoring",
     "io": "geomfdi.io",
+    "campaign": "geomfdi.campaign",
     # the flat module names of earlier releases
     "plant": "geomfdi.model.plant",
     "faults": "geomfdi.model.faults",
@@ -183,6 +213,31 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         diagnosability_table,
         plot_isolability,
     )
+    from geomfdi.campaign.result import CampaignResult  # noqa: F401
+    from geomfdi.campaign.runner import Campaign  # noqa: F401
+    from geomfdi.campaign.spec import Scenario, Uncertainty  # noqa: F401
+    from geomfdi.evaluation.covariance import (  # noqa: F401
+        ResidualNoiseModel,
+        residual_noise_model,
+        residual_noise_models,
+    )
+    from geomfdi.evaluation.roc import RocCurve, roc_curve, wilson_interval  # noqa: F401
+    from geomfdi.evaluation.statistics import (  # noqa: F401
+        AbsTest,
+        ChiSquareTest,
+        CusumTest,
+        GLRTest,
+        calibrate_max,
+        chi2_window_threshold,
+        cusum,
+        cusum_arl,
+        glr,
+        glr_threshold_bound,
+        sum_variances,
+        weighted_chi2_sf,
+        window_covariance,
+        windowed_sum_of_squares,
+    )
     from geomfdi.evaluation.decision import (  # noqa: F401
         FaultEvent,
         Threshold,
@@ -222,6 +277,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     )
     from geomfdi.monitoring.innovations import innovation_fault, synthetic_innovations  # noqa: F401
     from geomfdi.parity.fdi import ParityDiagnosis, ParityFDI  # noqa: F401
+    from geomfdi.plotting.curves import plot_detection, plot_roc  # noqa: F401
     from geomfdi.plotting.residuals import plot_residuals, plot_structure, save_png  # noqa: F401
     from geomfdi.simulation.lti import simulate_lti  # noqa: F401
     from geomfdi.simulation.signals import (  # noqa: F401

@@ -28,7 +28,8 @@ discretised exactly over one step ``h``::
 (``Gamma1 = 0`` for ``"zoh"``), then rewritten with ``zeta[k] = s[k] - Gamma1 e[k]`` as a
 state-space model driven by white noise ``e ~ N(0, I)``::
 
-    zeta[k+1] = Phi zeta[k] + (Phi Gamma1 + Gamma0) e[k],  r[k] = C_s zeta[k] + (C_s Gamma1 + D_s) e[k]
+    zeta[k+1] = Phi zeta[k] + (Phi Gamma1 + Gamma0) e[k]
+    r[k]      = C_s zeta[k] + (C_s Gamma1 + D_s) e[k]
 
 Its stationary state covariance solves the Stein equation ``P = Phi P Phi^T + B B^T``
 (:func:`scipy.linalg.solve_discrete_lyapunov`), and the autocovariance of the residual is
@@ -160,10 +161,14 @@ def residual_noise_model(
 
     plant = as_plant(plant)
     if noise is None:
-        raise GeomFDIError("noise: a Noise with measurement or process noise is needed", argument="noise")
+        raise GeomFDIError(
+            "noise: a Noise with measurement or process noise is needed", argument="noise"
+        )
     Lv, Bw, Lw = noise.factors(plant)
     if Lv is None and Lw is None:
-        raise GeomFDIError("noise: neither measurement nor process noise is given", argument="noise")
+        raise GeomFDIError(
+            "noise: neither measurement nor process noise is given", argument="noise"
+        )
     if hold not in ("foh", "zoh"):
         raise GeomFDIError(f"hold: must be 'foh' or 'zoh', got {hold!r}", argument="hold")
     n, m, q = plant.n, plant.m, plant.q

@@ -53,6 +53,7 @@ __all__ = [
     "sum_variances",
     "glr_threshold_bound",
     "calibrate_max",
+    "AbsTest",
     "ChiSquareTest",
     "CusumTest",
     "GLRTest",
@@ -162,8 +163,8 @@ def weighted_chi2_sf(x: Any, weights: Any) -> Any:
         # sin(phi - x u/2) = sin(phi) cos(x u/2) - cos(phi) sin(x u/2); shift u = U + s
         c0, s0 = np.cos(0.5 * xx * U), np.sin(0.5 * xx * U)
 
-        def part(fn: Any, kind: str) -> float:
-            return quad(fn, 0.0, np.inf, weight=kind, wvar=0.5 * xx, limlst=200)[0]
+        def part(fn: Any, kind: str, om: float = 0.5 * xx) -> float:
+            return quad(fn, 0.0, np.inf, weight=kind, wvar=om, limlst=200)[0]
 
         def a(s: float) -> float:
             p, e = phi_env(U + s)
@@ -504,6 +505,24 @@ class GLRTest:
 
     def calibrated(self, noise_runs: Any, false_alarm_rate: float) -> GLRTest:
         """Thresholds from noise-only residuals ``(runs, n, N)`` (:func:`calibrate_max`)."""
-        return GLRTest(
-            self.variances, calibrate_max(self.statistic(noise_runs), false_alarm_rate)
-        )
+        return GLRTest(self.variances, calibrate_max(self.statistic(noise_runs), false_alarm_rate))
+
+
+@dataclass
+class AbsTest:
+    """The fixed threshold on ``|r|`` (the classical rule ``|r| > epsilon``).
+
+    Attributes
+    ----------
+    thresholds : ndarray, (n_residuals,)
+    """
+
+    thresholds: np.ndarray
+    name: str = "abs"
+
+    def statistic(self, residuals: Any) -> np.ndarray:
+        return np.abs(_rows(residuals))
+
+    def alarms(self, residuals: Any) -> np.ndarray:
+        s = self.statistic(residuals)
+        return s > _per_row(self.thresholds, s.shape[-2], "thresholds")[:, None]
