@@ -141,7 +141,6 @@ def motor_windows(motor):
     return model, L, b.residuals, idx
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("alpha", [0.01, 0.001])
 def test_chi2_threshold_gives_the_requested_false_alarm_rate(motor_windows, alpha):
     model, L, r, idx = motor_windows
