@@ -57,7 +57,7 @@ def plot_roc(
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small", loc="lower right")
     if title:
-        ax.set_title(title)
+        ax.set_title(title, fontsize="medium")
     return fig
 
 
@@ -92,5 +92,5 @@ def plot_detection(
     ax2.set_ylabel("median delay [s]")
     ax2.grid(True, alpha=0.3)
     if title:
-        ax1.set_title(title)
+        ax1.set_title(title, fontsize="medium")
     return fig
