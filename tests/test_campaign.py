@@ -220,3 +220,14 @@ def test_campaign_errors(seed001, serial):
         _campaign(spec, bank, scenarios=[gf.Scenario.sensor("bias", 0, [1.0], [0.2])]).run()
     with pytest.raises(GeomFDIError, match="residual"):
         serial[1].roc(0.02, residual="r[9]")
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    import geomfdi.campaign.runner
+    import geomfdi.campaign.spec
+
+    for mod in (geomfdi.campaign.spec, geomfdi.campaign.runner):
+        result = doctest.testmod(mod, optionflags=doctest.NORMALIZE_WHITESPACE)
+        assert result.attempted > 0 and result.failed == 0, mod.__name__

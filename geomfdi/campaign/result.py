@@ -104,7 +104,11 @@ class CampaignResult:
         return tb
 
     def roc(self, size: float, *, scenario: str | None = None, residual: str = "bank") -> Any:
-        """ROC at one fault size: healthy scores before the onset, faulty ones after."""
+        """ROC at one fault size: healthy scores before the onset, faulty ones after.
+
+        The healthy scores are the pre-onset maxima, one per (model, onset, noise seed);
+        the faulty ones the maxima over the detection window of the runs of ``size``.
+        """
         from geomfdi.evaluation.roc import roc_curve
 
         tb = self._select(scenario, residual)
@@ -112,7 +116,10 @@ class CampaignResult:
         if faulty.empty:
             raise GeomFDIError(f"size: no runs of size {size}", argument="size")
         label = f"{residual}, size {size:g}" + ("" if scenario is None else f" ({scenario})")
-        return roc_curve(tb["score_pre"].to_numpy(), faulty["score_post"].to_numpy(), label)
+        # before the onset, runs of one model, onset and noise seed are the same run
+        # (common random numbers): count each healthy window once
+        healthy = tb.drop_duplicates(["model", "onset", "repetition"])["score_pre"]
+        return roc_curve(healthy.to_numpy(), faulty["score_post"].to_numpy(), label)
 
     def detection_curve(self, *, scenario: str | None = None, residual: str = "bank") -> Any:
         """``pd`` (with bounds) and delays versus fault size (a DataFrame indexed by size)."""
