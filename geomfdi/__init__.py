@@ -39,6 +39,9 @@ def _register(module: str, *names: str) -> None:
 
 
 _register("geomfdi._threads", "get_blas_threads", "set_blas_threads")
+_register("geomfdi.campaign.result", "CampaignResult")
+_register("geomfdi.campaign.runner", "Campaign")
+_register("geomfdi.campaign.spec", "Uncertainty")
 _register("geomfdi.deployment.monitor", "Monitor")
 _register("geomfdi.deployment.persistence", "load_bank", "load_monitor")
 _register("geomfdi.deployment.recorded", "evaluate")
@@ -54,9 +57,33 @@ _register(
     "StackedWindow",
 )
 _register("geomfdi.diagnosability.tables", "diagnosability_table")
+_register(
+    "geomfdi.evaluation.covariance",
+    "ResidualNoiseModel",
+    "residual_noise_model",
+    "residual_noise_models",
+)
 _register("geomfdi.evaluation.decision", "FaultEvent", "Threshold", "isolate")
 _register("geomfdi.evaluation.metrics", "DetectionMetrics")
 _register("geomfdi.evaluation.persistence", "Persistence")
+_register("geomfdi.evaluation.roc", "roc_curve", "wilson_interval")
+_register(
+    "geomfdi.evaluation.statistics",
+    "AbsTest",
+    "ChiSquareTest",
+    "CusumTest",
+    "GLRTest",
+    "calibrate_max",
+    "chi2_window_threshold",
+    "cusum",
+    "cusum_arl",
+    "glr",
+    "glr_threshold_bound",
+    "sum_variances",
+    "weighted_chi2_sf",
+    "window_covariance",
+    "windowed_sum_of_squares",
+)
 _register(
     "geomfdi.geometry.conditioned_invariant",
     "FriendSet",
@@ -102,6 +129,7 @@ _register("geomfdi.parity.estimation", "FaultEstimate", "StateEstimate")
 _register("geomfdi.parity.model", "ParityFDI")
 _register("geomfdi.parity.montecarlo", "RocCurve")
 _register("geomfdi.parity.results", "ParityDiagnosis")
+_register("geomfdi.plotting.curves", "plot_detection")
 _register("geomfdi.plotting.diagnosability", "plot_isolability")
 _register("geomfdi.plotting.monitoring", "plot_ar_monitor")
 _register("geomfdi.plotting.parity", "plot_roc")
@@ -179,6 +207,7 @@ _MODULES: dict[str, str] = {
     "modelfile": "geomfdi.io.modelfile",
     "expressions": "geomfdi.io.expressions",
     "cli": "geomfdi.io.cli",
+    "campaign": "geomfdi.campaign",
     "codegen": "geomfdi.deployment.codegen",
     "deployment": "geomfdi.deployment",
 }
@@ -204,6 +233,9 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi import errors, tolerance  # noqa: F401
     from geomfdi._threads import get_blas_threads, set_blas_threads  # noqa: F401
+    from geomfdi.campaign.result import CampaignResult  # noqa: F401
+    from geomfdi.campaign.runner import Campaign  # noqa: F401
+    from geomfdi.campaign.spec import Uncertainty  # noqa: F401
     from geomfdi.deployment.monitor import Monitor  # noqa: F401
     from geomfdi.deployment.persistence import load_bank, load_monitor  # noqa: F401
     from geomfdi.deployment.recorded import evaluate  # noqa: F401
@@ -220,9 +252,31 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         StackedWindow,
     )  # noqa: F401
     from geomfdi.diagnosability.tables import diagnosability_table  # noqa: F401
+    from geomfdi.evaluation.covariance import (
+        ResidualNoiseModel,
+        residual_noise_model,
+        residual_noise_models,
+    )  # noqa: F401
     from geomfdi.evaluation.decision import FaultEvent, Threshold, isolate  # noqa: F401
     from geomfdi.evaluation.metrics import DetectionMetrics  # noqa: F401
     from geomfdi.evaluation.persistence import Persistence  # noqa: F401
+    from geomfdi.evaluation.roc import roc_curve, wilson_interval  # noqa: F401
+    from geomfdi.evaluation.statistics import (
+        AbsTest,
+        ChiSquareTest,
+        CusumTest,
+        GLRTest,
+        calibrate_max,
+        chi2_window_threshold,
+        cusum,
+        cusum_arl,
+        glr,
+        glr_threshold_bound,
+        sum_variances,
+        weighted_chi2_sf,
+        window_covariance,
+        windowed_sum_of_squares,
+    )  # noqa: F401
     from geomfdi.geometry.conditioned_invariant import (
         FriendSet,
         InvariantSubspace,
@@ -257,6 +311,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.parity.model import ParityFDI  # noqa: F401
     from geomfdi.parity.montecarlo import RocCurve  # noqa: F401
     from geomfdi.parity.results import ParityDiagnosis  # noqa: F401
+    from geomfdi.plotting.curves import plot_detection  # noqa: F401
     from geomfdi.plotting.diagnosability import plot_isolability  # noqa: F401
     from geomfdi.plotting.monitoring import plot_ar_monitor  # noqa: F401
     from geomfdi.plotting.parity import plot_roc  # noqa: F401

@@ -691,6 +691,7 @@ def _parser() -> argparse.ArgumentParser:
             help="on an unexpected internal error, show the Python traceback",
         )
     _add_deployment_parsers(sub)
+    _campaign_parser(sub)
     return p
 
 
@@ -782,6 +783,88 @@ def _run_deployment(args: Any) -> int:
 # ---------------------------------------------------------------------------------
 
 
+# ------------------------------------------------------------------- geomfdi campaign
+def _campaign_parser(sub: Any) -> None:
+    text = "Monte-Carlo campaign of the [campaign] table: tables, summary, ROC and P_d figures"
+    sp = sub.add_parser("campaign", help=text, description=text)
+    sp.add_argument("model", help="model file (TOML) with a [campaign] table")
+    sp.add_argument("--out", type=Path, default=Path("campaign_out"), help="output directory")
+    sp.add_argument("--runs", type=int, default=None, help="override campaign.runs")
+    sp.add_argument(
+        "--executor",
+        choices=("serial", "processes", "dask"),
+        default="serial",
+        help="where the blocks run (dask: a LocalCluster, or --scheduler)",
+    )
+    sp.add_argument("--workers", type=int, default=2, help="processes or Dask workers")
+    sp.add_argument("--scheduler", default=None, help="address of a running Dask scheduler")
+    sp.add_argument("--no-plots", action="store_true", help="do not write PNG figures")
+    sp.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    sp.add_argument("--traceback", action="store_true", help="show internal tracebacks")
+
+
+def load_campaign(path: str | Path, *, runs: int | None = None) -> Any:
+    """Design the banks of a model file and build its ``[campaign]`` (a CampaignConfig)."""
+    from geomfdi.campaign.config import build_campaign, read_campaign
+
+    camp, spec = read_campaign(path)
+    return build_campaign(camp, spec, design_all(spec), runs=runs)
+
+
+def campaign_command(args: argparse.Namespace) -> int:
+    """``geomfdi campaign MODEL.toml``: run, write CSV tables and PNGs, print the summary."""
+    from geomfdi.campaign.config import write_outputs
+
+    try:
+        if args.runs is not None and args.runs < 1:
+            raise GeomFDIError("--runs: must be >= 1", argument="runs")
+        cfg = load_campaign(args.model, runs=args.runs)
+        progress = sys.stderr.isatty() and not args.quiet
+        if args.executor == "dask":
+            from distributed import Client, LocalCluster
+
+            if args.scheduler:
+                with Client(args.scheduler) as client:
+                    result = cfg.campaign.run(client, progress=progress)
+            else:
+                with (
+                    LocalCluster(n_workers=args.workers, dashboard_address=None) as cluster,
+                    Client(cluster) as client,
+                ):
+                    result = cfg.campaign.run(client, progress=progress)
+        else:
+            result = cfg.campaign.run(args.executor, workers=args.workers, progress=progress)
+        files = write_outputs(result, args.out, plots=not args.no_plots, name=cfg.spec.name)
+    except (GeomFDIError, OSError) as exc:
+        print(f"geomfdi: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    except ImportError as exc:
+        print(f"geomfdi: error: {_one_line(exc)} (install geomfdi[dask])", file=sys.stderr)
+        return 2
+    except Exception as exc:
+        if args.traceback:
+            raise
+        print(
+            f"geomfdi: error: internal error {type(exc).__name__}: {_one_line(exc)} "
+            "(rerun with --traceback for details)",
+            file=sys.stderr,
+        )
+        return 1
+    if not args.quiet:
+        import pandas as pd
+
+        c = cfg.campaign
+        print(
+            f"campaign: {cfg.spec.name}, bank {cfg.method!r}, test {result.info['test']}, "
+            f"{len(c.grid()['run'])} runs x {c.t.size} samples, {len(c.plants)} model(s)"
+        )
+        with pd.option_context("display.width", 120, "display.max_rows", 200):
+            print(result.summary().xs("bank", level="residual").round(4).to_string())
+        print("written: " + ", ".join(str(f) for f in files))
+    return 0
+
+
+# ------------------------------------------------------------------------------------
 def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
@@ -801,6 +884,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     if args.command in ("evaluate", "codegen"):
         return _run_deployment(args)
+    if args.command == "campaign":
+        return campaign_command(args)
     steps = {
         "design": ("design",),
         "verify": ("design", "verify"),

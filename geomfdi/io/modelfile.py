@@ -42,6 +42,9 @@ A model file has four parts (sensor and input indices are 0-based)::
     gain = 1.5                   # number or expression of t
     bias = 0.02                  # optional: end = time the fault disappears
 
+An optional ``[campaign]`` table describes a Monte-Carlo campaign; it is read by
+``geomfdi campaign`` (:mod:`geomfdi.campaign.config`) and ignored here.
+
 Expressions of ``t`` follow the grammar of :mod:`geomfdi.io.expressions`.  A calibrated
 threshold (``threshold = {false_alarm_rate = 1e-3, runs = 10}``) needs measurement or
 process noise in ``[simulation.noise]``; it is computed from noise-only runs of the
@@ -90,7 +93,8 @@ MAX_NESTING = 3
 
 _FLOAT_MAX = float(np.finfo(float).max)
 
-_TOP = {"name", "description", "plant", "design", "simulation", "scenario"}
+# "campaign" is read by geomfdi.campaign.config (``geomfdi campaign``), not here
+_TOP = {"name", "description", "plant", "design", "simulation", "scenario", "campaign"}
 _PLANT = {"A", "B", "C", "D", "Bd", "Dd", "dt"}
 _DESIGN = {
     "methods",

@@ -1,0 +1,12 @@
+"""Monte-Carlo campaigns: seeds x fault sizes x onsets x plant models, on any executor.
+
+* :mod:`~geomfdi.campaign.spec` -- :class:`Scenario`, :class:`Uncertainty`.
+* :mod:`~geomfdi.campaign.runner` -- :class:`Campaign` (blocks, executors, seeds).
+* :mod:`~geomfdi.campaign.result` -- :class:`CampaignResult` (table, summary, curves).
+"""
+
+from geomfdi.campaign.result import CampaignResult
+from geomfdi.campaign.runner import Campaign
+from geomfdi.campaign.spec import Scenario, Uncertainty
+
+__all__ = ["Campaign", "CampaignResult", "Scenario", "Uncertainty"]

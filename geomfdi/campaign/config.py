@@ -1,0 +1,215 @@
+"""The ``[campaign]`` table of a TOML model file, and the campaign it describes.
+
+The rest of the file is the model file of :mod:`geomfdi.io.modelfile` (plant, design,
+``[simulation]`` with its ``[simulation.noise]``); the campaign table adds::
+
+    [campaign]
+    runs = 200                      # noise seeds per (model, scenario, size, onset)
+    method = "exact"                # which designed bank (default: the first method)
+    sizes = [0.0, 0.01, 0.05]       # bias = size, gain = 1 + size
+    onsets = [4.0]
+    faults = [{type = "bias", sensor = 0}, {type = "gain", sensor = 2}]   # one scenario each
+    detection_window = 2.0          # seconds (default: onset to the end)
+    eval_start = 0.5                # ignore start-up samples
+    block_size = 64
+    seed = 1                        # default: the noise seed
+    test = {type = "chi2", window = 20, false_alarm_rate = 1e-3}
+    # or {type = "abs", threshold = 0.05}, {type = "cusum", drift = 0.5, arl = 1e4},
+    #    {type = "glr", window = 20, false_alarm_rate = 1e-3}
+    uncertainty = {relative = 0.02, samples = 4, seed = 0}
+
+Without ``faults`` every sensor gets a bias scenario.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from geomfdi.errors import ModelFileError
+
+__all__ = ["CampaignConfig", "read_campaign", "build_campaign", "write_outputs"]
+
+_KEYS = {
+    "runs",
+    "method",
+    "sizes",
+    "onsets",
+    "faults",
+    "detection_window",
+    "eval_start",
+    "block_size",
+    "seed",
+    "test",
+    "uncertainty",
+}
+_TESTS = {
+    "chi2": {"type", "window", "false_alarm_rate", "method"},
+    "abs": {"type", "threshold"},
+    "cusum": {"type", "drift", "arl"},
+    "glr": {"type", "window", "false_alarm_rate"},
+}
+
+
+@dataclass
+class CampaignConfig:
+    """A model file's campaign: the model spec, the chosen bank and the Campaign."""
+
+    spec: Any
+    method: str
+    bank: Any
+    campaign: Any
+
+
+def _err(source: str, where: str, msg: str) -> ModelFileError:
+    return ModelFileError(f"{source}: campaign.{where}: {msg}")
+
+
+def _test(source: str, tab: Any, spec: Any, bank: Any, noise: Any) -> Any:
+    from geomfdi.evaluation.covariance import residual_noise_models
+    from geomfdi.evaluation.statistics import ChiSquareTest, CusumTest, GLRTest
+
+    if not isinstance(tab, dict) or tab.get("type") not in _TESTS:
+        raise _err(source, "test", f"expected a table with type one of {sorted(_TESTS)}")
+    kind = tab["type"]
+    extra = set(tab) - _TESTS[kind]
+    if extra:
+        raise _err(source, "test", f"unknown keys {sorted(extra)} for type {kind!r}")
+    if kind == "abs":
+        th = tab.get("threshold", spec.threshold)
+        if th is None or isinstance(th, dict):
+            raise _err(source, "test.threshold", "a number or one per residual is needed")
+        return th
+    step = None if spec.plant.is_discrete else float(spec.t[1] - spec.t[0])
+    models = residual_noise_models(spec.plant, bank, noise, step=step, controller=spec.K)
+    if kind == "chi2":
+        return ChiSquareTest.design(
+            models,
+            int(tab.get("window", 20)),
+            float(tab.get("false_alarm_rate", 1e-3)),
+            str(tab.get("method", "imhof")),
+        )
+    if kind == "cusum":
+        return CusumTest.design(models, float(tab.get("drift", 0.5)), float(tab.get("arl", 1e4)))
+    return GLRTest.design(
+        models, int(tab.get("window", 20)), float(tab.get("false_alarm_rate", 1e-3))
+    )
+
+
+def read_campaign(path: str | Path) -> tuple[dict[str, Any], Any]:
+    """``(campaign table, ModelSpec)`` of a model file with a ``[campaign]`` table.
+
+    Raises :class:`geomfdi.errors.ModelFileError` (one line naming the file and entry).
+    """
+    from geomfdi.io.modelfile import parse_model
+
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ModelFileError(f"{p}: cannot read the model file ({exc})") from exc
+    src = str(p)
+    camp = data.pop("campaign", None)
+    if not isinstance(camp, dict):
+        raise ModelFileError(f"{src}: no [campaign] table")
+    extra = set(camp) - _KEYS
+    if extra:
+        raise _err(src, "", f"unknown keys {sorted(extra)}")
+    spec = parse_model(data, src)
+    if spec.t is None or not spec.noise:
+        raise ModelFileError(f"{src}: a campaign needs [simulation] and [simulation.noise]")
+    return camp, spec
+
+
+def build_campaign(
+    camp: dict[str, Any], spec: Any, banks: dict[str, Any], *, runs: int | None = None
+) -> CampaignConfig:
+    """The :class:`Campaign` of a campaign table, on the bank of ``campaign.method``.
+
+    ``banks`` maps design methods to banks (as designed from ``spec``); ``runs``
+    overrides ``campaign.runs``.
+    """
+    from geomfdi.campaign.runner import Campaign
+    from geomfdi.campaign.spec import Scenario, Uncertainty
+    from geomfdi.simulation.simulate import Noise
+
+    src = spec.source
+    method = str(camp.get("method", next(iter(banks))))
+    if method not in banks:
+        raise _err(src, "method", f"{method!r} is not a designed method ({sorted(banks)})")
+    bank = banks[method]
+    noise_kw = dict(spec.noise)
+    if "seed" in camp:
+        noise_kw["seed"] = int(camp["seed"])
+    noise = Noise(**noise_kw)
+    sizes = camp.get("sizes", [0.0, 1.0])
+    onsets = camp.get("onsets", [float(spec.t[len(spec.t) // 2])])
+    faults = camp.get("faults", [{"type": "bias", "sensor": i} for i in range(spec.plant.q)])
+    scenarios = []
+    for i, f in enumerate(faults):
+        if not isinstance(f, dict) or f.get("type") not in ("bias", "gain") or "sensor" not in f:
+            raise _err(src, f"faults[{i}]", "expected {type = 'bias' | 'gain', sensor = i}")
+        if not 0 <= int(f["sensor"]) < spec.plant.q:
+            raise _err(src, f"faults[{i}].sensor", f"must be in 0..{spec.plant.q - 1}")
+        scenarios.append(Scenario.sensor(f["type"], int(f["sensor"]), sizes, onsets))
+    unc = camp.get("uncertainty")
+    uncertainty = None
+    if unc is not None:
+        if not isinstance(unc, dict) or set(unc) - {"relative", "samples", "seed", "matrices"}:
+            raise _err(src, "uncertainty", "expected {relative, samples, seed, matrices}")
+        uncertainty = Uncertainty(
+            relative=float(unc.get("relative", 0.0)),
+            samples=int(unc.get("samples", 1)),
+            matrices=tuple(unc.get("matrices", ("A", "B"))),
+            seed=int(unc.get("seed", 0)),
+        )
+    test = _test(src, camp.get("test", {"type": "chi2"}), spec, bank, noise)
+    c = Campaign(
+        spec.plant,
+        bank,
+        scenarios,
+        noise,
+        t=spec.t,
+        uncertainty=uncertainty,
+        runs=int(runs if runs is not None else camp.get("runs", 100)),
+        test=test,
+        u=spec.u,
+        d=spec.d,
+        controller=spec.K,
+        x0=spec.x0,
+        detection_window=camp.get("detection_window"),
+        eval_start=float(camp.get("eval_start", 0.0)),
+        block_size=int(camp.get("block_size", 64)),
+    )
+    return CampaignConfig(spec, method, bank, c)
+
+
+def write_outputs(result: Any, out: Path, *, plots: bool = True, name: str = "") -> list[Path]:
+    """``campaign.csv``, ``summary.csv`` and, per scenario, ROC and P_d-vs-size PNGs."""
+    import re
+
+    from geomfdi.plotting.residuals import save_png
+
+    out.mkdir(parents=True, exist_ok=True)
+    files = [out / "campaign.csv", out / "summary.csv"]
+    result.table.to_csv(files[0], index=False)
+    result.summary().to_csv(files[1])
+    if not plots:
+        return files
+    for scen in result.table["scenario"].cat.categories:
+        slug = re.sub(r"[^a-z0-9]+", "-", str(scen).lower()).strip("-")
+        tb = result.table[result.table["scenario"] == scen]
+        sizes = sorted(float(z) for z in tb["size"].unique() if z != 0)
+        if sizes:  # three sizes spread over the sweep
+            pick = sorted({sizes[int(round(i))] for i in np.linspace(0, len(sizes) - 1, 3)})
+            fig = result.plot_roc(pick, scenario=scen, title=f"{name}\n{scen}: ROC of the bank")
+            files.append(save_png(fig, out / f"roc_{slug}.png"))
+        fig = result.plot_detection(
+            scenario=scen, residuals=result.residual_labels, title=f"{name}\n{scen}"
+        )
+        files.append(save_png(fig, out / f"detection_{slug}.png"))
+    return files

@@ -1,0 +1,394 @@
+"""Monte-Carlo campaigns: seeds x fault sizes x onsets x plant models, on any executor.
+
+A campaign enumerates its runs in a fixed order (model, scenario, size, onset, repetition)
+and cuts them into **blocks** of at most ``block_size`` runs of one model.  A block is
+simulated in one vectorised :func:`geomfdi.simulate_batch` call and evaluated there; the
+executor only decides where blocks run (in this process, in local processes, on a Dask
+cluster) and how many blocks one task carries.  Repetition ``r`` draws its noise from
+child ``r`` of ``SeedSequence(noise.seed)`` (common random numbers across sizes, onsets and
+models), so a run's numbers depend on its index alone and the table is **bitwise
+identical** for every executor and every grouping of blocks into tasks.  (Changing
+``block_size`` itself may change the last bit of floating-point results: the vectorised
+simulation of a different set of runs rounds differently.)
+
+Per run and residual (and for the bank: any residual), with the residual's statistic
+``s`` normalised by its threshold (``z = s / h``, so ``z > 1`` is an alarm):
+
+* ``score_pre``: ``max z`` over the window of length ``W`` before the onset
+  (``[max(eval_start, onset - W), onset)``): a false alarm when > 1;
+* ``score_post``: ``max z`` over the detection window ``[onset, onset + W)``: detected when
+  > 1 (for size 0 this is again a false-alarm probability over ``W``);
+* ``delay``: first alarm time in the detection window minus the onset (NaN if none).
+
+See the user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from geomfdi._validation import as_int, as_positive
+from geomfdi.campaign.spec import Scenario, Uncertainty
+from geomfdi.errors import GeomFDIError
+
+__all__ = ["Campaign"]
+
+
+@dataclass
+class _Block:
+    model: int
+    runs: np.ndarray  # global run indices
+    scenario: np.ndarray
+    size: np.ndarray
+    onset: np.ndarray
+    repetition: np.ndarray
+
+
+def _as_test(test: Any, n_res: int) -> Any:
+    from geomfdi.evaluation.statistics import AbsTest
+
+    if hasattr(test, "statistic") and hasattr(test, "thresholds"):
+        return test
+    values = np.asarray(test, dtype=float)
+    if values.ndim == 0:
+        values = np.full(n_res, float(values))
+    if values.shape != (n_res,) or np.any(values <= 0):
+        raise GeomFDIError(
+            f"test: expected a test object or {n_res} positive thresholds on |r|",
+            argument="test",
+        )
+    return AbsTest(values)
+
+
+def _signal_array(value: Any, t: np.ndarray, rows: int, name: str) -> np.ndarray | None:
+    """A signal sampled on the grid (arrays pickle; closures need not)."""
+    if value is None:
+        return None
+    arr = value(t) if callable(value) else value
+    arr = np.asarray(arr, dtype=float)
+    if arr.ndim == 1 and rows == 1:
+        arr = arr[None]
+    if arr.shape != (rows, t.size):
+        raise GeomFDIError(f"{name}: expected shape ({rows}, {t.size})", argument=name)
+    return arr
+
+
+def evaluate_runs(
+    t: np.ndarray,
+    statistic: np.ndarray,
+    thresholds: np.ndarray,
+    onsets: np.ndarray,
+    window: float,
+    eval_start: float,
+) -> dict[str, np.ndarray]:
+    """Scores and delays (module docstring) of runs ``(R, n, N)``; bank last, ``(R, n+1)``."""
+    thr = np.asarray(thresholds, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(np.isfinite(thr)[:, None], statistic / thr[:, None], 0.0)
+    z = np.concatenate([z, z.max(axis=-2, keepdims=True)], axis=-2)  # bank: any residual
+    tol = 1e-9 * max(1.0, float(np.abs(t).max()))
+    on = onsets[:, None]
+    post = (t[None, :] >= on - tol) & (t[None, :] < on + window - tol)
+    pre = (t[None, :] < on - tol) & (t[None, :] >= np.maximum(eval_start, on - window) - tol)
+    if not pre.any(axis=1).all():
+        raise GeomFDIError(
+            "onsets: every onset needs samples before it (after eval_start)", argument="onsets"
+        )
+    neg = -np.inf
+    score_pre = np.where(pre[:, None, :], z, neg).max(axis=-1)
+    score_post = np.where(post[:, None, :], z, neg).max(axis=-1)
+    hit = post[:, None, :] & (z > 1.0)
+    first = np.argmax(hit, axis=-1)
+    delay = np.where(hit.any(axis=-1), t[first] - onsets[:, None], np.nan)
+    return {"score_pre": score_pre, "score_post": score_post, "delay": delay}
+
+
+def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
+    """Simulate and evaluate one block (runs in a worker)."""
+    from geomfdi.simulation.simulate import simulate_batch
+
+    root = job["seed_root"]
+    seeds = [
+        np.random.SeedSequence(entropy=root.entropy, spawn_key=(*root.spawn_key, int(r)))
+        for r in block.repetition
+    ]
+    scen = job["scenarios"]
+    fault_lists = [
+        list(scen[s].faults(float(z), float(o)))
+        for s, z, o in zip(block.scenario, block.size, block.onset, strict=True)
+    ]
+    with warnings.catch_warnings():
+        if job["perturbed"]:
+            # a bank designed on the nominal plant is not decoupled from a perturbed one:
+            # expected, and the point of the campaign (its residuals see the inputs)
+            warnings.filterwarnings("ignore", message=".*not decoupled.*")
+        res = simulate_batch(
+            job["plants"][block.model],
+            job["bank"],
+            job["t"],
+            job["u"],
+            faults=fault_lists,
+            noise=job["noise"],
+            seeds=seeds,
+            controller=job["controller"],
+            d=job["d"],
+            x0=job["x0"],
+            hold=job["hold"],
+            chunk_size=len(seeds),
+            progress=False,
+        )
+    test = job["test"]
+    stat = test.statistic(res.residuals)
+    out = evaluate_runs(
+        job["t"], stat, test.thresholds, block.onset, job["window"], job["eval_start"]
+    )
+    out["run"] = block.runs
+    return out
+
+
+def _run_task(job: dict[str, Any], blocks: list[_Block]) -> list[dict[str, np.ndarray]]:
+    return [_run_block(job, b) for b in blocks]
+
+
+class Campaign:
+    """A Monte-Carlo campaign over seeds, fault sizes, onsets and plant models.
+
+    Parameters
+    ----------
+    plant : Plant
+        Nominal plant (the bank is designed on it).
+    bank : ResidualBank or ResidualGenerator
+    scenarios : sequence of Scenario
+    noise : Noise
+        Noise model; its seed is the root of all run seeds.
+    t : array_like
+        Time grid of every run.
+    uncertainty : Uncertainty, optional
+        Plant models to simulate (default: the nominal plant only).
+    runs : int
+        Repetitions (noise seeds) per (model, scenario, size, onset).
+    test : test object or thresholds
+        Residual evaluation test with ``statistic(residuals)`` and ``thresholds`` (e.g.
+        :class:`geomfdi.ChiSquareTest`, :class:`geomfdi.CusumTest`); numbers are fixed
+        thresholds on ``|r|``.
+    u, d : arrays or callables of t, optional
+    controller : state-feedback gain or python-control system, optional
+    x0 : array_like, optional
+    detection_window : float, optional
+        ``W`` (module docstring); default: from the earliest onset to the end.
+    eval_start : float
+        Samples before it are ignored (start-up transients).
+    block_size : int
+        Runs simulated together in one vectorised call.
+    hold : {"foh", "zoh"}
+
+    Examples
+    --------
+    >>> import numpy as np, geomfdi as gf
+    >>> p = gf.Plant([[-1.0]], [[1.0]], [[1.0]])
+    >>> g = gf.ResidualGenerator([[-2.0]], [[-1.0]], [[1.0]], [[1.0]], [[1.0]], [[0.0]])
+    >>> c = gf.Campaign(p, g, [gf.Scenario.sensor("bias", 0, [0.0, 1.0], [1.0])],
+    ...                 gf.Noise(measurement=0.1, seed=1), t=np.linspace(0, 2, 201),
+    ...                 runs=20, test=0.5)
+    >>> res = c.run()
+    >>> float(res.summary().loc[("bias on sensor 0", 1.0, "bank"), "pd"])
+    1.0
+    """
+
+    def __init__(
+        self,
+        plant: Any,
+        bank: Any,
+        scenarios: Sequence[Scenario],
+        noise: Any,
+        *,
+        t: Any,
+        uncertainty: Uncertainty | None = None,
+        runs: int = 100,
+        test: Any = None,
+        u: Any = None,
+        d: Any = None,
+        controller: Any = None,
+        x0: Any = None,
+        detection_window: float | None = None,
+        eval_start: float = 0.0,
+        block_size: int = 64,
+        hold: str = "foh",
+    ) -> None:
+        from geomfdi.model.plant import as_plant
+        from geomfdi.simulation.simulate import Noise
+
+        self.plant = as_plant(plant)
+        self.bank = bank
+        gens = bank.generators if hasattr(bank, "generators") else [bank]
+        self.n_residuals = len(gens)
+        self.scenarios = list(scenarios)
+        if not self.scenarios or not all(isinstance(s, Scenario) for s in self.scenarios):
+            raise GeomFDIError(
+                "scenarios: expected a non-empty list of Scenario", argument="scenarios"
+            )
+        if not isinstance(noise, Noise):
+            raise GeomFDIError("noise: expected a geomfdi Noise", argument="noise")
+        self.noise = noise
+        self.t = np.asarray(t, dtype=float)
+        if self.t.ndim != 1 or self.t.size < 2:
+            raise GeomFDIError("t: expected a time grid of at least 2 samples", argument="t")
+        self.uncertainty = uncertainty
+        self.runs = as_int(runs, "runs", minimum=1)
+        if test is None:
+            raise GeomFDIError("test: a test or thresholds are needed", argument="test")
+        self.test = _as_test(test, self.n_residuals)
+        self.u = _signal_array(u, self.t, self.plant.m, "u")
+        self.d = _signal_array(d, self.t, self.plant.nd, "d")
+        self.controller = controller
+        self.x0 = x0
+        first = min(min(s.onsets) for s in self.scenarios)
+        self.window = (
+            float(self.t[-1] - first + (self.t[1] - self.t[0]))
+            if detection_window is None
+            else as_positive(detection_window, "detection_window")
+        )
+        self.eval_start = float(eval_start)
+        self.block_size = as_int(block_size, "block_size", minimum=1)
+        self.hold = hold
+        self.plants = [self.plant] if uncertainty is None else uncertainty.plants(self.plant)
+
+    # ------------------------------------------------------------------ the grid
+    def grid(self) -> dict[str, np.ndarray]:
+        """Run index -> model, scenario, size, onset, repetition (the fixed order)."""
+        cols: dict[str, list[Any]] = {k: [] for k in ("model", "scenario", "size", "onset")}
+        for mi in range(len(self.plants)):
+            for si, sc in enumerate(self.scenarios):
+                for z in sc.sizes:
+                    for o in sc.onsets:
+                        cols["model"].append(mi)
+                        cols["scenario"].append(si)
+                        cols["size"].append(z)
+                        cols["onset"].append(o)
+        R = self.runs
+        out = {k: np.repeat(np.asarray(v), R) for k, v in cols.items()}
+        out["repetition"] = np.tile(np.arange(R), len(cols["model"]))
+        out["run"] = np.arange(out["repetition"].size)
+        return out
+
+    def blocks(self) -> list[_Block]:
+        """The grid cut into blocks of at most ``block_size`` runs of one model."""
+        g = self.grid()
+        out = []
+        for mi in range(len(self.plants)):
+            idx = np.flatnonzero(g["model"] == mi)
+            for a in range(0, idx.size, self.block_size):
+                sel = idx[a : a + self.block_size]
+                out.append(
+                    _Block(
+                        mi,
+                        sel,
+                        g["scenario"][sel],
+                        g["size"][sel],
+                        g["onset"][sel],
+                        g["repetition"][sel],
+                    )
+                )
+        return out
+
+    def _job(self) -> dict[str, Any]:
+        seed = self.noise.seed
+        root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+        return {
+            "plants": self.plants,
+            "bank": self.bank,
+            "t": self.t,
+            "u": self.u,
+            "d": self.d,
+            "noise": self.noise,
+            "controller": self.controller,
+            "x0": self.x0,
+            "hold": self.hold,
+            "test": self.test,
+            "window": self.window,
+            "eval_start": self.eval_start,
+            "scenarios": self.scenarios,
+            "seed_root": root,
+            "perturbed": self.uncertainty is not None,
+        }
+
+    # ------------------------------------------------------------------- running
+    def run(
+        self,
+        executor: Any = "serial",
+        *,
+        workers: int | None = None,
+        blocks_per_task: int = 1,
+        progress: bool | None = None,
+    ) -> Any:
+        """Run every block and collect the table (a :class:`CampaignResult`).
+
+        Parameters
+        ----------
+        executor : "serial", "processes", a ``concurrent.futures.Executor`` or a
+            ``distributed.Client``
+            Where the tasks run.  ``"processes"`` starts a local
+            :class:`concurrent.futures.ProcessPoolExecutor` with ``workers`` processes for
+            this call.  Any object with ``submit(fn, *args)`` returning a future with
+            ``result()`` works (a Dask client: install ``geomfdi[dask]``).
+        workers : int, optional
+        blocks_per_task : int
+            Blocks carried by one task (does not change the results).
+        progress : bool, optional
+            tqdm bar over the tasks (default: when stderr is a terminal).
+        """
+        import sys
+
+        from geomfdi.campaign.result import CampaignResult
+
+        per = as_int(blocks_per_task, "blocks_per_task", minimum=1)
+        blocks = self.blocks()
+        tasks = [blocks[a : a + per] for a in range(0, len(blocks), per)]
+        job = self._job()
+        if progress is None:
+            progress = sys.stderr.isatty()
+        bar = None
+        if progress:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=len(tasks), desc="campaign", unit="task", leave=False)
+        parts: list[dict[str, np.ndarray]] = []
+        own = None
+        try:
+            if isinstance(executor, str):
+                if executor == "serial":
+                    for tk in tasks:
+                        parts.extend(_run_task(job, tk))
+                        if bar is not None:
+                            bar.update(1)
+                    executor = None
+                elif executor == "processes":
+                    from concurrent.futures import ProcessPoolExecutor
+
+                    own = executor = ProcessPoolExecutor(max_workers=workers)
+                else:
+                    raise GeomFDIError(
+                        f"executor: 'serial', 'processes' or an executor, got {executor!r}",
+                        argument="executor",
+                    )
+            if executor is not None:
+                if not hasattr(executor, "submit"):
+                    raise GeomFDIError("executor: has no submit method", argument="executor")
+                if hasattr(executor, "scatter"):  # a Dask client: ship the job once
+                    job = executor.scatter([job], broadcast=True)[0]
+                futures = [executor.submit(_run_task, job, tk) for tk in tasks]
+                for fut in futures:
+                    parts.extend(fut.result())
+                    if bar is not None:
+                        bar.update(1)
+        finally:
+            if own is not None:
+                own.shutdown()
+            if bar is not None:
+                bar.close()
+        return CampaignResult.from_parts(self, parts)

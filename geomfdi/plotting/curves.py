@@ -1,0 +1,96 @@
+"""Evaluation curves: ROC (P_d versus false-alarm probability) and P_d / delay versus size.
+
+Figures are built with :class:`matplotlib.figure.Figure` directly (no pyplot); save them
+with :func:`geomfdi.save_png`.  See the user guide, *Theory: residual evaluation*
+(``docs/theory/evaluation.md``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from geomfdi.errors import GeomFDIError
+
+__all__ = ["plot_roc", "plot_detection"]
+
+
+def _figure(figsize: tuple[float, float]) -> Any:
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize, layout="constrained")
+
+
+def plot_roc(
+    curves: Sequence[Any],
+    *,
+    title: str | None = None,
+    log_far: bool = True,
+    figsize: tuple[float, float] = (5.5, 4.5),
+) -> Any:
+    """ROC curves (:class:`geomfdi.RocCurve`): ``P_d`` against the false-alarm probability.
+
+    Parameters
+    ----------
+    curves : sequence of RocCurve
+    title : str, optional
+    log_far : bool
+        Logarithmic false-alarm axis (rates of 1e-3 .. 1e-1 are the interesting part);
+        zero rates are drawn at half the smallest non-zero one.
+    """
+    curves = list(curves)
+    if not curves:
+        raise GeomFDIError("curves: nothing to plot", argument="curves")
+    fig = _figure(figsize)
+    ax = fig.add_subplot()
+    floor = min((c.far[c.far > 0].min() for c in curves if np.any(c.far > 0)), default=1e-3)
+    for c in curves:
+        x = np.where(c.far > 0, c.far, floor / 2) if log_far else c.far
+        ax.step(x, c.pd, where="post", label=f"{c.label} (AUC {c.auc:.3f})")
+    if log_far:
+        ax.set_xscale("log")
+    ax.set_xlabel("false-alarm probability per window")
+    ax.set_ylabel("detection probability $P_d$")
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small", loc="lower right")
+    if title:
+        ax.set_title(title, fontsize="medium")
+    return fig
+
+
+def plot_detection(
+    curves: Mapping[str, Any],
+    *,
+    title: str | None = None,
+    figsize: tuple[float, float] = (6.5, 5.0),
+) -> Any:
+    """``P_d`` (with Wilson 95 % bounds) and median detection delay versus fault size.
+
+    Parameters
+    ----------
+    curves : mapping label -> DataFrame
+        As returned by :meth:`geomfdi.CampaignResult.detection_curve` (index: size;
+        columns ``pd, pd_low, pd_high, delay_median``).
+    """
+    if not curves:
+        raise GeomFDIError("curves: nothing to plot", argument="curves")
+    fig = _figure(figsize)
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    for label, df in curves.items():
+        size = np.asarray(df.index, dtype=float)
+        line = ax1.plot(size, df["pd"], marker="o", label=str(label))[0]
+        ax1.fill_between(size, df["pd_low"], df["pd_high"], color=line.get_color(), alpha=0.2)
+        ax2.plot(size, df["delay_median"], marker="o", color=line.get_color(), label=str(label))
+    ax1.set_ylabel("$P_d$")
+    ax1.set_ylim(-0.02, 1.02)
+    ax1.grid(True, alpha=0.3)
+    ax1.legend(fontsize="small")
+    ax2.set_xlabel("fault size")
+    ax2.set_ylabel("median delay [s]")
+    ax2.grid(True, alpha=0.3)
+    if title:
+        ax1.set_title(title, fontsize="medium")
+    return fig

@@ -1,0 +1,68 @@
+"""``geomfdi campaign MODEL.toml`` and the campaign example script."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from geomfdi.io.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.slow
+def test_cli_campaign_writes_tables_and_figures(tmp_path, capsys):
+    out = tmp_path / "c"
+    code = main(
+        [
+            "campaign",
+            str(ROOT / "examples" / "discrete_disturbance.toml"),
+            "--runs",
+            "3",
+            "--out",
+            str(out),
+        ]
+    )
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "bias on sensor 1" in text and "gain on sensor 2" in text
+    tb = pd.read_csv(out / "campaign.csv")
+    # 2 scenarios x 6 sizes x 1 onset x 3 runs, 4 residuals + bank each
+    assert len(tb) == 2 * 6 * 3 * 5
+    summ = pd.read_csv(out / "summary.csv")
+    assert {"pd", "far", "delay_median"} <= set(summ.columns)
+    for name in ("roc_bias-on-sensor-1", "detection_gain-on-sensor-2"):
+        assert (out / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_cli_campaign_errors(tmp_path, capsys):
+    assert main(["campaign", str(ROOT / "examples" / "seed001.toml"), "--out", str(tmp_path)]) == 2
+    assert "no [campaign] table" in capsys.readouterr().err
+    bad = tmp_path / "bad.toml"
+    text = (ROOT / "examples" / "discrete_disturbance.toml").read_text()
+    bad.write_text(text.replace("runs = 100", "runs = 100\nbogus = 1"))
+    assert main(["campaign", str(bad), "--out", str(tmp_path)]) == 2
+    assert "bogus" in capsys.readouterr().err
+    bad.write_text(text.replace('test = {type = "chi2"', 'test = {type = "sprt"'))
+    assert main(["campaign", str(bad), "--out", str(tmp_path)]) == 2
+
+
+@pytest.mark.slow
+def test_campaign_example_script_saves_the_figures(tmp_path):
+    spec = importlib.util.spec_from_file_location(
+        "campaign_roc", ROOT / "examples" / "campaign_roc.py"
+    )
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    results = mod.main([str(tmp_path), "--runs", "2"])
+    assert set(results) == {"seed001", "seed001_uncertain", "discrete_disturbance"}
+    pngs = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*.png"))
+    assert "seed001/roc_bias-on-sensor-0.png" in pngs
+    assert "discrete_disturbance/detection_gain-on-sensor-2.png" in pngs
+    assert len(pngs) == 3 * 2 + 2 + 2 * 2
+    # a large bias on sensor 1 of seed 001 is always detected
+    s = results["seed001"].summary().xs("bank", level="residual")
+    assert s.loc[("bias on sensor 1", 0.03), "pd"] == 1.0
