@@ -7,10 +7,10 @@ user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
 """
 
 from geomfdi.deployment.decide import Persistence
-from geomfdi.deployment.discretize import discretize_bank
 from geomfdi.deployment.monitor import Monitor, MonitorOutput, MonitorStep
 from geomfdi.deployment.persistence import load_bank, load_monitor, save_bank, save_monitor
 from geomfdi.deployment.recorded import AlarmEpisode, EvaluationResult, evaluate
+from geomfdi.synthesis.discretize import discretize_bank
 
 __all__ = [
     "AlarmEpisode",

@@ -183,8 +183,8 @@ def codegen_files(
     """Write the monitor code for ``bank`` (sampled with zero-order hold at ``dt`` when
     continuous) in ``lang`` (``"c"`` or ``"python"``) to ``out``."""
     from geomfdi.deployment import codegen
-    from geomfdi.deployment.discretize import discretize_bank
     from geomfdi.errors import NotDiscreteError
+    from geomfdi.synthesis.discretize import discretize_bank
 
     if bank.dt <= 0:
         if dt is None:

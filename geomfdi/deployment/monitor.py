@@ -26,6 +26,7 @@ from geomfdi.deployment.online import (
 )
 from geomfdi.deployment.program import Program, as_bank, build_program, check_initial, restart_rule
 from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.synthesis.bankfile import _enc_float, _write, bank_to_dict, encode
 
 __all__ = ["Monitor", "MonitorStep", "MonitorOutput"]
 
@@ -123,8 +124,6 @@ class Monitor:
 
     def save(self, path: str | Path) -> Path:
         """Write the monitor (bank, settings and state) to a versioned JSON file."""
-        from geomfdi.deployment.persistence import save_monitor
-
         return save_monitor(self, path)
 
     def __repr__(self) -> str:
@@ -190,3 +189,18 @@ def set_state(state: MonitorState, program: Any, persistence: Any, value: Any) -
     state.pending = pending
     state.set_ring(ring.astype(bool))
     state.samples = samples
+
+
+def save_monitor(monitor: Any, path: str | Path) -> Path:
+    """Write a :class:`~geomfdi.Monitor` (bank, settings, current state) to ``path``."""
+    initial = monitor.initial
+    payload = {
+        "bank": bank_to_dict(monitor.bank),
+        "dt": _enc_float(float(monitor.dt)),
+        "threshold": None if monitor.thresholds is None else encode(monitor.thresholds),
+        "persistence": [monitor.persistence.k, monitor.persistence.n],
+        "isolation": monitor.isolation,
+        "initial": initial if isinstance(initial, str) else encode(initial),
+        "state": encode(state_dict(monitor._state, monitor.program)),
+    }
+    return _write(path, "geomfdi.monitor", payload)

@@ -36,7 +36,23 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import GeomFDIError
+from geomfdi.io.figures import (
+    _draw_residuals,
+    _draw_structure,
+    _Figures,
+    _residual_figure_args,
+    _structure_figure_args,
+    decimate_minmax,
+)
 from geomfdi.io.modelfile import ModelSpec, load_model
+from geomfdi.io.report import (
+    _bank_json,
+    _design_table,
+    _events,
+    _json_default,
+    _sim_table,
+    _threshold_values,
+)
 from geomfdi.synthesis.generator import ResidualBank
 
 __all__ = ["main", "design_all", "run_model", "check_outputs", "decimate_minmax"]
@@ -45,10 +61,6 @@ SYMBOLIC_MAX_N = 10
 
 MAX_STEM = 80
 """Longest file-name stem taken from a scenario name (longer names are shortened)."""
-
-FIGURE_DPI = 100
-FIGURE_COLUMNS = 800
-"""Pixel columns of a residual figure: traces keep at most their min and max per column."""
 
 
 def _slug(text: str) -> str:
@@ -64,161 +76,6 @@ def _say(enabled: bool) -> Callable[[str], None]:
             print(f"geomfdi: {text}", file=sys.stderr, flush=True)
 
     return say
-
-
-def decimate_minmax(t: Any, r: Any, columns: int = FIGURE_COLUMNS) -> np.ndarray:
-    """Indices of the samples that draw ``r`` (rows: traces over ``t``) at ``columns`` pixels.
-
-    The samples are split into ``columns`` consecutive buckets; each bucket keeps its first
-    sample and, for every trace, the sample of its minimum and of its maximum, so the
-    drawn envelope (and every peak) is the one of the full trace.  Returns the sorted
-    indices (all of them when there are at most ``2 * columns`` samples).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> r = np.zeros((1, 10_000)); r[0, 1234] = 5.0
-    >>> idx = decimate_minmax(np.arange(10_000), r, columns=100)
-    >>> bool(1234 in idx), bool(len(idx) <= 301)
-    (True, True)
-    """
-    r = np.atleast_2d(np.asarray(r))
-    n = r.shape[1]
-    if n <= 2 * columns:
-        return np.arange(n)
-    width = n // columns
-    body = columns * width
-    blocks = r[:, :body].reshape(r.shape[0], columns, width)
-    offset = np.arange(columns) * width
-    keep = [
-        offset,
-        (blocks.argmin(axis=2) + offset).ravel(),
-        (blocks.argmax(axis=2) + offset).ravel(),
-    ]
-    keep.append(np.arange(body, n))  # the tail that does not fill a bucket
-    keep.append(np.array([n - 1]))
-    return np.unique(np.concatenate(keep))
-
-
-def _draw_structure(kwargs: dict[str, Any], path: Path) -> str:
-    """Worker: the structure figure of one bank, saved as PNG."""
-    from geomfdi.plotting.residuals import plot_structure, save_png
-
-    return save_png(plot_structure(**kwargs), path, dpi=FIGURE_DPI).name
-
-
-def _structure_figure_args(bank: ResidualBank, title: str) -> dict[str, Any]:
-    """The arguments of :func:`plot_structure` for ``bank`` (plain arrays and labels, so a
-    worker does not load the synthesis code to unpickle a bank)."""
-    return {
-        "structure": np.asarray(bank.structure),
-        "requested": np.asarray(bank.requested),
-        "fault_labels": [getattr(f, "name", f"fault {j}") for j, f in enumerate(bank.faults)],
-        "title": title,
-    }
-
-
-def _draw_residuals(kwargs: dict[str, Any], path: Path) -> str:
-    """Worker: one residual figure from (decimated) traces, saved as PNG.
-
-    The stacked axes get fixed margins (in inches) instead of the constrained layout,
-    which would cost a second drawing pass per figure.
-    """
-    from matplotlib.layout_engine import PlaceHolderLayoutEngine
-
-    from geomfdi.plotting.residuals import plot_residuals, save_png
-
-    fig = plot_residuals(**kwargs)
-    w, h = fig.get_size_inches()
-    fig.set_layout_engine(PlaceHolderLayoutEngine(adjust_compatible=True, colorbar_gridspec=True))
-    top = 0.55 if kwargs.get("title") else 0.2
-    fig.subplots_adjust(left=0.9 / w, right=1 - 0.2 / w, bottom=0.55 / h, top=1 - top / h)
-    return save_png(fig, path, dpi=FIGURE_DPI).name
-
-
-def _warm_up() -> None:
-    """Worker: import the plotting stack before the first figure arrives."""
-    import matplotlib.backends.backend_agg  # noqa: F401
-
-    import geomfdi.evaluation.decision  # noqa: F401
-    import geomfdi.plotting.residuals  # noqa: F401
-
-
-def _residual_figure_args(res: Any, title: str) -> dict[str, Any]:
-    """The arguments of :func:`plot_residuals` for ``res``, traces decimated per pixel."""
-    th = res.threshold
-    alarms = res.alarms if th is not None else None
-    t, r = res.t, res.residuals
-    if getattr(th, "statistic", "abs") == "abs" and t.size > 2 * FIGURE_COLUMNS:
-        # (a moving statistic needs every sample: drawn in full)
-        idx = decimate_minmax(t, r)
-        if alarms is not None:  # an alarm anywhere in a bucket shades its kept samples
-            a = np.asarray(alarms, dtype=bool)
-            width = t.size // FIGURE_COLUMNS
-            anyb = np.logical_or.reduceat(a, np.arange(FIGURE_COLUMNS) * width, axis=1)
-            alarms = anyb[:, np.minimum(idx // width, FIGURE_COLUMNS - 1)]
-        t, r = t[idx], r[:, idx]
-    return {
-        "t": t,
-        "residuals": r,
-        "threshold": th,
-        "onsets": sorted(set(res.onsets)),
-        "labels": res.residual_labels,
-        "alarms": alarms,
-        "title": title,
-    }
-
-
-class _Figures:
-    """PNG figures drawn by worker processes while the main process goes on.
-
-    Falls back to drawing in this process when no process pool can be started.
-    """
-
-    def __init__(self, enabled: bool) -> None:
-        self.enabled = enabled
-        self.pool: Any = None
-        self.jobs: list[tuple[Any, Any]] = []
-        if enabled:
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor
-
-            methods = multiprocessing.get_all_start_methods()
-            ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
-            # the main process mostly waits once the simulations are done
-            workers = max(1, min(4, os.cpu_count() or 1))
-            try:
-                self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
-                for _ in range(workers):  # load matplotlib while the main process works
-                    self.pool.submit(_warm_up)
-            except (OSError, NotImplementedError, ValueError, RuntimeError):
-                self.pool = None
-
-    def submit(self, key: Any, fn: Callable[..., str], *args: Any) -> None:
-        if not self.enabled:
-            return
-        if self.pool is not None:
-            try:
-                self.jobs.append((key, self.pool.submit(fn, *args)))
-                return
-            except RuntimeError:  # the pool broke: draw here
-                self.pool = None
-        self.jobs.append((key, fn(*args)))
-
-    def results(self) -> dict[Any, str]:
-        """Wait for every figure; ``{key: file name}``."""
-        out = {}
-        try:
-            for key, job in self.jobs:
-                out[key] = job if isinstance(job, str) else job.result()
-        finally:
-            self.close()
-        return out
-
-    def close(self) -> None:
-        if self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
-            self.pool = None
 
 
 def _with_context(exc: GeomFDIError, where: str) -> GeomFDIError:
@@ -257,46 +114,6 @@ def design_all(spec: ModelSpec) -> dict[str, ResidualBank]:
                 ) from exc
         banks[opt.method] = bank
     return banks
-
-
-def _bank_json(bank: ResidualBank) -> dict[str, Any]:
-    gens = []
-    for r, g in enumerate(bank.generators):
-        if g is None:
-            gens.append({"row": r, "exists": False, "diagnostic": bank.diagnostics[r]})
-            continue
-        gens.append(
-            {
-                "row": r,
-                "exists": True,
-                "order": g.order,
-                "target": list(g.target),
-                "decoupled": list(g.decoupled),
-                "diagnostic": bank.diagnostics[r],
-                "dt": g.dt,
-                "poles": [[float(p.real), float(p.imag)] for p in g.poles],
-                **{k: getattr(g, k).tolist() for k in "FEGMHK"},
-            }
-        )
-    return {
-        "method": bank.method,
-        "requested": bank.requested.astype(int).tolist(),
-        "structure": bank.structure.astype(int).tolist(),
-        "isolable": bank.isolable.tolist(),
-        "generators": gens,
-    }
-
-
-def _design_table(name: str, bank: ResidualBank) -> list[str]:
-    lines = [f"### Design: {name}", "", "| row | order | sees | diagnostic |", "|---|---|---|---|"]
-    for r, g in enumerate(bank.generators):
-        sees = ", ".join(str(j) for j in np.flatnonzero(bank.structure[r])) or "-"
-        order = "-" if g is None else str(g.order)
-        lines.append(f"| r{r} | {order} | {sees} | {bank.diagnostics[r]} |")
-    lines.append("")
-    lines.append(f"isolable faults: {np.flatnonzero(bank.isolable).tolist()}")
-    lines.append("")
-    return lines
 
 
 def _verify(spec: ModelSpec, bank: ResidualBank, symbolic: bool) -> dict[str, Any]:
@@ -346,25 +163,6 @@ def _threshold(spec: ModelSpec, bank: ResidualBank) -> Any:
             x0=spec.x0,
         )
     return th
-
-
-def _threshold_values(th: Any, rows: int) -> list[float | None] | None:
-    """Per-row threshold values (None for a disabled row), or None without a threshold."""
-    if th is None:
-        return None
-    values = np.broadcast_to(np.asarray(getattr(th, "values", th), dtype=float), (rows,))
-    return [float(x) if np.isfinite(x) else None for x in values]
-
-
-def _events(res: Any) -> list[dict[str, Any]]:
-    """``res.summary_rows()`` with the expressions of time-varying faults in the labels."""
-    rows = res.summary_rows()
-    for row, ev in zip(rows, res.events, strict=True):
-        for key in ("gain", "bias"):
-            expr = getattr(getattr(ev.fault, key, None), "expression", None)
-            if expr is not None:
-                row["fault"] = row["fault"].replace(f"{key} f(t)", f"{key} {expr}", 1)
-    return rows
 
 
 def check_outputs(
@@ -482,41 +280,6 @@ def _simulate(
             row["figure"] = png.name
         rows.append(row)
     return rows
-
-
-def _delay(x: float | None) -> str:
-    return "no" if x is None else f"after {x:.3g} s"
-
-
-def _sim_table(rows: list[dict[str, Any]], thresholds: dict[str, Any]) -> list[str]:
-    lines = ["### Simulation", ""]
-    for method, th in thresholds.items():
-        values = _threshold_values(th, len(rows[0]["max_abs"])) if rows else None
-        if values is not None:
-            how = getattr(th, "source", "fixed")
-            text = ", ".join("-" if v is None else f"{v:.3g}" for v in values)
-            lines.append(f"Threshold ({method}): {text}; {how}.")
-    lines += [
-        "",
-        "| scenario | method | max abs(r) per residual | false-alarm rate | fault | "
-        "detected | isolated |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for row in rows:
-        peaks = ", ".join(f"{x:.3g}" for x in row["max_abs"])
-        far = "-" if row["false_alarm_rate"] is None else f"{row['false_alarm_rate']:.3g}"
-        head = f"| {row['scenario']} | {row['method']} | {peaks} | {far} |"
-        if not row["events"]:
-            alarm = "alarm" if row["alarms"] else "no alarm"
-            lines.append(f"{head} none ({alarm}) | - | - |")
-        for k, e in enumerate(row["events"]):
-            prefix = head if k == 0 else "| | | | |"
-            lines.append(
-                f"{prefix} {e['fault']} | {_delay(e['detection_delay'])} | "
-                f"{_delay(e['isolation_delay'])} |"
-            )
-    lines.append("")
-    return lines
 
 
 def run_model(
@@ -638,14 +401,6 @@ def _run_steps(
         lines += [f"![{caption}]({name})" for caption, name in figures]
         lines.append("")
     summary["report"] = "\n".join(lines)
-
-
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    return str(obj)
 
 
 def _parser() -> argparse.ArgumentParser:

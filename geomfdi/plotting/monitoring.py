@@ -11,11 +11,12 @@ import numpy as np
 
 from geomfdi._validation import as_real_array
 from geomfdi.errors import GeomFDIError, ShapeError
-from geomfdi.monitoring.results import ARMonitorResult
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
+
+    from geomfdi.monitoring.results import ARMonitorResult
 
 __all__ = ["plot_ar_monitor"]
 
@@ -55,7 +56,7 @@ def plot_ar_monitor(
     """
     import matplotlib.pyplot as plt
 
-    if not isinstance(result, ARMonitorResult):
+    if type(result).__name__ != "ARMonitorResult":
         raise GeomFDIError("result: expected an ARMonitorResult", argument="result")
     sel = (lambda a: a) if result.statistic.ndim == 1 else (lambda a: a[row])
     lam, alarm, valid, rst = (

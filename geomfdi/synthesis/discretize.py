@@ -17,17 +17,19 @@ residual evaluation* (``docs/theory/evaluation.md``).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from geomfdi._validation import as_positive
 from geomfdi.errors import GeomFDIError
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
 __all__ = ["METHODS", "discretize_generator", "discretize_bank"]
 
 METHODS = ("zoh", "tustin")
+
+if TYPE_CHECKING:  # pragma: no cover
+    from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
 
 def discretize_generator(g: ResidualGenerator, dt: float, method: str = "zoh") -> ResidualGenerator:
@@ -50,7 +52,7 @@ def discretize_generator(g: ResidualGenerator, dt: float, method: str = "zoh") -
         sel = "bilinear" if method == "tustin" else "zoh"
         Fd, Bd, Md, Dd, _ = cont2discrete((g.F, B, g.M, D), dt, method=sel)
     q = g.q
-    return ResidualGenerator(
+    return type(g)(
         Fd,
         -Bd[:, :q],
         Bd[:, q:],
@@ -92,7 +94,7 @@ def discretize_bank(bank: ResidualBank, dt: Any, method: str = "zoh") -> Residua
             argument="bank",
         )
     gens = [None if g is None else discretize_generator(g, dt, method) for g in bank.generators]
-    return ResidualBank(
+    return type(bank)(
         gens,
         np.array(bank.requested, copy=True),
         np.array(bank.structure, copy=True),
