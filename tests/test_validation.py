@@ -188,8 +188,8 @@ for alg, fn in ALGORITHMS:
             "L",
         )
 case(
-    "exact-A-symbol",
-    lambda: gf.exact.min_conditioned_invariant(sp.Matrix([[sp.Symbol("a")]]), [[1]], [[1]]),
+    "exact-A-not-rational-function",  # symbols are parameters; sin(a) is not rational
+    lambda: gf.exact.min_conditioned_invariant(sp.Matrix([[sp.sin(sp.Symbol("a"))]]), [[1]], [[1]]),
     GeomFDIError,
     "A",
 )
