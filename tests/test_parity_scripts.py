@@ -25,7 +25,9 @@ def test_benchmark_quick_mode(capsys):
     res = bench.main(["--quick", "--n", "20000", "--loop-n", "300", "--repeat", "1"])
     out = capsys.readouterr().out
     assert "Z.sum()" in out and "per-sample loop (timed on 300, extrapolated)" in out
-    assert set(res) == {"faulty (20 sigma on sensor 2)", "fault-free"}
+    assert set(res) == {"faulty (20 sigma on sensor 2)", "fault-free", "construction"}
+    construction = res.pop("construction")
+    assert "ParityFDI construction" in out and all(t > 0 for t in construction.values())
     for r in res.values():
         assert r["agree"] == 1.0  # vectorised and per-sample results coincide
         assert r["t_loop"] > r["t_vec"] > 0
