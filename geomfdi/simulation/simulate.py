@@ -1,8 +1,13 @@
-"""Simulation of a plant with sensor faults and a bank of residual generators.
+"""Simulation of a plant with faults and a bank of residual generators.
 
-:func:`simulate` runs one scenario, :func:`simulate_batch` many Monte-Carlo runs (noise
-seeds, fault sizes) in one vectorised call.  Both use the exact, loop-free LTI recursion
-of :mod:`geomfdi.simulation.lti`.
+:func:`simulate` runs one scenario, :func:`~geomfdi.simulate_batch` many Monte-Carlo runs
+(noise seeds, fault sizes) in one vectorised call.  Both use the exact, loop-free LTI
+recursion of :mod:`geomfdi.simulation.lifting`.  Faults: sensor gain, bias and stuck
+faults on the readings; actuator gain (loss of effectiveness), bias and stuck faults and
+general additive faults ``Fault(Bf, Df)`` driven by a signal enter the plant as extra
+input channels (:mod:`geomfdi.simulation.input_faults`).  Decisions: thresholds, an
+optional k-of-n persistence rule and a detection window
+(:mod:`geomfdi.evaluation.persistence`, :mod:`geomfdi.evaluation.metrics`).
 
 Model::
 
