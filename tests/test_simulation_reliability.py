@@ -134,3 +134,21 @@ def test_options_are_validated_with_named_errors():
     a = gf.simulate_batch(plant, g, t, runs=2, noise=noise, seeds=[3, 4])
     b = gf.simulate_batch(plant, g, t, runs=2, noise=noise, seeds=[3, 4])
     np.testing.assert_array_equal(a.residuals, b.residuals)
+
+
+def test_simulate_limits_blas_to_one_thread_unless_opted_out(monkeypatch):
+    from threadpoolctl import threadpool_info
+
+    from geomfdi.simulation._blas import single_blas_thread
+
+    blas = [p for p in threadpool_info() if p["user_api"] == "blas"]
+    if not blas:
+        pytest.skip("no BLAS library reported by threadpoolctl")
+    with single_blas_thread():
+        inside = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+    assert inside and all(n == 1 for n in inside)
+    monkeypatch.setenv("GEOMFDI_BLAS_THREADS", "default")
+    before = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+    with single_blas_thread():
+        kept = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+    assert kept == before

@@ -75,8 +75,18 @@ def state_scaling(A_cl: np.ndarray) -> np.ndarray:
     """
     if A_cl.shape[0] == 0:
         return np.ones(0)
-    _, (scale, _) = scipy.linalg.matrix_balance(A_cl, permute=False, separate=True)
-    return np.asarray(scale, dtype=float)
+    key = (A_cl.shape, A_cl.tobytes())
+    hit = _SCALINGS.get(key)
+    if hit is None:
+        _, (scale, _) = scipy.linalg.matrix_balance(A_cl, permute=False, separate=True)
+        hit = np.asarray(scale, dtype=float)
+        if len(_SCALINGS) > 256:
+            _SCALINGS.clear()
+        _SCALINGS[key] = hit
+    return hit
+
+
+_SCALINGS: dict[tuple, np.ndarray] = {}  # state_scaling of recent matrices (small, per process)
 
 
 def _spectra_apart(F: np.ndarray, A_cl: np.ndarray, ea: np.ndarray | None = None) -> bool:

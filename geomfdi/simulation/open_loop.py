@@ -126,10 +126,16 @@ def run_open_loop(
             if Pis[j] is not None:
                 w0s[k] = Pis[j] @ x0T
         ctx.info.setdefault("w0", {})[k] = np.array(w0s[k][:, 0])
+    known = ctx.info.get("init_residual", {}) if ctx.consistent else {}
     decoupled = not ctx.discrete and all(
         Pi is not None
-        and start_error(g.F, A_X, Sig_all[o0:o1], g.M, -g.H @ Cy0 + g.K @ Cu, Pi) <= EXACT_TOL
-        for Pi, (_, g), o0, o1 in zip(Pis, gens, offs[:-1], offs[1:], strict=True)
+        and (
+            known[k]
+            if k in known
+            else start_error(g.F, A_X, Sig_all[o0:o1], g.M, -g.H @ Cy0 + g.K @ Cu, Pi)
+        )
+        <= EXACT_TOL
+        for Pi, (k, g), o0, o1 in zip(Pis, gens, offs[:-1], offs[1:], strict=True)
     )
     # ---- drive signals of the generators, stacked once for the whole bank
     chan: list[int] = []

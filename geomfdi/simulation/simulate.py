@@ -1,8 +1,13 @@
-"""Simulation of a plant with sensor faults and a bank of residual generators.
+"""Simulation of a plant with faults and a bank of residual generators.
 
-:func:`simulate` runs one scenario, :func:`simulate_batch` many Monte-Carlo runs (noise
-seeds, fault sizes) in one vectorised call.  Both use the exact, loop-free LTI recursion
-of :mod:`geomfdi.simulation.lti`.
+:func:`simulate` runs one scenario, :func:`~geomfdi.simulate_batch` many Monte-Carlo runs
+(noise seeds, fault sizes) in one vectorised call.  Both use the exact, loop-free LTI
+recursion of :mod:`geomfdi.simulation.lifting`.  Faults: sensor gain, bias and stuck
+faults on the readings; actuator gain (loss of effectiveness), bias and stuck faults and
+general additive faults ``Fault(Bf, Df)`` driven by a signal enter the plant as extra
+input channels (:mod:`geomfdi.simulation.input_faults`).  Decisions: thresholds, an
+optional k-of-n persistence rule and a detection window
+(:mod:`geomfdi.evaluation.persistence`, :mod:`geomfdi.evaluation.metrics`).
 
 Model::
 
@@ -100,6 +105,7 @@ from geomfdi.evaluation.decision import (
 )
 from geomfdi.evaluation.persistence import as_persistence, decisions
 from geomfdi.model.plant import Plant, as_plant
+from geomfdi.simulation._blas import single_blas_thread
 from geomfdi.simulation.closed_loop import run_output_feedback
 from geomfdi.simulation.context import (
     Context,
@@ -277,6 +283,48 @@ def simulate(
     >>> bool(res.max_abs(stop=1.99)[0] < 1e-12), res.events[0].detection_delay
     (True, 0.0)
     """
+    with single_blas_thread():
+        return _simulate(
+            plant=plant,
+            bank=bank,
+            t=t,
+            u=u,
+            faults=faults,
+            x0=x0,
+            noise=noise,
+            controller=controller,
+            threshold=threshold,
+            d=d,
+            xc0=xc0,
+            hold=hold,
+            consistent_init=consistent_init,
+            keep_states=keep_states,
+            persistence=persistence,
+            detection_window=detection_window,
+            progress=progress,
+        )
+
+
+def _simulate(
+    plant: Plant,
+    bank: ResidualBank | ResidualGenerator,
+    t: Any,
+    u: Any = None,
+    *,
+    faults: Sequence[FaultSignal] | FaultSignal = (),
+    x0: Any = None,
+    noise: Noise | None = None,
+    controller: Any = None,
+    threshold: Any = None,
+    d: Any = None,
+    xc0: Any = None,
+    hold: str = "foh",
+    consistent_init: bool = True,
+    keep_states: bool = False,
+    persistence: Any = None,
+    detection_window: float | None = None,
+    progress: bool | None = None,
+) -> SimulationResult:
     plant = as_plant(plant)
     ctx = prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
     ctx.keep_states = bool(keep_states)
