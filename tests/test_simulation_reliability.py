@@ -136,19 +136,24 @@ def test_options_are_validated_with_named_errors():
     np.testing.assert_array_equal(a.residuals, b.residuals)
 
 
-def test_simulate_limits_blas_to_one_thread_unless_opted_out(monkeypatch):
+def test_simulate_limits_blas_to_one_thread_unless_opted_out():
     from threadpoolctl import threadpool_info
 
-    from geomfdi.simulation._blas import single_blas_thread
+    from geomfdi._threads import limit_blas_threads
 
     blas = [p for p in threadpool_info() if p["user_api"] == "blas"]
     if not blas:
         pytest.skip("no BLAS library reported by threadpoolctl")
-    with single_blas_thread():
-        inside = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
-    assert inside and all(n == 1 for n in inside)
-    monkeypatch.setenv("GEOMFDI_BLAS_THREADS", "default")
+
+    @limit_blas_threads
+    def inside() -> list[int]:
+        return [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+
+    assert inside() and all(n == 1 for n in inside())
     before = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
-    with single_blas_thread():
-        kept = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
-    assert kept == before
+    old = gf.get_blas_threads()
+    gf.set_blas_threads(None)
+    try:
+        assert inside() == before
+    finally:
+        gf.set_blas_threads(old)

@@ -18,7 +18,6 @@ from geomfdi.evaluation.decision import (
 from geomfdi.evaluation.metrics import false_alarms
 from geomfdi.evaluation.persistence import as_persistence, decisions
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.simulation._blas import single_blas_thread
 from geomfdi.simulation.context import (
     detection_window_of,
     from_balanced,
@@ -102,29 +101,28 @@ def simulate_batch(
     shared fault list are vectorised; per-run fault lists are simulated one run at a time
     (the loop dynamics differ between runs).
     """
-    with single_blas_thread():
-        return _simulate_batch(
-            plant=plant,
-            bank=bank,
-            t=t,
-            u=u,
-            runs=runs,
-            faults=faults,
-            x0=x0,
-            noise=noise,
-            seeds=seeds,
-            controller=controller,
-            threshold=threshold,
-            d=d,
-            xc0=xc0,
-            hold=hold,
-            consistent_init=consistent_init,
-            store=store,
-            chunk_size=chunk_size,
-            persistence=persistence,
-            detection_window=detection_window,
-            progress=progress,
-        )
+    return _simulate_batch(
+        plant=plant,
+        bank=bank,
+        t=t,
+        u=u,
+        runs=runs,
+        faults=faults,
+        x0=x0,
+        noise=noise,
+        seeds=seeds,
+        controller=controller,
+        threshold=threshold,
+        d=d,
+        xc0=xc0,
+        hold=hold,
+        consistent_init=consistent_init,
+        store=store,
+        chunk_size=chunk_size,
+        persistence=persistence,
+        detection_window=detection_window,
+        progress=progress,
+    )
 
 
 def _simulate_batch(

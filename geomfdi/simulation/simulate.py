@@ -105,7 +105,6 @@ from geomfdi.evaluation.decision import (
 )
 from geomfdi.evaluation.persistence import as_persistence, decisions
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.simulation._blas import single_blas_thread
 from geomfdi.simulation.closed_loop import run_output_feedback
 from geomfdi.simulation.context import (
     Context,
@@ -283,26 +282,25 @@ def simulate(
     >>> bool(res.max_abs(stop=1.99)[0] < 1e-12), res.events[0].detection_delay
     (True, 0.0)
     """
-    with single_blas_thread():
-        return _simulate(
-            plant=plant,
-            bank=bank,
-            t=t,
-            u=u,
-            faults=faults,
-            x0=x0,
-            noise=noise,
-            controller=controller,
-            threshold=threshold,
-            d=d,
-            xc0=xc0,
-            hold=hold,
-            consistent_init=consistent_init,
-            keep_states=keep_states,
-            persistence=persistence,
-            detection_window=detection_window,
-            progress=progress,
-        )
+    return _simulate(
+        plant=plant,
+        bank=bank,
+        t=t,
+        u=u,
+        faults=faults,
+        x0=x0,
+        noise=noise,
+        controller=controller,
+        threshold=threshold,
+        d=d,
+        xc0=xc0,
+        hold=hold,
+        consistent_init=consistent_init,
+        keep_states=keep_states,
+        persistence=persistence,
+        detection_window=detection_window,
+        progress=progress,
+    )
 
 
 def _simulate(
