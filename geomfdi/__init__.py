@@ -122,6 +122,7 @@ _register("geomfdi.monitoring.innovations", "innovation_fault", "synthetic_innov
 _MODULES: dict[str, str] = {
     "errors": "geomfdi.errors",
     "tolerance": "geomfdi.tolerance",
+    "limits": "geomfdi.limits",
     "exact": "geomfdi.geometry.exact",
     "decision": "geomfdi.evaluation.decision",
     "lti_sim": "geomfdi.simulation.lti",
@@ -173,7 +174,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # static analysers and IDEs see every public name
-    from geomfdi import errors, tolerance  # noqa: F401
+    from geomfdi import errors, limits, tolerance  # noqa: F401
     from geomfdi.diagnosability.window import (  # noqa: F401
         ApplicabilityReport,
         DiagnosabilityTable,

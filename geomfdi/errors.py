@@ -16,6 +16,7 @@ __all__ = [
     "NotIsolableError",
     "RankDeficientError",
     "ModelFileError",
+    "ResourceLimitError",
 ]
 
 
@@ -69,3 +70,29 @@ class NotIsolableError(DesignError):
 
 class ModelFileError(GeomFDIError):
     """A model file (TOML) is missing an entry or holds an invalid one."""
+
+
+class ResourceLimitError(GeomFDIError):
+    """A request would exceed a resource cap of :mod:`geomfdi.limits` (runs, samples ×
+    runs, memory or symbolic size); raised before anything is allocated.
+
+    Attributes
+    ----------
+    limit : str
+        Name of the cap that was hit (``"max_runs"``, ``"max_samples"``,
+        ``"max_memory"`` or ``"max_symbolic_size"``).
+    estimate : float or None
+        Estimated memory of the request in bytes, when known.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        limit: str = "",
+        estimate: float | None = None,
+        argument: str | None = None,
+    ) -> None:
+        super().__init__(message, argument=argument)
+        self.limit = limit
+        self.estimate = estimate
