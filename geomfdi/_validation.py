@@ -31,6 +31,7 @@ __all__ = [
     "as_bool",
     "as_choice",
     "as_seed",
+    "as_sequence_of",
     "as_labels",
     "as_name",
     "check_finite",
@@ -199,8 +200,12 @@ def as_vector(
 def _as_scalar(value: Any, name: str) -> float:
     if isinstance(value, bool | np.bool_ | str | bytes) or value is None:
         raise GeomFDIError(f"{name}: must be a real number, got {value!r:.40}", argument=name)
-    if isinstance(value, complex) or np.iscomplexobj(value):
-        raise ComplexInputError(f"{name}: must be real, got {value!r}", argument=name)
+    if isinstance(value, complex | np.complexfloating) or (
+        isinstance(value, np.ndarray) and np.iscomplexobj(value)
+    ):
+        raise ComplexInputError(f"{name}: must be real, got {value!r:.40}", argument=name)
+    if isinstance(value, dict | set):
+        raise GeomFDIError(f"{name}: must be a real number, got {value!r:.40}", argument=name)
     try:
         arr = np.asarray(value, dtype=float)
     except OverflowError as exc:
@@ -317,6 +322,32 @@ def as_seed(value: Any, name: str) -> Any:
     if v < 0:
         raise GeomFDIError(f"{name}: must be a non-negative integer, got {v}", argument=name)
     return v
+
+
+def as_sequence_of(
+    value: Any, name: str, item_type: type | tuple[type, ...], *, min_length: int = 1
+) -> list[Any]:
+    """A list of ``item_type`` objects; one such object alone becomes a list of one."""
+    if isinstance(value, item_type):
+        return [value]
+    what = (
+        " / ".join(t.__name__ for t in item_type)
+        if isinstance(item_type, tuple)
+        else item_type.__name__
+    )
+    if isinstance(value, str | bytes | dict) or not isinstance(value, Sequence | np.ndarray):
+        raise GeomFDIError(f"{name}: must be a list of {what}, got {value!r:.40}", argument=name)
+    items = list(value)
+    for k, item in enumerate(items):
+        if not isinstance(item, item_type):
+            raise GeomFDIError(
+                f"{name}: entry {k} must be a {what}, got {item!r:.40}", argument=name
+            )
+    if len(items) < min_length:
+        raise GeomFDIError(
+            f"{name}: needs at least {min_length} entries, got {len(items)}", argument=name
+        )
+    return items
 
 
 def as_name(value: Any, name: str, *, max_length: int = 200) -> str:

@@ -43,7 +43,7 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-from geomfdi._validation import as_indices, as_real_array
+from geomfdi._validation import as_bool, as_choice, as_float, as_indices, as_positive, as_real_array
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
 from geomfdi.geometry.subspace import Subspace, _norm2, pinv
 from geomfdi.geometry.unobservability import measurement_map, min_unobservability_subspace
@@ -51,7 +51,12 @@ from geomfdi.model.faults import Fault, SensorFault
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 from geomfdi.synthesis.realization import minimal_realization, reachable_subspace
-from geomfdi.synthesis.transforms import DesignModel, default_filter_pole, pseudo_actuator_model
+from geomfdi.synthesis.transforms import (
+    METHODS,
+    DesignModel,
+    default_filter_pole,
+    pseudo_actuator_model,
+)
 from geomfdi.tolerance import rank_decision
 
 __all__ = [
@@ -75,6 +80,19 @@ def default_margin(dt: float) -> float:
     (continuous ``λ → −λ̄ − 2·margin``, discrete ``λ → margin² / λ̄``; see ``_place``).
     """
     return 0.5 if dt > 0 else 1.0
+
+
+def _checked_margin(margin: Any, dt: float) -> float:
+    """``margin`` validated: finite, > 0, and < 1 for a discrete plant (a radius)."""
+    if margin is None:
+        return default_margin(dt)
+    mg = as_positive(margin, "margin")
+    if dt > 0 and mg >= 1.0:
+        raise GeomFDIError(
+            f"margin: must lie in (0, 1) for a discrete plant (a radius), got {mg}",
+            argument="margin",
+        )
+    return mg
 
 
 def _is_good(lam: complex, dt: float, margin: float, slack: float = 0.0) -> bool:
@@ -110,7 +128,10 @@ def _split_schur(At: np.ndarray, dt: float, margin: float) -> tuple[np.ndarray, 
 
 
 def _check_spectrum(poles: Any, k: int, dt: float, row: str) -> np.ndarray:
-    arr = np.atleast_1d(np.asarray(poles))
+    try:
+        arr = np.atleast_1d(np.asarray(poles))
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise DesignError(f"poles: must be a list of numbers ({exc})", argument="poles") from exc
     if arr.ndim != 1 or arr.size != k:
         raise DesignError(
             f"poles: expected {k} poles for {row} (the order of its quotient observer), got "
@@ -119,8 +140,8 @@ def _check_spectrum(poles: Any, k: int, dt: float, row: str) -> np.ndarray:
         )
     try:
         arr = arr.astype(complex)
-    except (TypeError, ValueError) as exc:
-        raise DesignError(f"poles: must be numbers, got {poles!r}", argument="poles") from exc
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise DesignError(f"poles: must be numbers, got {poles!r:.60}", argument="poles") from exc
     if not np.all(np.isfinite(arr)):
         raise DesignError("poles: must be finite", argument="poles")
     stable = np.abs(arr) < 1 if dt > 0 else arr.real < 0
@@ -727,6 +748,8 @@ def design_residual_generator(
     (1, -2.0)
     """
     plant = _coerce_plant(plant)
+    method, minimal = as_choice(method, "method", METHODS), as_bool(minimal, "minimal")
+    filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
     faults = _coerce_faults(faults)
     nf = len(faults)
     tgt = as_indices(target, "target", nf)
@@ -739,7 +762,7 @@ def design_residual_generator(
     both = set(tgt) & set(dec)
     if both:
         raise GeomFDIError(f"decouple: faults {sorted(both)} are also targets", argument="decouple")
-    mg = default_margin(plant.dt) if margin is None else float(margin)
+    mg = _checked_margin(margin, plant.dt)
     return _build(plant, faults, method, filter_pole, tgt, dec, poles, mg, minimal, "the residual")
 
 
@@ -801,6 +824,8 @@ def design_bank(
         Several notes are joined with ``"; "``.
     """
     plant = _coerce_plant(plant)
+    method, minimal = as_choice(method, "method", METHODS), as_bool(minimal, "minimal")
+    filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
     faults = _coerce_faults(faults)
     nf = len(faults)
     S = as_real_array(structure, "structure")
@@ -817,7 +842,7 @@ def design_bank(
     if filter_pole is None and method == "exact":  # once for all rows (an eigenvalue problem)
         filter_pole = default_filter_pole(plant)
     model = pseudo_actuator_model(plant, faults, method, filter_pole=filter_pole)
-    mg = default_margin(plant.dt) if margin is None else float(margin)
+    mg = _checked_margin(margin, plant.dt)
     rows = req.shape[0]
     per_row = _row_poles(poles, rows)
     gens: list[ResidualGenerator | None] = []

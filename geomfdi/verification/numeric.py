@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from geomfdi._validation import as_choice, as_probability, as_sequence_of
 from geomfdi.errors import GeomFDIError
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
@@ -422,10 +423,10 @@ def verify(
     Unlike the paper's check on its pseudo-actuator model, this one uses the measured y,
     so the paper design's transient leakage (Erratum 2) is visible.
     """
-    if method not in ("points", "krylov"):
-        raise GeomFDIError(
-            f"method: must be 'points' or 'krylov', got {method!r}", argument="method"
-        )
+    method = as_choice(method, "method", ("points", "krylov"))
+    tol = as_probability(tol, "tol")
+    if faults is not None:
+        faults = as_sequence_of(faults, "faults", Fault)
     plant = as_plant(plant)
     gens, faults, req = _unpack(bank_or_generator, plant, faults)
     rows, nf = req.shape

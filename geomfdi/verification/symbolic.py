@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._validation import as_sequence_of
 from geomfdi.errors import GeomFDIError
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
@@ -260,6 +261,8 @@ def verify_symbolic(
     """
     import sympy as sp
 
+    if faults is not None:
+        faults = as_sequence_of(faults, "faults", Fault)
     plant = as_plant(plant)
     gens, faults, req = _unpack(bank_or_generator, plant, faults)
     var = sp.Symbol("z" if plant.dt > 0 else "s")
