@@ -29,6 +29,7 @@ __all__ = [
     "as_int",
     "as_optional_int",
     "as_bool",
+    "as_bool_array",
     "as_choice",
     "as_seed",
     "as_sequence_of",
@@ -295,6 +296,17 @@ def as_bool(value: Any, name: str) -> bool:
     return bool(value)
 
 
+def as_bool_array(value: Any, name: str) -> np.ndarray:
+    """A boolean array: booleans, or numbers that are all exactly 0 or 1 (``nan``,
+    complex entries and other values are rejected instead of being read as True)."""
+    if isinstance(value, np.ndarray) and value.dtype == bool:
+        return value
+    arr = as_real_array(value, name)
+    if not np.all((arr == 0) | (arr == 1)):
+        raise GeomFDIError(f"{name}: entries must be booleans (0 or 1)", argument=name)
+    return arr.astype(bool)
+
+
 def as_choice(value: Any, name: str, choices: Sequence[str]) -> str:
     """One of the strings ``choices``."""
     if not isinstance(value, str) or value not in choices:
@@ -304,14 +316,25 @@ def as_choice(value: Any, name: str, choices: Sequence[str]) -> str:
 
 
 def as_seed(value: Any, name: str) -> Any:
-    """A random seed: ``None``, a non-negative integer, a :class:`numpy.random.SeedSequence`
-    or a :class:`numpy.random.Generator` (returned unchanged; integers as ``int``).
+    """A random seed: ``None``, a non-negative integer, a non-empty sequence of them (the
+    entropy of a :class:`numpy.random.SeedSequence`), a ``SeedSequence``, a
+    :class:`numpy.random.Generator` or ``BitGenerator`` (returned unchanged; integers as
+    ``int``).
 
     Booleans, floats (also ``nan``), text and negative integers are rejected: numpy would
     either refuse them later with an unrelated message or silently accept a float.
     """
-    if value is None or isinstance(value, np.random.SeedSequence | np.random.Generator):
+    if value is None or isinstance(
+        value, np.random.SeedSequence | np.random.Generator | np.random.BitGenerator
+    ):
         return value
+    if isinstance(value, Sequence | np.ndarray) and not isinstance(value, str | bytes):
+        items = list(np.asarray(value, dtype=object).ravel()) if len(value) else []
+        if not items:
+            raise GeomFDIError(f"{name}: an empty sequence is not a seed", argument=name)
+        return [
+            as_seed(v, name) if not isinstance(v, Sequence) else _bad_seed(v, name) for v in items
+        ]
     if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
         raise GeomFDIError(
             f"{name}: must be None, a non-negative integer, a numpy SeedSequence or "
@@ -348,6 +371,10 @@ def as_sequence_of(
             f"{name}: needs at least {min_length} entries, got {len(items)}", argument=name
         )
     return items
+
+
+def _bad_seed(value: Any, name: str) -> Any:
+    raise GeomFDIError(f"{name}: a seed sequence holds integers, got {value!r:.40}", argument=name)
 
 
 def as_name(value: Any, name: str, *, max_length: int = 200) -> str:

@@ -43,7 +43,7 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-from geomfdi._validation import as_matrix, as_real_array
+from geomfdi._validation import as_choice, as_float, as_matrix, as_real_array
 from geomfdi.errors import GeomFDIError, ShapeError
 
 __all__ = [
@@ -890,6 +890,8 @@ def simulate_lti(
     >>> bool(abs(y[0, -1] - (1 - np.exp(-5))) < 1e-12)
     True
     """
+    dt = as_float(dt, "dt", minimum=0.0)
+    hold = as_choice(hold, "hold", ("foh", "zoh"))
     A = as_matrix(A, "A", square=True)
     n = A.shape[0]
     B = as_matrix(B, "B", rows=n, allow_empty=True, vector_as="column")

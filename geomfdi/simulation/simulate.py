@@ -90,7 +90,15 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from geomfdi._validation import as_int, as_matrix, as_real_array
+from geomfdi._validation import (
+    as_bool,
+    as_choice,
+    as_int,
+    as_matrix,
+    as_real_array,
+    as_seed,
+    as_sequence_of,
+)
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.evaluation.decision import (
     FaultEvent,
@@ -99,6 +107,7 @@ from geomfdi.evaluation.decision import (
     detection_events,
     isolate,
 )
+from geomfdi.limits import check_allocation, check_runs
 from geomfdi.model.faults import SensorFault
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.lti import (
@@ -204,6 +213,9 @@ class Noise:
     process: Any = None
     process_input: Any = None
     seed: Any = None
+
+    def __post_init__(self) -> None:
+        as_seed(self.seed, "noise.seed")
 
     def factors(
         self, plant: Plant
@@ -1321,6 +1333,9 @@ def _prepare(
     consistent_init: bool,
     progress: Any,
 ) -> _Context:
+    hold = as_choice(hold, "hold", HOLDS)
+    consistent_init = as_bool(consistent_init, "consistent_init")
+    progress = None if progress is None else as_bool(progress, "progress")
     plant = as_plant(plant)
     view = _bank_view(bank, plant)
     ctrl = _controller(controller, plant)
@@ -1516,6 +1531,7 @@ def simulate(
     >>> bool(res.max_abs(stop=1.99)[0] < 1e-12), res.events[0].detection_delay
     (True, 0.0)
     """
+    keep_states = as_bool(keep_states, "keep_states")
     plant = as_plant(plant)
     ctx = _prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
     ctx.keep_states = bool(keep_states)
@@ -1616,6 +1632,9 @@ def simulate_batch(
     shared fault list are vectorised; per-run fault lists are simulated one run at a time
     (the loop dynamics differ between runs).
     """
+    store = as_choice(store, "store", ("residuals", "all", "summary"))
+    if seeds is not None:
+        seeds = [as_seed(s, "seeds") for s in as_sequence_of(seeds, "seeds", object)]
     plant = as_plant(plant)
     ctx = _prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
     q = plant.q
@@ -1636,7 +1655,7 @@ def simulate_batch(
     else:
         runs = 1 if runs is None else runs
         fault_lists = None
-    runs = as_int(runs, "runs", minimum=1)
+    runs = check_runs(runs)
     shared_list = validate_faults(faults, q) if not per_run else None
     if store not in ("residuals", "all", "summary"):
         raise GeomFDIError(
@@ -1670,6 +1689,9 @@ def simulate_batch(
     if chunk_size is None:
         chunk_size = max(1, int(2e7 // max(width * N, 1)))
     chunk_size = as_int(chunk_size, "chunk_size", minimum=1)
+    stored = 2 * nres + 1 if store != "summary" else nres
+    stored += plant.n + 3 * q + plant.m if store == "all" else 0
+    check_allocation(N, runs, stored, argument="runs", what="simulate_batch")
     thr = as_threshold(threshold, nres, view.present)
     keep_r = store in ("residuals", "all")
     R_res = np.zeros((runs, nres, N)) if keep_r else None
