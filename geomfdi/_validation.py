@@ -27,6 +27,7 @@ __all__ = [
     "as_index",
     "as_indices",
     "as_int",
+    "as_int_array",
     "as_optional_int",
     "as_bool",
     "as_bool_array",
@@ -66,6 +67,8 @@ def as_real_array(value: Any, name: str, *, allow_nonfinite: bool = False) -> np
     value = _sympy_to_numpy(value)
     if isinstance(value, str | bytes):
         raise GeomFDIError(f"{name}: must be numbers, got text {value!r:.40}", argument=name)
+    if isinstance(value, bool | np.bool_):
+        raise GeomFDIError(f"{name}: must be numbers, got the boolean {value!r}", argument=name)
     try:
         arr = np.asarray(value)
     except OverflowError as exc:
@@ -280,6 +283,23 @@ def as_int(value: Any, name: str, *, minimum: int | None = None, maximum: int | 
     if v < -INT_MAX:
         raise GeomFDIError(f"{name}: integer too small, got {v}", argument=name)
     return v
+
+
+def as_int_array(value: Any, name: str, *, minimum: int | None = None) -> np.ndarray:
+    """An array of integers (``intp``): real entries with no fractional part, within
+    ``[minimum, INT_MAX]``; booleans rejected."""
+    if isinstance(value, bool | np.bool_) or (
+        isinstance(value, np.ndarray) and value.dtype == bool
+    ):
+        raise GeomFDIError(f"{name}: must be integers, got booleans", argument=name)
+    arr = as_real_array(value, name)
+    if not np.all(arr == np.round(arr)):
+        raise GeomFDIError(f"{name}: entries must be integers", argument=name)
+    if arr.size and (arr.max() > INT_MAX or arr.min() < -INT_MAX):
+        raise GeomFDIError(f"{name}: integers out of range", argument=name)
+    if minimum is not None and arr.size and arr.min() < minimum:
+        raise GeomFDIError(f"{name}: entries must be >= {minimum}", argument=name)
+    return arr.astype(np.intp)
 
 
 def as_optional_int(

@@ -204,6 +204,7 @@ def check_allocation(
     itemsize: int = 8,
     copies: float = 1.0,
     argument: str = "t",
+    runs_argument: str = "runs",
     what: str = "simulation",
 ) -> float:
     """Check a request of ``samples`` time samples × ``runs`` runs × ``channels``
@@ -211,7 +212,8 @@ def check_allocation(
 
     The estimate is ``samples * runs * channels * itemsize * copies`` (``copies``: how
     many arrays of that size the request holds at once).  Call it with the sizes known
-    *before* the arrays are created.
+    *before* the arrays are created.  ``argument`` names the argument that sets the
+    samples, ``runs_argument`` the one that sets the runs (in the errors).
 
     Raises
     ------
@@ -221,7 +223,7 @@ def check_allocation(
         estimate.
     """
     n_samples = as_int(samples, argument, minimum=0)
-    n_runs = check_runs(runs)
+    n_runs = check_runs(runs, argument=runs_argument)
     n_channels = as_int(channels, "channels", minimum=0)
     caps = get_limits()
     estimate = estimate_bytes(n_samples, n_runs, n_channels, itemsize=itemsize, copies=copies)

@@ -33,13 +33,16 @@ from scipy import stats
 from geomfdi._validation import (
     as_index,
     as_int,
+    as_labels,
     as_matrix,
     as_positive,
     as_probability,
     as_real_array,
+    as_sequence_of,
     as_vector,
 )
 from geomfdi.errors import DesignError, GeomFDIError, RankDeficientError, ShapeError
+from geomfdi.limits import check_allocation
 from geomfdi.tolerance import get_rtol, rank_decision
 
 __all__ = [
@@ -476,17 +479,20 @@ class WindowModel:
         self.Qw = _as_covariance(Qw, "Qw", self.Bw.shape[1])
         self.Rv = _as_covariance(Rv, "Rv", self.Dv.shape[1])
         self.window = n + 1 if window is None else as_int(window, "window", minimum=1)
+        s = self.window
+        check_allocation(s * s * m * (n + m + p), argument="window", what="stacked window model")
         if fault_names is None:
             self.fault_names = tuple(f"f{i + 1}" for i in range(p))
         else:
-            names = tuple(str(x) for x in fault_names)
+            names = tuple(str(x) for x in as_sequence_of(fault_names, "fault_names", object))
+            as_labels(names, "fault_names")
             if len(names) != p:
                 raise ShapeError(
                     f"fault_names: expected {p} names (one per column of Bf), got {len(names)}",
                     argument="fault_names",
                 )
             self.fault_names = names
-        if nullspace not in _NULLSPACE_METHODS:
+        if not isinstance(nullspace, str) or nullspace not in _NULLSPACE_METHODS:
             raise GeomFDIError(
                 f"nullspace: must be one of {_NULLSPACE_METHODS}, got {nullspace!r}",
                 argument="nullspace",
@@ -623,7 +629,7 @@ class WindowModel:
     def _method(self, method: str | None) -> str:
         if method is None:
             return self.nullspace
-        if method not in _NULLSPACE_METHODS:
+        if not isinstance(method, str) or method not in _NULLSPACE_METHODS:
             raise GeomFDIError(
                 f"method: must be one of {_NULLSPACE_METHODS}, got {method!r}", argument="method"
             )
@@ -864,7 +870,7 @@ class WindowModel:
         i = self._fault(i)
         j = self._fault(j, "j")
         kappa = float(as_positive(kappa, "kappa"))
-        if cosine not in _COSINES:
+        if not isinstance(cosine, str) or cosine not in _COSINES:
             raise GeomFDIError(
                 f"cosine: must be one of {_COSINES}, got {cosine!r}", argument="cosine"
             )
@@ -1127,14 +1133,19 @@ def diagnosability_table(
         raise GeomFDIError(
             f"model: expected a WindowModel, got {type(model).__name__}", argument="model"
         )
-    if method not in _TABLE_METHODS:
+    if not isinstance(method, str) or method not in _TABLE_METHODS:
         raise GeomFDIError(
             f"method: must be one of {_TABLE_METHODS}, got {method!r}", argument="method"
         )
     p, s = model.p, model.window
     thetas = _profiles(theta, p, s)
     ns = model._method(nullspace)
-    digits = as_int(digits, "digits", minimum=0)
+    digits = as_int(digits, "digits", minimum=0, maximum=30)
+    kappa, alpha = as_positive(kappa, "kappa"), as_probability(alpha, "alpha")
+    if not isinstance(cosine, str) or cosine not in _COSINES:
+        raise GeomFDIError(
+            f"cosine: must be one of {_COSINES}, got {cosine!r:.40}", argument="cosine"
+        )
     vals = np.zeros((p, p + 1))
     opts: dict[str, Any] = {"nullspace": ns}
     if method == "kl":

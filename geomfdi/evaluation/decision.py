@@ -40,6 +40,7 @@ from geomfdi._validation import (
     as_choice,
     as_float,
     as_int,
+    as_positive,
     as_probability,
     as_real_array,
     as_vector,
@@ -262,7 +263,7 @@ def as_threshold(threshold: Any, n_residuals: int, present: Sequence[int] | None
             )
         return threshold
     if isinstance(threshold, numbers.Real) and not isinstance(threshold, bool):
-        values = np.full(n_residuals, float(threshold))
+        values = np.full(n_residuals, as_positive(threshold, "threshold"))
     else:
         values = as_vector(threshold, "threshold", length=n_residuals).copy()
     if np.any(values <= 0) or np.any(~np.isfinite(values)):

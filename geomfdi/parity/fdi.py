@@ -53,11 +53,14 @@ from scipy import linalg as sla
 from scipy import optimize, stats
 
 from geomfdi._validation import (
+    as_choice,
     as_int,
+    as_int_array,
     as_matrix,
     as_positive,
     as_probability,
     as_real_array,
+    as_sequence_of,
     as_vector,
 )
 from geomfdi.errors import DesignError, GeomFDIError, NonFiniteError, RankDeficientError, ShapeError
@@ -737,7 +740,7 @@ class ParityFDI:
         if sensors is None:
             self.sensors = np.arange(m)
         else:
-            self.sensors = np.asarray(sensors, dtype=np.intp).reshape(-1)
+            self.sensors = as_int_array(sensors, "sensors").reshape(-1)
             if self.sensors.shape != (m,):
                 raise ShapeError(f"sensors: expected {m} labels", argument="sensors")
 
@@ -1236,9 +1239,9 @@ class ParityFDI:
                 argument="remove",
             )
         if isinstance(remove, int | np.integer):
-            rem = [int(remove)]
+            rem = [as_int(remove, "remove")]
         else:
-            rem = [int(as_int(r, "remove")) for r in remove]
+            rem = [int(as_int(r, "remove")) for r in as_sequence_of(remove, "remove", object)]
         for r in rem:
             if not 0 <= r < self.m:
                 raise GeomFDIError(
@@ -1502,10 +1505,9 @@ class ParityFDI:
         Seed 000 §1-§5; seed 004 §2-§5; math.md §6.
         """
         pfa = as_probability(pfa, "pfa")
-        if method not in METHODS:
-            raise GeomFDIError(
-                f"method: expected one of {', '.join(METHODS)}, got {method!r}", argument="method"
-            )
+        method = as_choice(method, "method", METHODS)
+        if max_faults is not None:
+            max_faults = as_int(max_faults, "max_faults", minimum=1, maximum=self.m)
         Zs = self._samples(Z, check=method in ("search", "glr"))
         if method == "search":
             mf = 2 if max_faults is None else as_int(max_faults, "max_faults", minimum=1)

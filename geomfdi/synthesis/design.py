@@ -43,7 +43,15 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-from geomfdi._validation import as_bool, as_choice, as_float, as_indices, as_positive, as_real_array
+from geomfdi._validation import (
+    as_bool,
+    as_choice,
+    as_float,
+    as_indices,
+    as_positive,
+    as_real_array,
+    as_sequence_of,
+)
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
 from geomfdi.geometry.subspace import Subspace, _norm2, pinv
 from geomfdi.geometry.unobservability import measurement_map, min_unobservability_subspace
@@ -498,7 +506,7 @@ def _coerce_faults(faults: Any) -> list[Fault]:
         ) from exc
     if not out:
         raise GeomFDIError("faults: at least one fault is required", argument="faults")
-    return out
+    return as_sequence_of(out, "faults", Fault)
 
 
 def _first_markov(model: DesignModel, c: dict[str, Any], j: int) -> float:
