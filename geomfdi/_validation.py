@@ -288,11 +288,9 @@ def as_int(value: Any, name: str, *, minimum: int | None = None, maximum: int | 
 def as_int_array(value: Any, name: str, *, minimum: int | None = None) -> np.ndarray:
     """An array of integers (``intp``): real entries with no fractional part, within
     ``[minimum, INT_MAX]``; booleans rejected."""
-    if isinstance(value, bool | np.bool_) or (
-        isinstance(value, np.ndarray) and value.dtype == bool
-    ):
-        raise GeomFDIError(f"{name}: must be integers, got booleans", argument=name)
     arr = as_real_array(value, name)
+    if np.asarray(value).dtype == bool:
+        raise GeomFDIError(f"{name}: must be integers, got booleans", argument=name)
     if not np.all(arr == np.round(arr)):
         raise GeomFDIError(f"{name}: entries must be integers", argument=name)
     if arr.size and (arr.max() > INT_MAX or arr.min() < -INT_MAX):
@@ -371,16 +369,18 @@ def as_sequence_of(
     value: Any, name: str, item_type: type | tuple[type, ...], *, min_length: int = 1
 ) -> list[Any]:
     """A list of ``item_type`` objects; one such object alone becomes a list of one."""
-    if isinstance(value, item_type):
-        return [value]
     what = (
         " / ".join(t.__name__ for t in item_type)
         if isinstance(item_type, tuple)
         else item_type.__name__
     )
-    if isinstance(value, str | bytes | dict) or not isinstance(value, Sequence | np.ndarray):
+    if isinstance(value, str | bytes | dict):
         raise GeomFDIError(f"{name}: must be a list of {what}, got {value!r:.40}", argument=name)
-    items = list(value)
+    if not isinstance(value, Sequence | np.ndarray):
+        if isinstance(value, item_type):
+            return [value]
+        raise GeomFDIError(f"{name}: must be a list of {what}, got {value!r:.40}", argument=name)
+    items = list(np.ravel(value)) if isinstance(value, np.ndarray) else list(value)
     for k, item in enumerate(items):
         if not isinstance(item, item_type):
             raise GeomFDIError(

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from geomfdi._validation import as_index, as_int, as_probability, as_real_array
+from geomfdi._validation import as_index, as_int, as_probability, as_real_array, check_nonempty
 from geomfdi.errors import ComplexInputError, GeomFDIError, RankDeficientError, ShapeError
 from geomfdi.tolerance import get_rtol
 
@@ -626,6 +626,7 @@ class ARMonitor:
         """
         m, n = self.window, self.order
         tr = as_real_array(training, "training")
+        check_nonempty(tr, "training")
         step = as_int(step, "step", minimum=1)
         if tr.ndim == 2:
             if tr.shape[1] != m:

@@ -741,6 +741,8 @@ class ParityFDI:
             self.sensors = np.arange(m)
         else:
             self.sensors = as_int_array(sensors, "sensors").reshape(-1)
+            if np.unique(self.sensors).size != self.sensors.size:
+                raise GeomFDIError("sensors: labels must be distinct", argument="sensors")
             if self.sensors.shape != (m,):
                 raise ShapeError(f"sensors: expected {m} labels", argument="sensors")
 

@@ -1635,6 +1635,8 @@ def simulate_batch(
     store = as_choice(store, "store", ("residuals", "all", "summary"))
     if seeds is not None:
         seeds = [as_seed(s, "seeds") for s in as_sequence_of(seeds, "seeds", object)]
+        # None: fresh OS entropy for that run (numpy's convention), not "no noise"
+        seeds = [np.random.SeedSequence() if s is None else s for s in seeds]
     plant = as_plant(plant)
     ctx = _prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
     q = plant.q
