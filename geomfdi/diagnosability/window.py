@@ -31,6 +31,7 @@ import numpy as np
 from scipy import stats
 
 from geomfdi._validation import (
+    as_bool,
     as_index,
     as_int,
     as_labels,
@@ -1226,7 +1227,18 @@ def plot_isolability(
             f"table: expected a DiagnosabilityTable, got {type(table).__name__}",
             argument="table",
         )
+    import matplotlib
     import matplotlib.pyplot as plt
+
+    annotate = as_bool(annotate, "annotate")
+    try:
+        cmap = matplotlib.colormaps[cmap] if isinstance(cmap, str) else cmap
+        if not isinstance(cmap, matplotlib.colors.Colormap):
+            raise TypeError(type(cmap).__name__)
+    except (KeyError, TypeError) as exc:
+        raise GeomFDIError(
+            f"cmap: must be a matplotlib colormap or its name, got {cmap!r:.40}", argument="cmap"
+        ) from exc
 
     fi = table.isolability
     p = fi.shape[0]

@@ -23,7 +23,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from geomfdi._validation import as_index, as_int, as_probability, as_real_array, check_nonempty
+from geomfdi._validation import (
+    as_bool,
+    as_index,
+    as_int,
+    as_probability,
+    as_real_array,
+    check_nonempty,
+)
 from geomfdi.errors import ComplexInputError, GeomFDIError, RankDeficientError, ShapeError
 from geomfdi.tolerance import get_rtol
 
@@ -1043,6 +1050,7 @@ def plot_ar_monitor(
     """
     import matplotlib.pyplot as plt
 
+    logy = as_bool(logy, "logy")
     if not isinstance(result, ARMonitorResult):
         raise GeomFDIError("result: expected an ARMonitorResult", argument="result")
     sel = (lambda a: a) if result.statistic.ndim == 1 else (lambda a: a[row])

@@ -14,8 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_bool_array, as_choice, as_real_array, as_sequence_of
+from geomfdi._validation import as_bool_array, as_choice, as_positive, as_real_array, as_sequence_of
 from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.limits import check_allocation
 
 __all__ = ["plot_residuals", "plot_result", "plot_structure", "save_png"]
 
@@ -248,6 +249,9 @@ def save_png(fig: Any, path: str | Path, *, dpi: int = 120) -> Path:
         raise GeomFDIError(
             f"fig: expected a matplotlib Figure, got {type(fig).__name__}", argument="fig"
         )
+    dpi = as_positive(dpi, "dpi")
+    width, height = fig.get_size_inches() * dpi
+    check_allocation(int(width) * int(height), itemsize=4, argument="dpi", what="PNG image")
     p = Path(path)
     if p.suffix == "":
         p = p.with_suffix(".png")

@@ -72,6 +72,8 @@ T = np.linspace(0.0, 1.0, 51)
 SIM = gf.simulate(PLANT, BANK, T)
 RES = SIM.residuals
 SUB = gf.image([[1.0], [0.0], [0.0]])
+BATCH = gf.simulate_batch(PLANT, BANK, T, runs=2, faults=[gf.BiasFault(0, 0.5, 1.0)],
+                          threshold=0.5, progress=False)  # fmt: skip
 H6 = gf.parity.dodecahedron()
 FDI = gf.ParityFDI(H6)
 Z6 = np.random.default_rng(0).standard_normal((20, 6))
@@ -176,6 +178,14 @@ def _fault_apply(cls: type) -> Callable[..., Any]:
 def _window_model_kl(**kw: Any) -> Any:
     model = gf.WindowModel(**kw)
     return model.kl_detectability(0, np.ones(model.window))
+
+
+def _save_png(**kw: Any) -> Any:
+    import tempfile
+
+    fig = plt.figure(figsize=(1, 1))
+    with tempfile.TemporaryDirectory() as tmp:
+        return gf.save_png(fig, f"{tmp}/f.png", **kw)
 
 
 def _noise_sim(**kw: Any) -> Any:
@@ -607,6 +617,99 @@ ENTRIES = [
         ("structure", "requested", "fault_labels"),
         ok_figure,
     ),
+    # more geometry, synthesis and evaluation helpers
+    Entry(
+        "friends", gf.friends, dict(A=A3, C=C3, S=SUB), ("A", "C", "S"), lambda fs: finite(fs.D0)
+    ),
+    Entry(
+        "is_conditioned_invariant",
+        gf.is_conditioned_invariant,
+        dict(A=A3, C=C3, W=SUB),
+        ("A", "C", "W"),
+        lambda b: isinstance(b, bool),
+    ),
+    Entry(
+        "is_unobservability_subspace",
+        gf.is_unobservability_subspace,
+        dict(A=A3, C=C3, S=SUB),
+        ("A", "C", "S"),
+        lambda b: isinstance(b, bool),
+    ),
+    Entry(
+        "measurement_map", gf.measurement_map, dict(C=C3, S=SUB), ("C", "S"), lambda H: finite(H)
+    ),
+    Entry(
+        "minimal_realization",
+        gf.minimal_realization,
+        dict(A=A3, B=B3, C=C3, D=np.zeros((3, 3))),
+        ("A", "B", "C", "D"),
+        lambda r: finite(r.A, r.B, r.C, r.D),
+    ),
+    Entry("reachable_subspace", gf.reachable_subspace, dict(A=A3, B=B3), ("A", "B"), ok_subspace),
+    Entry(
+        "Threshold.from_residuals",
+        gf.Threshold.from_residuals,
+        dict(residuals=np.random.default_rng(1).standard_normal((3, 400)), false_alarm_rate=0.05),
+        ("residuals", "false_alarm_rate", "statistic", "window", "per", "skip"),
+        lambda thr: finite(thr.values),
+    ),
+    Entry(
+        "SimulationResult.max_abs",
+        _methodcall(lambda: SIM, "max_abs"),
+        {},
+        ("start", "stop"),
+        lambda x: finite(x),
+    ),
+    Entry(
+        "BatchResult.detection_rate",
+        _methodcall(lambda: BATCH, "detection_rate"),
+        {},
+        ("which",),
+        lambda x: finite(x),
+    ),
+    Entry(
+        "WindowModel.kl_isolability",
+        _methodcall(lambda: WM, "kl_isolability"),
+        dict(i=0, j=1, theta=THETA),
+        ("i", "j", "theta"),
+        lambda x: finite(x) and x >= 0,
+    ),
+    Entry(
+        "WindowModel.isolation_probability",
+        _methodcall(lambda: WM, "isolation_probability"),
+        dict(i=0, j=1, theta=THETA),
+        ("i", "j", "theta", "alpha"),
+        lambda x: finite(x) and 0 <= x <= 1,
+    ),
+    Entry(
+        "WindowModel.applicability",
+        _methodcall(lambda: WM, "applicability"),
+        {},
+        ("theta",),
+        ok_any,
+    ),
+    Entry(
+        "ARMonitor.set_normal",
+        _methodcall(fitted_monitor, "set_normal"),
+        dict(normal=np.zeros(3)),
+        ("normal",),
+        ok_any,
+    ),
+    Entry(
+        "plot_isolability",
+        gf.plot_isolability,
+        dict(table=WM.table(THETA)),
+        ("table", "cmap", "annotate", "title"),
+        ok_figure,
+    ),
+    Entry(
+        "plot_ar_monitor",
+        gf.plot_ar_monitor,
+        dict(result=fitted_monitor().run(STREAM)),
+        ("result", "time", "row", "logy"),
+        ok_figure,
+    ),
+    Entry("save_png", _save_png, dict(dpi=50), ("dpi",), ok_any),
     # policy modules
     Entry("set_rtol", _set_rtol, dict(rtol=1e-9), ("rtol",), lambda x: 0 < x < 1),
     Entry("tolerance", _tolerance_block, dict(rtol=1e-9), ("rtol",), ok_subspace),
@@ -702,5 +805,5 @@ def test_base_call_is_valid(entry: Entry):
 
 
 def test_table_covers_every_entry_point_and_value():
-    assert len(ENTRIES) >= 55 and len(BAD_VALUES) >= 19
+    assert len(ENTRIES) >= 75 and len(BAD_VALUES) >= 19
     assert len(CASES) == sum(len(e.args) for e in ENTRIES) >= 200
