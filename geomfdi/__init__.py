@@ -210,6 +210,7 @@ _MODULES: dict[str, str] = {
     "campaign": "geomfdi.campaign",
     "codegen": "geomfdi.deployment.codegen",
     "deployment": "geomfdi.deployment",
+    "limits": "geomfdi.limits",
 }
 
 __all__ = sorted([*_NAMES, *_MODULES, "__version__"])

@@ -20,6 +20,7 @@ __all__ = [
     "NotDiscreteError",
     "BankFileError",
     "SchemaVersionError",
+    "ResourceLimitError",
 ]
 
 
@@ -102,3 +103,27 @@ class BankFileError(GeomFDIError):
 
 class SchemaVersionError(BankFileError):
     """A saved file was written with a newer (or unknown) schema version."""
+class ResourceLimitError(GeomFDIError):
+    """A request would exceed a resource cap of :mod:`geomfdi.limits` (runs, samples ×
+    runs, memory or symbolic size); raised before anything is allocated.
+
+    Attributes
+    ----------
+    limit : str
+        Name of the cap that was hit (``"max_runs"``, ``"max_samples"``,
+        ``"max_memory"`` or ``"max_symbolic_size"``).
+    estimate : float or None
+        Estimated memory of the request in bytes, when known.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        limit: str = "",
+        estimate: float | None = None,
+        argument: str | None = None,
+    ) -> None:
+        super().__init__(message, argument=argument)
+        self.limit = limit
+        self.estimate = estimate

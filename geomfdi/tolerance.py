@@ -18,18 +18,34 @@ kept value (rank 0) and the rounding floor ``eps * scale`` for a missing or negl
 dropped one (full rank).  A gap below :data:`GAP_WARN` means the rank was a close call:
 geomfdi issues a :class:`CloseRankWarning` and records the gap in the result.
 
-``rtol`` can be changed globally with :func:`set_rtol` or locally with the
+``rtol`` can be changed for the whole process with :func:`set_rtol` or locally with the
 :func:`tolerance` context manager; ``None`` restores the default.
+
+Thread and task safety
+----------------------
+The local setting and the decision recorders live in :mod:`contextvars`: a
+``with tolerance(...)`` block or a ``with record_decisions()`` block affects only the
+thread (or :mod:`asyncio` task) that entered it, never a design running concurrently in
+another thread.  :func:`set_rtol` called outside any ``tolerance`` block sets the
+process-wide default, seen by every thread that is not inside such a block; called inside
+one, it changes the setting of that block only (restored when the block exits).  A new
+thread starts outside any block (``threading`` does not copy the context), so a thread
+pool started inside ``with tolerance(...)`` should enter its own block, or run its work
+with :func:`contextvars.copy_context`.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
+import threading
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
+
+from geomfdi._validation import as_probability
 
 __all__ = [
     "CloseRankWarning",
@@ -45,8 +61,25 @@ __all__ = [
 
 GAP_WARN = 1e3
 _EPS = float(np.finfo(float).eps)
-_RTOL: float | None = None
-_RECORDERS: list[list[RankDecision]] = []
+
+# Process-wide default set by ``set_rtol`` outside any ``tolerance`` block.
+_GLOBAL_RTOL: float | None = None
+_GLOBAL_LOCK = threading.Lock()
+
+
+class _Unset:
+    """Marker: no ``tolerance`` block is active in this context."""
+
+
+_UNSET = _Unset()
+# The setting of the innermost active ``tolerance`` block (``None``: the default).
+_LOCAL_RTOL: contextvars.ContextVar[float | None | _Unset] = contextvars.ContextVar(
+    "geomfdi_rtol", default=_UNSET
+)
+# The lists collecting decisions for the active ``record_decisions`` blocks.
+_RECORDERS: contextvars.ContextVar[tuple[list[RankDecision], ...]] = contextvars.ContextVar(
+    "geomfdi_rank_recorders", default=()
+)
 
 
 class CloseRankWarning(UserWarning):
@@ -58,32 +91,56 @@ def default_rtol(n: int) -> float:
     return 1e3 * max(int(n), 1) * _EPS
 
 
+def _current_rtol() -> float | None:
+    local = _LOCAL_RTOL.get()
+    return _GLOBAL_RTOL if isinstance(local, _Unset) else local
+
+
 def get_rtol(n: int) -> float:
-    """The relative tolerance in force for ambient dimension ``n``."""
-    return _RTOL if _RTOL is not None else default_rtol(n)
+    """The relative tolerance in force for ambient dimension ``n`` in this context."""
+    rtol = _current_rtol()
+    return rtol if rtol is not None else default_rtol(n)
+
+
+def _checked(rtol: float | None) -> float | None:
+    return None if rtol is None else as_probability(rtol, "rtol")
 
 
 def set_rtol(rtol: float | None) -> None:
-    """Set the global relative tolerance (``None``: back to the default)."""
-    global _RTOL
-    if rtol is not None:
-        rtol = float(rtol)
-        if not (0.0 < rtol < 1.0) or not np.isfinite(rtol):
-            from geomfdi.errors import GeomFDIError
+    """Set the relative tolerance (``None``: back to the default ``1e3 * n * eps``).
 
-            raise GeomFDIError(f"rtol: must lie in (0, 1), got {rtol}", argument="rtol")
-    _RTOL = rtol
+    Outside any :func:`tolerance` block this sets the process-wide default (every
+    thread not inside a block sees it); inside one it changes that block's setting in
+    the current thread or task only.
+
+    Raises
+    ------
+    GeomFDIError
+        ``rtol`` is not a finite number in the open interval (0, 1)
+        (``argument == "rtol"``).
+    """
+    global _GLOBAL_RTOL
+    rtol = _checked(rtol)
+    if isinstance(_LOCAL_RTOL.get(), _Unset):
+        with _GLOBAL_LOCK:
+            _GLOBAL_RTOL = rtol
+    else:
+        _LOCAL_RTOL.set(rtol)
 
 
 @contextlib.contextmanager
 def tolerance(rtol: float | None) -> Iterator[None]:
-    """Context manager: use ``rtol`` inside the ``with`` block."""
-    old = _RTOL
-    set_rtol(rtol)
+    """Context manager: use ``rtol`` inside the ``with`` block (``None``: the default).
+
+    The setting is local to the current thread or :mod:`asyncio` task (a
+    :class:`contextvars.ContextVar`); other threads keep theirs.  Blocks nest; the
+    previous setting is restored on exit, also after an exception.
+    """
+    token = _LOCAL_RTOL.set(_checked(rtol))
     try:
         yield
     finally:
-        set_rtol(old)
+        _LOCAL_RTOL.reset(token)
 
 
 @dataclass(frozen=True)
@@ -117,14 +174,15 @@ def record_decisions() -> Iterator[list[RankDecision]]:
     """Collect every rank decision taken inside the block (and silence their warnings).
 
     Algorithms use this to keep the smallest gap behind their result and to issue one
-    summary :class:`CloseRankWarning` instead of many.
+    summary :class:`CloseRankWarning` instead of many.  Only decisions taken in the
+    current thread or :mod:`asyncio` task are collected.
     """
     rec: list[RankDecision] = []
-    _RECORDERS.append(rec)
+    token = _RECORDERS.set((*_RECORDERS.get(), rec))
     try:
         yield rec
     finally:
-        _RECORDERS.remove(rec)
+        _RECORDERS.reset(token)
 
 
 def rank_decision(
@@ -154,9 +212,10 @@ def rank_decision(
     dropped = float(s[rank]) if rank < s.size else 0.0
     gap = kept / max(dropped, floor)
     dec = RankDecision(rank=rank, tol=tol, gap=gap, what=what)
-    for rec in _RECORDERS:
+    recorders = _RECORDERS.get()
+    for rec in recorders:
         rec.append(dec)
-    if warn and dec.close and not _RECORDERS:
+    if warn and dec.close and not recorders:
         warnings.warn(
             f"{what}: close rank decision (singular-value gap {gap:.3g} < {GAP_WARN:g} around "
             f"tol {tol:.3g}); the result may change with the tolerance",

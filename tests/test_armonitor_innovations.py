@@ -74,7 +74,7 @@ def test_reproducible_with_seed_or_generator():
         ({"ar": [np.nan]}, "ar"),
         ({"sigma": 0.0}, "sigma"),
         ({"sigma": -1.0}, "sigma"),
-        ({"fault": "spike"}, "kind"),
+        ({"fault": "spike"}, "fault"),
         ({"fault": "step", "start": 20, "stop": 10}, "start"),
         ({"fault": "step", "stop": 200}, "stop"),
         ({"n_series": 0}, "n_series"),

@@ -36,7 +36,16 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_int, as_probability, as_real_array, as_vector
+from geomfdi._validation import (
+    as_bool_array,
+    as_choice,
+    as_int,
+    as_positive,
+    as_probability,
+    as_real_array,
+    as_vector,
+    check_finite,
+)
 from geomfdi.errors import GeomFDIError, ShapeError
 
 __all__ = [
@@ -76,10 +85,7 @@ def decision_statistic(residuals: Any, statistic: str = "abs", window: int = 1) 
     ndarray, same shape as ``residuals``
     """
     r = np.asarray(residuals, dtype=float)
-    if statistic not in STATISTICS:
-        raise GeomFDIError(
-            f"statistic: must be one of {STATISTICS}, got {statistic!r}", argument="statistic"
-        )
+    statistic = as_choice(statistic, "statistic", STATISTICS)
     if statistic == "abs" or window == 1:
         return np.abs(r)
     window = as_int(window, "window", minimum=1)
@@ -117,13 +123,37 @@ class Threshold:
     source: str = "fixed"
     info: dict[str, Any] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        values = np.atleast_1d(as_real_array(self.values, "values", allow_nonfinite=True))
+        if values.ndim != 1 or values.size == 0:
+            raise ShapeError(
+                f"values: expected a non-empty vector, got {values.shape}", argument="values"
+            )
+        if np.any(np.isnan(values)) or np.any(values < 0):
+            raise GeomFDIError("values: thresholds must be >= 0 (+inf disables)", argument="values")
+        object.__setattr__(self, "values", values)
+        object.__setattr__(self, "statistic", as_choice(self.statistic, "statistic", STATISTICS))
+        object.__setattr__(self, "window", as_int(self.window, "window", minimum=1))
+        if self.false_alarm_rate is not None:
+            as_probability(self.false_alarm_rate, "false_alarm_rate")
+
     def statistic_of(self, residuals: Any) -> np.ndarray:
         """The test statistic of ``residuals`` (``(..., n_residuals, N)``)."""
         return decision_statistic(residuals, self.statistic, self.window)
 
     def alarms(self, residuals: Any) -> np.ndarray:
         """Boolean alarms, same shape as ``residuals`` (``(..., n_residuals, N)``)."""
-        r = np.asarray(residuals, dtype=float)
+        if isinstance(residuals, np.ndarray) and residuals.dtype == np.float64:
+            r = residuals  # hot path: no copy; a nan makes the sum nan
+            if np.isnan(r.sum()):
+                check_finite(r, "residuals")
+        else:
+            r = as_real_array(residuals, "residuals")
+        if r.ndim < 2:
+            raise ShapeError(
+                f"residuals: expected (..., n_residuals, N), got shape {r.shape}",
+                argument="residuals",
+            )
         if r.shape[-2] != self.values.shape[0]:
             raise ShapeError(
                 f"residuals: {r.shape[-2]} rows, the threshold has {self.values.shape[0]}",
@@ -187,8 +217,9 @@ class Threshold:
                 argument="residuals",
             )
         skip = as_int(skip, "skip", minimum=0)
-        if per not in ("residual", "any"):
-            raise GeomFDIError(f"per: must be 'residual' or 'any', got {per!r}", argument="per")
+        per = as_choice(per, "per", ("residual", "any"))
+        statistic = as_choice(statistic, "statistic", STATISTICS)
+        window = as_int(window, "window", minimum=1)
         s = decision_statistic(r, statistic, window)[..., skip:]
         nres = s.shape[1]
         samples = s.shape[0] * s.shape[2]
@@ -230,7 +261,7 @@ def as_threshold(threshold: Any, n_residuals: int, present: Sequence[int] | None
             )
         return threshold
     if isinstance(threshold, numbers.Real) and not isinstance(threshold, bool):
-        values = np.full(n_residuals, float(threshold))
+        values = np.full(n_residuals, as_positive(threshold, "threshold"))
     else:
         values = as_vector(threshold, "threshold", length=n_residuals).copy()
     if np.any(values <= 0) or np.any(~np.isfinite(values)):
@@ -285,8 +316,10 @@ def isolate(alarms: Any, structure: Any) -> Isolation:
     >>> isolate(a, S).isolated.tolist()
     [-1, 0, -1, -2]
     """
-    a = np.asarray(alarms, dtype=bool)
-    S = np.asarray(structure, dtype=bool)
+    a = as_bool_array(alarms, "alarms")
+    S = as_bool_array(structure, "structure")
+    if S.ndim != 2:
+        raise ShapeError(f"structure: must be 2-D, got shape {S.shape}", argument="structure")
     if S.ndim != 2 or a.ndim < 2 or a.shape[-2] != S.shape[0]:
         raise ShapeError(
             f"alarms: expected (..., {S.shape[0]}, N) for a structure of shape {S.shape}, got "

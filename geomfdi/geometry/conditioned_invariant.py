@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
-from geomfdi._validation import as_matrix, as_real_array
+from geomfdi._validation import as_bool, as_matrix, as_real_array
 from geomfdi.errors import ShapeError
 from geomfdi.geometry.subspace import Subspace, apply, intersect_kernel, pinv
 from geomfdi.tolerance import GAP_WARN, CloseRankWarning, RankDecision, record_decisions
@@ -154,7 +154,7 @@ def min_conditioned_invariant(A: Any, C: Any, L: Any, *, exact: bool = False) ->
     >>> W.dim, W.history
     (2, [2, 2])
     """
-    if exact or _is_exact(A, C, L):
+    if as_bool(exact, "exact") or _is_exact(A, C, L):
         from geomfdi.geometry import exact as _exact
 
         return _exact.min_conditioned_invariant(A, C, L)  # type: ignore[return-value]

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from geomfdi._validation import as_matrix
+from geomfdi._validation import as_matrix, as_positive
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.tolerance import rank_decision
 
@@ -99,7 +99,7 @@ class Subspace:
         arr = as_matrix(M, "M", allow_empty=True, vector_as="column")
         if arr.shape[0] == 0:
             raise ShapeError("M: the ambient dimension must be at least 1", argument="M")
-        sc = _norm2(arr) if scale is None else float(scale)
+        sc = _norm2(arr) if scale is None else as_positive(scale, "scale", strict=False)
         self.basis = _range_basis(arr, sc, "Subspace")
         self.n = arr.shape[0]
 

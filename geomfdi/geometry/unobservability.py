@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
-from geomfdi._validation import as_matrix
+from geomfdi._validation import as_bool, as_matrix
 from geomfdi.errors import ShapeError
 from geomfdi.geometry.conditioned_invariant import (
     InvariantSubspace,
@@ -87,7 +87,7 @@ def min_unobservability_subspace(
     >>> S.dim, S.history
     (2, [3, 2, 2])
     """
-    if exact or _is_exact(A, C, L):
+    if as_bool(exact, "exact") or _is_exact(A, C, L):
         from geomfdi.geometry import exact as _exact
 
         return _exact.min_unobservability_subspace(A, C, L)  # type: ignore[return-value]

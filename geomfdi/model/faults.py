@@ -15,10 +15,17 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_index, as_matrix
+from geomfdi._validation import as_index, as_matrix, as_name
 from geomfdi.errors import GeomFDIError, ShapeError
 
 __all__ = ["Fault", "SensorFault", "ActuatorFault", "fault_matrices"]
+
+
+def _fault_name(name: Any, default: str) -> str:
+    """A fault's label: ``default`` for ``None`` or ``""``, else checked text."""
+    if name is None or (isinstance(name, str) and not name):
+        return default
+    return as_name(name, "name")
 
 
 class Fault:
@@ -44,7 +51,7 @@ class Fault:
                 f"Df: expected {self._Bf.shape[1]} columns (as many as Bf), got {self._Df.shape}",
                 argument="Df",
             )
-        self.name = name or "fault"
+        self.name = _fault_name(name, "fault")
 
     @property
     def k(self) -> int:
@@ -85,7 +92,7 @@ class SensorFault(Fault):
         if isinstance(i, bool) or not isinstance(i, int | np.integer) or i < 0:
             raise GeomFDIError(f"i: sensor index must be an integer >= 0, got {i!r}", argument="i")
         self.i = int(i)
-        self.name = name or f"sensor {self.i}"
+        self.name = _fault_name(name, f"sensor {self.i}")
         self._Bf = None
         self._Df = None
 
@@ -119,7 +126,9 @@ class ActuatorFault(Fault):
     """Additive state-side fault with signature ``b`` ((n,) or (n, k))."""
 
     def __init__(self, b: Any, *, name: str | None = None) -> None:
-        super().__init__(as_matrix(b, "b", vector_as="column"), None, name=name or "actuator")
+        super().__init__(
+            as_matrix(b, "b", vector_as="column"), None, name=_fault_name(name, "actuator")
+        )
 
     def __repr__(self) -> str:
         return f"ActuatorFault(k={self.k}, name={self.name!r})"

@@ -20,7 +20,7 @@ def _as_dt(dt: Any) -> float:
         )
     try:
         value = float(dt)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise GeomFDIError(f"dt: must be a number, got {dt!r}", argument="dt") from exc
     if not np.isfinite(value) or value < 0:
         raise GeomFDIError(

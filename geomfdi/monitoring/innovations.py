@@ -14,8 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_int, as_positive, as_real_array
+from geomfdi._validation import as_int, as_positive, as_real_array, as_seed
 from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.limits import check_allocation
 
 __all__ = ["synthetic_innovations", "innovation_fault"]
 
@@ -96,7 +97,8 @@ def innovation_fault(
         The fault in metres.
     """
     n = as_int(n_samples, "n_samples", minimum=1)
-    if kind not in _FAULT_KINDS:
+    check_allocation(n, argument="n_samples", what="innovation_fault")
+    if not isinstance(kind, str) or kind not in _FAULT_KINDS:
         raise GeomFDIError(f"kind: must be one of {_FAULT_KINDS}, got {kind!r}", argument="kind")
     sigma = as_positive(sigma, "sigma")
     size_arr = as_real_array(size, "size")
@@ -187,6 +189,16 @@ def synthetic_innovations(
     (60,)
     """
     n = as_int(n_samples, "n_samples", minimum=1)
+    batch = 1 if n_series is None else as_int(n_series, "n_series", minimum=1)
+    check_allocation(
+        n, batch, argument="n_samples", runs_argument="n_series", what="synthetic_innovations"
+    )
+    if not isinstance(fault, str) or fault not in _FAULT_KINDS:
+        raise GeomFDIError(
+            f"fault: must be one of {_FAULT_KINDS}, got {fault!r:.40}", argument="fault"
+        )
+    if not isinstance(rng, np.random.Generator):
+        rng = as_seed(rng, "rng")
     sigma = as_positive(sigma, "sigma")
     a = _as_ar(ar)
     f = innovation_fault(n, kind=fault, size=size, start=start, stop=stop, sigma=sigma)

@@ -14,8 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_real_array
+from geomfdi._validation import as_bool_array, as_choice, as_positive, as_real_array, as_sequence_of
 from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.limits import check_allocation
 
 __all__ = ["plot_residuals", "plot_result", "plot_structure", "save_png"]
 
@@ -66,9 +67,12 @@ def plot_residuals(
     -------
     matplotlib.figure.Figure
     """
-    from geomfdi.evaluation.decision import Threshold
+    from geomfdi.evaluation.decision import STATISTICS, Threshold
 
+    statistic = as_choice(statistic, "statistic", STATISTICS)
     t = as_real_array(t, "t")
+    if t.ndim != 1:
+        raise ShapeError(f"t: must be a 1-D time vector, got shape {t.shape}", argument="t")
     r = as_real_array(residuals, "residuals")
     if r.ndim == 1:
         r = r[None]
@@ -77,7 +81,11 @@ def plot_residuals(
             f"residuals: expected (n_residuals, {t.shape[0]}), got {r.shape}", argument="residuals"
         )
     nres = r.shape[0]
-    labels = list(labels) if labels is not None else [f"r[{k}]" for k in range(nres)]
+    labels = (
+        as_sequence_of(labels, "labels", object)
+        if labels is not None
+        else [f"r[{k}]" for k in range(nres)]
+    )
     if len(labels) != nres:
         raise ShapeError(f"labels: expected {nres} labels, got {len(labels)}", argument="labels")
     is_norm = [False] * nres if norms is None else [bool(b) for b in norms]
@@ -88,7 +96,13 @@ def plot_residuals(
         thr_obj = threshold
         thr = threshold.values
     elif threshold is not None:
-        thr = np.broadcast_to(as_real_array(threshold, "threshold"), (nres,))
+        thr_in = as_real_array(threshold, "threshold")
+        if thr_in.ndim > 1 or thr_in.size not in (1, nres):
+            raise ShapeError(
+                f"threshold: expected a number or {nres} values, got shape {thr_in.shape}",
+                argument="threshold",
+            )
+        thr = np.broadcast_to(thr_in, (nres,))
         thr_obj = Threshold(np.asarray(thr, dtype=float), statistic=statistic)
     else:
         thr = None
@@ -170,14 +184,20 @@ def plot_structure(
         requested = bank.requested if requested is None else requested
         if fault_labels is None:
             fault_labels = [getattr(f, "name", f"fault {j}") for j, f in enumerate(bank.faults)]
-    S = np.asarray(structure)
+    S = as_bool_array(structure, "structure")
     if S.ndim != 2:
         raise ShapeError(f"structure: must be 2-D, got shape {S.shape}", argument="structure")
     S = S.astype(bool)
     nres, nf = S.shape
-    fault_labels = list(fault_labels) if fault_labels is not None else [f"f{j}" for j in range(nf)]
+    fault_labels = (
+        as_sequence_of(fault_labels, "fault_labels", object)
+        if fault_labels is not None
+        else [f"f{j}" for j in range(nf)]
+    )
     residual_labels = (
-        list(residual_labels) if residual_labels is not None else [f"r[{k}]" for k in range(nres)]
+        as_sequence_of(residual_labels, "residual_labels", object)
+        if residual_labels is not None
+        else [f"r[{k}]" for k in range(nres)]
     )
     if len(fault_labels) != nf or len(residual_labels) != nres:
         raise ShapeError(
@@ -186,7 +206,7 @@ def plot_structure(
         )
     panels = [("achieved", S)]
     if requested is not None:
-        Rq = np.asarray(requested).astype(bool)
+        Rq = as_bool_array(requested, "requested")
         if Rq.shape != S.shape:
             raise ShapeError(
                 f"requested: expected shape {S.shape}, got {Rq.shape}", argument="requested"
@@ -237,6 +257,9 @@ def save_png(fig: Any, path: str | Path, *, dpi: int = 120) -> Path:
         raise GeomFDIError(
             f"fig: expected a matplotlib Figure, got {type(fig).__name__}", argument="fig"
         )
+    dpi = as_positive(dpi, "dpi")
+    width, height = fig.get_size_inches() * dpi
+    check_allocation(int(width) * int(height), itemsize=4, argument="dpi", what="PNG image")
     p = Path(path)
     if p.suffix == "":
         p = p.with_suffix(".png")

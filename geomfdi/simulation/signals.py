@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_index, as_real_array, check_finite
+from geomfdi._validation import as_float, as_index, as_real_array, check_finite
 from geomfdi.errors import GeomFDIError, ShapeError
 
 __all__ = [
@@ -61,10 +61,7 @@ def _check_time(value: Any, name: str, *, allow_none: bool = False) -> float | N
         return None
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise GeomFDIError(f"{name}: must be a real number (seconds), got {value!r}", argument=name)
-    x = float(value)
-    if not np.isfinite(x):
-        raise GeomFDIError(f"{name}: must be finite, got {x}", argument=name)
-    return x
+    return as_float(value, name)
 
 
 def _check_value(value: Any, name: str) -> Value:
@@ -74,10 +71,7 @@ def _check_value(value: Any, name: str) -> Value:
         raise GeomFDIError(
             f"{name}: must be a number or a callable t -> value, got {value!r}", argument=name
         )
-    x = float(value)
-    if not np.isfinite(x):
-        raise GeomFDIError(f"{name}: must be finite, got {x}", argument=name)
-    return x
+    return as_float(value, name)
 
 
 def _evaluate(value: Value, t: np.ndarray, name: str) -> np.ndarray:

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._validation import as_choice, as_float, as_matrix
 from geomfdi.errors import GeomFDIError
 
 __all__ = ["ResidualGenerator", "ResidualBank"]
@@ -57,10 +58,8 @@ class ResidualGenerator:
 
     def __post_init__(self) -> None:
         for name in "FEGMHK":
-            arr = np.asarray(getattr(self, name), dtype=float)
-            if arr.ndim != 2:
-                raise GeomFDIError(f"{name}: must be 2-D, got shape {arr.shape}", argument=name)
-            setattr(self, name, arr)
+            setattr(self, name, as_matrix(getattr(self, name), name, allow_empty=True))
+        self.dt = as_float(self.dt, "dt", minimum=0.0)
         nw, nr = self.F.shape[0], self.M.shape[0]
         q, m = self.H.shape[1], self.K.shape[1]
         expected = {
@@ -115,8 +114,8 @@ class ResidualGenerator:
         Residual generators are defined up to such a factor; use it to match a paper's
         normalisation or to put residuals on a common scale.
         """
-        c = float(c)
-        if not np.isfinite(c) or c == 0:
+        c = as_float(c, "c")
+        if c == 0:
             raise GeomFDIError(f"c: must be a finite non-zero number, got {c}", argument="c")
         return ResidualGenerator(
             self.F.copy(),
@@ -144,6 +143,7 @@ class ResidualGenerator:
             normalisation of seed 001's example (M = 1 and ``p_j L_j = ±1`` for its rows
             p_1 = (0,1,0), p_2 = (−2,2,1), p_3 = (−3,3,1)).
         """
+        kind = as_choice(kind, "kind", ("dc", "markov"))
         if not self.target:
             raise GeomFDIError("normalized: the generator has no target fault", argument="kind")
         j = self.target[0]

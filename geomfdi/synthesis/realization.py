@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from geomfdi._validation import as_matrix
 from geomfdi.geometry.subspace import Subspace, _norm2, apply, kernel
 from geomfdi.geometry.unobservability import max_invariant_in
 
@@ -23,6 +24,8 @@ def reachable_subspace(A: np.ndarray, B: np.ndarray) -> Subspace:
     Orthonormal Krylov iteration ``V_0 = Im B, V_{k+1} = Im B + A V_k`` with every rank
     decision on the un-normalised product (tolerance policy of :mod:`geomfdi.tolerance`).
     """
+    A = as_matrix(A, "A", square=True)
+    B = as_matrix(B, "B", rows=A.shape[0], allow_empty=True, vector_as="column")
     n = A.shape[0]
     if B.size == 0:
         return Subspace.zero(n)
@@ -72,6 +75,10 @@ def minimal_realization(
     The transfer function is unchanged; the result is controllable and observable up
     to the tolerance policy.
     """
+    A = as_matrix(A, "A", square=True, allow_empty=True)
+    B = as_matrix(B, "B", rows=A.shape[0], allow_empty=True, vector_as="column")
+    C = as_matrix(C, "C", cols=A.shape[0], allow_empty=True, vector_as="row")
+    D = as_matrix(D, "D", rows=C.shape[0], cols=B.shape[1], allow_empty=True)
     n = A.shape[0]
     if n == 0:
         return MinimalRealization(A, B, C, D, np.zeros((0, 0)), 0)

@@ -29,10 +29,11 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._validation import as_choice, as_float
 from geomfdi.errors import DesignError
 from geomfdi.geometry.subspace import _norm2, pinv
 from geomfdi.model.faults import fault_matrices
-from geomfdi.model.plant import Plant
+from geomfdi.model.plant import Plant, as_plant
 from geomfdi.tolerance import get_rtol
 
 __all__ = ["DesignModel", "pseudo_actuator_model", "METHODS", "default_filter_pole"]
@@ -163,8 +164,9 @@ def pseudo_actuator_model(
     -------
     DesignModel
     """
-    if method not in METHODS:
-        raise DesignError(f"method: must be one of {METHODS}, got {method!r}", argument="method")
+    plant = as_plant(plant)
+    method = as_choice(method, "method", METHODS)
+    filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
     sigs = fault_matrices(faults, plant.n, plant.q)
     A, B, C, D = (np.array(plant.A), np.array(plant.B), np.array(plant.C), np.array(plant.D))
     Bd, Dd = np.array(plant.Bd), np.array(plant.Dd)

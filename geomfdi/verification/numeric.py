@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
+from geomfdi._validation import as_sequence_of
 from geomfdi.errors import GeomFDIError
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
@@ -181,6 +182,8 @@ def verify(
         raise GeomFDIError(
             f"method: must be 'points' or 'krylov', got {method!r}", argument="method"
         )
+    if faults is not None:
+        faults = as_sequence_of(faults, "faults", Fault)
     plant = as_plant(plant)
     gens, faults, req = _unpack(bank_or_generator, plant, faults)
     rows, nf = req.shape
