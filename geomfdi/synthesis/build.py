@@ -79,6 +79,7 @@ def build_least_order(
     row: str,
     factor: PlantFactor | None = None,
     balance: bool = True,
+    prefix: bool = False,
 ) -> ResidualGenerator:
     """Design, realise and check one least-order scalar row (module Notes).
 
@@ -109,7 +110,7 @@ def build_least_order(
             argument="plant",
         )
     try:
-        lo = least_order_row(Qm, poles=poles, omega=omega, dt=plant.dt)
+        lo = least_order_row(Qm, poles=poles, omega=omega, dt=plant.dt, prefix=prefix)
     except _Infeasible as exc:
         unseen = exc.data.get("unseen", list(range(len(target))))
         names = [target[i] for i in unseen] if unseen else list(target)
@@ -173,6 +174,7 @@ def build_least_order(
         if not gains[j] > LEAK_TOL:
             gains[j] = _gains(comp, [sigs[j]], "krylov")[0][0]
     g.info["fault_gain"] = gains
+    g.info["markov_gain"] = _first_markov(g, plant, *sigs[target[0]])
     g.info["dc_gain"] = dc
     ang = comp.angle_gains([sigs[j] + (False,) for j in decouple])
     leaks = [j for j, a in zip(decouple, ang, strict=True) if a > ANGLE_TOL]
@@ -194,3 +196,27 @@ def build_least_order(
         )
         raise NotIsolableError(f"{row}: no residual exists: {reason}", reason=reason)
     return g
+
+
+def _first_markov(g: ResidualGenerator, plant: Plant, Bf: np.ndarray, Df: np.ndarray) -> float:
+    """Norm of the first non-zero Markov parameter of the fault's transfer to r.
+
+    ``h_0 = −H Df``, ``h_k = C_c A_c^{k−1} B_c`` on the composite
+    ``A_c = [[A, 0], [−E C, F]]``, ``B_c = [Bf; −E Df]``, ``C_c = [−H C, M]``.
+    """
+    h0 = -g.H @ Df
+    ref = max(_norm2(g.H) * _norm2(Df), 1e-300)
+    if _norm2(h0) > 1e-9 * ref:
+        return _norm2(h0)
+    n, k = plant.n, g.order
+    Ac = np.block([[plant.A, np.zeros((n, k))], [-g.E @ plant.C, g.F]])
+    v = np.vstack([Bf, -g.E @ Df])
+    Cc = np.hstack([-g.H @ plant.C, g.M])
+    ref = max(_norm2(Cc) * _norm2(v), 1e-300)
+    for _ in range(n + k):
+        h = Cc @ v
+        if _norm2(h) > 1e-9 * ref:
+            return _norm2(h)
+        v = Ac @ v
+        ref *= max(_norm2(Ac), 1.0)
+    return 0.0

@@ -83,6 +83,7 @@ def _design_row(
     row: str,
     factor: PlantFactor,
     omega: float,
+    prefix: bool = False,
 ) -> ResidualGenerator:
     """One row: least order for ``"exact"`` (full-quotient fallback on numerical failure)."""
     if method != "exact":
@@ -113,6 +114,7 @@ def _design_row(
             omega=omega,
             row=row,
             factor=factor,
+            prefix=prefix,
         )
     except _NumericalDesignError as exc:
         first = str(exc)
@@ -329,8 +331,9 @@ def design_bank(
         As in :func:`design_residual_generator`.
     common_poles : bool
         Every row draws its poles from one common list (the default sequence, or
-        ``poles``), and ``bank.info["joint_order"]`` reports the order of the stacked
-        bank after a joint minimal realisation.
+        ``poles``: a row of order ν uses its first ν entries), and
+        ``bank.info["joint_order"]`` reports the order of the stacked bank after a joint
+        minimal realisation.
 
     Returns
     -------
@@ -396,6 +399,7 @@ def design_bank(
                 f"row {r}",
                 factor,
                 omega,
+                common_poles,
             )
         except NotIsolableError as exc:
             gens.append(None)

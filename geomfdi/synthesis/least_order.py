@@ -444,6 +444,7 @@ def least_order_row(
     omega: float = 1.0,
     dt: float = 0.0,
     min_order: int = 0,
+    prefix: bool = False,
 ) -> LeastOrderRow:
     """Least-order scalar row of the quotient that sees every target.
 
@@ -457,6 +458,9 @@ def least_order_row(
         Plant scale and sampling period for the default poles.
     min_order : int
         Search from this degree on (used for extra rows).
+    prefix : bool
+        Accept more poles than the order and use the first ν (a bank with common poles);
+        otherwise exactly ν poles are required.
 
     Raises
     ------
@@ -472,8 +476,8 @@ def least_order_row(
     dims, ranks, history = [], [], []
     last_rank = -1
     nu = max(0, min_order)
-    pool = default_pole_sequence(k + 2, omega, dt) if user is None else None
-    if pool is not None and Qm.k:
+    pool = default_pole_sequence(k + 2, omega, dt)
+    if Qm.k:
         eig = np.linalg.eigvals(Qm.A0)
         for t in range(pool.size):  # keep default poles clear of the quotient's spectrum
             for _ in range(20):
@@ -482,12 +486,7 @@ def least_order_row(
                 pool[t] *= 1.0 + 1e-3
     unseen_at: dict[int, list[int]] = {}
     while True:
-        src = pool if user is None else _extend(user, nu, omega, dt)
-        cand = src[:nu].astype(complex)
-        if np.count_nonzero(cand.imag > 0) != np.count_nonzero(cand.imag < 0):
-            nu += 1  # a prefix may not split a conjugate pair: the next degree covers it
-            continue
-        cand = _check_poles(cand, Qm.A0, dt)
+        cand = _check_poles(pool[:nu].astype(complex), Qm.A0, dt)
         blocks, kinds = _blocks(Qm, cand)
         X, rank, gap = _null_rows(blocks)
         dims.append(X.shape[1])
@@ -512,12 +511,26 @@ def least_order_row(
             )
         last_rank = rank
         nu += 1
-    if user is not None and user.size < nu:
-        raise DesignError(
-            f"poles: the least-order residual has order {nu}; give at least {nu} poles "
-            f"(got {user.size})",
-            argument="poles",
-        )
+    if user is not None:  # the space does not depend on the poles: redo it at the user's
+        if user.size != nu and not (prefix and user.size > nu):
+            raise DesignError(
+                f"poles: expected {nu} poles (the least order of this residual), got {user.size}",
+                argument="poles",
+            )
+        cand = user[:nu]
+        if np.count_nonzero(cand.imag > 0) != np.count_nonzero(cand.imag < 0):
+            raise DesignError(
+                f"poles: the first {nu} poles split a conjugate pair", argument="poles"
+            )
+        cand = _check_poles(cand, Qm.A0, dt)
+        blocks, kinds = _blocks(Qm, cand)
+        X, rank, gap = _null_rows(blocks)
+        grams, rel = _target_grams(Qm, cand, kinds, X, _points(Qm, cand, omega), blocks)
+        if X.shape[1] == 0 or not np.all(rel > SEE_TOL):
+            raise DesignError(
+                "poles: the requested poles make the parity space ill-conditioned; choose others",
+                argument="poles",
+            )
     alpha, val = _maxmin_direction(grams)
     x = _unnormalise(X, blocks) @ alpha
     sizes = [b.shape[0] for b in blocks]
@@ -544,13 +557,6 @@ def least_order_row(
         ),
     }
     return LeastOrderRow(nu, F, Gs, T, c, h, cand, cert)
-
-
-def _extend(user: np.ndarray, nu: int, omega: float, dt: float) -> np.ndarray:
-    if user.size >= nu:
-        return user
-    extra = default_pole_sequence(nu - user.size + 2, omega, dt) * (1.0 + 1e-3)
-    return np.concatenate([user, extra.astype(complex)])
 
 
 class _Infeasible(Exception):
