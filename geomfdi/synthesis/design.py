@@ -246,6 +246,8 @@ def design_residual_generator(
     if both:
         raise GeomFDIError(f"decouple: faults {sorted(both)} are also targets", argument="decouple")
     mg = default_margin(plant.dt) if margin is None else float(margin)
+    if filter_pole is not None:  # validated by the transform even when unused
+        pseudo_actuator_model(plant, faults, "exact", filter_pole=filter_pole)
     sigs = fault_matrices(faults, plant.n, plant.q)
     factor = PlantFactor(plant)
     omega = plant_scale(plant.A, plant.dt)
@@ -418,11 +420,17 @@ def design_bank(
         leaks = [j for j in dec if achieved[r, j]]
         notes = []
         if weak:
-            notes.append(
-                "weak: DC gain from fault "
-                + ", ".join(map(str, weak))
-                + f" below {FD_GAIN_TOL:g} of the residual's largest fault gain"
-            )
+            dc = g.info["dc_gain"]
+            zero = [j for j in weak if dc[j] <= 1e-8 * max(gain[j], 1e-300)]
+            small = [j for j in weak if j not in zero]
+            if zero:
+                notes.append("weak: zero DC gain from fault " + ", ".join(map(str, zero)))
+            if small:
+                notes.append(
+                    "weak: DC gain from fault "
+                    + ", ".join(map(str, small))
+                    + f" below {FD_GAIN_TOL:g} of the residual's largest fault gain"
+                )
         if leaks and method == "paper":
             dc = g.info["dc_gain"]
             kind = (

@@ -169,7 +169,9 @@ def quotient_model(
     A0 = P @ (Aa + D0 @ Ca) @ Q
     M = H @ Ca @ Q
     ident = {
-        "P (A + D0 C) S = 0": float(_norm2(P @ (Aa + D0 @ Ca) @ Sb) / max(nA, _norm2(D0) * nC))
+        "P (A + D0 C) S = 0": float(
+            _norm2(P @ (Aa + D0 @ Ca) @ Sb) / max(nA, _norm2(D0) * nC, 1e-300)
+        )
         if Sb.size
         else 0.0,
         "H C S = 0": float(_norm2(H @ Ca @ Sb) / nC) if Sb.size and H.size else 0.0,
@@ -240,6 +242,27 @@ def _check_poles(poles: np.ndarray, A0: np.ndarray, dt: float) -> np.ndarray:
                 "quotient; choose other poles",
                 argument="poles",
             )
+    return arr
+
+
+def validate_poles(poles: Any, dt: float) -> np.ndarray:
+    """User poles as a complex array: numbers, finite, stable, closed under conjugation."""
+    try:
+        arr = np.atleast_1d(np.asarray(poles, dtype=complex))
+    except (TypeError, ValueError) as exc:
+        raise DesignError(f"poles: must be numbers, got {poles!r}", argument="poles") from exc
+    if arr.ndim != 1:
+        raise DesignError("poles: must be a flat list of numbers", argument="poles")
+    if not np.all(np.isfinite(arr)):
+        raise DesignError("poles: must be finite", argument="poles")
+    stable = np.abs(arr) < 1 if dt > 0 else arr.real < 0
+    if not np.all(stable):
+        where = "inside the unit circle" if dt > 0 else "in the open left half-plane"
+        raise DesignError(
+            f"poles: every pole must lie {where}; got {arr[~stable].tolist()}", argument="poles"
+        )
+    if not np.allclose(np.sort_complex(arr), np.sort_complex(arr.conj()), rtol=1e-12, atol=0):
+        raise DesignError("poles: complex poles must come in conjugate pairs", argument="poles")
     return arr
 
 
@@ -354,8 +377,9 @@ def _target_grams(
 def _maxmin_direction(grams: list[np.ndarray]) -> tuple[np.ndarray, float]:
     """Unit real α maximising ``min_j αᵀ G_j α`` (each G_j normalised to norm 1).
 
-    Multiplicative-weights iteration on the top eigenvector of ``Σ w_j G_j``, started
-    from every target's own best direction; the best iterate is kept.
+    Candidates: every target's own best direction, signed sums of them and a few
+    random directions; the best is refined by ascent on the currently weakest target
+    (``α ← α + G_j α / 2``, normalised); the best iterate is kept.
     """
     d = grams[0].shape[0]
     if d == 1:
@@ -365,22 +389,28 @@ def _maxmin_direction(grams: list[np.ndarray]) -> tuple[np.ndarray, float]:
     def value(a: np.ndarray) -> float:
         return float(min(a @ G @ a for G in grams))
 
-    cands = [np.linalg.eigh(G)[1][:, -1] for G in grams]
-    w = np.ones(len(grams)) / len(grams)
+    tops = [np.linalg.eigh(G)[1][:, -1] for G in grams]
+    rng = np.random.default_rng(11)
+    cands = list(tops)
+    for _ in range(8):  # signed sums of the targets' own best directions
+        signs = rng.choice([-1.0, 1.0], len(tops))
+        cands.append(sum(sg * t for sg, t in zip(signs, tops, strict=True)))
+    cands += list(rng.standard_normal((16, d)))
+    cands = [c / max(np.linalg.norm(c), 1e-300) for c in cands]
     best, bval = cands[0], value(cands[0])
     for a in cands:
         v = value(a)
         if v > bval:
             best, bval = a, v
-    for _ in range(60):
-        S = sum(wj * G for wj, G in zip(w, grams, strict=True))
-        a = np.linalg.eigh(S)[1][:, -1]
+    a = best.copy()
+    for _ in range(100):  # ascent on the currently weakest target
+        g = np.array([a @ G @ a for G in grams])
+        j = int(np.argmin(g))
+        a = a + 0.5 * grams[j] @ a
+        a /= max(np.linalg.norm(a), 1e-300)
         v = value(a)
         if v > bval:
-            best, bval = a, v
-        g = np.array([a @ G @ a for G in grams])
-        w = w * np.exp(-2.0 * (g - g.min()))
-        w /= w.sum()
+            best, bval = a.copy(), v
     return best / np.linalg.norm(best), bval
 
 
@@ -472,7 +502,7 @@ def least_order_row(
     nt = len(Qm.Bf)
     if rho == 0:
         raise _Infeasible("no measurement combination is blind to the decoupled signals", {})
-    user = None if poles is None else np.atleast_1d(np.asarray(poles, dtype=complex))
+    user = None if poles is None else validate_poles(poles, dt)
     dims, ranks, history = [], [], []
     last_rank = -1
     nu = max(0, min_order)
