@@ -126,11 +126,12 @@ def build_least_order(
         raise _NumericalDesignError(
             f"{row}: the least-order realisation is ill-conditioned ({bad})", argument="plant"
         )
-    # unit residual scale: ‖[H K]‖ + ‖M‖ ‖[E G]‖ / max(‖F‖, ω) = 1 (a pure normalisation)
+    # unit residual scale (a pure normalisation): ‖H‖ = 1 like an orthonormal
+    # measurement map, or ‖M‖ ‖[E G]‖ / max(‖F‖, ω) = 1 when the row has no static part
     Fm, Em, Gm, Mm, Hm, Km = (mats[x] for x in "FEGMHK")
-    size = _norm2(np.hstack([Hm, Km])) + _norm2(Mm) * _norm2(np.hstack([Em, Gm])) / max(
-        _norm2(Fm), omega, 1e-300
-    )
+    size = _norm2(Hm)
+    if size <= 1e-12 * max(_norm2(Mm) * _norm2(np.hstack([Em, Gm])), 1e-300):
+        size = _norm2(Mm) * _norm2(np.hstack([Em, Gm])) / max(_norm2(Fm), omega, 1e-300)
     if size > 0:
         Em, Gm, Hm, Km = Em / size, Gm / size, Hm / size, Km / size
     cert = dict(lo.certificate)
