@@ -67,7 +67,7 @@ def _stack(cols: list[np.ndarray], rows: int) -> np.ndarray:
     return np.hstack(cols) if cols else np.zeros((rows, 0))
 
 
-def build_least_order(
+def _build_once(
     plant: Plant,
     faults: list[Any],
     sigs: list[tuple[np.ndarray, np.ndarray]],
@@ -221,3 +221,60 @@ def _first_markov(g: ResidualGenerator, plant: Plant, Bf: np.ndarray, Df: np.nda
         v = Ac @ v
         ref *= max(_norm2(Ac), 1.0)
     return 0.0
+
+
+RETRY_SCALES = (1.0, 0.25, 4.0)
+"""Default-pole scales tried in turn when a least-order realisation fails its checks."""
+
+
+def build_least_order(
+    plant: Plant,
+    faults: list[Any],
+    sigs: list[tuple[np.ndarray, np.ndarray]],
+    target: tuple[int, ...],
+    decouple: tuple[int, ...],
+    *,
+    poles: Any,
+    omega: float,
+    row: str,
+    factor: PlantFactor | None = None,
+    balance: bool = True,
+    prefix: bool = False,
+) -> ResidualGenerator:
+    """Design, realise and check one least-order scalar row (module Notes).
+
+    With default poles, a realisation that fails its numerical checks is retried with
+    the default pole set scaled by ``RETRY_SCALES`` (the parity space and the order do
+    not depend on the poles; the conditioning of the partial-fraction basis does).
+
+    Raises
+    ------
+    NotIsolableError
+        No residual seeing every target while decoupling the rest exists.
+    DesignError
+        Bad poles; or (the private numerical-failure subclass) every attempt failed.
+    """
+    scales = RETRY_SCALES if poles is None else (1.0,)
+    first: _NumericalDesignError | None = None
+    for sc in scales:
+        try:
+            g = _build_once(
+                plant,
+                faults,
+                sigs,
+                target,
+                decouple,
+                poles=poles,
+                omega=omega * sc,
+                row=row,
+                factor=factor,
+                balance=balance,
+                prefix=prefix,
+            )
+        except _NumericalDesignError as exc:
+            first = first or exc
+            continue
+        g.info["pole_scale"] = sc
+        return g
+    assert first is not None
+    raise first

@@ -89,9 +89,10 @@ def default_pole_sequence(count: int, omega: float, dt: float) -> np.ndarray:
     """Distinct real stable poles, geometrically spread: the default generator spectrum.
 
     Continuous: ``λ_i = −ω · 10^{2 ({i φ} − 1/2)}`` ({·}: fractional part, φ the golden
-    ratio conjugate), i.e. in ``[−10ω, −ω/10]``; discrete: ``z_i = exp(−0.7 · 10^{2 ({i φ}
-    − 1/2)})``, i.e. in ``[0.001, 0.93]``.  Every prefix is spread over the interval (a
-    low-discrepancy sequence).  A wide geometric spread keeps the partial-fraction
+    ratio conjugate), i.e. in ``[−10ω, −ω/10]``; discrete:
+    ``z_i = exp(−0.7 ω · 10^{2 ({i φ} − 1/2)})``, i.e. in ``[0.001, 0.93]`` for the
+    default ω = 1.  Every prefix is spread over the interval (a low-discrepancy
+    sequence).  A wide geometric spread keeps the partial-fraction
     (rational Krylov) basis of the parity space well conditioned: clustered poles make
     its coefficients large and cancelling.
     """
@@ -99,7 +100,7 @@ def default_pole_sequence(count: int, omega: float, dt: float) -> np.ndarray:
     frac = np.mod(i * _GOLD, 1.0)
     spread = 10.0 ** (2.0 * (frac - 0.5))
     if dt > 0:
-        return np.exp(-0.7 * spread)
+        return np.exp(-0.7 * omega * spread)
     return -omega * spread
 
 
@@ -178,8 +179,17 @@ def quotient_model(
     }
     Bqy = -P @ D0
     Bqu = P @ Ba + P @ D0 @ Du
-    Bf = [P @ np.vstack([Bt, np.zeros((na, Bt.shape[1]))]) + P @ D0 @ Dt for Bt, Dt in targets]
-    Df = [H @ Dt for _, Dt in targets]
+    Bf, Df = [], []
+    rt = 1e3 * get_rtol(n + na + q)
+    for Bt, Dt in targets:  # a target that reaches the quotient only through rounding is 0
+        b = P @ np.vstack([Bt, np.zeros((na, Bt.shape[1]))]) + P @ D0 @ Dt
+        dd = H @ Dt
+        if _norm2(b) <= rt * (_norm2(Bt) + _norm2(D0) * _norm2(Dt)):
+            b = np.zeros_like(b)
+        if _norm2(dd) <= rt * _norm2(Dt):
+            dd = np.zeros_like(dd)
+        Bf.append(b)
+        Df.append(dd)
     return Quotient(A0, M, H, Bqy, Bqu, Bf, Df, P[:, :n], S, n + na, ident)
 
 
