@@ -153,13 +153,15 @@ def check_row(plant, faults, row):
     return g.order
 
 
-@settings(max_examples=60, deadline=None)
+@pytest.mark.slow
+@settings(max_examples=40, deadline=None)
 @given(st.integers(0, 2**31 - 1))
 def test_least_order_matches_brute_force(seed):
     plant, faults, row = random_problem(seed)
     check_row(plant, faults, row)
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None)
 @given(st.integers(0, 2**31 - 1))
 def test_fault_detection_least_order(seed):
@@ -167,10 +169,11 @@ def test_fault_detection_least_order(seed):
     check_row(plant, faults, np.ones(len(faults), dtype=bool))
 
 
+@pytest.mark.slow
 def test_some_random_rows_are_feasible_and_dynamic():
-    orders = [check_row(*random_problem(s)) for s in range(60)]
+    orders = [check_row(*random_problem(s)) for s in range(40)]
     got = [o for o in orders if o is not None]
-    assert len(got) >= 15 and max(got) >= 2 and 0 in got
+    assert len(got) >= 10 and max(got) >= 2 and 0 in got
 
 
 # ------------------------------------------------------------------ textbook cases

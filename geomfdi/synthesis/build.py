@@ -67,7 +67,7 @@ def _stack(cols: list[np.ndarray], rows: int) -> np.ndarray:
     return np.hstack(cols) if cols else np.zeros((rows, 0))
 
 
-def build_least_order(
+def _build_once(
     plant: Plant,
     faults: list[Any],
     sigs: list[tuple[np.ndarray, np.ndarray]],
@@ -79,6 +79,7 @@ def build_least_order(
     row: str,
     factor: PlantFactor | None = None,
     balance: bool = True,
+    prefix: bool = False,
 ) -> ResidualGenerator:
     """Design, realise and check one least-order scalar row (module Notes).
 
@@ -109,7 +110,7 @@ def build_least_order(
             argument="plant",
         )
     try:
-        lo = least_order_row(Qm, poles=poles, omega=omega, dt=plant.dt)
+        lo = least_order_row(Qm, poles=poles, omega=omega, dt=plant.dt, prefix=prefix)
     except _Infeasible as exc:
         unseen = exc.data.get("unseen", list(range(len(target))))
         names = [target[i] for i in unseen] if unseen else list(target)
@@ -125,11 +126,12 @@ def build_least_order(
         raise _NumericalDesignError(
             f"{row}: the least-order realisation is ill-conditioned ({bad})", argument="plant"
         )
-    # unit residual scale: ‖[H K]‖ + ‖M‖ ‖[E G]‖ / max(‖F‖, ω) = 1 (a pure normalisation)
+    # unit residual scale (a pure normalisation): ‖H‖ = 1 like an orthonormal
+    # measurement map, or ‖M‖ ‖[E G]‖ / max(‖F‖, ω) = 1 when the row has no static part
     Fm, Em, Gm, Mm, Hm, Km = (mats[x] for x in "FEGMHK")
-    size = _norm2(np.hstack([Hm, Km])) + _norm2(Mm) * _norm2(np.hstack([Em, Gm])) / max(
-        _norm2(Fm), omega, 1e-300
-    )
+    size = _norm2(Hm)
+    if size <= 1e-12 * max(_norm2(Mm) * _norm2(np.hstack([Em, Gm])), 1e-300):
+        size = _norm2(Mm) * _norm2(np.hstack([Em, Gm])) / max(_norm2(Fm), omega, 1e-300)
     if size > 0:
         Em, Gm, Hm, Km = Em / size, Gm / size, Hm / size, Km / size
     cert = dict(lo.certificate)
@@ -173,6 +175,7 @@ def build_least_order(
         if not gains[j] > LEAK_TOL:
             gains[j] = _gains(comp, [sigs[j]], "krylov")[0][0]
     g.info["fault_gain"] = gains
+    g.info["markov_gain"] = _first_markov(g, plant, *sigs[target[0]])
     g.info["dc_gain"] = dc
     ang = comp.angle_gains([sigs[j] + (False,) for j in decouple])
     leaks = [j for j, a in zip(decouple, ang, strict=True) if a > ANGLE_TOL]
@@ -194,3 +197,84 @@ def build_least_order(
         )
         raise NotIsolableError(f"{row}: no residual exists: {reason}", reason=reason)
     return g
+
+
+def _first_markov(g: ResidualGenerator, plant: Plant, Bf: np.ndarray, Df: np.ndarray) -> float:
+    """Norm of the first non-zero Markov parameter of the fault's transfer to r.
+
+    ``h_0 = −H Df``, ``h_k = C_c A_c^{k−1} B_c`` on the composite
+    ``A_c = [[A, 0], [−E C, F]]``, ``B_c = [Bf; −E Df]``, ``C_c = [−H C, M]``.
+    """
+    h0 = -g.H @ Df
+    ref = max(_norm2(g.H) * _norm2(Df), 1e-300)
+    if _norm2(h0) > 1e-9 * ref:
+        return _norm2(h0)
+    n, k = plant.n, g.order
+    Ac = np.block([[plant.A, np.zeros((n, k))], [-g.E @ plant.C, g.F]])
+    v = np.vstack([Bf, -g.E @ Df])
+    Cc = np.hstack([-g.H @ plant.C, g.M])
+    ref = max(_norm2(Cc) * _norm2(v), 1e-300)
+    for _ in range(n + k):
+        h = Cc @ v
+        if _norm2(h) > 1e-9 * ref:
+            return _norm2(h)
+        v = Ac @ v
+        ref *= max(_norm2(Ac), 1.0)
+    return 0.0
+
+
+RETRY_SCALES = (1.0, 0.25, 4.0)
+"""Default-pole scales tried in turn when a least-order realisation fails its checks."""
+
+
+def build_least_order(
+    plant: Plant,
+    faults: list[Any],
+    sigs: list[tuple[np.ndarray, np.ndarray]],
+    target: tuple[int, ...],
+    decouple: tuple[int, ...],
+    *,
+    poles: Any,
+    omega: float,
+    row: str,
+    factor: PlantFactor | None = None,
+    balance: bool = True,
+    prefix: bool = False,
+) -> ResidualGenerator:
+    """Design, realise and check one least-order scalar row (module Notes).
+
+    With default poles, a realisation that fails its numerical checks is retried with
+    the default pole set scaled by ``RETRY_SCALES`` (the parity space and the order do
+    not depend on the poles; the conditioning of the partial-fraction basis does).
+
+    Raises
+    ------
+    NotIsolableError
+        No residual seeing every target while decoupling the rest exists.
+    DesignError
+        Bad poles; or (the private numerical-failure subclass) every attempt failed.
+    """
+    scales = RETRY_SCALES if poles is None else (1.0,)
+    first: _NumericalDesignError | None = None
+    for sc in scales:
+        try:
+            g = _build_once(
+                plant,
+                faults,
+                sigs,
+                target,
+                decouple,
+                poles=poles,
+                omega=omega * sc,
+                row=row,
+                factor=factor,
+                balance=balance,
+                prefix=prefix,
+            )
+        except _NumericalDesignError as exc:
+            first = first or exc
+            continue
+        g.info["pole_scale"] = sc
+        return g
+    assert first is not None
+    raise first

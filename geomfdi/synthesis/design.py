@@ -84,6 +84,7 @@ def _design_row(
     row: str,
     factor: PlantFactor,
     omega: float,
+    prefix: bool = False,
 ) -> ResidualGenerator:
     """One row: least order for ``"exact"`` (full-quotient fallback on numerical failure)."""
     if method != "exact":
@@ -114,6 +115,7 @@ def _design_row(
             omega=omega,
             row=row,
             factor=factor,
+            prefix=prefix,
         )
     except _NumericalDesignError as exc:
         first = str(exc)
@@ -270,6 +272,8 @@ def design_residual_generator(
     if both:
         raise GeomFDIError(f"decouple: faults {sorted(both)} are also targets", argument="decouple")
     mg = default_margin(plant.dt) if margin is None else float(margin)
+    if filter_pole is not None:  # validated by the transform even when unused
+        pseudo_actuator_model(plant, faults, "exact", filter_pole=filter_pole)
     sigs = fault_matrices(faults, plant.n, plant.q)
     factor = PlantFactor(plant)
     omega = plant_scale(plant.A, plant.dt)
@@ -357,8 +361,9 @@ def design_bank(
         As in :func:`design_residual_generator`.
     common_poles : bool
         Every row draws its poles from one common list (the default sequence, or
-        ``poles``), and ``bank.info["joint_order"]`` reports the order of the stacked
-        bank after a joint minimal realisation.
+        ``poles``: a row of order ν uses its first ν entries), and
+        ``bank.info["joint_order"]`` reports the order of the stacked bank after a joint
+        minimal realisation.
     exact : bool
         Exact / parametric design: returns an
         :class:`~geomfdi.synthesis.exact_generator.ExactResidualBank` (see
@@ -442,6 +447,7 @@ def design_bank(
                 f"row {r}",
                 factor,
                 omega,
+                common_poles,
             )
         except NotIsolableError as exc:
             gens.append(None)
@@ -460,11 +466,17 @@ def design_bank(
         leaks = [j for j in dec if achieved[r, j]]
         notes = []
         if weak:
-            notes.append(
-                "weak: DC gain from fault "
-                + ", ".join(map(str, weak))
-                + f" below {FD_GAIN_TOL:g} of the residual's largest fault gain"
-            )
+            dc = g.info["dc_gain"]
+            zero = [j for j in weak if dc[j] <= 1e-8 * max(gain[j], 1e-300)]
+            small = [j for j in weak if j not in zero]
+            if zero:
+                notes.append("weak: zero DC gain from fault " + ", ".join(map(str, zero)))
+            if small:
+                notes.append(
+                    "weak: DC gain from fault "
+                    + ", ".join(map(str, small))
+                    + f" below {FD_GAIN_TOL:g} of the residual's largest fault gain"
+                )
         if leaks and method == "paper":
             dc = g.info["dc_gain"]
             kind = (

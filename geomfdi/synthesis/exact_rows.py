@@ -137,7 +137,7 @@ def exact_least_order(g: ResidualGenerator, plant: Plant, faults: list[Any]) -> 
         "sigs": sigs,
     }
     return {
-        key: (v.applyfunc(sp.nsimplify) if isinstance(v, sp.MatrixBase) else v)
+        key: (v.applyfunc(sp.expand) if isinstance(v, sp.MatrixBase) else v)
         for key, v in out.items()
     }
 

@@ -106,7 +106,12 @@ class Composite:
             UF.conj().T @ (vf / max(np.linalg.norm(vf), 1e-300)) if k else np.zeros(0, complex)
         )
         self.scale = max(self.nA, self.nF, self.nE * self.nCp)
-        self.points = self._clear_of_rounding(_points(self.scale, self.N + 2, self.eig))
+        raw = _points(self.scale, self.N + 2, self.eig)
+        # the angle measure also probes the plant's own frequency range (generator poles
+        # may be much faster and would push every point out of it)
+        plant_pts = _points(self.scale, self.N + 2, np.diag(self.TA), seed=4321)
+        self.raw_points = np.concatenate([raw, plant_pts])
+        self.points = self._clear_of_rounding(raw)
         self._comp: dict[str, Any] | None = None
 
     # ----------------------------------------------------------- resolvents
@@ -145,11 +150,14 @@ class Composite:
         response in ``[y; u]`` (``I_x = I`` for the known input, 0 otherwise).  The
         measure is the cosine of the angle between the row space of Q and the channel:
         invariant under any change of state coordinates of plant or generator and under
-        scaling of the residual; 0 exactly when the channel is decoupled.
+        scaling of the residual; 0 exactly when the channel is decoupled.  The points lie
+        at the scale of the spectrum of plant and generator.
         """
         best = np.zeros(len(channels))
         UBs = [self.UAh @ c[0] for c in channels]
-        for s in self.points:
+        # at the scale of the spectrum, never pushed outwards: far from the poles every
+        # transfer decays and a real leak would look like rounding
+        for s in self.raw_points:
             Gy, Gu = self.generator_tf(s)
             Qs = np.hstack([Gy, Gu])
             nQ = _norm2(Qs)

@@ -89,9 +89,10 @@ def default_pole_sequence(count: int, omega: float, dt: float) -> np.ndarray:
     """Distinct real stable poles, geometrically spread: the default generator spectrum.
 
     Continuous: ``λ_i = −ω · 10^{2 ({i φ} − 1/2)}`` ({·}: fractional part, φ the golden
-    ratio conjugate), i.e. in ``[−10ω, −ω/10]``; discrete: ``z_i = exp(−0.7 · 10^{2 ({i φ}
-    − 1/2)})``, i.e. in ``[0.001, 0.93]``.  Every prefix is spread over the interval (a
-    low-discrepancy sequence).  A wide geometric spread keeps the partial-fraction
+    ratio conjugate), i.e. in ``[−10ω, −ω/10]``; discrete:
+    ``z_i = exp(−0.7 ω · 10^{2 ({i φ} − 1/2)})``, i.e. in ``[0.001, 0.93]`` for the
+    default ω = 1.  Every prefix is spread over the interval (a low-discrepancy
+    sequence).  A wide geometric spread keeps the partial-fraction
     (rational Krylov) basis of the parity space well conditioned: clustered poles make
     its coefficients large and cancelling.
     """
@@ -99,7 +100,7 @@ def default_pole_sequence(count: int, omega: float, dt: float) -> np.ndarray:
     frac = np.mod(i * _GOLD, 1.0)
     spread = 10.0 ** (2.0 * (frac - 0.5))
     if dt > 0:
-        return np.exp(-0.7 * spread)
+        return np.exp(-0.7 * omega * spread)
     return -omega * spread
 
 
@@ -169,15 +170,26 @@ def quotient_model(
     A0 = P @ (Aa + D0 @ Ca) @ Q
     M = H @ Ca @ Q
     ident = {
-        "P (A + D0 C) S = 0": float(_norm2(P @ (Aa + D0 @ Ca) @ Sb) / max(nA, _norm2(D0) * nC))
+        "P (A + D0 C) S = 0": float(
+            _norm2(P @ (Aa + D0 @ Ca) @ Sb) / max(nA, _norm2(D0) * nC, 1e-300)
+        )
         if Sb.size
         else 0.0,
         "H C S = 0": float(_norm2(H @ Ca @ Sb) / nC) if Sb.size and H.size else 0.0,
     }
     Bqy = -P @ D0
     Bqu = P @ Ba + P @ D0 @ Du
-    Bf = [P @ np.vstack([Bt, np.zeros((na, Bt.shape[1]))]) + P @ D0 @ Dt for Bt, Dt in targets]
-    Df = [H @ Dt for _, Dt in targets]
+    Bf, Df = [], []
+    rt = 1e3 * get_rtol(n + na + q)
+    for Bt, Dt in targets:  # a target that reaches the quotient only through rounding is 0
+        b = P @ np.vstack([Bt, np.zeros((na, Bt.shape[1]))]) + P @ D0 @ Dt
+        dd = H @ Dt
+        if _norm2(b) <= rt * (_norm2(Bt) + _norm2(D0) * _norm2(Dt)):
+            b = np.zeros_like(b)
+        if _norm2(dd) <= rt * _norm2(Dt):
+            dd = np.zeros_like(dd)
+        Bf.append(b)
+        Df.append(dd)
     return Quotient(A0, M, H, Bqy, Bqu, Bf, Df, P[:, :n], S, n + na, ident)
 
 
@@ -240,6 +252,27 @@ def _check_poles(poles: np.ndarray, A0: np.ndarray, dt: float) -> np.ndarray:
                 "quotient; choose other poles",
                 argument="poles",
             )
+    return arr
+
+
+def validate_poles(poles: Any, dt: float) -> np.ndarray:
+    """User poles as a complex array: numbers, finite, stable, closed under conjugation."""
+    try:
+        arr = np.atleast_1d(np.asarray(poles, dtype=complex))
+    except (TypeError, ValueError) as exc:
+        raise DesignError(f"poles: must be numbers, got {poles!r}", argument="poles") from exc
+    if arr.ndim != 1:
+        raise DesignError("poles: must be a flat list of numbers", argument="poles")
+    if not np.all(np.isfinite(arr)):
+        raise DesignError("poles: must be finite", argument="poles")
+    stable = np.abs(arr) < 1 if dt > 0 else arr.real < 0
+    if not np.all(stable):
+        where = "inside the unit circle" if dt > 0 else "in the open left half-plane"
+        raise DesignError(
+            f"poles: every pole must lie {where}; got {arr[~stable].tolist()}", argument="poles"
+        )
+    if not np.allclose(np.sort_complex(arr), np.sort_complex(arr.conj()), rtol=1e-12, atol=0):
+        raise DesignError("poles: complex poles must come in conjugate pairs", argument="poles")
     return arr
 
 
@@ -354,8 +387,9 @@ def _target_grams(
 def _maxmin_direction(grams: list[np.ndarray]) -> tuple[np.ndarray, float]:
     """Unit real α maximising ``min_j αᵀ G_j α`` (each G_j normalised to norm 1).
 
-    Multiplicative-weights iteration on the top eigenvector of ``Σ w_j G_j``, started
-    from every target's own best direction; the best iterate is kept.
+    Candidates: every target's own best direction, signed sums of them and a few
+    random directions; the best is refined by ascent on the currently weakest target
+    (``α ← α + G_j α / 2``, normalised); the best iterate is kept.
     """
     d = grams[0].shape[0]
     if d == 1:
@@ -365,22 +399,28 @@ def _maxmin_direction(grams: list[np.ndarray]) -> tuple[np.ndarray, float]:
     def value(a: np.ndarray) -> float:
         return float(min(a @ G @ a for G in grams))
 
-    cands = [np.linalg.eigh(G)[1][:, -1] for G in grams]
-    w = np.ones(len(grams)) / len(grams)
+    tops = [np.linalg.eigh(G)[1][:, -1] for G in grams]
+    rng = np.random.default_rng(11)
+    cands = list(tops)
+    for _ in range(8):  # signed sums of the targets' own best directions
+        signs = rng.choice([-1.0, 1.0], len(tops))
+        cands.append(sum(sg * t for sg, t in zip(signs, tops, strict=True)))
+    cands += list(rng.standard_normal((16, d)))
+    cands = [c / max(np.linalg.norm(c), 1e-300) for c in cands]
     best, bval = cands[0], value(cands[0])
     for a in cands:
         v = value(a)
         if v > bval:
             best, bval = a, v
-    for _ in range(60):
-        S = sum(wj * G for wj, G in zip(w, grams, strict=True))
-        a = np.linalg.eigh(S)[1][:, -1]
+    a = best.copy()
+    for _ in range(100):  # ascent on the currently weakest target
+        g = np.array([a @ G @ a for G in grams])
+        j = int(np.argmin(g))
+        a = a + 0.5 * grams[j] @ a
+        a /= max(np.linalg.norm(a), 1e-300)
         v = value(a)
         if v > bval:
-            best, bval = a, v
-        g = np.array([a @ G @ a for G in grams])
-        w = w * np.exp(-2.0 * (g - g.min()))
-        w /= w.sum()
+            best, bval = a.copy(), v
     return best / np.linalg.norm(best), bval
 
 
@@ -444,6 +484,7 @@ def least_order_row(
     omega: float = 1.0,
     dt: float = 0.0,
     min_order: int = 0,
+    prefix: bool = False,
 ) -> LeastOrderRow:
     """Least-order scalar row of the quotient that sees every target.
 
@@ -457,6 +498,9 @@ def least_order_row(
         Plant scale and sampling period for the default poles.
     min_order : int
         Search from this degree on (used for extra rows).
+    prefix : bool
+        Accept more poles than the order and use the first ν (a bank with common poles);
+        otherwise exactly ν poles are required.
 
     Raises
     ------
@@ -468,12 +512,12 @@ def least_order_row(
     nt = len(Qm.Bf)
     if rho == 0:
         raise _Infeasible("no measurement combination is blind to the decoupled signals", {})
-    user = None if poles is None else np.atleast_1d(np.asarray(poles, dtype=complex))
+    user = None if poles is None else validate_poles(poles, dt)
     dims, ranks, history = [], [], []
     last_rank = -1
     nu = max(0, min_order)
-    pool = default_pole_sequence(k + 2, omega, dt) if user is None else None
-    if pool is not None and Qm.k:
+    pool = default_pole_sequence(k + 2, omega, dt)
+    if Qm.k:
         eig = np.linalg.eigvals(Qm.A0)
         for t in range(pool.size):  # keep default poles clear of the quotient's spectrum
             for _ in range(20):
@@ -482,12 +526,7 @@ def least_order_row(
                 pool[t] *= 1.0 + 1e-3
     unseen_at: dict[int, list[int]] = {}
     while True:
-        src = pool if user is None else _extend(user, nu, omega, dt)
-        cand = src[:nu].astype(complex)
-        if np.count_nonzero(cand.imag > 0) != np.count_nonzero(cand.imag < 0):
-            nu += 1  # a prefix may not split a conjugate pair: the next degree covers it
-            continue
-        cand = _check_poles(cand, Qm.A0, dt)
+        cand = _check_poles(pool[:nu].astype(complex), Qm.A0, dt)
         blocks, kinds = _blocks(Qm, cand)
         X, rank, gap = _null_rows(blocks)
         dims.append(X.shape[1])
@@ -512,12 +551,26 @@ def least_order_row(
             )
         last_rank = rank
         nu += 1
-    if user is not None and user.size < nu:
-        raise DesignError(
-            f"poles: the least-order residual has order {nu}; give at least {nu} poles "
-            f"(got {user.size})",
-            argument="poles",
-        )
+    if user is not None:  # the space does not depend on the poles: redo it at the user's
+        if user.size != nu and not (prefix and user.size > nu):
+            raise DesignError(
+                f"poles: expected {nu} poles (the least order of this residual), got {user.size}",
+                argument="poles",
+            )
+        cand = user[:nu]
+        if np.count_nonzero(cand.imag > 0) != np.count_nonzero(cand.imag < 0):
+            raise DesignError(
+                f"poles: the first {nu} poles split a conjugate pair", argument="poles"
+            )
+        cand = _check_poles(cand, Qm.A0, dt)
+        blocks, kinds = _blocks(Qm, cand)
+        X, rank, gap = _null_rows(blocks)
+        grams, rel = _target_grams(Qm, cand, kinds, X, _points(Qm, cand, omega), blocks)
+        if X.shape[1] == 0 or not np.all(rel > SEE_TOL):
+            raise DesignError(
+                "poles: the requested poles make the parity space ill-conditioned; choose others",
+                argument="poles",
+            )
     alpha, val = _maxmin_direction(grams)
     x = _unnormalise(X, blocks) @ alpha
     sizes = [b.shape[0] for b in blocks]
@@ -544,13 +597,6 @@ def least_order_row(
         ),
     }
     return LeastOrderRow(nu, F, Gs, T, c, h, cand, cert)
-
-
-def _extend(user: np.ndarray, nu: int, omega: float, dt: float) -> np.ndarray:
-    if user.size >= nu:
-        return user
-    extra = default_pole_sequence(nu - user.size + 2, omega, dt) * (1.0 + 1e-3)
-    return np.concatenate([user, extra.astype(complex)])
 
 
 class _Infeasible(Exception):
