@@ -70,6 +70,7 @@ from geomfdi.errors import GeomFDIError, ModelFileError
 from geomfdi.io.expressions import compile_expression
 from geomfdi.model.faults import ActuatorFault, Fault, SensorFault
 from geomfdi.model.plant import Plant
+from geomfdi.synthesis.design import METHODS
 
 __all__ = [
     "ModelSpec",
@@ -105,6 +106,7 @@ _DESIGN = {
     "filter_pole",
     "margin",
     "exact",
+    "full",
     "paper",
     "mvw",
 }
@@ -357,8 +359,10 @@ def _method_options(ctx: _Ctx, d: dict[str, Any], plant: Plant) -> list[MethodOp
         raise ctx.err("design.methods", f"expected a list of methods, got {methods!r}")
     out = []
     for k, meth in enumerate(methods):
-        if meth not in ("exact", "paper", "mvw"):
-            raise ctx.err(f"design.methods[{k}]", f"unknown method {meth!r} (exact, paper, mvw)")
+        if meth not in METHODS:
+            raise ctx.err(
+                f"design.methods[{k}]", f"unknown method {meth!r} ({', '.join(METHODS)})"
+            )
         sub = ctx.keys(d.get(meth, {}), _METHOD, f"design.{meth}")
         merged = {key: d.get(key) for key in _METHOD} | sub
 
