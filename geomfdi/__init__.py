@@ -41,7 +41,7 @@ def _register(module: str, *names: str) -> None:
 _register("geomfdi._threads", "get_blas_threads", "set_blas_threads")
 _register("geomfdi.campaign.result", "CampaignResult")
 _register("geomfdi.campaign.runner", "Campaign")
-_register("geomfdi.campaign.spec", "Uncertainty")
+_register("geomfdi.campaign.spec", "Scenario", "Uncertainty")
 _register("geomfdi.deployment.monitor", "Monitor")
 _register("geomfdi.deployment.persistence", "load_bank", "load_monitor")
 _register("geomfdi.deployment.recorded", "evaluate")
@@ -109,7 +109,6 @@ _register(
     "min_unobservability_subspace",
     "unobservable_subspace",
 )
-_register("geomfdi.io.modelfile", "Scenario")
 _register("geomfdi.model.faults", "ActuatorFault", "Fault", "SensorFault")
 _register("geomfdi.model.plant", "Plant")
 _register(
@@ -236,7 +235,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi._threads import get_blas_threads, set_blas_threads  # noqa: F401
     from geomfdi.campaign.result import CampaignResult  # noqa: F401
     from geomfdi.campaign.runner import Campaign  # noqa: F401
-    from geomfdi.campaign.spec import Uncertainty  # noqa: F401
+    from geomfdi.campaign.spec import Scenario, Uncertainty  # noqa: F401
     from geomfdi.deployment.monitor import Monitor  # noqa: F401
     from geomfdi.deployment.persistence import load_bank, load_monitor  # noqa: F401
     from geomfdi.deployment.recorded import evaluate  # noqa: F401
@@ -293,7 +292,6 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         min_unobservability_subspace,
         unobservable_subspace,
     )  # noqa: F401
-    from geomfdi.io.modelfile import Scenario  # noqa: F401
     from geomfdi.model.faults import ActuatorFault, Fault, SensorFault  # noqa: F401
     from geomfdi.model.plant import Plant  # noqa: F401
     from geomfdi.monitoring.baselines import (
