@@ -209,7 +209,7 @@ def print_design(rows) -> float:
 
 
 def print_symbolic(rows) -> float:
-    print("verify_symbolic (exact rational re-derivation) on dense integer plants")
+    print("verify_symbolic (exact proof of the delivered generator) on dense integer plants")
     print(
         f"{'n':>4} {'q':>3} {'orders':>12} {'design [s]':>11} {'symbolic [s]':>13} "
         f"{'ok':>5} {'leakage':>9}"

@@ -15,8 +15,8 @@ badly scaled realisation cannot hide a leak; a design fails above ``tol`` (1e-9)
 eigenvalues are unobservable from r (``‖G_y(μ) C v‖ / (‖G_y(μ)‖ ‖C v‖)`` = 0 for every
 unstable eigenpair (μ, v), i.e. the residue of the pole μ vanishes).
 **Targets**: the relative gain of :mod:`geomfdi.synthesis.gains` (random points, with
-the orthonormal Krylov test as second opinion).  :func:`verify_symbolic` redoes the
-design in exact rational arithmetic and proves the zeros.
+the orthonormal Krylov test as second opinion).  :func:`verify_symbolic` converts the
+delivered matrices exactly (binary floats are rationals) and proves the zeros.
 """
 
 from __future__ import annotations
