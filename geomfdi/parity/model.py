@@ -380,7 +380,7 @@ class ParityFDI:
         rate ``pfa``: exact for ``"windowed"``, calibrated by Monte-Carlo for the others
         unless ``threshold`` is given (:mod:`.sequential`).
         """
-        if method in _sequential.SEQUENTIAL_METHODS:
+        if isinstance(method, str) and method in _sequential.SEQUENTIAL_METHODS:
             return _sequential.diagnose_sequential(
                 self, Z, pfa, method, window=window, shift=shift, beta=beta, threshold=threshold
             )
