@@ -186,7 +186,7 @@ def directional_isolability(
     i = model._fault(i)
     j = model._fault(j, "j")
     kappa = float(as_positive(kappa, "kappa"))
-    if cosine not in _COSINES:
+    if not isinstance(cosine, str) or cosine not in _COSINES:
         raise GeomFDIError(f"cosine: must be one of {_COSINES}, got {cosine!r}", argument="cosine")
     theta = model._theta(theta)
     theta_j = theta if theta_j is None else model._theta(theta_j, "theta_j")

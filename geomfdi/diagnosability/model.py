@@ -19,7 +19,14 @@ from typing import Any, Literal
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
-from geomfdi._validation import as_index, as_int, as_matrix, as_vector
+from geomfdi._validation import (
+    as_index,
+    as_int,
+    as_labels,
+    as_matrix,
+    as_sequence_of,
+    as_vector,
+)
 from geomfdi.diagnosability import applicability as _applicability
 from geomfdi.diagnosability import indices as _indices
 from geomfdi.diagnosability import stacking as _stacking
@@ -31,6 +38,7 @@ from geomfdi.diagnosability.results import (
     StackedWindow,
 )
 from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.limits import check_allocation
 
 __all__ = ["WindowModel"]
 
@@ -179,17 +187,20 @@ class WindowModel:
         self.Qw = _as_covariance(Qw, "Qw", self.Bw.shape[1])
         self.Rv = _as_covariance(Rv, "Rv", self.Dv.shape[1])
         self.window = n + 1 if window is None else as_int(window, "window", minimum=1)
+        s = self.window
+        check_allocation(s * s * m * (n + m + p), argument="window", what="stacked window model")
         if fault_names is None:
             self.fault_names = tuple(f"f{i + 1}" for i in range(p))
         else:
-            names = tuple(str(x) for x in fault_names)
+            names = tuple(str(x) for x in as_sequence_of(fault_names, "fault_names", object))
+            as_labels(names, "fault_names")
             if len(names) != p:
                 raise ShapeError(
                     f"fault_names: expected {p} names (one per column of Bf), got {len(names)}",
                     argument="fault_names",
                 )
             self.fault_names = names
-        if nullspace not in _NULLSPACE_METHODS:
+        if not isinstance(nullspace, str) or nullspace not in _NULLSPACE_METHODS:
             raise GeomFDIError(
                 f"nullspace: must be one of {_NULLSPACE_METHODS}, got {nullspace!r}",
                 argument="nullspace",
@@ -235,7 +246,7 @@ class WindowModel:
     def _method(self, method: str | None) -> str:
         if method is None:
             return self.nullspace
-        if method not in _NULLSPACE_METHODS:
+        if not isinstance(method, str) or method not in _NULLSPACE_METHODS:
             raise GeomFDIError(
                 f"method: must be one of {_NULLSPACE_METHODS}, got {method!r}", argument="method"
             )

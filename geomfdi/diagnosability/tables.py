@@ -11,6 +11,7 @@ import numpy as np
 
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_int, as_positive, as_probability, as_real_array, as_vector
+from geomfdi.diagnosability.indices import _COSINES
 from geomfdi.diagnosability.results import DiagnosabilityTable
 from geomfdi.errors import GeomFDIError, ShapeError
 
@@ -90,14 +91,19 @@ def diagnosability_table(
         raise GeomFDIError(
             f"model: expected a WindowModel, got {type(model).__name__}", argument="model"
         )
-    if method not in _TABLE_METHODS:
+    if not isinstance(method, str) or method not in _TABLE_METHODS:
         raise GeomFDIError(
             f"method: must be one of {_TABLE_METHODS}, got {method!r}", argument="method"
         )
     p, s = model.p, model.window
     thetas = _profiles(theta, p, s)
     ns = model._method(nullspace)
-    digits = as_int(digits, "digits", minimum=0)
+    digits = as_int(digits, "digits", minimum=0, maximum=30)
+    kappa, alpha = as_positive(kappa, "kappa"), as_probability(alpha, "alpha")
+    if not isinstance(cosine, str) or cosine not in _COSINES:
+        raise GeomFDIError(
+            f"cosine: must be one of {_COSINES}, got {cosine!r:.40}", argument="cosine"
+        )
     vals = np.zeros((p, p + 1))
     opts: dict[str, Any] = {"nullspace": ns}
     if method == "kl":

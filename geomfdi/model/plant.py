@@ -312,20 +312,27 @@ def _has_symbols(*values: Any) -> bool:
     return False
 
 
+def _is_scalar(D: Any) -> bool:
+    try:
+        return np.ndim(D) == 0
+    except ValueError:  # ragged nesting: not a scalar (as_matrix names the error)
+        return False
+
+
 def _is_zero_scalar(D: Any) -> bool:
-    return np.ndim(D) == 0 and not isinstance(D, bool | str | bytes) and _scalar(D) == 0
+    return _is_scalar(D) and not isinstance(D, bool | str | bytes) and _scalar(D) == 0
 
 
 def _scalar(D: Any) -> Any:
     try:
         return complex(D)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         return None
 
 
 def _check_scalar_d(D: Any, q: int, m: int) -> None:
     """A non-zero scalar D is only D for one output and one input (python-control's rule)."""
-    if np.ndim(D) == 0 and not isinstance(D, bool | str | bytes) and (q, m) != (1, 1):
+    if _is_scalar(D) and not isinstance(D, bool | str | bytes) and (q, m) != (1, 1):
         raise ShapeError(
             f"D: got the scalar {D!r}, but D must be a ({q}, {m}) matrix for this plant. "
             "The 4th positional argument is the feedthrough D, as in python-control's "

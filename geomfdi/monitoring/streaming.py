@@ -74,13 +74,19 @@ def update(mon: ARMonitor, x: float) -> tuple[float, bool]:
     :meth:`set_normal` starts a new stream (as :meth:`reset`).
     """
     if isinstance(x, bool | np.bool_) or not isinstance(x, numbers.Real | np.floating):
-        arr = np.asarray(x)
+        try:
+            arr = np.asarray(x)
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise GeomFDIError(f"x: must be one real number, got {x!r:.40}", argument="x") from exc
         if np.iscomplexobj(arr):
             raise ComplexInputError(f"x: must be real, got {x!r}", argument="x")
         if arr.shape not in ((), (1,)) or arr.dtype.kind not in "iuf":
             raise GeomFDIError(f"x: must be one real number, got {x!r}", argument="x")
         x = arr.reshape(-1)[0]
-    v = float(x)
+    try:
+        v = float(x)
+    except OverflowError as exc:
+        raise GeomFDIError("x: a number too large for float64", argument="x") from exc
     if not mon._state_ready:
         mon.reset()
     m, n = mon.window, mon.order

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from geomfdi._validation import as_int, as_real_array
+from geomfdi._validation import as_int, as_real_array, check_nonempty
 from geomfdi.errors import GeomFDIError, RankDeficientError, ShapeError
 from geomfdi.monitoring._kernels import _gram_map, _normal_equations, _rows_fit, _solve
 
@@ -70,6 +70,7 @@ def fit(mon: ARMonitor, training: Any, *, step: int = 1, normal: Any = None) -> 
     """
     m, n = mon.window, mon.order
     tr = as_real_array(training, "training")
+    check_nonempty(tr, "training")
     step = as_int(step, "step", minimum=1)
     if tr.ndim == 2:
         if tr.shape[1] != m:

@@ -186,12 +186,14 @@ def diagnose(
     Zhang, Chen & Liu (2005) §1-§5; Qin & Niu (1999) §2-§5.
     """
     pfa = as_probability(pfa, "pfa")
-    if method not in METHODS:
+    if not isinstance(method, str) or method not in METHODS:
         raise GeomFDIError(
             f"method: expected one of {', '.join(METHODS)} (or, for a time series, "
-            f"windowed, cusum, sprt), got {method!r}",
+            f"windowed, cusum, sprt), got {method!r:.40}",
             argument="method",
         )
+    if max_faults is not None:
+        max_faults = as_int(max_faults, "max_faults", minimum=1, maximum=pf.m)
     Zs = _samples(pf, Z, check=method in ("search", "glr"))
     if method == "search":
         mf = 2 if max_faults is None else as_int(max_faults, "max_faults", minimum=1)

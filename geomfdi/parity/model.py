@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from scipy import linalg as sla
 
-from geomfdi._validation import as_int, as_matrix, as_positive, as_real_array
+from geomfdi._validation import as_int, as_matrix, as_positive, as_real_array, as_sequence_of
 from geomfdi.errors import DesignError, GeomFDIError, RankDeficientError, ShapeError
 from geomfdi.parity import capability as _capability
 from geomfdi.parity import decision as _decision
@@ -380,7 +380,7 @@ class ParityFDI:
         rate ``pfa``: exact for ``"windowed"``, calibrated by Monte-Carlo for the others
         unless ``threshold`` is given (:mod:`.sequential`).
         """
-        if method in _sequential.SEQUENTIAL_METHODS:
+        if isinstance(method, str) and method in _sequential.SEQUENTIAL_METHODS:
             return _sequential.diagnose_sequential(
                 self, Z, pfa, method, window=window, shift=shift, beta=beta, threshold=threshold
             )
@@ -426,9 +426,9 @@ def reduced_configuration(pf: ParityFDI, remove: int | Sequence[int]) -> ParityF
             argument="remove",
         )
     if isinstance(remove, int | np.integer):
-        rem = [int(remove)]
+        rem = [as_int(remove, "remove")]
     else:
-        rem = [int(as_int(r, "remove")) for r in remove]
+        rem = [int(as_int(r, "remove")) for r in as_sequence_of(remove, "remove", object)]
     for r in rem:
         if not 0 <= r < pf.m:
             raise GeomFDIError(f"remove: index {r} out of range 0..{pf.m - 1}", argument="remove")

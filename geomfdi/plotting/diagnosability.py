@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._validation import as_bool
 from geomfdi.diagnosability.results import DiagnosabilityTable
 from geomfdi.errors import GeomFDIError
 
@@ -46,7 +47,18 @@ def plot_isolability(
             f"table: expected a DiagnosabilityTable, got {type(table).__name__}",
             argument="table",
         )
+    import matplotlib
     import matplotlib.pyplot as plt
+
+    annotate = as_bool(annotate, "annotate")
+    try:
+        cmap = matplotlib.colormaps[cmap] if isinstance(cmap, str) else cmap
+        if not isinstance(cmap, matplotlib.colors.Colormap):
+            raise TypeError(type(cmap).__name__)
+    except (KeyError, TypeError) as exc:
+        raise GeomFDIError(
+            f"cmap: must be a matplotlib colormap or its name, got {cmap!r:.40}", argument="cmap"
+        ) from exc
 
     fi = table.isolability
     p = fi.shape[0]

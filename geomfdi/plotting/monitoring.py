@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from geomfdi._validation import as_real_array
+from geomfdi._validation import as_bool, as_real_array
 from geomfdi.errors import GeomFDIError, ShapeError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -55,6 +55,8 @@ def plot_ar_monitor(
         (vertical ticks) and invalid epochs (grey band).
     """
     import matplotlib.pyplot as plt
+
+    logy = as_bool(logy, "logy")
 
     if type(result).__name__ != "ARMonitorResult":
         raise GeomFDIError("result: expected an ARMonitorResult", argument="result")

@@ -8,8 +8,8 @@ from typing import Any
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
-from geomfdi._validation import as_int
-from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi._validation import as_choice, as_int
+from geomfdi.errors import ShapeError
 from geomfdi.evaluation.decision import (
     FaultEvent,
     as_threshold,
@@ -17,6 +17,7 @@ from geomfdi.evaluation.decision import (
 )
 from geomfdi.evaluation.metrics import false_alarms
 from geomfdi.evaluation.persistence import as_persistence, decisions
+from geomfdi.limits import check_allocation, check_runs
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.context import (
     detection_window_of,
@@ -148,6 +149,7 @@ def _simulate_batch(
     detection_window: float | None = None,
     progress: bool | None = None,
 ) -> BatchResult:
+    store = as_choice(store, "store", ("residuals", "all", "summary"))
     plant = as_plant(plant)
     ctx = prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
     per_run = (
@@ -162,21 +164,17 @@ def _simulate_batch(
         ]
         if runs is None:
             runs = len(schedules)
-        runs = as_int(runs, "runs", minimum=1)
+        runs = check_runs(runs)
         if runs != len(schedules):
             raise ShapeError(
                 f"faults: {len(schedules)} fault lists for runs={runs}", argument="faults"
             )
     else:
-        runs = as_int(1 if runs is None else runs, "runs", minimum=1)
+        runs = check_runs(1 if runs is None else runs)
         schedules = [fault_schedule(faults, plant)] * runs
     q = plant.q
     rule = as_persistence(persistence)
     window = detection_window_of(detection_window)
-    if store not in ("residuals", "all", "summary"):
-        raise GeomFDIError(
-            f"store: must be 'residuals', 'all' or 'summary', got {store!r}", argument="store"
-        )
     x0a = state_vector(x0, plant.n, "x0", runs)
     xc0a = state_vector(xc0, ctx.ctrl.nc, "xc0")
     seeds = run_seeds(noise, seeds, runs)
@@ -193,6 +191,9 @@ def _simulate_batch(
     if chunk_size is None:
         chunk_size = max(1, int(2e7 // max(width * N, 1)))
     chunk_size = as_int(chunk_size, "chunk_size", minimum=1)
+    stored = 2 * nres + 1 if store != "summary" else nres
+    stored += plant.n + 3 * q + plant.m if store == "all" else 0
+    check_allocation(N, runs, stored, argument="runs", what="simulate_batch")
     thr = as_threshold(threshold, nres, view.present)
     keep_r = store in ("residuals", "all")
     R_res = np.zeros((runs, nres, N)) if keep_r else None

@@ -11,9 +11,10 @@ from typing import Any
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
-from geomfdi._validation import as_int
+from geomfdi._validation import as_float
 from geomfdi.errors import GeomFDIError
 from geomfdi.evaluation.decision import Threshold
+from geomfdi.limits import check_runs
 from geomfdi.simulation.batch import simulate_batch
 
 __all__ = ["calibrate_threshold"]
@@ -60,12 +61,14 @@ def calibrate_threshold(
     -------
     Threshold
     """
-    if noise is None or (noise.measurement is None and noise.process is None):
+    if getattr(noise, "measurement", None) is None and getattr(noise, "process", None) is None:
         raise GeomFDIError(
-            "noise: a noise-only calibration needs measurement or process noise",
+            "noise: a noise-only calibration needs a geomfdi Noise with measurement or "
+            f"process noise, got {noise!r:.60}",
             argument="noise",
         )
-    runs = as_int(runs, "runs", minimum=1)
+    runs = check_runs(runs)
+    skip = as_float(skip, "skip", minimum=0.0)
     batch = simulate_batch(
         plant,
         bank,
@@ -77,6 +80,17 @@ def calibrate_threshold(
         **simulate_options,
     )
     k_skip = int(np.searchsorted(batch.t - batch.t[0], float(skip) - 1e-12))
+    if k_skip >= batch.t.size:
+        raise GeomFDIError(
+            f"skip: {skip:g} s leaves no sample of a run of {batch.t[-1] - batch.t[0]:g} s",
+            argument="skip",
+        )
+    if batch.residuals is not None and not np.any(batch.residuals[:, :, k_skip:]):
+        raise GeomFDIError(
+            "noise: the noise-only residuals are identically zero (zero noise, or noise no "
+            "residual sees): every threshold would be +inf, a detector that never alarms",
+            argument="noise",
+        )
     return Threshold.from_residuals(
         batch.residuals,
         false_alarm_rate,

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from geomfdi._validation import as_matrix, as_real_array
+from geomfdi._validation import as_bool, as_choice, as_matrix, as_real_array
 from geomfdi.errors import GeomFDIError, NonFiniteError, ShapeError
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.discretization import HOLDS, Discretization, discretize, uniform_step
@@ -286,6 +286,9 @@ def prepare(
     consistent_init: bool,
     progress: Any,
 ) -> Context:
+    hold = as_choice(hold, "hold", HOLDS)
+    consistent_init = as_bool(consistent_init, "consistent_init")
+    progress = None if progress is None else as_bool(progress, "progress")
     plant = as_plant(plant)
     view = bank_view(bank, plant)
     ctrl = as_controller(controller, plant)
@@ -295,8 +298,6 @@ def prepare(
             f"t: the grid step {step:g} must equal the plant's sampling period {plant.dt:g}",
             argument="t",
         )
-    if hold not in HOLDS:
-        raise GeomFDIError(f"hold: must be one of {HOLDS}, got {hold!r}", argument="hold")
     if noise is not None and not isinstance(noise, Noise):
         raise GeomFDIError(
             f"noise: expected a geomfdi Noise, got {type(noise).__name__}", argument="noise"

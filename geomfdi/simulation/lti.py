@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_matrix, as_positive, as_real_array
+from geomfdi._validation import as_choice, as_matrix, as_positive, as_real_array
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.simulation.discretization import (
     HOLDS,
@@ -112,6 +112,7 @@ def simulate_lti(
     >>> bool(abs(y[0, -1] - (1 - np.exp(-5))) < 1e-12)
     True
     """
+    hold = as_choice(hold, "hold", ("foh", "zoh"))
     A = as_matrix(A, "A", square=True)
     n = A.shape[0]
     B = as_matrix(B, "B", rows=n, allow_empty=True, vector_as="column")

@@ -141,10 +141,7 @@ def run_seeds(noise: Noise | None, seeds: Any, runs: int) -> list[Any]:
         raise ShapeError(f"seeds: expected {runs} seeds, got {len(seeds)}", argument="seeds")
     out = []
     for i, s in enumerate(seeds):
-        if s is None:
-            raise GeomFDIError(
-                f"seeds[{i}]: None is not reproducible; give an integer >= 0",
-                argument="seeds",
-            )
+        # None: fresh OS entropy for that run (numpy's convention), not "no noise"
+        s = np.random.SeedSequence() if s is None else s
         out.append(check_seed(s, f"seeds[{i}]", "seeds"))
     return out

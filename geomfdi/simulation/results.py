@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_int
+from geomfdi._validation import as_float, as_int
 from geomfdi.errors import GeomFDIError
 from geomfdi.evaluation.decision import (
     FaultEvent,
@@ -97,6 +97,8 @@ class SimulationResult:
 
     def max_abs(self, start: float | None = None, stop: float | None = None) -> np.ndarray:
         """``max |r|`` per residual over ``start <= t <= stop`` (bounds optional)."""
+        start = as_float(start, "start", allow_none=True)
+        stop = as_float(stop, "stop", allow_none=True)
         sel = np.ones(self.t.shape, dtype=bool)
         if start is not None:
             sel &= self.t >= start - 1e-9 * max(1.0, abs(start))
@@ -313,6 +315,7 @@ class BatchResult:
 
     def detection_rate(self, which: int = 0) -> float:
         """Fraction of runs whose ``which``-th fault (in its list) was detected in its window."""
+        which = as_int(which, "which", minimum=0)
         ev = [e[which] for e in self.events if len(e) > which]
         if not ev:
             raise GeomFDIError(f"which: no run has a fault number {which}", argument="which")
@@ -324,6 +327,7 @@ class BatchResult:
 
     def detection_delays(self, which: int = 0) -> np.ndarray:
         """Detection delays of the ``which``-th fault over the runs that detected it."""
+        which = as_int(which, "which", minimum=0)
         return np.array(
             [e[which].detection_delay for e in self.events if len(e) > which and e[which].detected]
         )

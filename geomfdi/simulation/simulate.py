@@ -99,6 +99,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
+from geomfdi._validation import as_bool
 from geomfdi.evaluation.decision import (
     as_threshold,
     detection_events,
@@ -323,9 +324,10 @@ def _simulate(
     detection_window: float | None = None,
     progress: bool | None = None,
 ) -> SimulationResult:
+    keep_states = as_bool(keep_states, "keep_states")
     plant = as_plant(plant)
     ctx = prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
-    ctx.keep_states = bool(keep_states)
+    ctx.keep_states = keep_states
     sched = fault_schedule(faults, plant)
     x0a = state_vector(x0, plant.n, "x0")
     xc0a = state_vector(xc0, ctx.ctrl.nc, "xc0")

@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from geomfdi._validation import as_positive, as_sequence_of
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError
 from geomfdi.geometry.subspace import Subspace, _norm2, pinv
 from geomfdi.geometry.unobservability import measurement_map, min_unobservability_subspace
@@ -72,6 +73,19 @@ def default_margin(dt: float) -> float:
     (continuous ``λ → −λ̄ − 2·margin``, discrete ``λ → margin² / λ̄``; see ``_place``).
     """
     return 0.5 if dt > 0 else 1.0
+
+
+def checked_margin(margin: Any, dt: float) -> float:
+    """``margin`` validated: finite, > 0, and < 1 for a discrete plant (a radius)."""
+    if margin is None:
+        return default_margin(dt)
+    mg = as_positive(margin, "margin")
+    if dt > 0 and mg >= 1.0:
+        raise GeomFDIError(
+            f"margin: must lie in (0, 1) for a discrete plant (a radius), got {mg}",
+            argument="margin",
+        )
+    return mg
 
 
 def _is_good(lam: complex, dt: float, margin: float, slack: float = 0.0) -> bool:
@@ -107,7 +121,10 @@ def _split_schur(At: np.ndarray, dt: float, margin: float) -> tuple[np.ndarray, 
 
 
 def _check_spectrum(poles: Any, k: int, dt: float, row: str) -> np.ndarray:
-    arr = np.atleast_1d(np.asarray(poles))
+    try:
+        arr = np.atleast_1d(np.asarray(poles))
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise DesignError(f"poles: must be a list of numbers ({exc})", argument="poles") from exc
     if arr.ndim != 1 or arr.size != k:
         raise DesignError(
             f"poles: expected {k} poles for {row} (the order of its quotient observer), got "
@@ -116,8 +133,8 @@ def _check_spectrum(poles: Any, k: int, dt: float, row: str) -> np.ndarray:
         )
     try:
         arr = arr.astype(complex)
-    except (TypeError, ValueError) as exc:
-        raise DesignError(f"poles: must be numbers, got {poles!r}", argument="poles") from exc
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise DesignError(f"poles: must be numbers, got {poles!r:.60}", argument="poles") from exc
     if not np.all(np.isfinite(arr)):
         raise DesignError("poles: must be finite", argument="poles")
     stable = np.abs(arr) < 1 if dt > 0 else arr.real < 0
@@ -476,7 +493,7 @@ def _coerce_faults(faults: Any) -> list[Fault]:
         ) from exc
     if not out:
         raise GeomFDIError("faults: at least one fault is required", argument="faults")
-    return out
+    return as_sequence_of(out, "faults", Fault)
 
 
 def _first_markov(model: DesignModel, c: dict[str, Any], j: int) -> float:

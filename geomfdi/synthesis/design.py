@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
-from geomfdi._validation import as_indices, as_real_array
+from geomfdi._validation import as_bool, as_float, as_indices, as_real_array
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant
@@ -39,7 +39,7 @@ from geomfdi.synthesis.construction import (
     _coerce_plant,
     _NumericalDesignError,
     build_full,
-    default_margin,
+    checked_margin,
 )
 from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, frequency_gains
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
@@ -63,9 +63,9 @@ gain from any fault over frequency (Varga's ``FDGainTol``)."""
 
 
 def _check_method(method: Any) -> str:
-    if method not in METHODS:
+    if not isinstance(method, str) or method not in METHODS:
         raise DesignError(
-            f"method: must be one of {list(METHODS)}, got {method!r}", argument="method"
+            f"method: must be one of {list(METHODS)}, got {method!r:.40}", argument="method"
         )
     return str(method)
 
@@ -260,6 +260,8 @@ def design_residual_generator(
     plant = _coerce_plant(plant)
     faults = _coerce_faults(faults)
     method = _check_method(method)
+    minimal = as_bool(minimal, "minimal")
+    filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
     nf = len(faults)
     tgt = as_indices(target, "target", nf)
     if not tgt:
@@ -271,7 +273,7 @@ def design_residual_generator(
     both = set(tgt) & set(dec)
     if both:
         raise GeomFDIError(f"decouple: faults {sorted(both)} are also targets", argument="decouple")
-    mg = default_margin(plant.dt) if margin is None else float(margin)
+    mg = checked_margin(margin, plant.dt)
     if filter_pole is not None:  # validated by the transform even when unused
         pseudo_actuator_model(plant, faults, "exact", filter_pole=filter_pole)
     sigs = fault_matrices(faults, plant.n, plant.q)
@@ -397,6 +399,8 @@ def design_bank(
     plant = _coerce_plant(plant)
     faults = _coerce_faults(faults)
     method = _check_method(method)
+    minimal = as_bool(minimal, "minimal")
+    filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
     nf = len(faults)
     S = as_real_array(structure, "structure")
     if S.ndim == 1:
@@ -417,7 +421,7 @@ def design_bank(
         tr = "exact" if method == "full" else method
         model = pseudo_actuator_model(plant, faults, tr, filter_pole=filter_pole)
         info.update(design_n=model.n, filter_pole=model.filter_pole, notes=model.notes)
-    mg = default_margin(plant.dt) if margin is None else float(margin)
+    mg = checked_margin(margin, plant.dt)
     rows = req.shape[0]
     per_row = _row_poles(poles, rows)
     factor = PlantFactor(plant)

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
-from geomfdi._validation import as_sequence_of
+from geomfdi._validation import as_choice, as_float, as_sequence_of
 from geomfdi.errors import GeomFDIError
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
@@ -181,13 +181,10 @@ def verify(
     Unlike the paper's check on its pseudo-actuator model, this one uses the measured y,
     so the paper design's transient leakage (Erratum 2) is visible.
     """
-    tol = float(tol) if isinstance(tol, int | float | np.floating) else tol
-    if not isinstance(tol, float) or not np.isfinite(tol) or not 0 < tol < 1:
+    tol = as_float(tol, "tol")
+    if not 0 < tol < 1:
         raise GeomFDIError(f"tol: must be a number in (0, 1), got {tol!r}", argument="tol")
-    if method not in ("points", "krylov"):
-        raise GeomFDIError(
-            f"method: must be 'points' or 'krylov', got {method!r}", argument="method"
-        )
+    method = as_choice(method, "method", ("points", "krylov"))
     if faults is not None:
         faults = as_sequence_of(faults, "faults", Fault)
     plant = as_plant(plant)

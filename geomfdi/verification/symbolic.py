@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._validation import as_int, as_positive, as_sequence_of
 from geomfdi.errors import GeomFDIError
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
@@ -544,8 +545,6 @@ def verify_symbolic(
     """
     import sympy as sp
 
-    from geomfdi._validation import as_int, as_positive
-
     rtol = as_positive(rtol, "rtol")
     if not rtol < 1:
         raise GeomFDIError(f"rtol: must be below 1, got {rtol}", argument="rtol")
@@ -553,6 +552,8 @@ def verify_symbolic(
     if time_limit is not None:
         time_limit = as_positive(time_limit, "time_limit")
     exact_obj = isinstance(bank_or_generator, ExactResidualBank | ExactResidualGenerator)
+    if faults is not None:
+        faults = as_sequence_of(faults, "faults", Fault)
     plant = as_plant(plant, parametric=exact_obj)
     gens, faults, req = _unpack(bank_or_generator, plant, faults)
     N = _check_size(plant, gens, max_order)
