@@ -7,7 +7,7 @@ with :func:`geomfdi.save_png`.  See the user guide, *Theory: residual evaluation
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
