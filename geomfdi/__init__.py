@@ -128,10 +128,9 @@ _register("geomfdi.parity.estimation", "FaultEstimate", "StateEstimate")
 _register("geomfdi.parity.model", "ParityFDI")
 _register("geomfdi.parity.montecarlo", "RocCurve")
 _register("geomfdi.parity.results", "ParityDiagnosis")
-_register("geomfdi.plotting.curves", "plot_detection")
+_register("geomfdi.plotting.curves", "plot_detection", "plot_roc")
 _register("geomfdi.plotting.diagnosability", "plot_isolability")
 _register("geomfdi.plotting.monitoring", "plot_ar_monitor")
-_register("geomfdi.plotting.parity", "plot_roc")
 _register("geomfdi.plotting.residuals", "plot_residuals", "plot_structure", "save_png")
 _register("geomfdi.simulation.batch", "simulate_batch")
 _register("geomfdi.simulation.calibration", "calibrate_threshold")
@@ -310,10 +309,9 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.parity.model import ParityFDI  # noqa: F401
     from geomfdi.parity.montecarlo import RocCurve  # noqa: F401
     from geomfdi.parity.results import ParityDiagnosis  # noqa: F401
-    from geomfdi.plotting.curves import plot_detection  # noqa: F401
+    from geomfdi.plotting.curves import plot_detection, plot_roc  # noqa: F401
     from geomfdi.plotting.diagnosability import plot_isolability  # noqa: F401
     from geomfdi.plotting.monitoring import plot_ar_monitor  # noqa: F401
-    from geomfdi.plotting.parity import plot_roc  # noqa: F401
     from geomfdi.plotting.residuals import plot_residuals, plot_structure, save_png  # noqa: F401
     from geomfdi.simulation.batch import simulate_batch  # noqa: F401
     from geomfdi.simulation.calibration import calibrate_threshold  # noqa: F401

@@ -164,7 +164,12 @@ def test_uncertainty_models():
 
 
 def test_pd_at_size_zero_is_the_false_alarm_rate_and_grows_with_size(seed001):
-    spec, bank = seed001
+    spec, _ = seed001
+    # the full-quotient observer: its residual keeps a sensor-bias step visible longer
+    # than the least-order rows do (both decay in this closed loop), so the largest size
+    # below is detected in every run
+    bank = gf.design_bank(spec.plant, spec.faults, spec.structure, method="full")
+    bank = bank.normalized("markov")
     noise = gf.Noise(measurement=[0.01, 0.02, 0.005], seed=7)
     models = gf.residual_noise_models(spec.plant, bank, noise, step=0.002, controller=spec.K)
     c = gf.Campaign(

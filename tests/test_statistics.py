@@ -19,7 +19,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 @pytest.fixture(scope="module")
 def motor():
     spec = load_model(EXAMPLES / "discrete_disturbance.toml")
-    return spec, design_all(spec)["exact"], gf.Noise(**spec.noise)
+    return spec, design_all(spec)["full"], gf.Noise(**spec.noise)
 
 
 @pytest.fixture(scope="module")

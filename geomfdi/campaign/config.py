@@ -135,7 +135,7 @@ def build_campaign(
     """
     from geomfdi.campaign.runner import Campaign
     from geomfdi.campaign.spec import Scenario, Uncertainty
-    from geomfdi.simulation.simulate import Noise
+    from geomfdi.simulation.noise import Noise
 
     src = spec.source
     method = str(camp.get("method", next(iter(banks))))

@@ -110,7 +110,7 @@ def evaluate_runs(
 
 def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
     """Simulate and evaluate one block (runs in a worker)."""
-    from geomfdi.simulation.simulate import simulate_batch
+    from geomfdi.simulation.batch import simulate_batch
 
     root = job["seed_root"]
     seeds = [
@@ -221,7 +221,7 @@ class Campaign:
         hold: str = "foh",
     ) -> None:
         from geomfdi.model.plant import as_plant
-        from geomfdi.simulation.simulate import Noise
+        from geomfdi.simulation.noise import Noise
 
         self.plant = as_plant(plant)
         self.bank = bank

@@ -31,8 +31,8 @@ class _SensorFaults:
         from geomfdi.simulation.signals import BiasFault, GainFault
 
         if self.kind == "bias":
-            return [BiasFault(self.sensor, onset, size)]
-        return [GainFault(self.sensor, onset, 1.0 + size)]
+            return [BiasFault(self.sensor, start=onset, bias=size)]
+        return [GainFault(self.sensor, start=onset, gain=1.0 + size)]
 
 
 @dataclass

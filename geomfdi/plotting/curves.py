@@ -7,7 +7,7 @@ with :func:`geomfdi.save_png`.  See the user guide, *Theory: residual evaluation
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -24,22 +24,42 @@ def _figure(figsize: tuple[float, float]) -> Any:
 
 
 def plot_roc(
-    curves: Sequence[Any],
+    curves: Any,
     *,
     title: str | None = None,
     log_far: bool = True,
     figsize: tuple[float, float] = (5.5, 4.5),
+    ax: Any = None,
 ) -> Any:
-    """ROC curves (:class:`geomfdi.RocCurve`): ``P_d`` against the false-alarm probability.
+    """ROC curves: ``P_d`` against the false-alarm probability.
 
     Parameters
     ----------
-    curves : sequence of RocCurve
+    curves : sequence of geomfdi.evaluation.roc.RocCurve, or geomfdi.parity.RocCurve
+        Campaign curves (:func:`geomfdi.roc_curve`, one step line each, labelled with its
+        AUC); a parity-space Monte-Carlo curve (:func:`geomfdi.parity.roc_curves`) is drawn
+        by :func:`geomfdi.plotting.parity.plot_roc` (``ax`` is passed on, the other
+        options do not apply).
     title : str, optional
     log_far : bool
         Logarithmic false-alarm axis (rates of 1e-3 .. 1e-1 are the interesting part);
         zero rates are drawn at half the smallest non-zero one.
+    figsize : (float, float)
+    ax : matplotlib Axes, optional
+        Only for a parity-space curve.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
+    if hasattr(curves, "pfa") and isinstance(getattr(curves, "pd", None), Mapping):
+        from geomfdi.plotting.parity import plot_roc as plot_parity_roc
+
+        return plot_parity_roc(curves, ax=ax)
+    if ax is not None:
+        raise GeomFDIError(
+            "ax: only a parity-space ROC curve is drawn on given axes", argument="ax"
+        )
     curves = list(curves)
     if not curves:
         raise GeomFDIError("curves: nothing to plot", argument="curves")
