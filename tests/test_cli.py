@@ -525,6 +525,15 @@ b = [0, 0, 0, 1]
     assert "n = 4 states" in report
     assert "dim S* = n_d = 6 (the design model's dimension: plant n = 4 + 2 output-filter" in report
     assert "n = 6" not in report
+    # the default least-order design makes the two decoupled sensor faults states
+    path.write_text(path.read_text(encoding="utf-8").replace('methods = ["full"]\n', ""))
+    assert cli.main(["design", str(path)]) == 0
+    report = capsys.readouterr().out
+    assert (
+        "dim S* = n_d = 6 (the design model's dimension: plant n = 4 + 2 states of decoupled "
+        "faults on the outputs)" in report
+    )
+    assert "n = 6" not in report
 
 
 def test_long_scenario_name_gives_a_short_file_name(tmp_path: Path) -> None:
