@@ -493,7 +493,11 @@ def test_report_numbers_sensors_from_0(capsys: pytest.CaptureFixture[str]) -> No
 def test_report_gives_plant_n_and_design_dimension_apart(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """Decoupling both sensors of a 4-state plant: dim S* is the design model's 6."""
+    """Decoupling both sensors of a 4-state plant: dim S* is the design model's 6.
+
+    The full-quotient design (exact sensor-fault transform, one output-filter state per
+    sensor) is the one whose design model is larger than the plant.
+    """
     path = tmp_path / "four.toml"
     path.write_text(
         """
@@ -503,6 +507,7 @@ B = [[0], [0], [0], [1]]
 C = [[1, 0, 0, 0], [0, 1, 0, 0]]
 [design]
 structure = [[0, 0, 1]]
+methods = ["full"]
 [[design.faults]]
 type = "sensor"
 sensor = 0
@@ -519,6 +524,15 @@ b = [0, 0, 0, 1]
     report = capsys.readouterr().out
     assert "n = 4 states" in report
     assert "dim S* = n_d = 6 (the design model's dimension: plant n = 4 + 2 output-filter" in report
+    assert "n = 6" not in report
+    # the default least-order design makes the two decoupled sensor faults states
+    path.write_text(path.read_text(encoding="utf-8").replace('methods = ["full"]\n', ""))
+    assert cli.main(["design", str(path)]) == 0
+    report = capsys.readouterr().out
+    assert (
+        "dim S* = n_d = 6 (the design model's dimension: plant n = 4 + 2 states of decoupled "
+        "faults on the outputs)" in report
+    )
     assert "n = 6" not in report
 
 

@@ -36,6 +36,7 @@ from geomfdi.synthesis.least_order import (
     quotient_model,
     realise_on_plant,
 )
+from geomfdi.tolerance import get_rtol
 
 __all__ = ["build_least_order", "ANGLE_TOL", "check_angles"]
 
@@ -65,6 +66,29 @@ def check_angles(
 def _stack(cols: list[np.ndarray], rows: int) -> np.ndarray:
     cols = [c for c in cols if c.size]
     return np.hstack(cols) if cols else np.zeros((rows, 0))
+
+
+def _unread_sensors(
+    sigs: list[tuple[np.ndarray, np.ndarray]], decouple: tuple[int, ...]
+) -> list[int]:
+    """Outputs the row must not read: those carrying a decoupled pure sensor fault.
+
+    A fault with ``Bf = 0`` and ``Df = e_i`` (a fault on sensor ``i`` alone) reaches the
+    generator only through the ``i``-th columns of E and H:
+    ``T(s) = −M (sI − F)⁻¹ E e_i − H e_i``.  For a minimal (observable) row this is
+    identically zero iff ``E e_i = 0`` and ``H e_i = 0``: decoupling it means not reading
+    ``y_i`` at all.
+    """
+    out: list[int] = []
+    for j in decouple:
+        Bf, Df = sigs[j]
+        if Bf.size and np.any(Bf):
+            continue
+        for col in Df.T:
+            nz = np.flatnonzero(col)
+            if nz.size == 1:
+                out.append(int(nz[0]))
+    return sorted(set(out))
 
 
 def _build_once(
@@ -134,6 +158,15 @@ def _build_once(
         size = _norm2(Mm) * _norm2(np.hstack([Em, Gm])) / max(_norm2(Fm), omega, 1e-300)
     if size > 0:
         Em, Gm, Hm, Km = Em / size, Gm / size, Hm / size, Km / size
+    # a decoupled sensor's columns of E and H are zero in exact arithmetic (see
+    # _unread_sensors); what the SVD bases leave there is rounding, set to its exact value.
+    # A column above rounding level is left alone (the leak check below rejects the row).
+    rt = 1e3 * get_rtol(n + C.shape[0])
+    ref = max(_norm2(Em), _norm2(Hm), 1e-300)
+    for i in _unread_sensors(sigs, decouple):
+        if max(np.linalg.norm(Em[:, i]), np.linalg.norm(Hm[:, i])) <= rt * ref:
+            Em[:, i] = 0.0
+            Hm[:, i] = 0.0
     cert = dict(lo.certificate)
     cert["poles"] = lo.poles
     info = {

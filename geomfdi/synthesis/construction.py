@@ -546,7 +546,9 @@ def _existence(
             else:
                 reasons.append(f"fault {j}: L_{j} = 0 (it does not act on the design model)")
         elif S.dim == n:
-            reasons.append(f"fault {j}: dim S* = n = {n}: decoupling the others leaves nothing")
+            reasons.append(
+                f"fault {j}: {design_dims(n, model.n_plant)}: decoupling the others leaves nothing"
+            )
         elif S.contains(Subspace(Lj)):
             reasons.append(
                 f"fault {j}: Im L_{j} ⊆ S* (dim {S.dim}): it is not isolable from faults "
@@ -555,6 +557,23 @@ def _existence(
         else:
             reasons.append("")
     return S, reasons
+
+
+def design_dims(n_design: int, n_plant: int) -> str:
+    """``dim S* = n ...`` with the plant's ``n`` and the design model's dimension apart.
+
+    The exact sensor-fault transform augments the plant with one output-filter state per
+    filtered sensor, so S* may fill a design model larger than the plant:
+    ``"dim S* = n_d = 6 (the design model's dimension: plant n = 4 + 2 output-filter
+    states)"``.
+    """
+    extra = n_design - n_plant
+    if extra == 0:
+        return f"dim S* = n = {n_design} (the plant's state dimension)"
+    return (
+        f"dim S* = n_d = {n_design} (the design model's dimension: plant n = {n_plant} "
+        f"+ {extra} output-filter states)"
+    )
 
 
 def build_full(
@@ -581,7 +600,8 @@ def build_full(
     c = _construct(model, S, poles, margin, row, target)
     if c["H"].shape[0] == 0:
         why = [
-            f"dim S* = n = {model.n} and no parity relation reads the targets: decoupling "
+            f"{design_dims(model.n, model.n_plant)} and no parity relation reads the targets: "
+            "decoupling "
             f"faults {list(decouple)} leaves nothing"
         ]
         raise NotIsolableError(

@@ -50,6 +50,7 @@ from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError
 from geomfdi.geometry import parametric as pm
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
+from geomfdi.synthesis.construction import design_dims
 from geomfdi.synthesis.exact_generator import (
     ExactResidualBank,
     ExactResidualGenerator,
@@ -303,7 +304,7 @@ def _design_row(
         Hpar = _dmz(K, 0, qD)
     if Hobs.shape[0] + Hpar.shape[0] == 0:
         raise NotIsolableError(
-            f"dim S* = n = {nD} and no parity relation reads the targets: decoupling faults "
+            f"{design_dims(nD, n)} and no parity relation reads the targets: decoupling faults "
             f"{list(decouple)} leaves nothing",
             reason="dim S* = n",
         )

@@ -511,7 +511,17 @@ def least_order_row(
     k, rho = Qm.k, Qm.rho
     nt = len(Qm.Bf)
     if rho == 0:
-        raise _Infeasible("no measurement combination is blind to the decoupled signals", {})
+        why = "no measurement combination is blind to the decoupled signals"
+        if k == 0:
+            n_plant, extra = Qm.P.shape[1], Qm.n_aug - Qm.P.shape[1]
+            dims = (
+                f"dim S* = n_d = {Qm.n_aug} (the design model's dimension: plant n = "
+                f"{n_plant} + {extra} states of decoupled faults on the outputs)"
+                if extra
+                else f"dim S* = n = {n_plant} (the plant's state dimension)"
+            )
+            why = f"{dims} and {why}"
+        raise _Infeasible(why, {})
     user = None if poles is None else validate_poles(poles, dt)
     dims, ranks, history = [], [], []
     last_rank = -1
