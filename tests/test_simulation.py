@@ -605,7 +605,6 @@ def test_false_alarm_rate_is_a_method_like_detection_rate():
 
 
 def test_persistence_removes_the_coincidental_isolation_of_three_simultaneous_faults():
-    from geomfdi.io.cli import design_all
     from geomfdi.io.modelfile import load_model
 
     spec = load_model(Path(__file__).parents[1] / "examples" / "seed001.toml")
@@ -631,7 +630,9 @@ def test_persistence_removes_the_coincidental_isolation_of_three_simultaneous_fa
     assert all(ev.detected and not ev.isolated for ev in held.events)
     # the example's own (least-order, Markov-normalised) bank shows the same coincidence,
     # a fault-0 "isolation" shorter than the persistence, and persistence removes it too
-    example = design_all(spec)["exact"]
+    (opt,) = [o for o in spec.methods if o.method == "exact"]
+    example = gf.design_bank(spec.plant, spec.faults, spec.structure, poles=opt.poles)
+    example = example.normalized(opt.normalize)
     raw = gf.simulate(spec.plant, example, spec.t, spec.u, **kw)
     assert all(ev.detection_delay == 0.0 for ev in raw.events)
     assert raw.events[0].outcome == "correct"
