@@ -36,7 +36,7 @@ def record(
     ``t, y0.., u0..`` to ``path``; three samples of sensor 1 are lost by the logger."""
     t = np.arange(0.0, 20.0 + plant.dt / 2, plant.dt)
     u = np.vstack([np.sin(0.5 * t), np.cos(0.3 * t), np.full(t.size, 0.2)])
-    faults = [gf.GainFault(0, ONSET, 1.5, bias=0.02)] if fault else []
+    faults = [gf.GainFault(0, start=ONSET, gain=1.5, bias=0.02)] if fault else []
     res = gf.simulate(
         plant, bank, t, u, controller=K, faults=faults, noise=gf.Noise(measurement=1e-3, seed=seed)
     )

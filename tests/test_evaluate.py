@@ -245,7 +245,7 @@ def test_cli_evaluate_round_trip(tmp_path: Path, dplant: gf.Plant) -> None:
     bank = gf.design_bank(dplant, [gf.SensorFault(i) for i in range(3)], np.eye(3, dtype=bool))
     t = np.arange(0.0, 12.0 + DT / 2, DT)
     u = np.vstack([np.sin(0.5 * t), np.cos(0.3 * t), np.full(t.size, 0.2)])
-    faults = [gf.GainFault(0, 6.0, 1.5, bias=0.02), gf.BiasFault(2, 9.0, 0.1)]
+    faults = [gf.GainFault(0, start=6.0, gain=1.5, bias=0.02), gf.BiasFault(2, start=9.0, bias=0.1)]
     sim = gf.simulate(dplant, bank, t, u, controller=K, faults=faults, threshold=0.05)
     data = tmp_path / "data.csv"
     with data.open("w", newline="") as fh:

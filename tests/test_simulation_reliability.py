@@ -126,7 +126,13 @@ def test_options_are_validated_with_named_errors():
         with pytest.raises(GeomFDIError) as err:
             call()
         assert err.value.argument == arg, (arg, err.value)
-    bad = gf.ResidualGenerator([[np.nan]], [[-1.0]], [[1.0]], [[1.0]], [[1.0]], [[0.0]])
+    # a NaN matrix is refused when the generator is built, naming the matrix ...
+    with pytest.raises(NonFiniteError) as err:
+        gf.ResidualGenerator([[np.nan]], [[-1.0]], [[1.0]], [[1.0]], [[1.0]], [[0.0]])
+    assert err.value.argument == "F"
+    # ... and one that became non-finite afterwards is refused by the simulator
+    bad = gf.ResidualGenerator([[-2.0]], [[-1.0]], [[1.0]], [[1.0]], [[1.0]], [[0.0]])
+    bad.F = np.array([[np.nan]])
     with pytest.raises(NonFiniteError, match="generator 0") as err:
         gf.simulate(plant, bad, t)
     assert err.value.argument == "bank"

@@ -239,8 +239,15 @@ def design_residual_generator(
     >>> g = gf.design_residual_generator(p, faults, 0, method="paper", poles=[-2])
     >>> g.order, round(float(g.F[0, 0]), 12)
     (1, -2.0)
-    >>> gf.design_residual_generator(p, faults, [0, 1, 2]).order   # fault detection
-    0
+
+    Fault detection (every fault a target): C is invertible, so no static parity relation
+    (a row ``h`` with ``h C = 0``) exists and the least order of a scalar residual is 1;
+    the full-quotient observer keeps all three states.
+
+    >>> gf.design_residual_generator(p, faults, [0, 1, 2]).order
+    1
+    >>> gf.design_residual_generator(p, faults, [0, 1, 2], method="full").order
+    3
     """
     # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
     if exact:
