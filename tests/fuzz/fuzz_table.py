@@ -55,7 +55,7 @@ T = np.linspace(0.0, 1.0, 51)
 SIM = gf.simulate(PLANT, BANK, T)
 RES = SIM.residuals
 SUB = gf.image([[1.0], [0.0], [0.0]])
-BATCH = gf.simulate_batch(PLANT, BANK, T, runs=2, faults=[gf.BiasFault(0, 0.5, 1.0)],
+BATCH = gf.simulate_batch(PLANT, BANK, T, runs=2, faults=[gf.BiasFault(0, start=0.5, bias=1.0)],
                           threshold=0.5, progress=False)  # fmt: skip
 H6 = gf.parity.dodecahedron()
 FDI = gf.ParityFDI(H6)
@@ -407,7 +407,7 @@ ENTRIES = [
     Entry(
         "apply_faults",
         gf.apply_faults,
-        dict(faults=[gf.BiasFault(0, 0.5, 1.0)], t=T, y0=SIM.y_healthy),
+        dict(faults=[gf.BiasFault(0, start=0.5, bias=1.0)], t=T, y0=SIM.y_healthy),
         ("faults", "t", "y0"),
         lambda y: finite(y),
     ),
