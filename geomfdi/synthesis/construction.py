@@ -75,6 +75,31 @@ def default_margin(dt: float) -> float:
     return 0.5 if dt > 0 else 1.0
 
 
+def checked_poles(poles: Any) -> Any:
+    """``poles`` (one spectrum) checked up front: ``None``, or a flat list of finite numbers
+    closed under complex conjugation (the spectrum of a real generator).  Returned as given;
+    its count and stability are checked against the row's order where the row is built."""
+    if poles is None:
+        return None
+    try:
+        arr = np.atleast_1d(np.asarray(poles))
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise DesignError(f"poles: must be a list of numbers ({exc})", argument="poles") from exc
+    if arr.ndim != 1 or arr.dtype.kind not in "iufc":
+        raise DesignError(
+            f"poles: must be a flat list of numbers, got {poles!r:.60}", argument="poles"
+        )
+    arr = arr.astype(complex)
+    if not np.all(np.isfinite(arr)):
+        raise DesignError("poles: must be finite", argument="poles")
+    if not np.allclose(np.sort_complex(arr), np.sort_complex(arr.conj())):
+        raise DesignError(
+            "poles: complex poles must come in conjugate pairs (a real generator)",
+            argument="poles",
+        )
+    return poles
+
+
 def checked_margin(margin: Any, dt: float) -> float:
     """``margin`` validated: finite, > 0, and < 1 for a discrete plant (a radius)."""
     if margin is None:

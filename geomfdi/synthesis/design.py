@@ -40,6 +40,7 @@ from geomfdi.synthesis.construction import (
     _NumericalDesignError,
     build_full,
     checked_margin,
+    checked_poles,
 )
 from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, frequency_gains
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
@@ -269,6 +270,7 @@ def design_residual_generator(
     method = _check_method(method)
     minimal = as_bool(minimal, "minimal")
     filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
+    poles = checked_poles(poles)
     nf = len(faults)
     tgt = as_indices(target, "target", nf)
     if not tgt:
@@ -317,8 +319,8 @@ def _row_poles(poles: Any, rows: int) -> list[Any]:
                 f"poles: a per-row list must have {rows} entries, got {len(poles)}",
                 argument="poles",
             )
-        return list(poles)
-    return [poles] * rows
+        return [checked_poles(p) for p in poles]
+    return [checked_poles(poles)] * rows
 
 
 def _joint_order(gens: list[ResidualGenerator | None]) -> int:
