@@ -102,53 +102,6 @@ def simulate_batch(
     shared fault list are vectorised; per-run fault lists are simulated one run at a time
     (the loop dynamics differ between runs).
     """
-    return _simulate_batch(
-        plant=plant,
-        bank=bank,
-        t=t,
-        u=u,
-        runs=runs,
-        faults=faults,
-        x0=x0,
-        noise=noise,
-        seeds=seeds,
-        controller=controller,
-        threshold=threshold,
-        d=d,
-        xc0=xc0,
-        hold=hold,
-        consistent_init=consistent_init,
-        store=store,
-        chunk_size=chunk_size,
-        persistence=persistence,
-        detection_window=detection_window,
-        progress=progress,
-    )
-
-
-def _simulate_batch(
-    plant: Plant,
-    bank: ResidualBank | ResidualGenerator,
-    t: Any,
-    u: Any = None,
-    *,
-    runs: int | None = None,
-    faults: Any = (),
-    x0: Any = None,
-    noise: Noise | None = None,
-    seeds: Sequence[Any] | None = None,
-    controller: Any = None,
-    threshold: Any = None,
-    d: Any = None,
-    xc0: Any = None,
-    hold: str = "foh",
-    consistent_init: bool = True,
-    store: str = "residuals",
-    chunk_size: int | None = None,
-    persistence: Any = None,
-    detection_window: float | None = None,
-    progress: bool | None = None,
-) -> BatchResult:
     store = as_choice(store, "store", ("residuals", "all", "summary"))
     plant = as_plant(plant)
     ctx = prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)

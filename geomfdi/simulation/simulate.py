@@ -283,47 +283,6 @@ def simulate(
     >>> bool(res.max_abs(stop=1.99)[0] < 1e-12), res.events[0].detection_delay
     (True, 0.0)
     """
-    return _simulate(
-        plant=plant,
-        bank=bank,
-        t=t,
-        u=u,
-        faults=faults,
-        x0=x0,
-        noise=noise,
-        controller=controller,
-        threshold=threshold,
-        d=d,
-        xc0=xc0,
-        hold=hold,
-        consistent_init=consistent_init,
-        keep_states=keep_states,
-        persistence=persistence,
-        detection_window=detection_window,
-        progress=progress,
-    )
-
-
-def _simulate(
-    plant: Plant,
-    bank: ResidualBank | ResidualGenerator,
-    t: Any,
-    u: Any = None,
-    *,
-    faults: Sequence[FaultSignal] | FaultSignal = (),
-    x0: Any = None,
-    noise: Noise | None = None,
-    controller: Any = None,
-    threshold: Any = None,
-    d: Any = None,
-    xc0: Any = None,
-    hold: str = "foh",
-    consistent_init: bool = True,
-    keep_states: bool = False,
-    persistence: Any = None,
-    detection_window: float | None = None,
-    progress: bool | None = None,
-) -> SimulationResult:
     keep_states = as_bool(keep_states, "keep_states")
     plant = as_plant(plant)
     ctx = prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
