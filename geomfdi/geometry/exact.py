@@ -30,6 +30,7 @@ import numpy as np
 import sympy as sp
 
 from geomfdi.errors import ComplexInputError, DesignError, GeomFDIError, NonFiniteError, ShapeError
+from geomfdi.geometry.parametric import real_number
 
 __all__ = [
     "to_rational",
@@ -63,17 +64,7 @@ def _rational_entry(x: Any, name: str) -> sp.Rational:
             f"{name}: cannot be read as a matrix (rows of different lengths or nesting too deep)",
             argument=name,
         )
-    if isinstance(x, int | np.integer):
-        return sp.Integer(int(x))
-    if isinstance(x, complex | np.complexfloating):
-        raise ComplexInputError(f"{name}: must be real, got complex entries", argument=name)
-    try:
-        f = float(x)
-    except (TypeError, ValueError) as exc:
-        raise GeomFDIError(f"{name}: entries must be numbers, got {x!r}", argument=name) from exc
-    if not np.isfinite(f):
-        raise NonFiniteError(f"{name}: entries must be finite, got {f}", argument=name)
-    return sp.Rational(repr(f))
+    return real_number(x, name)
 
 
 def to_rational(M: Any, name: str = "M", *, rows: int | None = None) -> sp.Matrix:

@@ -62,6 +62,22 @@ def has_symbols(*values: Any) -> bool:
     return False
 
 
+def real_number(x: Any, name: str) -> sp.Rational:
+    """A Python or numpy real number as an exact rational (binary floats exactly);
+    a named error for complex, non-finite or non-numeric ``x``."""
+    if isinstance(x, int | np.integer):
+        return sp.Integer(int(x))
+    if isinstance(x, complex | np.complexfloating):
+        raise ComplexInputError(f"{name}: must be real, got complex entries", argument=name)
+    try:
+        f = float(x)
+    except (TypeError, ValueError) as exc:
+        raise GeomFDIError(f"{name}: entries must be numbers, got {x!r}", argument=name) from exc
+    if not np.isfinite(f):
+        raise NonFiniteError(f"{name}: entries must be finite, got {f}", argument=name)
+    return sp.Rational(repr(f))
+
+
 def _exact_entry(x: Any, name: str) -> sp.Expr:
     if isinstance(x, sp.Basic):
         if x.is_Float:
@@ -82,17 +98,7 @@ def _exact_entry(x: Any, name: str) -> sp.Expr:
         return sp.sympify(x)
     if isinstance(x, bool | str | bytes) or x is None:
         raise GeomFDIError(f"{name}: entries must be numbers or symbols, got {x!r}", argument=name)
-    if isinstance(x, int | np.integer):
-        return sp.Integer(int(x))
-    if isinstance(x, complex | np.complexfloating):
-        raise ComplexInputError(f"{name}: must be real, got complex entries", argument=name)
-    try:
-        f = float(x)
-    except (TypeError, ValueError) as exc:
-        raise GeomFDIError(f"{name}: entries must be numbers, got {x!r}", argument=name) from exc
-    if not np.isfinite(f):
-        raise NonFiniteError(f"{name}: entries must be finite, got {f}", argument=name)
-    return sp.Rational(repr(f))
+    return real_number(x, name)
 
 
 def as_exact_matrix(
