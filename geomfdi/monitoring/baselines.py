@@ -231,8 +231,7 @@ def _t2_bootstrap(
             pool.append(t2[np.isfinite(t2)])
     except GeomFDIError as exc:  # a non-stationary pooled fit cannot be simulated
         raise GeomFDIError(
-            f"monitor: the pooled AR fit of the training data cannot serve as null model "
-            f"({exc})",
+            f"monitor: the pooled AR fit of the training data cannot serve as null model ({exc})",
             argument="monitor",
         ) from exc
     return np.concatenate(pool)
