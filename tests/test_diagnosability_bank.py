@@ -133,3 +133,38 @@ def test_joint_indices_reflect_information_not_structure(plant, tables):
         gf.bank_structured_isolability(
             gf.design_sensor_bank(plant), plant, measurement_noise=0.01, dt=0.1, structure="x"
         )
+
+
+def test_a_bank_that_reads_the_raw_outputs_has_the_plants_own_indices(plant):
+    # residual r = y (order 0, not blind to the state): the full plant + bank composite
+    # is used; it must equal the window model of the sampled plant with sensor faults
+    from types import SimpleNamespace
+
+    from scipy.linalg import expm
+
+    exact = gf.design_sensor_bank(plant)
+    raw = SimpleNamespace(
+        generators=[
+            SimpleNamespace(
+                F=np.zeros((0, 0)), E=np.zeros((0, 3)), M=np.zeros((3, 0)), H=-np.eye(3), order=0
+            )
+        ],
+        dt=0.0,
+        faults=exact.faults,
+        structure=np.ones((1, 3), dtype=bool),
+    )
+    d = gf.bank_diagnosability(raw, plant, measurement_noise=0.01, dt=0.1, window=12)
+    ref = gf.WindowModel(
+        expm(np.array(A, float) * 0.1),
+        None,
+        C,
+        Bf=np.zeros((3, 3)),
+        Df=np.eye(3),
+        Bw=np.zeros((3, 1)),
+        Qw=0.0,
+        Rv=0.01,
+        window=12,
+    )
+    np.testing.assert_allclose(
+        d.kl.values, gf.diagnosability_table(ref, np.ones(12), "kl").values, rtol=1e-8
+    )

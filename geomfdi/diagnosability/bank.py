@@ -11,7 +11,13 @@ The measurement noise ``v`` reaches both the bank's state and its output, hence 
 process-noise feedthrough ``Dw`` of the :class:`~geomfdi.diagnosability.model.WindowModel`
 built here.  The unknown initial state of plant and bank is projected out over the
 window, exactly as for a plant (Li, Wang & Liu 2015), so the indices measure what the
-residual sequence itself reveals about each fault, leaks included.
+residual sequence itself reveals about each fault, leaks included.  When the bank is
+blind to the plant's state (``F P = P A + E C``, ``M P = H C`` for some ``P``, true of
+every designed bank) the model is written in the error coordinates ``e = w - P x``::
+
+    e' = F e - (P Bf + E Df) f - P Bw w_p - E v,        r = M e - H Df f - H v,
+
+which gives the same indices without the plant's (possibly unstable) unobservable modes.
 
 Continuous-time plant and bank are discretised with a zero-order hold of period ``dt``;
 the noises are then sequences held over each period, with the given covariances per
@@ -32,6 +38,7 @@ from geomfdi.diagnosability.model import WindowModel
 from geomfdi.diagnosability.results import DiagnosabilityTable
 from geomfdi.diagnosability.tables import diagnosability_table
 from geomfdi.errors import DesignError, GeomFDIError
+from geomfdi.tolerance import get_rtol
 
 __all__ = [
     "BankDiagnosability",
@@ -127,6 +134,31 @@ def _zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarra
     return ex[:n, :n], ex[:n, n:]
 
 
+def _error_map(
+    F: np.ndarray, E: np.ndarray, M: np.ndarray, H: np.ndarray, A: np.ndarray, C: np.ndarray
+) -> np.ndarray | None:
+    """``P`` with ``F P = P A + E C`` and ``M P = H C`` (the bank is blind to the state).
+
+    Then ``e = w - P x`` obeys ``e' = F e - (P Bf + E Df) f - P Bw w_p - E v`` and
+    ``r = M e - H Df f - H v``: the composite reduces to the bank's own order and the
+    plant's modes, unobservable from ``r`` (unstable ones included), leave the window
+    model instead of entering its rank decisions at rounding level.  ``None`` when the
+    Sylvester equation is singular (common eigenvalues) or the bank is not blind to the
+    state (relative residual above the tolerance policy's ``rtol``).
+    """
+    if F.shape[0] == 0:
+        P = np.zeros((0, A.shape[0]))
+    else:
+        if np.min(np.abs(np.subtract.outer(np.linalg.eigvals(F), np.linalg.eigvals(A)))) < 1e-8:
+            return None
+        P = sla.solve_sylvester(F, -A, E @ C)
+    rtol = get_rtol(A.shape[0] + F.shape[0])
+    norm = np.linalg.norm
+    sylv = norm(F @ P - P @ A - E @ C) <= rtol * ((norm(F) + norm(A)) * norm(P) + norm(E) * norm(C))
+    blind = norm(M @ P - H @ C) <= rtol * (norm(M) * norm(P) + norm(H) * norm(C))
+    return P if sylv and blind else None
+
+
 def _composite(
     bank: Any,
     plant: Any,
@@ -177,9 +209,6 @@ def _composite(
     )
     Rv = _as_covariance(measurement_noise, "measurement_noise", q)
     nw = Fb.shape[0]
-    Ac = np.block([[P.A, np.zeros((n, nw))], [-Eb @ P.C, Fb]])
-    Bfc = np.vstack([Bf, -Eb @ Df])
-    Dfc = -Hb @ Df
     # a fault the verification found decoupled from every residual used (the achieved
     # structure) does not reach them: drop its rounding-level route (E Df ~ 1e-17), which
     # the minimisation over all profiles of f_j would otherwise amplify into a full
@@ -188,10 +217,20 @@ def _composite(
     achieved = np.asarray(bank.structure, dtype=bool)[rows]
     cols = [k for k, f in enumerate(bank.faults) for _ in range(f.k)]
     blind = np.array([not achieved[:, k].any() for k in cols])
+    Pe = _error_map(Fb, Eb, Mb, Hb, P.A, P.C)
+    if Pe is not None:  # error coordinates e = w - Pe x: the plant's states drop out
+        Ac = Fb
+        Bfc = -(Pe @ Bf) - Eb @ Df
+        Bec = np.hstack([-(Pe @ Bw), -Eb])
+        Cc = Mb
+    else:
+        Ac = np.block([[P.A, np.zeros((n, nw))], [-Eb @ P.C, Fb]])
+        Bfc = np.vstack([Bf, -Eb @ Df])
+        Bec = np.block([[Bw, np.zeros((n, q))], [np.zeros((nw, l)), -Eb]])
+        Cc = np.hstack([-Hb @ P.C, Mb])
+    Dfc = -Hb @ Df
     Bfc[:, blind] = 0.0
     Dfc[:, blind] = 0.0
-    Bec = np.block([[Bw, np.zeros((n, q))], [np.zeros((nw, l)), -Eb]])
-    Cc = np.hstack([-Hb @ P.C, Mb])
     Dec = np.hstack([np.zeros((Hb.shape[0], l)), -Hb])
     if P.dt == 0.0:
         if dt is None:
