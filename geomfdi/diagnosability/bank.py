@@ -448,7 +448,7 @@ def bank_structured_isolability(
         a structured decision logic assumes -- a leak then shows as ``fi < fd``.
         ``"achieved"``: the structure verified on the physical model (``bank.structure``)
         -- the leaking pairs then have no dedicated residual and ``fi = 0``.
-    Other parameters
+    bank, plant, measurement_noise, process_noise, process_input, window, dt, theta
         As for :func:`bank_diagnosability` (indices per unit step fault by default).
 
     Returns

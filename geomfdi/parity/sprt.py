@@ -30,6 +30,7 @@ guide, *Theory: parity space* (``docs/theory/parity-space.md``).
 from __future__ import annotations
 
 import math
+from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -112,6 +113,7 @@ def sprt_run(
     return stat, stat >= upper, best
 
 
+@dataclass(frozen=True)
 class SprtCalibration:
     """Threshold ``A`` of the repeated SPRT for a per-epoch false-alarm rate.
 
@@ -134,14 +136,16 @@ class SprtCalibration:
         hypotheses (a guide: overshoot and correlation are ignored).
     """
 
-    def __init__(self, upper, lower, rate, rate_se, n_epochs, wald_rate) -> None:  # noqa: ANN001
-        self.upper, self.lower = float(upper), float(lower)
-        self.rate, self.rate_se = float(rate), float(rate_se)
-        self.n_epochs, self.wald_rate = int(n_epochs), float(wald_rate)
+    upper: float
+    lower: float
+    rate: float
+    rate_se: float
+    n_epochs: int
+    wald_rate: float
 
     def as_dict(self) -> dict:
         """The fields as a dict (for :attr:`ParityDiagnosis.info`)."""
-        return dict(vars(self))
+        return asdict(self)
 
     def __repr__(self) -> str:
         return (
@@ -246,7 +250,7 @@ def calibrate_sprt(
     r = tried[best]
     lower = _lower_for(best, beta)
     return SprtCalibration(
-        best, lower, r, math.sqrt(max(r, 1.0 / total) / total), total, wald(best)
+        float(best), lower, float(r), math.sqrt(max(r, 1.0 / total) / total), total, wald(best)
     )
 
 
