@@ -46,7 +46,12 @@ _register("geomfdi.deployment.monitor", "Monitor")
 _register("geomfdi.deployment.persistence", "load_bank", "load_monitor")
 _register("geomfdi.deployment.recorded", "evaluate")
 _register(
-    "geomfdi.diagnosability.bank", "BankDiagnosability", "bank_diagnosability", "bank_window_sweep"
+    "geomfdi.diagnosability.bank",
+    "BankDiagnosability",
+    "StructuredIsolability",
+    "bank_diagnosability",
+    "bank_structured_isolability",
+    "bank_window_sweep",
 )
 _register("geomfdi.diagnosability.model", "WindowModel")
 _register(
@@ -238,11 +243,13 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.deployment.monitor import Monitor  # noqa: F401
     from geomfdi.deployment.persistence import load_bank, load_monitor  # noqa: F401
     from geomfdi.deployment.recorded import evaluate  # noqa: F401
-    from geomfdi.diagnosability.bank import (
+    from geomfdi.diagnosability.bank import (  # noqa: F401
         BankDiagnosability,
+        StructuredIsolability,
         bank_diagnosability,
+        bank_structured_isolability,
         bank_window_sweep,
-    )  # noqa: F401
+    )
     from geomfdi.diagnosability.model import WindowModel  # noqa: F401
     from geomfdi.diagnosability.results import (
         ApplicabilityReport,
