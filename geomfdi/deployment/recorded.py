@@ -25,6 +25,7 @@ See the user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -192,7 +193,10 @@ def alarm_episodes(t: np.ndarray, alarms: np.ndarray, isolated: np.ndarray) -> l
     if starts.size == 0:
         return []
     # rows alarming in each episode: OR over [start_i, start_{i+1}) (zeros between episodes)
-    rows = np.logical_or.reduceat(alarms, starts, axis=1).T.tolist()
+    ep, row = np.nonzero(np.logical_or.reduceat(alarms, starts, axis=1).T)
+    cuts = np.searchsorted(ep, np.arange(starts.size + 1)).tolist()
+    row_list = row.tolist()
+    rows = [tuple(row_list[cuts[i] : cuts[i + 1]]) for i in range(starts.size)]
     hits = np.flatnonzero(isolated >= 0)
     first = np.searchsorted(hits, starts)
     first_k = hits[np.minimum(first, max(hits.size - 1, 0))] if hits.size else starts
@@ -203,7 +207,7 @@ def alarm_episodes(t: np.ndarray, alarms: np.ndarray, isolated: np.ndarray) -> l
         AlarmEpisode(
             ts[i],
             te[i],
-            tuple(r for r, b in enumerate(rows[i]) if b),
+            rows[i],
             int(faults[i]) if found[i] else None,
             tk[i] if found[i] else None,
         )
@@ -237,6 +241,7 @@ class EvaluationResult:
         Detection/isolation of the fault signals passed as ``faults`` (as in
         :func:`geomfdi.simulate`); empty otherwise.
     episodes : list of AlarmEpisode
+        The alarm episodes (:func:`alarm_episodes`), built on first access.
     threshold : Threshold or None
     persistence : Persistence
     structure : ndarray of bool
@@ -256,13 +261,16 @@ class EvaluationResult:
     candidates: np.ndarray
     suspects: np.ndarray
     events: list[FaultEvent]
-    episodes: list[AlarmEpisode]
     threshold: Threshold | None
     persistence: Persistence
     structure: np.ndarray
     fault_labels: list[str]
     residual_labels: list[str]
     info: dict[str, Any] = field(default_factory=dict)
+
+    @functools.cached_property
+    def episodes(self) -> list[AlarmEpisode]:
+        return alarm_episodes(self.t, self.alarms, self.isolated)
 
     @property
     def first_alarm(self) -> float | None:
@@ -443,7 +451,6 @@ def evaluate(
         candidates=iso.candidates,
         suspects=iso.suspects,
         events=events,
-        episodes=alarm_episodes(t, alarms, iso.isolated),
         threshold=thr,
         persistence=pers,
         structure=program.structure,
