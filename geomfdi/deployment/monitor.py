@@ -21,7 +21,7 @@ from geomfdi.deployment.online import (
     MonitorOutput,
     MonitorState,
     MonitorStep,
-    feed_chunk,
+    make_feed,
     make_step,
 )
 from geomfdi.deployment.program import Program, as_bank, build_program, check_initial, restart_rule
@@ -84,7 +84,7 @@ class Monitor:
     def reset(self) -> None:
         """Back to the state before the first sample."""
         self._state = MonitorState(self.program, self.persistence, self.initial)
-        self._step = make_step(
+        args = (
             self.program,
             self._state,
             self.thresholds,
@@ -92,6 +92,8 @@ class Monitor:
             self.isolation,
             self._restart,
         )
+        self._step = make_step(*args)
+        self._feed = make_feed(*args)
 
     def step(self, y: Any, u: Any = None) -> MonitorStep:
         """One sample ``y`` (q,), ``u`` (m,): residual per bank row, confirmed alarms and
@@ -101,16 +103,7 @@ class Monitor:
 
     def feed(self, Y: Any, U: Any = None) -> MonitorOutput:
         """A chunk of samples ``Y`` (q, L), ``U`` (m, L), without a per-sample loop."""
-        return feed_chunk(
-            self.program,
-            self._state,
-            Y,
-            U,
-            self.thresholds,
-            self.persistence,
-            self.isolation,
-            self._restart,
-        )
+        return self._feed(Y, U)
 
     @property
     def state(self) -> dict[str, Any]:
