@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi.deployment.decide import as_persistence, threshold_values
 from geomfdi.deployment.online import (
     MonitorOutput,
@@ -58,6 +59,7 @@ class Monitor:
     [False, False, False, True, False]
     """
 
+    @limit_blas_threads
     def __init__(
         self,
         bank: Any,
@@ -101,8 +103,13 @@ class Monitor:
         no alarm, and restarts the generators at the next valid sample."""
         return self._step(y, u)
 
+    @limit_blas_threads
     def feed(self, Y: Any, U: Any = None) -> MonitorOutput:
-        """A chunk of samples ``Y`` (q, L), ``U`` (m, L), without a per-sample loop."""
+        """A chunk of samples ``Y`` (q, L), ``U`` (m, L), without a per-sample loop.
+
+        Like the other entry points of geomfdi it runs with the BLAS limited to
+        :func:`geomfdi.get_blas_threads` threads (one by default): its products are small.
+        """
         return self._feed(Y, U)
 
     @property

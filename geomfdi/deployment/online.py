@@ -27,10 +27,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from geomfdi.deployment.decide import Persistence, confirm, decision_code
+from geomfdi.deployment.decide import PatternTable, Persistence, confirm, decision_code
 from geomfdi.deployment.program import Program, initial_state, run_program
 from geomfdi.errors import ShapeError
-from geomfdi.evaluation.decision import AMBIGUOUS, NO_ALARM, UNEXPLAINED, isolate
+from geomfdi.evaluation.decision import isolate
 
 __all__ = ["MonitorStep", "MonitorOutput", "MonitorState", "make_step", "make_feed"]
 
@@ -264,9 +264,8 @@ def make_feed(
     :func:`~geomfdi.deployment.program.run_program`, then the threshold, the k-of-n
     rule over the ring of the previous raw alarms and the isolation decision, and
     leaves the same state behind as ``L`` calls of the step would.  The isolation
-    decision of a confirmed alarm pattern is looked up by its bit code among the codes
-    of the structure's columns (the rules of :func:`geomfdi.isolate`: no alarm, one
-    equal column, several, none).
+    decision of a confirmed alarm pattern is looked up by its bit code
+    (:class:`~geomfdi.deployment.decide.PatternTable`).
     """
     q, m, nz = program.q, program.m, program.nz
     rows = program.n_rows
@@ -274,23 +273,12 @@ def make_feed(
     thr = None if thresholds is None else thresholds[:, None]
     scalar = program.scalar_rows
     structure = program.structure
-    bits = np.left_shift(1, np.arange(rows, dtype=np.int64)) if rows <= 62 else None
-    if bits is not None:  # the decision of every structure column's pattern, by code
-        col_codes = bits @ structure.astype(np.int64)
-        known, first, count = np.unique(col_codes, return_index=True, return_counts=True)
-        known_dec = np.where(count > 1, AMBIGUOUS, first).astype(np.int64)
+    table = PatternTable.of(structure) if rows <= PatternTable.MAX_ROWS else None
 
     def decisions(alarms: np.ndarray) -> np.ndarray:
-        if bits is None:  # too many rows for a bit code
+        if table is None:  # too many rows for a bit code
             return isolate(alarms, structure).isolated
-        codes = bits @ alarms
-        if known.size == 0:
-            out = np.full(codes.shape, UNEXPLAINED, dtype=np.int64)
-        else:
-            at = np.minimum(np.searchsorted(known, codes), known.size - 1)
-            out = np.where(known[at] == codes, known_dec[at], UNEXPLAINED)
-        out[codes == 0] = NO_ALARM
-        return out
+        return table.decide(alarms)
 
     def feed(Y: Any, U: Any = None) -> MonitorOutput:
         Y = _chunk(Y, q, "Y")

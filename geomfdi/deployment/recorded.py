@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_positive, as_real_array
 from geomfdi.deployment.decide import Persistence, as_persistence, confirm
 from geomfdi.deployment.program import (
@@ -322,6 +323,7 @@ def decide(
     return raw, confirm(raw, persistence, history)
 
 
+@limit_blas_threads
 def evaluate(
     bank: Any,
     y: Any,
@@ -381,8 +383,9 @@ def evaluate(
     Recursion ``xi[k+1] = A xi[k] + B z[k]``, ``c[k] = C xi[k] + D z[k]`` with
     ``z = [y; u]`` (:mod:`geomfdi.deployment.program`), solved over the whole record by
     the loop-free LTI core; decisions ``|r_i| > threshold_i``, k-of-n persistence and
-    isolation on the achieved structure (:mod:`geomfdi.deployment.decide`).  See the
-    user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
+    isolation on the achieved structure (:mod:`geomfdi.deployment.decide`).  Runs with
+    the BLAS limited to :func:`geomfdi.get_blas_threads` threads (one by default).  See
+    the user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
 
     Examples
     --------
