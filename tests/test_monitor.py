@@ -214,3 +214,15 @@ def test_pattern_table_decides_like_isolate() -> None:
         assert {-1, -2}.issubset(set(got.tolist())) or rows == 1
         if nf > 2 and S[:, 1].any():
             assert -3 in got
+
+
+@pytest.mark.parametrize("k, n", [(1, 2), (2, 3), (5, 16), (3, 17), (20, 40)])
+def test_confirm_is_the_k_of_n_count(k: int, n: int) -> None:
+    from geomfdi.deployment.decide import Persistence, confirm
+
+    rng = np.random.default_rng(n)
+    raw = rng.random((4, 120)) < 0.6
+    hist = rng.random((4, n - 1)) < 0.6
+    ext = np.hstack([hist, raw]).astype(int)
+    want = np.array([[ext[r, j : j + n].sum() >= k for j in range(120)] for r in range(4)])
+    np.testing.assert_array_equal(confirm(raw, Persistence(k, n), hist), want)

@@ -108,15 +108,26 @@ def threshold_values(threshold: Any, n_rows: int, present: list[int]) -> np.ndar
     return values
 
 
+_SHIFTED_SUMS = 16  # longest window summed by shifted byte additions (counts <= 16)
+
+
 def confirm(raw: np.ndarray, persistence: Persistence, history: np.ndarray) -> np.ndarray:
     """Confirmed alarms of ``raw`` (``(R, L)`` bool) under k-of-n persistence.
 
     ``history`` (``(R, n-1)``, oldest first) holds the raw alarms of the ``n - 1``
-    samples before ``raw``.  Exact integer moving sums.
+    samples before ``raw``.  Exact integer moving sums: ``n`` shifted byte sums for a
+    short window, differences of a cumulative sum for a long one.
     """
     k, n = persistence.k, persistence.n
     if n == 1:
         return raw.copy()
+    if n <= _SHIFTED_SUMS:
+        L = raw.shape[1]
+        ext = np.concatenate([history, raw], axis=1).astype(bool, copy=False).view(np.uint8)
+        counts = ext[:, n - 1 :].copy()
+        for j in range(1, n):
+            counts += ext[:, n - 1 - j : n - 1 - j + L]
+        return counts >= k
     ext = np.concatenate([history.astype(np.int64), raw.astype(np.int64)], axis=1)
     cs = np.zeros((ext.shape[0], ext.shape[1] + 1), dtype=np.int64)
     np.cumsum(ext, axis=1, out=cs[:, 1:])

@@ -354,8 +354,10 @@ def run_program(
         Set when the record ends on missing samples (or was empty and still pending).
     """
     L = Z.shape[1]
-    valid = np.isfinite(Z).all(axis=0)
-    every = bool(valid.all())
+    # a finite sum proves every entry finite (cheap); otherwise the exact per-sample test
+    every = bool(np.isfinite(Z.sum()))
+    valid = np.ones(L, dtype=bool) if every else np.isfinite(Z).all(axis=0)
+    every = every or bool(valid.all())
     comp = np.empty((program.nc, L)) if every else np.full((program.nc, L), np.nan)
     if L == 0:
         return comp, valid, xi, pending

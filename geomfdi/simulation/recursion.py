@@ -125,7 +125,7 @@ def triangular_recursion(
 
 _LIFT_LFILTER = 150.0  # one lfilter sample, in multiply-adds of a matrix product
 _MAX_LIFT = 32
-_BAND_BLOCKS = 256  # up to this many blocks the block-start recursion is one band solve
+_SCAN_BLOCKS = 384  # up to this many blocks the block-start recursion is a doubling scan
 _CHUNK_DOUBLES = 2**16  # output values per product (cache-sized)
 
 
@@ -164,9 +164,8 @@ class LiftedMaps:
         Rows ``i nc + o``: ``(C Z T^i)[o]``, the effect of the block-start state.
     stops : ndarray of int (n,) or None
         Block structure of ``T`` (see :func:`triangular_recursion`).
-    band : tuple of (int, int, ndarray)
-        Per diagonal block of ``T`` (first state, size ``nk``): the entries of ``-T^M``
-        in the band storage of :func:`_band_recursion` (``(kd + 1, nk)``).
+    doubling : tuple of ndarray
+        ``T^(M 2^k)`` for the recursive doubling of :func:`_scan_recursion`.
     """
 
     M: int
@@ -175,12 +174,7 @@ class LiftedMaps:
     Gam: np.ndarray
     Psi: np.ndarray
     stops: np.ndarray | None
-    band: tuple[tuple[int, int, np.ndarray], ...] = ()
-
-    @property
-    def kd(self) -> int:
-        """Sub-diagonals of the band system of :func:`_band_recursion`."""
-        return max((2 * nk - 1 for _, nk, _ in self.band), default=0)
+    doubling: tuple[np.ndarray, ...] = ()
 
     @property
     def complex_states(self) -> bool:
@@ -221,48 +215,27 @@ def lifted_maps(
     Gam[np.arange(M), :, np.arange(M), :] = D
     CZ = C @ Z
     Psi = np.concatenate([CZ @ powers[i] for i in range(M)], axis=0)
-    band = []
-    TM = powers[M]
-    i = 0
-    while i < n:  # the diagonal blocks of T (and of T^M)
-        e = n if stops is None else int(stops[i])
-        nk = e - i
-        P = np.zeros((2 * nk, nk), dtype=TM.dtype)
-        for p in range(nk):  # row (b+1, p), column (b, q): sub-diagonal nk + p - q
-            P[nk + p - np.arange(nk), np.arange(nk)] = -TM[i + p, i : i + nk]
-        band.append((i, nk, P))
-        i = e
-    return LiftedMaps(M, powers, Hz, Gam.reshape(M * nc, M * nz), Psi, stops, tuple(band))
+    doubling = [powers[M]]
+    while 1 << len(doubling) <= _SCAN_BLOCKS:
+        doubling.append(doubling[-1] @ doubling[-1])
+    return LiftedMaps(M, powers, Hz, Gam.reshape(M * nc, M * nz), Psi, stops, tuple(doubling))
 
 
-def _band_recursion(maps: LiftedMaps, E: np.ndarray) -> np.ndarray:
-    """Solve ``S[b+1] = T^M S[b] + E[b+1]`` with ``S[0] = E[0]`` (``E``: ``(nb + 1, n)``)
-    as one unit lower triangular band system (LAPACK ``tbtrs``, forward substitution).
+def _scan_recursion(maps: LiftedMaps, E: np.ndarray) -> np.ndarray:
+    """Solve ``S[b] = T^M S[b-1] + E[b]`` with ``S[0] = E[0]`` (``E``: ``(nb + 1, n)``) by
+    recursive doubling, in place.
 
-    Unknowns are ordered by diagonal block of ``T``, then block index ``b``, then state,
-    so block ``k`` (``nk`` states) couples ``S[b+1]`` to ``S[b]`` within ``2 nk - 1``
-    sub-diagonals.
+    After round ``k`` row ``b`` holds ``sum_{b - 2^(k+1) < j <= b} T^(M (b-j)) E[j]``:
+    ``ceil(log2(nb + 1))`` products with the precomputed ``T^(M 2^k)`` (the scan of
+    Hillis & Steele, CACM 1986), no loop over the blocks.
     """
-    from scipy.linalg import lapack
-
-    nb1, n = E.shape
-    kd = maps.kd
-    AB = np.zeros((kd + 1, nb1 * n), dtype=E.dtype)
-    rhs = np.empty((nb1 * n, 1), dtype=E.dtype)
-    for i, nk, P in maps.band:
-        base = i * nb1
-        AB[1 : 2 * nk, base : base + (nb1 - 1) * nk].reshape(2 * nk - 1, nb1 - 1, nk)[...] = P[
-            1:, None, :
-        ]
-        rhs[base : base + nb1 * nk, 0].reshape(nb1, nk)[...] = E[:, i : i + nk]
-    solve = lapack.ztbtrs if np.iscomplexobj(AB) else lapack.dtbtrs
-    x, info = solve(AB, rhs, uplo="L", diag="U", overwrite_b=1)
-    if info != 0:  # pragma: no cover - a unit triangular system is never singular
-        raise np.linalg.LinAlgError(f"band recursion: LAPACK tbtrs returned {info}")
-    S = np.empty_like(E)
-    for i, nk, _ in maps.band:
-        S[:, i : i + nk] = x[i * nb1 : (i + nk) * nb1, 0].reshape(nb1, nk)
-    return S
+    nb1 = E.shape[0]
+    for k, P in enumerate(maps.doubling):
+        d = 1 << k
+        if d >= nb1:
+            break
+        E[d:] += E[: nb1 - d] @ P.T
+    return E
 
 
 def _real_rows(S: np.ndarray, Psi: np.ndarray) -> np.ndarray:
@@ -295,8 +268,8 @@ def lifted_recursion(
     Notes
     -----
     On blocks of ``M`` samples (``zeta_b``: the block's samples, flattened) the
-    block-start states obey ``s[(b+1) M] = T^M s[b M] + Hz zeta_b``: one band solve for
-    few blocks (:func:`_band_recursion`), else :func:`recursion_inplace` (one
+    block-start states obey ``s[(b+1) M] = T^M s[b M] + Hz zeta_b``: a doubling scan for
+    few blocks (:func:`_scan_recursion`), else :func:`recursion_inplace` (one
     ``lfilter`` per state over the blocks).  The outputs of a block are
     ``Gam zeta_b + Re(Psi s[b M])``, one product for many blocks at once.  The last
     ``L mod M`` samples form a partial block (the leading rows and columns of the same
@@ -312,11 +285,11 @@ def lifted_recursion(
     s = np.asarray(s0, dtype=maps.Hz.dtype)
     if nb:
         Zl = Zt[: nb * M].reshape(nb, M * nz)
-        if nb <= _BAND_BLOCKS:
+        if nb <= _SCAN_BLOCKS:
             E = np.empty((nb + 1, n), dtype=maps.Hz.dtype)
             E[0] = s
             E[1:] = matrix_product(maps.Hz, Zl.T).T
-            S = _band_recursion(maps, E)
+            S = _scan_recursion(maps, E)
             states = S[:nb]
             s = S[nb].copy()
         else:
