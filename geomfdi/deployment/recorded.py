@@ -425,8 +425,10 @@ def evaluate(
     program = build_program(bank, None if bank.dt > 0 else step)
     initial = check_initial(initial, program)
     restart = restart_rule(program, initial)
-    Z = np.vstack([y, u])
-    comp, valid, xi, _ = run_program(program, Z, np.zeros(program.nw), initial, restart)
+    Zt = np.empty((N, program.nz))  # sample-major: the layout of the lifted recursion
+    Zt[:, : program.q] = y.T
+    Zt[:, program.q :] = u.T
+    comp, valid, xi, _ = run_program(program, Zt.T, np.zeros(program.nw), initial, restart)
     residuals = program.row_values(comp)
     residuals[:, ~valid] = np.nan
     thr = as_threshold(threshold, program.n_rows, program.present)

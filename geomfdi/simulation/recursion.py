@@ -7,6 +7,12 @@ recursion over the whole time axis evaluated by one compiled :func:`scipy.signal
 call (over every Monte-Carlo run at once).  When ``Ad`` has a well-conditioned
 eigenvector basis (condition number <= 100) the modal form is used instead and the
 scalar recursions are uncoupled.
+
+:func:`lifted_recursion` runs a state-space system with outputs on blocks of ``M``
+samples in these coordinates: the block-start states by the back-substitution above
+(or, for few blocks, by recursive doubling), the outputs of all blocks by matrix
+products with precomputed :class:`LiftedMaps`, so that the ``lfilter`` calls run over
+``N / M`` samples only.
 """
 
 from __future__ import annotations
