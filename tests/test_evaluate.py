@@ -355,15 +355,24 @@ def _odd_bank() -> gf.ResidualBank:
     return gf.ResidualBank(gens, S, S, np.ones(4, bool), ["ok"] * 4, [], DT)
 
 
-def test_lifted_recursion_equals_the_sample_loop() -> None:
+@pytest.mark.parametrize("lift", [None, 1, 4])
+def test_lifted_recursion_equals_the_sample_loop(lift: int | None) -> None:
+    import dataclasses
+
     from geomfdi.deployment.program import build_program, run_program
+    from geomfdi.simulation.recursion import lifted_maps
 
     program = build_program(_odd_bank())
     lifted = program.lifted
     assert np.iscomplexobj(lifted.Hz) and lifted.M > 1
+    if lift is not None:  # the same system on blocks of another length
+        T, Zu = lifted.powers[1], program.basis
+        maps = lifted_maps(program.A, program.B, program.C, program.D, T, Zu, lift, lifted.stops)
+        program = dataclasses.replace(program, lifted=maps)
+    M = program.lifted.M
     rng = np.random.default_rng(6)
-    # one partial block, a few blocks (doubling scan), many blocks (lfilter), remainders
-    for L in (1, lifted.M - 1, 7 * lifted.M + 3, 400 * lifted.M + lifted.M - 1):
+    # one partial block, whole blocks, a few blocks (doubling scan), many blocks (lfilter)
+    for L in (1, M - 1 or 1, 3 * M, 7 * M + 3, 400 * M + M - 1):
         Z = rng.normal(size=(program.nz, L))
         xi0 = rng.normal(size=program.nw)
         comp, valid, xi, _ = run_program(program, Z, xi0, None, "steady")
