@@ -63,7 +63,7 @@ _register(
     "residual_noise_model",
     "residual_noise_models",
 )
-_register("geomfdi.evaluation.decision", "FaultEvent", "Threshold", "isolate")
+_register("geomfdi.evaluation.decision", "FaultEvent", "Threshold", "isolate", "fault_hypotheses")
 _register("geomfdi.evaluation.metrics", "DetectionMetrics")
 _register("geomfdi.evaluation.persistence", "Persistence")
 _register("geomfdi.evaluation.roc", "roc_curve", "wilson_interval")
@@ -256,7 +256,12 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         residual_noise_model,
         residual_noise_models,
     )  # noqa: F401
-    from geomfdi.evaluation.decision import FaultEvent, Threshold, isolate  # noqa: F401
+    from geomfdi.evaluation.decision import (  # noqa: F401
+        FaultEvent,
+        Threshold,
+        fault_hypotheses,
+        isolate,
+    )
     from geomfdi.evaluation.metrics import DetectionMetrics  # noqa: F401
     from geomfdi.evaluation.persistence import Persistence  # noqa: F401
     from geomfdi.evaluation.roc import roc_curve, wilson_interval  # noqa: F401

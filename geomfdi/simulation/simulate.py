@@ -253,8 +253,8 @@ def simulate(
         memory (always kept under output feedback, where they come for free).
     persistence : None, int, (k, n) or Persistence
         Alarms and isolation decisions only when they hold ``k`` of ``n`` samples
-        (an int ``n``: a minimum duration of ``n`` samples); see
-        :class:`geomfdi.Persistence`.
+        (an int ``n``: a minimum duration of ``n`` samples), isolation from the alarm
+        pattern held over the alarm episode; see :class:`geomfdi.Persistence`.
     detection_window : float, optional
         Seconds after each onset within which an alarm counts as a detection (and a
         decision as an isolation); ``None``: to the end of the run.  An alarm before the
@@ -299,7 +299,9 @@ def simulate(
     res = residual_rows(ctx, raw)[0]
     alarms, iso = decisions(res, thr, view.structure, rule)
     cols = structure_columns(sched.faults, view.design_faults, plant)
-    events = detection_events(ctx.t, alarms, iso.isolated, sched.faults, cols, window=window)
+    events = detection_events(
+        ctx.t, alarms, iso.isolated, sched.faults, cols, window=window, suspects=iso.suspects
+    )
     first = lambda a: None if a is None else a[0]  # noqa: E731
     return SimulationResult(
         t=ctx.t,
