@@ -128,7 +128,7 @@ _register("geomfdi.parity.estimation", "FaultEstimate", "StateEstimate")
 _register("geomfdi.parity.model", "ParityFDI")
 _register("geomfdi.parity.montecarlo", "RocCurve")
 _register("geomfdi.parity.results", "ParityDiagnosis")
-_register("geomfdi.plotting.curves", "plot_detection", "plot_roc")
+_register("geomfdi.plotting.curves", "plot_confusion", "plot_detection", "plot_roc")
 _register("geomfdi.plotting.diagnosability", "plot_isolability")
 _register("geomfdi.plotting.monitoring", "plot_ar_monitor")
 _register("geomfdi.plotting.residuals", "plot_residuals", "plot_structure", "save_png")
@@ -314,7 +314,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.parity.model import ParityFDI  # noqa: F401
     from geomfdi.parity.montecarlo import RocCurve  # noqa: F401
     from geomfdi.parity.results import ParityDiagnosis  # noqa: F401
-    from geomfdi.plotting.curves import plot_detection, plot_roc  # noqa: F401
+    from geomfdi.plotting.curves import plot_confusion, plot_detection, plot_roc  # noqa: F401
     from geomfdi.plotting.diagnosability import plot_isolability  # noqa: F401
     from geomfdi.plotting.monitoring import plot_ar_monitor  # noqa: F401
     from geomfdi.plotting.residuals import plot_residuals, plot_structure, save_png  # noqa: F401
