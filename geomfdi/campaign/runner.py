@@ -179,14 +179,43 @@ def isolate_runs(
     }
 
 
-def _truth(faults: list[Any], size: float, design: Any, plant: Any) -> tuple[int, frozenset[int]]:
-    """True structure column of a run: index, MULTIPLE, -1 (no fault) or -2 (unknown)."""
+def _fault_key(f: Any) -> Any:
+    """The channel that decides a fault signal's structure column (None: not known)."""
+    from geomfdi.simulation.input_faults import AdditiveFault
+    from geomfdi.simulation.signals import SensorFaultSignal
+
+    if isinstance(f, SensorFaultSignal):
+        return ("sensor", f.sensor)
+    if isinstance(f, AdditiveFault):
+        return ("fault", id(f.fault))
+    if hasattr(f, "actuator"):
+        return ("actuator", f.actuator)
+    return None
+
+
+def _truth(
+    faults: list[Any], size: float, design: Any, plant: Any, cache: dict[Any, Any]
+) -> tuple[int, frozenset[int]]:
+    """True structure column of a run: index, MULTIPLE, -1 (no fault) or -2 (unknown).
+
+    ``cache`` keeps the column of each fault channel met (the signature match takes SVDs
+    and a campaign meets the same few channels in every run).
+    """
     from geomfdi.evaluation.decision import MULTIPLE
     from geomfdi.simulation.schedule import structure_columns
 
     if size == 0 or not faults:
         return -1, frozenset()
-    cols = structure_columns(faults, design, plant)
+    cols = []
+    for f in faults:
+        key = _fault_key(f)
+        if key is not None and key in cache:
+            cols.append(cache[key])
+            continue
+        (col,) = structure_columns([f], design, plant)
+        if key is not None:
+            cache[key] = col
+        cols.append(col)
     if any(c is None for c in cols):
         return -2, frozenset()
     found = frozenset(int(c) for c in cols)
@@ -237,8 +266,9 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
     out["run"] = block.runs
     structure = job["structure"]
     if structure is not None:
+        cache: dict[Any, Any] = {}
         truths = [
-            _truth(fl, float(z), job["design_faults"], job["nominal"])
+            _truth(fl, float(z), job["design_faults"], job["nominal"], cache)
             for fl, z in zip(fault_lists, block.size, strict=True)
         ]
         out.update(
@@ -506,7 +536,9 @@ class Campaign:
                 if not hasattr(executor, "submit"):
                     raise GeomFDIError("executor: has no submit method", argument="executor")
                 if hasattr(executor, "scatter"):  # a Dask client: ship the job once
-                    job = executor.scatter([job], broadcast=True)[0]
+                    # (a fresh key: a campaign run twice must not share it with a
+                    # previous run's data being released)
+                    job = executor.scatter([job], broadcast=True, hash=False)[0]
                 futures = [executor.submit(_run_task, job, tk) for tk in tasks]
                 for fut in futures:
                     parts.extend(fut.result())
