@@ -242,9 +242,14 @@ def decisions(
     are per sample (:func:`geomfdi.isolate`).
     """
     if threshold is None:
-        alarms = np.zeros(np.shape(residuals), dtype=bool)
-    else:
-        alarms = threshold.alarms(residuals)
+        # no alarm anywhere: every decision is NO_ALARM (nothing to compute)
+        shape = np.shape(residuals)
+        S = np.asarray(structure, dtype=bool)
+        lead, N = shape[:-2], shape[-1]
+        none = np.zeros((*lead, S.shape[1], N), dtype=bool)
+        iso = Isolation(np.full((*lead, N), NO_ALARM, dtype=int), none, none.copy())
+        return np.zeros(shape, dtype=bool), iso
+    alarms = threshold.alarms(residuals)
     if persistence is None or persistence.trivial:
         return alarms, isolate(alarms, structure)
     alarms = persistence.apply(alarms)
