@@ -21,10 +21,12 @@ the best of ``--repeats`` is kept):
   processes; the 1-worker case pins every task to one worker (skipped without
   ``distributed`` or with ``--no-dask``).
 
-Each parallel run cuts the blocks into ``--tasks-per-worker`` tasks per worker, so that a
-task carries many blocks and the per-task overhead (pickling the job, scheduling) stays
-small against the task's simulation time.  The scaling ratio ``t(1 worker) / t(2
-workers)`` is reported per executor with the machine's load average
+A task carries ``--blocks-per-task`` blocks (default 1: a block of 64 runs x 10^4
+samples is already about half a second of vectorised work, against milliseconds of
+per-task overhead -- pickling the job and the results, scheduling); many equal tasks keep
+the two workers equally busy to the end.  The per-task overhead is estimated as
+``(t(processes, 1 worker) - t(serial)) / tasks``.  The scaling ratio ``t(1 worker) /
+t(2 workers)`` is reported per executor with the machine's load average
 (``os.getloadavg``) read before every timed run: on a machine whose 2 cores are busy with
 other work the ratio cannot reach 2, so the load is part of the result.
 
@@ -170,7 +172,7 @@ def main(argv: list[str]) -> dict[str, Any]:
     ap.add_argument("--samples", type=int, default=10_000)
     ap.add_argument("--loop-runs", type=int, default=100)
     ap.add_argument("--block", type=int, default=64)
-    ap.add_argument("--tasks-per-worker", type=int, default=2)
+    ap.add_argument("--blocks-per-task", type=int, default=1)
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--no-dask", action="store_true")
     ap.add_argument("--quick", action="store_true", help="256 runs x 2000 samples, 1 repeat")
@@ -184,18 +186,12 @@ def main(argv: list[str]) -> dict[str, Any]:
     camp, ctx = setup(args.runs, args.samples, args.block)
     total = camp.grid()["run"].size
     nblocks = len(camp.blocks())
-    per = {w: max(1, math.ceil(nblocks / (args.tasks_per_worker * w))) for w in (1, 2)}
+    per = args.blocks_per_task
+    tasks = math.ceil(nblocks / per)
     print(
         f"campaign: {total} runs x {args.samples} samples, bank of 3 (seed 001, exact), "
         f"chi-square test (isolation {RULE.k} of {RULE.n} samples, held pattern), "
-        f"{nblocks} blocks of {args.block} runs"
-    )
-    print(
-        "parallel tasks: "
-        + ", ".join(
-            f"{w} worker{'s' * (w > 1)}: {math.ceil(nblocks / per[w])} tasks of {per[w]} blocks"
-            for w in (1, 2)
-        )
+        f"{nblocks} blocks of {args.block} runs, {tasks} tasks of {per} block(s)"
     )
     print(f"machine: {os.cpu_count()} CPUs, BLAS threads in this process: {blas}")
     # every method is a function of the campaign: a small one warms each executor up
@@ -209,7 +205,7 @@ def main(argv: list[str]) -> dict[str, Any]:
     for w in (1, 2):
         pools[w] = ProcessPoolExecutor(max_workers=w, initializer=_limit_threads, initargs=(limit,))
         methods[f"processes, {w} worker{'s' * (w > 1)}"] = lambda c, w=w: c.run(
-            pools[w], blocks_per_task=per[w] if c is camp else 1, progress=False
+            pools[w], blocks_per_task=per, progress=False
         )
     dask_note = ""
     if not args.no_dask:
@@ -222,7 +218,7 @@ def main(argv: list[str]) -> dict[str, Any]:
             for w in (1, 2):
                 ex = _Pinned(client, addrs[:w])
                 methods[f"dask, {w} worker{'s' * (w > 1)}"] = lambda c, ex=ex, w=w: c.run(
-                    ex, blocks_per_task=per[w] if c is camp else 1, progress=False
+                    ex, blocks_per_task=per, progress=False
                 )
     for name, fn in methods.items():
         if name != "loop":
@@ -262,6 +258,9 @@ def main(argv: list[str]) -> dict[str, Any]:
                 f"(load before: {load[one][0]:.2f} / {load[two][0]:.2f}; "
                 f"{os.cpu_count()} CPUs)"
             )
+    if "processes, 1 worker" in best:
+        over = (best["processes, 1 worker"] - best["serial"]) / tasks
+        print(f"per-task overhead (processes, 1 worker - serial) / tasks: {1e3 * over:.1f} ms")
     ref = tables["serial"]
     same = all(tb.equals(ref) for tb in tables.values())
     print(f"identical tables (serial, processes, dask): {same}")
