@@ -58,6 +58,24 @@ def test_cli_campaign_errors(tmp_path, capsys):
     assert main(["campaign", str(bad), "--out", str(tmp_path)]) == 2
 
 
+def test_campaign_persistence_entry(tmp_path, capsys):
+    import geomfdi as gf
+    from geomfdi.io.cli import load_campaign
+
+    text = (ROOT / "examples" / "discrete_disturbance.toml").read_text()
+    path = tmp_path / "p.toml"
+    path.write_text(
+        text.replace("runs = 100", "runs = 2\npersistence = {k = 2, n = 3, reset = 50}")
+    )
+    assert load_campaign(path).campaign.persistence == gf.Persistence(2, 3, reset=50)
+    path.write_text(text.replace("runs = 100", "runs = 2\npersistence = [2, 4]"))
+    assert load_campaign(path).campaign.persistence == gf.Persistence(2, 4)
+    for bad in ("[3, 2]", '"x"', "{k = 2, n = 3, hold = 1}"):
+        path.write_text(text.replace("runs = 100", f"runs = 2\npersistence = {bad}"))
+        assert main(["campaign", str(path), "--out", str(tmp_path)]) == 2
+        assert "campaign.persistence" in capsys.readouterr().err
+
+
 @pytest.mark.slow
 def test_campaign_example_script_saves_the_figures(tmp_path):
     spec = importlib.util.spec_from_file_location(

@@ -17,7 +17,8 @@ The rest of the file is the model file of :mod:`geomfdi.io.modelfile` (plant, de
     # or {type = "abs", threshold = 0.05}, {type = "cusum", drift = 0.5, arl = 1e4},
     #    {type = "glr", window = 20, false_alarm_rate = 1e-3}
     uncertainty = {relative = 0.02, samples = 4, seed = 0}
-    persistence = [3, 5]            # isolation rule: k of n samples (or n), held pattern
+    persistence = [3, 5]            # isolation rule: k of n samples (or n), held pattern;
+                                    # or {k = 3, n = 5, reset = 500, latch = true}
 
 Without ``faults`` every sensor gets a bias scenario.
 """
@@ -143,7 +144,7 @@ def build_campaign(
     """
     from geomfdi.campaign.runner import Campaign
     from geomfdi.campaign.spec import Scenario, Uncertainty
-    from geomfdi.evaluation.persistence import as_persistence
+    from geomfdi.evaluation.persistence import Persistence, as_persistence
     from geomfdi.simulation.noise import Noise
 
     src = spec.source
@@ -178,12 +179,22 @@ def build_campaign(
         )
     persistence = camp.get("persistence")
     if persistence is not None:
-        if isinstance(persistence, list):
-            persistence = tuple(persistence)
         try:
-            persistence = as_persistence(persistence)
-        except GeomFDIError as exc:
-            raise _err(src, "persistence", "expected n or [k, n] samples (1 <= k <= n)") from exc
+            if isinstance(persistence, dict):
+                extra = set(persistence) - {"k", "n", "reset", "latch"}
+                if extra:
+                    raise GeomFDIError(f"unknown keys {sorted(extra)}")
+                persistence = Persistence(**persistence)
+            else:
+                if isinstance(persistence, list):
+                    persistence = tuple(persistence)
+                persistence = as_persistence(persistence)
+        except (GeomFDIError, TypeError) as exc:
+            raise _err(
+                src,
+                "persistence",
+                f"expected n, [k, n] or {{k, n, reset, latch}} with 1 <= k <= n ({exc})",
+            ) from exc
     test = _test(src, camp.get("test", {"type": "chi2"}), spec, bank, noise)
     c = Campaign(
         spec.plant,
