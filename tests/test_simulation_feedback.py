@@ -346,3 +346,34 @@ def test_closed_loop_actuator_faults_match_the_closed_form():
     eps = b * (eps + (-k * c2 - s) * (1 - np.exp(f * tau)) / (-f))
     np.testing.assert_allclose(res.x[0], x, rtol=0, atol=1e-9)
     np.testing.assert_allclose(res.residuals[0], np.where(t < t0, 0.0, eps), rtol=0, atol=1e-9)
+
+
+def test_closed_loop_progressive_actuator_loss_is_stepped():
+    """A loss of effectiveness growing with time under state feedback: stepped with the
+    gain frozen over each interval, O(dt^2) against a tight ODE solution."""
+    plant = gf.Plant(A, B, C)
+    t = np.arange(0.0, 2.0001, 5e-3)
+    gain = lambda s: 1.0 - 0.5 * (s - 1.0)  # noqa: E731
+    res = gf.simulate(
+        plant,
+        _actuator_bank(plant),
+        t,
+        v_ext,
+        x0=X0,
+        controller=K_FB,
+        faults=gf.ActuatorGainFault(2, start=1.0, gain=gain),
+        progress=False,
+    )
+    assert res.info["stepped_samples"] == 200
+    uext = v_ext(t)
+
+    def rhs(s, x):
+        u = np.array([np.interp(s, t, uext[k]) for k in range(3)]) - K_FB @ x
+        if s >= 1.0:
+            u[2] = gain(s) * u[2]
+        return A @ x + B @ u
+
+    kw = dict(rtol=1e-10, atol=1e-12, method="DOP853", max_step=5e-3)
+    ref = solve_ivp(rhs, (0.0, 2.0), X0, t_eval=t, **kw).y
+    assert np.max(np.abs(res.x - ref)) < 1e-4 * np.max(np.abs(ref))
+    assert np.max(np.abs(res.residuals[:2])) < 1e-9 * np.max(np.abs(res.residuals[2]))

@@ -289,7 +289,8 @@ class Isolation:
     Attributes
     ----------
     isolated : ndarray of int, (..., N)
-        Fault index, or ``NO_ALARM`` / ``UNEXPLAINED`` / ``AMBIGUOUS``.
+        Fault index, or ``NO_ALARM`` / ``UNEXPLAINED`` / ``AMBIGUOUS`` (and ``MULTIPLE``
+        from the decisions under a persistence rule).
     candidates : ndarray of bool, (..., n_faults, N)
         Faults whose structure column equals the alarm pattern.
     suspects : ndarray of bool, (..., n_faults, N)
