@@ -194,9 +194,9 @@ def main(argv: list[str]) -> dict[str, Any]:
         f"{nblocks} blocks of {args.block} runs, {tasks} tasks of {per} block(s)"
     )
     print(f"machine: {os.cpu_count()} CPUs, BLAS threads in this process: {blas}")
-    # every method is a function of the campaign: a small one warms each executor up
-    # (worker imports, first calls) before anything is timed
-    small = setup(40, 400, args.block)[0]
+    # every method is a function of the campaign: a small one (8 blocks of 5 runs, so
+    # that every worker gets tasks) warms each executor up before anything is timed
+    small = setup(40, 400, 5)[0]
     methods: dict[str, Any] = {}
     n = min(args.loop_runs, total)
     methods["loop"] = lambda c: loop_baseline(camp, ctx, n) * total / n
