@@ -223,6 +223,19 @@ def main(argv: list[str]) -> dict[str, Any]:
     for name, fn in methods.items():
         if name != "loop":
             fn(small)
+    # one block's compute time in this process and inside a worker: tells a slower
+    # worker (memory settings, contention) from per-task transfer and scheduling
+    job, block = camp._job(), camp.blocks()[0]
+    where = {"this process": _block_seconds(job, block)}
+    where["a process worker"] = pools[1].submit(_block_seconds, job, block).result()
+    if "client" in _STATE:
+        fut = _STATE["client"].submit(_block_seconds, job, block, pure=False)
+        where["a Dask worker"] = fut.result()
+        env = _STATE["client"].run(_worker_env)
+        print(f"Dask worker environment: {next(iter(env.values()))}")
+    print(
+        f"one block of {args.block} runs: " + ", ".join(f"{k} {v:.2f} s" for k, v in where.items())
+    )
     best: dict[str, float] = {}
     load: dict[str, tuple[float, float, float]] = {}
     tables: dict[str, Any] = {}
@@ -268,6 +281,20 @@ def main(argv: list[str]) -> dict[str, Any]:
     if dask_note:
         print(dask_note)
     return {"best": best, "load": load, "identical": same}
+
+
+def _block_seconds(job: dict[str, Any], block: Any) -> float:
+    """Seconds to simulate and evaluate one block where this function runs."""
+    from geomfdi.campaign.runner import _run_block
+
+    t0 = time.perf_counter()
+    _run_block(job, block)
+    return time.perf_counter() - t0
+
+
+def _worker_env() -> dict[str, str | None]:
+    keys = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+    return {k: os.environ.get(k) for k in (*keys, "MALLOC_TRIM_THRESHOLD_")}
 
 
 if __name__ == "__main__":
