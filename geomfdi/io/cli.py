@@ -570,7 +570,7 @@ def load_campaign(path: str | Path, *, runs: int | None = None) -> Any:
 
 def campaign_command(args: argparse.Namespace) -> int:
     """``geomfdi campaign MODEL.toml``: run, write CSV tables and PNGs, print the summary."""
-    from geomfdi.campaign.config import write_outputs
+    from geomfdi.campaign.config import campaign_report, write_outputs
 
     try:
         if args.runs is not None and args.runs < 1:
@@ -608,16 +608,7 @@ def campaign_command(args: argparse.Namespace) -> int:
         )
         return 1
     if not args.quiet:
-        import pandas as pd
-
-        c = cfg.campaign
-        print(
-            f"campaign: {cfg.spec.name}, bank {cfg.method!r}, test {result.info['test']}, "
-            f"{len(c.grid()['run'])} runs x {c.t.size} samples, {len(c.plants)} model(s)"
-        )
-        with pd.option_context("display.width", 120, "display.max_rows", 200):
-            print(result.summary().xs("bank", level="residual").round(4).to_string())
-        print("written: " + ", ".join(str(f) for f in files))
+        print(campaign_report(cfg, result, files))
     return 0
 
 

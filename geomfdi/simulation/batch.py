@@ -180,7 +180,15 @@ def simulate_batch(
                 cols = columns[id(sched)] = structure_columns(
                     sched.faults, view.design_faults, plant
                 )
-            evs = detection_events(ctx.t, al[r], iso.isolated[r], sched.faults, cols, window=window)
+            evs = detection_events(
+                ctx.t,
+                al[r],
+                iso.isolated[r],
+                sched.faults,
+                cols,
+                window=window,
+                suspects=iso.suspects[r],
+            )
             events.append(evs)
             onset = min((ev.onset for ev in evs), default=None)
             k = N if onset is None else int(np.searchsorted(ctx.t, onset - 1e-12))

@@ -106,7 +106,7 @@ from geomfdi.evaluation.decision import (
 )
 from geomfdi.evaluation.persistence import as_persistence, decisions
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.simulation.closed_loop import run_output_feedback
+from geomfdi.simulation.closed_loop import run_output_feedback, split_actuator_faults
 from geomfdi.simulation.context import (
     Context,
     RawRuns,
@@ -143,7 +143,9 @@ def run_chunk(
     draws = [draw_noise(ctx, rng) if rng is not None else (None, None) for rng in rngs]
     v = np.stack([dv for dv, _ in draws]) if ctx.Lv is not None else None
     wp = np.stack([dw for _, dw in draws]) if ctx.Lw is not None else None
-    if ctx.ctrl.mode != "output":
+    # gain/stuck actuator faults under feedback sit inside the loop (closed_loop.py)
+    in_loop = ctx.ctrl.mode != "open" and any(s.needs_input for s in schedules)
+    if ctx.ctrl.mode != "output" and not in_loop:
         return run_open_loop(
             with_input_faults(ctx, schedules[:1] if shared else schedules),
             x0,
@@ -153,24 +155,27 @@ def run_chunk(
             shared,
         )
     if shared:
-        ctx1 = with_input_faults(ctx, schedules[:1])
-        return run_output_feedback(ctx1, x0, xc0, v, wp, schedules[0].sensor)
+        rest, inside = split_actuator_faults(schedules[0])
+        ctx1 = with_input_faults(ctx, [rest])
+        return run_output_feedback(ctx1, x0, xc0, v, wp, schedules[0].sensor, inside)
     parts = []
     for r, sched in enumerate(schedules):  # the loop differs per run: one at a time
+        rest, inside = split_actuator_faults(sched)
         parts.append(
             run_output_feedback(
-                with_input_faults(ctx, [sched]),
+                with_input_faults(ctx, [rest]),
                 x0[r : r + 1] if x0.shape[0] > 1 else x0,
                 xc0,
                 None if v is None else v[r : r + 1],
                 None if wp is None else wp[r : r + 1],
                 sched.sensor,
+                inside,
             )
         )
     cat = lambda xs: np.concatenate(xs)  # noqa: E731
     return RawRuns(
         cat([p.x for p in parts]),
-        cat([p.xc for p in parts]),
+        None if parts[0].xc is None else cat([p.xc for p in parts]),
         cat([p.y for p in parts]),
         cat([p.y_healthy for p in parts]),
         cat([p.u for p in parts]),
@@ -253,8 +258,8 @@ def simulate(
         memory (always kept under output feedback, where they come for free).
     persistence : None, int, (k, n) or Persistence
         Alarms and isolation decisions only when they hold ``k`` of ``n`` samples
-        (an int ``n``: a minimum duration of ``n`` samples); see
-        :class:`geomfdi.Persistence`.
+        (an int ``n``: a minimum duration of ``n`` samples), isolation from the alarm
+        pattern held over the alarm episode; see :class:`geomfdi.Persistence`.
     detection_window : float, optional
         Seconds after each onset within which an alarm counts as a detection (and a
         decision as an isolation); ``None``: to the end of the run.  An alarm before the
@@ -299,7 +304,9 @@ def simulate(
     res = residual_rows(ctx, raw)[0]
     alarms, iso = decisions(res, thr, view.structure, rule)
     cols = structure_columns(sched.faults, view.design_faults, plant)
-    events = detection_events(ctx.t, alarms, iso.isolated, sched.faults, cols, window=window)
+    events = detection_events(
+        ctx.t, alarms, iso.isolated, sched.faults, cols, window=window, suspects=iso.suspects
+    )
     first = lambda a: None if a is None else a[0]  # noqa: E731
     return SimulationResult(
         t=ctx.t,
