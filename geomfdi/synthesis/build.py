@@ -30,12 +30,16 @@ from geomfdi.model.plant import Plant
 from geomfdi.synthesis.construction import IDENTITY_TOL, _NumericalDesignError
 from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, _gains
 from geomfdi.synthesis.generator import ResidualGenerator
+from geomfdi.synthesis.injection import RELAX
 from geomfdi.synthesis.least_order import (
+    LeastOrderRow,
+    Quotient,
     _Infeasible,
     least_order_row,
     quotient_model,
     realise_on_plant,
 )
+from geomfdi.synthesis.quotient_observer import quotient_observer_row
 from geomfdi.tolerance import get_rtol
 
 __all__ = ["build_least_order", "ANGLE_TOL", "check_angles"]
@@ -91,31 +95,15 @@ def _unread_sensors(
     return sorted(set(out))
 
 
-def _build_once(
+def _quotient(
     plant: Plant,
-    faults: list[Any],
     sigs: list[tuple[np.ndarray, np.ndarray]],
     target: tuple[int, ...],
     decouple: tuple[int, ...],
-    *,
-    poles: Any,
-    omega: float,
     row: str,
-    factor: PlantFactor | None = None,
-    balance: bool = True,
-    prefix: bool = False,
-) -> ResidualGenerator:
-    """Design, realise and check one least-order scalar row (module Notes).
-
-    Raises
-    ------
-    NotIsolableError
-        No residual seeing every target while decoupling the rest exists (reason: the
-        certificate).
-    DesignError
-        Bad poles; or (as the private numerical-failure subclass) a realisation whose
-        identities or decouplings fail numerically.
-    """
+    balance: bool,
+) -> tuple[Quotient, np.ndarray]:
+    """Steps 1–2: balance the state and form the decoupled quotient (module Notes)."""
     n = plant.n
     A, B, C, Du = plant.A, plant.B, plant.C, plant.D
     Ball = _stack([B, plant.Bd, *[Bf for Bf, _ in sigs]], n)
@@ -133,8 +121,23 @@ def _build_once(
             "ill-conditioned",
             argument="plant",
         )
+    return Qm, d
+
+
+def _search(
+    Qm: Quotient,
+    plant: Plant,
+    target: tuple[int, ...],
+    decouple: tuple[int, ...],
+    *,
+    poles: Any,
+    omega: float,
+    row: str,
+    prefix: bool,
+) -> LeastOrderRow:
+    """Step 3: the least-order row, or the not-isolable error with its certificate."""
     try:
-        lo = least_order_row(Qm, poles=poles, omega=omega, dt=plant.dt, prefix=prefix)
+        return least_order_row(Qm, poles=poles, omega=omega, dt=plant.dt, prefix=prefix)
     except _Infeasible as exc:
         unseen = exc.data.get("unseen", list(range(len(target))))
         names = [target[i] for i in unseen] if unseen else list(target)
@@ -144,6 +147,32 @@ def _build_once(
             + f": {exc.reason}"
         )
         raise NotIsolableError(f"{row}: no residual exists: {reason}", reason=reason) from None
+
+
+def _finish(
+    plant: Plant,
+    faults: list[Any],
+    sigs: list[tuple[np.ndarray, np.ndarray]],
+    target: tuple[int, ...],
+    decouple: tuple[int, ...],
+    Qm: Quotient,
+    d: np.ndarray,
+    lo: LeastOrderRow,
+    *,
+    omega: float,
+    row: str,
+    factor: PlantFactor | None,
+) -> ResidualGenerator:
+    """Step 4: the realised row on the plant, normalised and checked (module Notes).
+
+    Raises
+    ------
+    NotIsolableError
+        A target's transfer is identically zero on the physical model.
+    DesignError
+        (the private numerical-failure subclass) identities or decouplings fail.
+    """
+    n, C, Du = plant.n, plant.C, plant.D
     mats = realise_on_plant(Qm, lo, Du)
     bad = {k: v for k, v in mats["identities"].items() if v > IDENTITY_TOL}
     if bad:
@@ -169,8 +198,18 @@ def _build_once(
             Hm[:, i] = 0.0
     cert = dict(lo.certificate)
     cert["poles"] = lo.poles
+    cert["delivered_order"] = lo.order
+    least = cert.get("order")
+    if least is None or least != lo.order:
+        low, high = cert.get("bounds", (least, least))
+        cert["statement"] = (
+            f"delivered order {lo.order} (the quotient observer) is above the least order "
+            + (f"{least}" if least is not None else f"(between {low} and {high})")
+            + f": {cert.get('reason', 'the least-order realisation failed numerically')}"
+        )
     info = {
         "synthesis": "least_order",
+        "realisation": cert.get("realisation", "partial fractions"),
         "least_order": cert,
         "S_dim": Qm.S.dim,
         "S_history": Qm.S.history,
@@ -257,7 +296,25 @@ def _first_markov(g: ResidualGenerator, plant: Plant, Bf: np.ndarray, Df: np.nda
 
 
 RETRY_SCALES = (1.0, 0.25, 4.0)
-"""Default-pole scales tried in turn when a least-order realisation fails its checks."""
+"""Default-pole scales tried in turn when a partial-fraction realisation fails its checks."""
+
+INJECT_FIRST = 4
+"""A row whose least order is the quotient's dimension k (always when it reads one output
+combination) is realised first as the quotient observer when ``k > INJECT_FIRST``: the
+partial-fraction basis of ``k`` poles is then the ill-conditioned choice."""
+
+
+def _attempts(lo: LeastOrderRow, k: int, poles: Any, prefix: bool) -> list[tuple[str, float]]:
+    """Realisations tried in turn: ``("pf", pole scale)`` or ``("inj", relaxation)``."""
+    pf = [("pf", sc) for sc in RETRY_SCALES]
+    inj = [("inj", r) for r in RELAX]
+    if poles is not None:
+        return [("pf", 1.0)]
+    if not lo.realised:
+        return inj
+    if lo.order == k and k > INJECT_FIRST and not prefix:
+        return inj + pf
+    return pf + inj
 
 
 def build_least_order(
@@ -276,9 +333,13 @@ def build_least_order(
 ) -> ResidualGenerator:
     """Design, realise and check one least-order scalar row (module Notes).
 
-    With default poles, a realisation that fails its numerical checks is retried with
-    the default pole set scaled by ``RETRY_SCALES`` (the parity space and the order do
-    not depend on the poles; the conditioning of the partial-fraction basis does).
+    The realisations are tried in the order of :func:`_attempts`: the partial-fraction
+    functional observer with the default poles scaled by ``RETRY_SCALES`` (the parity
+    space and the order do not depend on the poles; the conditioning of the basis
+    does), and the quotient observer with the Riccati injection at the stability degrees
+    relaxed by :data:`geomfdi.synthesis.injection.RELAX`.  The first that passes the
+    checks on the physical plant is delivered; ``info["realisation"]`` names it and
+    ``info["least_order"]`` states the least order and the delivered one.
 
     Raises
     ------
@@ -287,27 +348,48 @@ def build_least_order(
     DesignError
         Bad poles; or (the private numerical-failure subclass) every attempt failed.
     """
-    scales = RETRY_SCALES if poles is None else (1.0,)
+    Qm, d = _quotient(plant, sigs, target, decouple, row, balance)
+    kw = {"poles": poles, "row": row, "prefix": prefix}
+    lo = _search(Qm, plant, target, decouple, omega=omega, **kw)
     first: _NumericalDesignError | None = None
-    for sc in scales:
+    for kind, val in _attempts(lo, Qm.k, poles, prefix):
         try:
-            g = _build_once(
+            if kind == "pf":
+                cur = (
+                    lo
+                    if val == 1.0
+                    else _search(Qm, plant, target, decouple, omega=omega * val, **kw)
+                )
+            else:
+                cert = dict(lo.certificate)
+                if first is not None:
+                    cert["reason"] = f"the partial-fraction realisation failed ({first})"
+                cur = quotient_observer_row(
+                    Qm, omega=omega, dt=plant.dt, relax=val, certificate=cert
+                )
+            g = _finish(
                 plant,
                 faults,
                 sigs,
                 target,
                 decouple,
-                poles=poles,
-                omega=omega * sc,
+                Qm,
+                d,
+                cur,
+                omega=omega,
                 row=row,
                 factor=factor,
-                balance=balance,
-                prefix=prefix,
             )
         except _NumericalDesignError as exc:
             first = first or exc
             continue
-        g.info["pole_scale"] = sc
+        except np.linalg.LinAlgError as exc:
+            first = first or _NumericalDesignError(f"{row}: {exc}", argument="plant")
+            continue
+        if kind == "pf":
+            g.info["pole_scale"] = val
+        else:
+            g.info["relax"] = val
         return g
     assert first is not None
     raise first
