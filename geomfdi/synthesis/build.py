@@ -9,12 +9,24 @@ Steps for a row that must see ``target`` and ignore ``decouple`` (and every dist
    only and needs no change (``info["P"]`` is mapped back).
 2. **Quotient** by S* of the model with decoupled feedthrough made states
    (:func:`geomfdi.synthesis.least_order.quotient_model`).
-3. **Least-order row** and its functional-observer realisation
-   (:func:`geomfdi.synthesis.least_order.least_order_row`), with the certificate in
-   ``info["least_order"]``.
-4. **Checks** on the physical (unbalanced) plant: relative gain from every fault
-   (:mod:`geomfdi.synthesis.gains`); a decoupled signal above ``LEAK_TOL`` or a
-   construction identity above ``IDENTITY_TOL`` makes the row a numerical failure.
+3. **Least-order row** (:func:`geomfdi.synthesis.least_order.least_order_row`), with
+   the certificate in ``info["least_order"]``.
+4. **Realisation**, tried in turn until one passes the checks: the partial-fraction
+   functional observer (default poles scaled by ``RETRY_SCALES``) and the quotient
+   observer with a Riccati stability-degree injection
+   (:mod:`geomfdi.synthesis.quotient_observer`, degrees relaxed by
+   :data:`geomfdi.synthesis.injection.RELAX`); a row of least order k > ``INJECT_FIRST``
+   (the whole quotient) tries the quotient observer first.  ``info["realisation"]`` names
+   the one delivered; a delivered order above the least order is stated in
+   ``info["least_order"]["statement"]``.
+5. **Checks** on the physical (unbalanced) plant: relative gain from every fault
+   (:mod:`geomfdi.synthesis.gains`); a decoupled signal above the leakage angle
+   ``ANGLE_TOL`` or a construction identity above ``IDENTITY_TOL`` makes the attempt a
+   numerical failure.
+6. **Strong detectability**: a least-order row that sees a target with a DC gain below
+   ``FD_GAIN_TOL`` of its largest fault gain (:func:`weak_targets`) is redesigned at up
+   to ``MAX_RAISE`` higher degrees; the first row that is not weak is delivered, with
+   ``raised_from`` and the reason in its certificate.
 """
 
 from __future__ import annotations
@@ -28,10 +40,11 @@ from geomfdi.geometry.balancing import state_scaling
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.construction import IDENTITY_TOL, _NumericalDesignError
-from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, _gains
+from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, _gains, frequency_gains
 from geomfdi.synthesis.generator import ResidualGenerator
 from geomfdi.synthesis.injection import RELAX
 from geomfdi.synthesis.least_order import (
+    NU_PF_MAX,
     LeastOrderRow,
     Quotient,
     _Infeasible,
@@ -42,10 +55,43 @@ from geomfdi.synthesis.least_order import (
 from geomfdi.synthesis.quotient_observer import quotient_observer_row
 from geomfdi.tolerance import get_rtol
 
-__all__ = ["build_least_order", "ANGLE_TOL", "check_angles"]
+__all__ = ["build_least_order", "ANGLE_TOL", "check_angles", "weak_targets", "FD_GAIN_TOL"]
 
 ANGLE_TOL = 1e-9
 """Largest leakage angle (the measure of :func:`geomfdi.verify`) a delivered row may have."""
+
+FD_GAIN_TOL = 0.01
+"""Strong detectability: least DC gain from a target, relative to the residual's largest
+gain from any fault over frequency (Varga's ``FDGainTol``)."""
+
+MAX_RAISE = 3
+"""Degrees above the least order tried for a row whose least-order targets are weak."""
+
+
+def weak_targets(
+    g: ResidualGenerator,
+    plant: Plant,
+    sigs: list,
+    factor: PlantFactor | None,
+    omega: float,
+    target: tuple[int, ...] | list[int],
+    comp: Composite | None = None,
+) -> list[int]:
+    """Targets whose DC gain is below ``FD_GAIN_TOL`` × the largest gain over frequency.
+
+    The largest gain is taken over the faults' gains on 31 frequencies spread over
+    ``ω·[1e-3, 1e3]`` (continuous) or ``π·[1e-3, 1]`` (discrete) and the DC gains;
+    ``g.info["dc_gain"]`` must hold the DC gains; ``comp``: the factored interconnection
+    of g and the plant if already at hand.
+    """
+    comp = comp if comp is not None else Composite(g, plant, factor)
+    dc = np.asarray(g.info["dc_gain"], dtype=float)
+    base = np.pi if plant.dt > 0 else omega
+    ws = base * np.logspace(-3, 0 if plant.dt > 0 else 3, 31)
+    peak = frequency_gains(comp, sigs, ws)
+    top = np.max(np.where(np.isfinite(peak), peak, 0.0), initial=0.0)
+    top = max(top, float(np.max(np.where(np.isfinite(dc), dc, 0.0), initial=0.0)))
+    return [j for j in target if np.isfinite(dc[j]) and dc[j] < FD_GAIN_TOL * top]
 
 
 def check_angles(
@@ -162,8 +208,10 @@ def _finish(
     omega: float,
     row: str,
     factor: PlantFactor | None,
-) -> ResidualGenerator:
+) -> tuple[ResidualGenerator, Composite]:
     """Step 4: the realised row on the plant, normalised and checked (module Notes).
+
+    Returns the generator and its factored interconnection with the plant.
 
     Raises
     ------
@@ -202,8 +250,9 @@ def _finish(
     least = cert.get("order")
     if least is None or least != lo.order:
         low, high = cert.get("bounds", (least, least))
+        how = cert.get("realisation", "partial fractions")
         cert["statement"] = (
-            f"delivered order {lo.order} (the quotient observer) is above the least order "
+            f"delivered order {lo.order} ({how}) is above the least order "
             + (f"{least}" if least is not None else f"(between {low} and {high})")
             + f": {cert.get('reason', 'the least-order realisation failed numerically')}"
         )
@@ -268,7 +317,7 @@ def _finish(
             "physical model"
         )
         raise NotIsolableError(f"{row}: no residual exists: {reason}", reason=reason)
-    return g
+    return g, comp
 
 
 def _first_markov(g: ResidualGenerator, plant: Plant, Bf: np.ndarray, Df: np.ndarray) -> float:
@@ -367,7 +416,7 @@ def build_least_order(
                 cur = quotient_observer_row(
                     Qm, omega=omega, dt=plant.dt, relax=val, certificate=cert
                 )
-            g = _finish(
+            g, comp = _finish(
                 plant,
                 faults,
                 sigs,
@@ -388,8 +437,77 @@ def build_least_order(
             continue
         if kind == "pf":
             g.info["pole_scale"] = val
+            if poles is None and not prefix:
+                g = _strengthen(
+                    g, comp, cur, Qm, d, plant, faults, sigs, target, decouple, omega, row, factor
+                )
         else:
             g.info["relax"] = val
         return g
     assert first is not None
     raise first
+
+
+def _strengthen(
+    g: ResidualGenerator,
+    comp: Composite,
+    lo: LeastOrderRow,
+    Qm: Quotient,
+    d: np.ndarray,
+    plant: Plant,
+    faults: list[Any],
+    sigs: list[tuple[np.ndarray, np.ndarray]],
+    target: tuple[int, ...],
+    decouple: tuple[int, ...],
+    omega: float,
+    row: str,
+    factor: PlantFactor | None,
+) -> ResidualGenerator:
+    """Raise the order of a weak least-order row until every target is strongly seen.
+
+    A row whose DC gain from some target is below ``FD_GAIN_TOL`` of its largest fault
+    gain (:func:`weak_targets`) is redesigned at degrees ``ν + 1 … ν + MAX_RAISE`` (not
+    above the largest observability index), with the direction chosen by the DC gains;
+    the first row that is not weak is delivered, its certificate states the least order
+    and why the order was raised.  Otherwise the least-order row is kept (reported weak).
+    """
+    weak = weak_targets(g, plant, sigs, factor, omega, target, comp)
+    g.info["weak_targets"] = weak
+    if not weak:
+        return g
+    nu = lo.order
+    top = len(lo.certificate.get("staircase", {}).get("blocks", []))
+    for nu2 in range(nu + 1, min(top, nu + MAX_RAISE, NU_PF_MAX) + 1):
+        try:
+            cur = least_order_row(Qm, omega=omega, dt=plant.dt, min_order=nu2, dc=True)
+            if not cur.realised:
+                break
+            cert = cur.certificate
+            cert.update(
+                order=nu,
+                unseen_below=lo.certificate["unseen_below"],
+                reason=f"the least-order row sees targets {weak} only weakly (DC gain "
+                f"below {FD_GAIN_TOL:g} of its largest fault gain)",
+                raised_from=nu,
+            )
+            g2, comp2 = _finish(
+                plant,
+                faults,
+                sigs,
+                target,
+                decouple,
+                Qm,
+                d,
+                cur,
+                omega=omega,
+                row=row,
+                factor=factor,
+            )
+        except (_NumericalDesignError, np.linalg.LinAlgError, NotIsolableError):
+            continue
+        weak2 = weak_targets(g2, plant, sigs, factor, omega, target, comp2)
+        if not weak2:
+            g2.info["weak_targets"] = []
+            g2.info["pole_scale"] = 1.0
+            return g2
+    return g

@@ -41,6 +41,16 @@ The least order is the smallest ν whose parity space holds a vector seeing ever
 target is seen by some basis vector); the certificate lists, for ν − 1, a target that the
 whole degree-(ν − 1) space does not see.  Within the least-order space the direction
 maximising the smallest normalised target gain is chosen.
+
+**Dimensions from the observer staircase.**  The dimension of every degree-ν space,
+``(ν + 1) ρ − Σ_{j ≤ ν+1} ρ_j``, comes from the block sizes ``ρ_j`` of the orthogonal
+observer staircase of ``(A0, M)`` (:func:`geomfdi.geometry.staircase.observer_staircase`,
+one rank decision per small block); the null space of the stacked resolvent blocks is
+taken with that dimension, degrees with an empty space are skipped, and the search stops
+at the largest observability index.  Above ``NU_PF_MAX`` the partial-fraction basis is
+not used: only the top degree is decided, on the quotient's own target transfers
+(:func:`quotient_target_gains`), and the row is returned unrealised (``F is None``) for
+the quotient-observer realisation of :mod:`geomfdi.synthesis.quotient_observer`.
 """
 
 from __future__ import annotations
@@ -536,6 +546,7 @@ def least_order_row(
     dt: float = 0.0,
     min_order: int = 0,
     prefix: bool = False,
+    dc: bool = False,
 ) -> LeastOrderRow:
     """Least-order scalar row of the quotient that sees every target.
 
@@ -552,6 +563,10 @@ def least_order_row(
     prefix : bool
         Accept more poles than the order and use the first ν (a bank with common poles);
         otherwise exactly ν poles are required.
+    dc : bool
+        Choose the direction by the targets' gains at DC (s = 0, or z = 1) when every
+        target has a non-zero DC gain on the space (strong detectability); otherwise,
+        and by default, by the gains at the random points.
 
     Raises
     ------
@@ -670,6 +685,11 @@ def least_order_row(
                 "poles: the requested poles make the parity space ill-conditioned; choose others",
                 argument="poles",
             )
+    if dc:
+        s0 = np.array([1.0 if dt > 0 else 0.0], dtype=complex)
+        grams_dc, rel_dc = _target_grams(Qm, cand, kinds, X, s0, blocks)
+        if np.all(rel_dc > SEE_TOL):
+            grams = grams_dc
     alpha, val = _maxmin_direction(grams)
     x = _unnormalise(X, blocks) @ alpha
     sizes = [b.shape[0] for b in blocks]
