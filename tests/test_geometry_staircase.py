@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from geomfdi.geometry.staircase import observer_staircase
@@ -25,6 +25,7 @@ def _pair(seed):
 
 @settings(max_examples=40, deadline=None)
 @given(st.integers(0, 2**31 - 1))
+@example(2**31 - 1)  # C = 0: no staircase block
 def test_staircase_form_and_parity_dimensions(seed):
     A, C = _pair(seed)
     n, q = A.shape[0], C.shape[0]
@@ -33,7 +34,8 @@ def test_staircase_form_and_parity_dimensions(seed):
     assert np.allclose(s.Z.T @ A @ s.Z, s.A, atol=1e-10)
     assert np.allclose(C @ s.Z, s.C, atol=1e-10)
     edges = np.cumsum([0, *s.blocks])
-    assert np.allclose(s.C[:, edges[1] :], 0, atol=1e-10)  # C Z = [C1 0 … 0]
+    first = edges[1] if len(edges) > 1 else 0  # no block: C = 0
+    assert np.allclose(s.C[:, first:], 0, atol=1e-10)  # C Z = [C1 0 … 0]
     for j in range(len(s.blocks)):  # block j couples only to blocks ≤ j + 1
         assert np.allclose(
             s.A[edges[j] : edges[j + 1], edges[min(j + 2, len(edges) - 1)] :], 0, atol=1e-10
