@@ -124,9 +124,9 @@ def _residual_figure_args(res: Any, title: str) -> dict[str, Any]:
 class _Figures:
     """PNG figures drawn by worker processes while the main process goes on.
 
-    One worker starts at once and loads matplotlib while the main process designs; the
-    others start when jobs are waiting (on two cores, two workers importing matplotlib
-    beside the design would slow the design down).  Falls back to running in this
+    One worker per core but one (the main process keeps a core for the design, the
+    simulations and the proofs); the first starts at once and loads matplotlib while the
+    main process designs, the others start when figures are waiting.  Falls back to running in this
     process when no process pool can be started.
     """
 
@@ -140,7 +140,8 @@ class _Figures:
 
             methods = multiprocessing.get_all_start_methods()
             ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
-            workers = max(1, min(4, os.cpu_count() or 1))
+            # the main process keeps one core for the design, simulations and proofs
+            workers = max(1, min(4, (os.cpu_count() or 1) - 1))
             try:
                 self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
                 self.pool.submit(_warm_up)
