@@ -42,10 +42,11 @@ from geomfdi.synthesis.construction import (
     checked_margin,
     checked_poles,
 )
+from geomfdi.synthesis.decisions import attach, close_note, record_design, summarise
 from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, frequency_gains
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 from geomfdi.synthesis.least_order import plant_scale
-from geomfdi.synthesis.multirow import build_multirow, check_residual_dim
+from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
 from geomfdi.synthesis.realization import minimal_realization
 from geomfdi.synthesis.transforms import default_filter_pole, pseudo_actuator_model
 
@@ -335,22 +336,25 @@ def design_residual_generator(
     sigs = fault_matrices(faults, plant.n, plant.q)
     factor = PlantFactor(plant)
     omega = plant_scale(plant.A, plant.dt)
-    return _design_row(
-        plant,
-        faults,
-        sigs,
-        method,
-        filter_pole,
-        tgt,
-        dec,
-        poles,
-        mg,
-        minimal,
-        "the residual",
-        factor,
-        omega,
-        residual_dim=rdim,
-    )
+    with record_design() as rec:
+        g = _design_row(
+            plant,
+            faults,
+            sigs,
+            method,
+            filter_pole,
+            tgt,
+            dec,
+            poles,
+            mg,
+            minimal,
+            "the residual",
+            factor,
+            omega,
+            residual_dim=rdim,
+        )
+    attach(g, rec, "the residual")
+    return g
 
 
 def _row_poles(poles: Any, rows: int) -> list[Any]:
@@ -524,35 +528,50 @@ def design_bank(
             gens.append(None)
             diags.append("missing: the row requests no fault")
             continue
+        rec: list = []
         try:
-            g = _design_row(
-                plant,
-                faults,
-                sigs,
-                method,
-                filter_pole,
-                tgt,
-                dec,
-                per_row[r],
-                mg,
-                minimal,
-                f"row {r}",
-                factor,
-                omega,
-                common_poles,
-                residual_dim=dims[r],
-            )
+            with record_design() as rec:
+                g = _design_row(
+                    plant,
+                    faults,
+                    sigs,
+                    method,
+                    filter_pole,
+                    tgt,
+                    dec,
+                    per_row[r],
+                    mg,
+                    minimal,
+                    f"row {r}",
+                    factor,
+                    omega,
+                    common_poles,
+                    residual_dim=dims[r],
+                )
         except NotIsolableError as exc:
             gens.append(None)
-            diags.append(f"missing: {exc.reason}")
+            close = close_note(summarise(rec))
+            diags.append(f"missing: {exc.reason}" + (f" ({close})" if close else ""))
+            continue
+        except ResidualDimError as exc:
+            gens.append(None)
+            diags.append(f"missing: {exc}")
             continue
         except DesignError as exc:
-            if exc.argument == "poles" and not isinstance(exc, _NumericalDesignError):
-                raise
+            if (
+                exc.argument == "poles"
+                and per_row[r] is not None
+                and not isinstance(exc, _NumericalDesignError)
+            ):
+                raise  # the user's poles are wrong for this row
             gens.append(None)
-            diags.append(f"missing: design failed numerically: {exc}")
+            close = close_note(summarise(rec))
+            diags.append(
+                f"missing: design failed numerically: {exc}" + (f" ({close})" if close else "")
+            )
             continue
         gens.append(g)
+        close = attach(g, rec, f"row {r}")
         achieved[r] = g.info["fault_gain"] > LEAK_TOL
         gain = g.info["fault_gain"]
         weak = _weak_targets(g, plant, sigs, factor, omega, tgt)
@@ -586,6 +605,8 @@ def design_bank(
             )
         if "fallback" in g.info:
             notes.append(f"not least order: {g.info['fallback']}")
+        if close:
+            notes.append(close)
         diags.append("; ".join(notes) if notes else "ok")
     cols = [tuple(achieved[:, j]) for j in range(nf)]
     isolable = np.array(
