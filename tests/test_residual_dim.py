@@ -199,3 +199,14 @@ def test_bank_residual_dim_per_row():
     assert exc.value.argument == "residual_dim"
     scalar = gf.design_bank(p, faults, S)
     assert [g.n_outputs for g in scalar.generators] == [1, 1, 1]
+
+
+def test_user_poles_are_shared_by_the_rows():
+    p = _plant3()
+    faults = [gf.SensorFault(i) for i in range(3)]
+    g = gf.design_residual_generator(p, faults, [0, 1, 2], residual_dim=2, poles=[-1.5, -4])
+    assert g.info["row_orders"] == [1, 1]
+    assert np.allclose(g.poles, -1.5)  # a row of order ν uses the first ν poles
+    assert gf.verify(g, p).ok
+    bank = gf.design_bank(p, faults, [[1, 1, 1]], residual_dim=2, poles=[-1.5], common_poles=True)
+    assert bank.generators[0].n_outputs == 2 and np.allclose(bank.generators[0].poles, -1.5)

@@ -107,6 +107,7 @@ def _design_row(
             omega=omega,
             row=row,
             factor=factor,
+            prefix=prefix,
         )
     if method != "exact":
         transform = "exact" if method == "full" else method
@@ -241,7 +242,8 @@ def design_residual_generator(
         minimal realisation when it passes the leakage check).  At most ``ρ`` rows exist
         (``g.info["max_residual_dim"]``: the measurement combinations blind to the
         decoupled signals); asking for more raises :class:`DesignError` with
-        ``argument="residual_dim"``.
+        ``argument="residual_dim"``.  With ``poles``, every row of order ν uses the
+        first ν of that list (give at least the largest row order).
     exact : bool
         Run the construction in exact arithmetic (rationals, or rational functions of the
         parameters of a parametric plant) and return an

@@ -179,6 +179,7 @@ def build_multirow(
     omega: float,
     row: str,
     factor: PlantFactor | None = None,
+    prefix: bool = False,
 ) -> ResidualGenerator:
     """A ``residual_dim``-row residual: the least-order row plus independent rows (Notes).
 
@@ -205,7 +206,16 @@ def build_multirow(
             argument="residual_dim",
         )
     g1 = build_least_order(
-        plant, faults, sigs, target, decouple, poles=poles, omega=omega, row=row, factor=factor
+        plant,
+        faults,
+        sigs,
+        target,
+        decouple,
+        poles=poles,
+        omega=omega,
+        row=row,
+        factor=factor,
+        prefix=prefix or poles is not None,
     )
     if not np.allclose(g1.info["state_scaling"], d):
         raise _NumericalDesignError(f"{row}: the scalar row used another state scaling")
@@ -237,6 +247,14 @@ def build_multirow(
             found = _independent_row(Qm, _check_poles(cand, Qm.A0, plant.dt), plant.D, prev, points)
             if found is not None:
                 break
+        if found is None and poles is not None and pool.size <= k:
+            raise DesignError(
+                f"poles: {row}: no row independent of rows 0..{i - 1} uses at most "
+                f"{pool.size} poles; give more poles (rows of a residual_dim > 1 residual use "
+                "the first poles of one list, up to the quotient's order "
+                f"{k})",
+                argument="poles",
+            )
         if found is None:
             raise _NumericalDesignError(
                 f"{row}: no residual row independent of rows 0..{i - 1} found within the "
