@@ -289,6 +289,7 @@ def build_multirow(
     comp = Composite(g, plant, factor)
     gains, dc = _gains(comp, sigs, "points")
     g.info.update(
+        poles=g.poles,
         residual_dim=p,
         row_orders=orders,
         block_order=block,
@@ -326,7 +327,9 @@ def _stack(
         M[r, i : i + o] = m["M"][0]
         H[r], K[r] = m["H"][0], m["K"][0]
         i += o
-    new_info = {key: v for key, v in info.items() if key not in ("P", "poles")}
+    # row 0's own numbers that do not describe the stack (its quotient map, poles and
+    # first Markov parameter) are dropped; the stack's gains are set by the caller
+    new_info = {key: v for key, v in info.items() if key not in ("P", "poles", "markov_gain")}
     return ResidualGenerator(
         F,
         E,
