@@ -43,6 +43,7 @@ def test_close_sstar_decision_is_reported_and_warned():
     assert info["close"] and info["where"] in ("S*", "parity space")
     assert 50 < info["gap"] < 200 and g.info["closest_gap"] == info["gap"]
     assert 50 < info["by_stage"]["S*"] < 200
+    assert bank.info["closest_gaps"][0] == info["gap"]
     # the CLI report prints the diagnostics: the close call is visible there
     from geomfdi.io.report import _design_table
 

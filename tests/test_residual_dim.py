@@ -127,6 +127,7 @@ def test_multirow_matches_reference(seed):
     check_multirow(plant, faults, row)
 
 
+@pytest.mark.slow
 def test_some_random_problems_need_several_degrees():
     seen = []
     for seed in range(60):

@@ -461,9 +461,14 @@ def design_bank(
         ``diagnostics[r]``: ``"ok"``; ``"missing: <reason>"``; ``"weak: ..."`` (a target's
         DC gain below ``FD_GAIN_TOL`` of the row's largest fault gain);
         ``"leaks faults [...] on the physical model (...)"`` (paper method);
-        ``"ill-conditioned: ..."``.  Several notes are joined with ``"; "``.
+        ``"ill-conditioned: ..."``; ``"close rank decision: ..."`` (the smallest
+        singular-value gap behind the row is below ``gf.tolerance.GAP_WARN``; also added
+        to a missing row's reason).  Several notes are joined with ``"; "``.
+        ``bank.info["closest_gaps"]``: that gap per row (``g.info["rank_decisions"]``
+        has where it was taken).
     """
-    if exact and residual_dim is not None and np.any(np.asarray(residual_dim, dtype=object) != 1):
+    dims_given = np.atleast_1d(np.asarray(residual_dim, dtype=object)).tolist()
+    if exact and any(v is not None and v != 1 for v in dims_given):
         raise DesignError(
             "residual_dim: rows beyond the first are designed by the least-order method "
             "(method='exact', exact=False), not by the exact-arithmetic design",
@@ -616,6 +621,7 @@ def design_bank(
     )
     info.update(margin=mg, plant_scale=omega)
     info["total_order"] = sum(g.order for g in gens if g is not None)
+    info["closest_gaps"] = [None if g is None else g.info.get("closest_gap") for g in gens]
     if common_poles:
         info["joint_order"] = _joint_order(gens)
     return ResidualBank(
