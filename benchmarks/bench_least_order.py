@@ -248,7 +248,7 @@ def table_time(sizes):
         reps = 3 if n <= 50 else 1
         ts, td, g = np.inf, np.inf, None
         for _ in range(reps):  # baseline and design alternated
-            ts = min(ts, svd_time(n, 1))
+            ts = min(ts, svd_time(n, 3))
             t, g = _timed(
                 lambda p=p, f=faults: gf.design_residual_generator(p, f, list(range(p.q))), 1
             )
@@ -287,7 +287,7 @@ def table_sstar(sizes):
             reps = 3 if n <= 200 else 2
             ts, tS, S = np.inf, np.inf, None
             for _ in range(reps):
-                ts = min(ts, svd_time(n, 1))
+                ts = min(ts, svd_time(n, 3))
                 t, S = _timed(lambda A=A, C=C, L=L: gf.min_unobservability_subspace(A, C, L), 1)
                 tS = min(tS, t)
             print(
