@@ -138,3 +138,27 @@ def test_orthogonal_recursions_match_the_textbook_recursions(seed):
     assert W.dim == Wt.dim and W == Wt
     assert S.dim == St.dim and S == St
     assert np.allclose(S.basis.T @ S.basis, np.eye(S.dim), atol=1e-12)
+
+
+@pytest.mark.slow
+def test_sstar_of_a_long_lightly_damped_chain_matches_exact_arithmetic():
+    """50 masses, 4 position sensors, a force on mass 25: 33 recursion steps of Krylov-like
+    directions.  The orthogonal recursion gets the exact dimension (sympy, rationals); the
+    textbook one, with a full re-orthogonalisation per step, loses it at this size."""
+    import sympy as sp
+
+    N, c = 50, sp.Rational(1, 50)
+    n = 2 * N
+    K = 2 * sp.eye(N) - sp.Matrix(N, N, lambda i, j: 1 if abs(i - j) == 1 else 0)
+    K[N - 1, N - 1] = 1
+    As = sp.Matrix(sp.BlockMatrix([[sp.zeros(N, N), sp.eye(N)], [-K, -c * sp.eye(N)]]))
+    Cs = sp.zeros(4, n)
+    for i, j in enumerate(np.linspace(0, N - 1, 4).astype(int)):
+        Cs[i, int(j)] = 1
+    Ls = sp.zeros(n, 1)
+    Ls[N + N // 2, 0] = 1
+    exact = gf.min_unobservability_subspace(As, Cs, Ls).dim
+    A = np.array(As.tolist(), dtype=float)
+    S = gf.min_unobservability_subspace(A, np.array(Cs.tolist(), dtype=float), Ls.tolist())
+    assert S.dim == exact and S.min_gap > 1e6
+    assert S.steps > 20
