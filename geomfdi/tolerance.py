@@ -18,6 +18,12 @@ kept value (rank 0) and the rounding floor ``eps * scale`` for a missing or negl
 dropped one (full rank).  A gap below :data:`GAP_WARN` means the rank was a close call:
 geomfdi issues a :class:`CloseRankWarning` and records the gap in the result.
 
+Every decision records the operation (``what``) and the step of the algorithm that took it
+(``where``: the innermost :func:`decision_stage`, e.g. ``"W*"``, ``"S*"``);
+:func:`closest_decision` picks the one with the smallest gap.  A residual design reports
+its closest decision in ``g.info["rank_decisions"]`` (see the user guide, *Synthesis*,
+``docs/guide/synthesis.md``).
+
 ``rtol`` can be changed for the whole process with :func:`set_rtol` or locally with the
 :func:`tolerance` context manager; ``None`` restores the default.
 
