@@ -43,10 +43,15 @@ def record_design() -> Iterator[list[RankDecision]]:
             yield rec
 
 
+PARITY_WORDS = ("parity", "staircase")
+"""Decisions whose operation names one of these words belong to the parity-space step (the
+parity spaces of each degree, or the observer staircase that gives their dimensions)."""
+
+
 def _stage(d: RankDecision) -> str:
     if d.where != OTHER_STAGE:
         return d.where
-    return "parity space" if "parity" in d.what else OTHER_STAGE
+    return "parity space" if any(w in d.what for w in PARITY_WORDS) else OTHER_STAGE
 
 
 def _delivered(rec: list[RankDecision]) -> list[RankDecision]:
