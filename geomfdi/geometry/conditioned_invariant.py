@@ -22,7 +22,6 @@ from geomfdi.errors import ShapeError
 from geomfdi.geometry.subspace import (
     Subspace,
     _norm2,
-    apply,
     extend_basis,
     intersect_kernel,
     pinv,
@@ -33,6 +32,7 @@ from geomfdi.tolerance import (
     CloseRankWarning,
     RankDecision,
     decision_stage,
+    rank_decision,
     record_decisions,
 )
 
@@ -201,7 +201,19 @@ def is_conditioned_invariant(A: Any, C: Any, W: Any) -> bool:
     """True when ``A (W ∩ Ker C) ⊆ W`` (Definition 2 of seed 001)."""
     A, C = _check_AC(A, C)
     W = _as_subspace(W, A.shape[0], "W")
-    return W.contains(apply(A, intersect_kernel(W, C)))
+    return _maps_into(A, intersect_kernel(W, C).basis, W.basis, "A (W ∩ Ker C) ⊆ W")
+
+
+def _maps_into(M: np.ndarray, X: np.ndarray, Y: np.ndarray, what: str) -> bool:
+    """``M Im X ⊆ Im Y`` (X, Y orthonormal), decided on the un-normalised residual
+    ``(I − Y Yᵀ) M X`` against ``rtol ||M||`` (not on a re-orthonormalised image, whose
+    rounding-level directions would be blown up to unit size)."""
+    if X.shape[1] == 0:
+        return True
+    R = M @ X
+    R = R - Y @ (Y.T @ R)
+    s = np.linalg.svd(R, compute_uv=False)
+    return rank_decision(s, _norm2(M), M.shape[0], what=what).rank == 0
 
 
 def friend(A: Any, C: Any, S: Any) -> np.ndarray:
@@ -281,8 +293,7 @@ class FriendSet:
         """True when ``(A + D C) S ⊆ S``."""
         A, C = _check_AC(A, C)
         D = as_matrix(D, "D", rows=A.shape[0], cols=C.shape[0])
-        Ssp = Subspace.from_orthonormal(self.S)
-        return Ssp.contains(apply(A + D @ C, Ssp))
+        return _maps_into(A + D @ C, self.S, self.S, "(A + D C) S ⊆ S")
 
 
 def friends(A: Any, C: Any, S: Any) -> FriendSet:
