@@ -16,6 +16,7 @@ Use as ``import geomfdi as gf``. The package follows the data path of a design::
     geomfdi.diagnosability KL and directional indices
     geomfdi.monitoring     AR-model innovation monitoring
     geomfdi.io             model files and the command line
+    geomfdi.data           test models (a 32-state aircraft)
     geomfdi.plotting       figures
 
 Public names are loaded on first use (``gf.design_bank`` imports the synthesis
@@ -42,6 +43,7 @@ _register("geomfdi._threads", "get_blas_threads", "set_blas_threads")
 _register("geomfdi.campaign.result", "CampaignResult")
 _register("geomfdi.campaign.runner", "Campaign")
 _register("geomfdi.campaign.spec", "Scenario", "Uncertainty")
+_register("geomfdi.data.aircraft", "aircraft_model")
 _register("geomfdi.deployment.monitor", "Monitor")
 _register("geomfdi.deployment.persistence", "load_bank", "load_monitor")
 _register("geomfdi.deployment.recorded", "evaluate")
@@ -189,6 +191,7 @@ _MODULES: dict[str, str] = {
     "model": "geomfdi.model",
     "geometry": "geomfdi.geometry",
     "synthesis": "geomfdi.synthesis",
+    "data": "geomfdi.data",
     "verification": "geomfdi.verification",
     "simulation": "geomfdi.simulation",
     "evaluation": "geomfdi.evaluation",
@@ -240,6 +243,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.campaign.result import CampaignResult  # noqa: F401
     from geomfdi.campaign.runner import Campaign  # noqa: F401
     from geomfdi.campaign.spec import Scenario, Uncertainty  # noqa: F401
+    from geomfdi.data.aircraft import aircraft_model  # noqa: F401
     from geomfdi.deployment.monitor import Monitor  # noqa: F401
     from geomfdi.deployment.persistence import load_bank, load_monitor  # noqa: F401
     from geomfdi.deployment.recorded import evaluate  # noqa: F401

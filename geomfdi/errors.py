@@ -103,6 +103,8 @@ class BankFileError(GeomFDIError):
 
 class SchemaVersionError(BankFileError):
     """A saved file was written with a newer (or unknown) schema version."""
+
+
 class ResourceLimitError(GeomFDIError):
     """A request would exceed a resource cap of :mod:`geomfdi.limits` (runs, samples ×
     runs, memory or symbolic size); raised before anything is allocated.

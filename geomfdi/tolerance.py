@@ -18,6 +18,12 @@ kept value (rank 0) and the rounding floor ``eps * scale`` for a missing or negl
 dropped one (full rank).  A gap below :data:`GAP_WARN` means the rank was a close call:
 geomfdi issues a :class:`CloseRankWarning` and records the gap in the result.
 
+Every decision records the operation (``what``) and the step of the algorithm that took it
+(``where``: the innermost :func:`decision_stage`, e.g. ``"W*"``, ``"S*"``);
+:func:`closest_decision` picks the one with the smallest gap.  A residual design reports
+its closest decision in ``g.info["rank_decisions"]`` (see the user guide, *Synthesis*,
+``docs/guide/synthesis.md``).
+
 ``rtol`` can be changed for the whole process with :func:`set_rtol` or locally with the
 :func:`tolerance` context manager; ``None`` restores the default.
 
@@ -40,7 +46,7 @@ import contextlib
 import contextvars
 import threading
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,6 +63,8 @@ __all__ = [
     "tolerance",
     "rank_decision",
     "record_decisions",
+    "decision_stage",
+    "closest_decision",
 ]
 
 GAP_WARN = 1e3
@@ -76,6 +84,8 @@ _UNSET = _Unset()
 _LOCAL_RTOL: contextvars.ContextVar[float | None | _Unset] = contextvars.ContextVar(
     "geomfdi_rtol", default=_UNSET
 )
+# The step of an algorithm the current decisions belong to (``decision_stage``).
+_STAGE: contextvars.ContextVar[str] = contextvars.ContextVar("geomfdi_rank_stage", default="")
 # The lists collecting decisions for the active ``record_decisions`` blocks.
 _RECORDERS: contextvars.ContextVar[tuple[list[RankDecision], ...]] = contextvars.ContextVar(
     "geomfdi_rank_recorders", default=()
@@ -156,12 +166,18 @@ class RankDecision:
     gap : float
         ``sigma_rank / max(sigma_{rank+1}, eps * scale)``; ``scale`` stands in for a
         missing kept value (rank 0).
+    what : str
+        The operation (e.g. ``"S ∩ Ker C"``).
+    where : str
+        The step of the algorithm that took it (the innermost :func:`decision_stage`,
+        e.g. ``"W*"``, ``"S*"``; empty outside any stage).
     """
 
     rank: int
     tol: float
     gap: float
     what: str = ""
+    where: str = ""
 
     @property
     def close(self) -> bool:
@@ -183,6 +199,25 @@ def record_decisions() -> Iterator[list[RankDecision]]:
         yield rec
     finally:
         _RECORDERS.reset(token)
+
+
+@contextlib.contextmanager
+def decision_stage(name: str) -> Iterator[None]:
+    """Label the rank decisions taken inside the block with ``name`` (their ``where``).
+
+    Blocks nest (the innermost label wins) and are local to the current thread or
+    :mod:`asyncio` task, like :func:`record_decisions`.
+    """
+    token = _STAGE.set(str(name))
+    try:
+        yield
+    finally:
+        _STAGE.reset(token)
+
+
+def closest_decision(decisions: Iterable[RankDecision]) -> RankDecision | None:
+    """The decision with the smallest gap (``None`` when there is none)."""
+    return min(decisions, key=lambda d: d.gap, default=None)
 
 
 def rank_decision(
@@ -211,7 +246,7 @@ def rank_decision(
     kept = float(s[rank - 1]) if rank > 0 else scale
     dropped = float(s[rank]) if rank < s.size else 0.0
     gap = kept / max(dropped, floor)
-    dec = RankDecision(rank=rank, tol=tol, gap=gap, what=what)
+    dec = RankDecision(rank=rank, tol=tol, gap=gap, what=what, where=_STAGE.get())
     recorders = _RECORDERS.get()
     for rec in recorders:
         rec.append(dec)

@@ -34,6 +34,8 @@ __all__ = [
     "preimage_in_kernel",
     "principal_angles",
     "pinv",
+    "extend_basis",
+    "split_kernel",
 ]
 
 
@@ -260,6 +262,46 @@ def preimage_in_kernel(A: np.ndarray, S: Subspace, C: np.ndarray) -> Subspace:
     na, nc = _norm2(A) or 1.0, _norm2(C) or 1.0
     stacked = np.vstack([Qp.T @ A / na, C / nc])
     return Subspace.from_orthonormal(_null_basis(stacked, 1.0, "A⁻¹(S) ∩ Ker C").reshape(n, -1))
+
+
+def extend_basis(B: np.ndarray, X: np.ndarray, scale: float, what: str) -> np.ndarray:
+    """Orthonormal columns completing ``Im B`` to ``Im B + Im X`` (B orthonormal).
+
+    ``X`` is projected on ``(Im B)^⊥`` twice (classical Gram–Schmidt with
+    reorthogonalisation); the rank of the projection is decided against
+    ``rtol * scale`` (``scale``: the norm of the data that produced X, e.g. ``‖A‖`` for
+    ``X = A Q``), on the un-normalised product.  Cost ``O(n · (dim B + cols X) · cols X)``:
+    an increasing sequence of subspaces is built without re-orthogonalising its basis.
+    """
+    n = X.shape[0]
+    if X.shape[1] == 0:
+        return np.zeros((n, 0))
+    P = X
+    if B.shape[1]:
+        P = P - B @ (B.T @ P)
+        P = P - B @ (B.T @ P)
+    U, s, _ = np.linalg.svd(P, full_matrices=False)
+    r = rank_decision(s, scale, n, what=what).rank
+    return U[:, :r]
+
+
+def split_kernel(
+    R: np.ndarray, M: np.ndarray, scale: float, what: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Split ``Im R`` (R orthonormal) into ``Im R ∩ Ker M`` and its complement in ``Im R``.
+
+    With the SVD ``M R = U Σ Vᵀ`` (rank decided against ``rtol * scale``), returns
+    ``(R V_0, R V_1)``: orthonormal bases of the null part and of the rest.  Used by the
+    invariant-subspace recursions on the few directions that changed in a step.
+    """
+    n, k = R.shape
+    if k == 0:
+        return np.zeros((n, 0)), np.zeros((n, 0))
+    if M.shape[0] == 0:
+        return R, np.zeros((n, 0))
+    _, s, Vt = np.linalg.svd(M @ R, full_matrices=True)
+    r = rank_decision(s, scale, max(M.shape[0], k), what=what).rank
+    return R @ Vt[r:].T, R @ Vt[:r].T
 
 
 def principal_angles(S: Subspace, T: Subspace) -> np.ndarray:

@@ -30,8 +30,8 @@ from geomfdi.geometry.conditioned_invariant import (
     is_conditioned_invariant,
     min_conditioned_invariant,
 )
-from geomfdi.geometry.subspace import Subspace, _norm2, kernel, preimage_in_kernel
-from geomfdi.tolerance import CloseRankWarning, record_decisions
+from geomfdi.geometry.subspace import Subspace, _norm2, extend_basis, kernel, split_kernel
+from geomfdi.tolerance import CloseRankWarning, decision_stage, record_decisions
 
 __all__ = [
     "min_unobservability_subspace",
@@ -69,9 +69,22 @@ def min_unobservability_subspace(
 
         Z_0 = R^n,   Z_k = W* + (A⁻¹ Z_{k-1}) ∩ Ker C
 
-    non-increasing, at most n steps.  ``A⁻¹(Z) ∩ Ker C`` is computed as
-    ``null([Q_⊥ᵀ A / ||A||; C / ||C||])`` with ``Q_⊥`` a basis of ``Z^⊥`` (math.md §3).
-    The paper states ``S* = Z_{k+1}``; the limit ``Z_k = Z_{k+1}`` is meant.
+    non-increasing, at most n steps.  The paper states ``S* = Z_{k+1}``; the limit
+    ``Z_k = Z_{k+1}`` is meant.
+
+    It is run on the orthogonal complements, which only grow, since
+    ``(A⁻¹(Z) ∩ Ker C)^⊥ = Aᵀ Z^⊥ + Im Cᵀ`` and ``(W + V)^⊥ = W^⊥ ∩ V^⊥``::
+
+        Y_0 = 0,   V_k = Im Cᵀ + Aᵀ Y_{k-1},   Y_k = W*^⊥ ∩ V_k,   Z_k = Y_k^⊥
+
+    Only images are formed (no preimage of a nearly singular A).  V and Y increase, so
+    their orthonormal bases are extended, never recomputed: a step maps only the new
+    directions of Y by Aᵀ, projects them twice on ``V^⊥`` (rank decided on the
+    un-normalised product against ``||A||``; ``Im Cᵀ`` against ``||C||``), and splits the
+    part R of V outside ``W*^⊥`` (at most ``dim W*`` directions) plus the new ones against
+    ``W*^⊥``.  With ``||A||`` computed once and one complement at the end the cost is
+    ``O(n³)`` flops whatever the number of steps (the recursion on Z itself costs
+    ``O(n³)`` per step).
 
     References
     ----------
@@ -96,16 +109,24 @@ def min_unobservability_subspace(
     with warnings.catch_warnings():  # W*'s decisions are reported once, with S*'s below
         warnings.simplefilter("ignore", CloseRankWarning)
         W = min_conditioned_invariant(A, C, L)
-    with record_decisions() as rec:
-        Z = Subspace.full(n)
+    nA, nC = _norm2(A) or 1.0, _norm2(C) or 1.0
+    Wb = W.basis
+    with record_decisions() as rec, decision_stage("S*"):
+        # dual recursion on Y_k = Z_k^⊥ (increasing):  Y_k = W*^⊥ ∩ V_k,
+        # V_k = Im Cᵀ + Aᵀ Y_{k-1};  V's basis is kept as Y ⊕ R (dim R ≤ dim W*)
+        V = np.zeros((n, 0))
+        Y = np.zeros((n, 0))
+        R = np.zeros((n, 0))
+        new = extend_basis(V, C.T, nC, "Im Cᵀ (Ker C)")
         history = [n]
         for _ in range(n + 1):
-            Znew = W + preimage_in_kernel(A, Z, C)
-            history.append(Znew.dim)
-            shrank = Znew.dim < Z.dim
-            Z = Znew
-            if not shrank:
+            Y_new, R = split_kernel(np.hstack([R, new]), Wb.T, 1.0, "V ∩ W*^⊥")
+            V, Y = np.hstack([V, new]), np.hstack([Y, Y_new])
+            history.append(n - Y.shape[1])
+            if not Y_new.shape[1]:
                 break
+            new = extend_basis(V, A.T @ Y_new, nA, "Im Cᵀ + Aᵀ Z^⊥ (A⁻¹(Z) ∩ Ker C)")
+    Z = Subspace.from_orthonormal(Y).complement()
     S = InvariantSubspace._wrap(Z, history, [*W.decisions, *rec], "min_unobservability_subspace")
     S.W = W
     return S
@@ -125,7 +146,7 @@ def measurement_map(C: Any, S: Any) -> np.ndarray:
     return H
 
 
-def max_invariant_in(A: Any, K: Subspace) -> Subspace:
+def max_invariant_in(A: Any, K: Subspace, *, scale: float | None = None) -> Subspace:
     """Largest A-invariant subspace contained in K, ``<K | A> = ∩_k A⁻ᵏ K``.
 
     Computed by the dual recursion (Basile–Marro ``mainco``)::
@@ -136,6 +157,11 @@ def max_invariant_in(A: Any, K: Subspace) -> Subspace:
     ``[Q_{K^⊥}, Aᵀ Q_V / ||A||]`` (the un-normalised product, math.md §3).  The primal
     recursion ``V_{k+1} = K ∩ A⁻¹ V_k`` amplifies rounding by ``1 / σ_min`` of the
     restricted map and loses invariant directions when A is nearly singular.
+
+    ``scale`` (default ``||A||``) is the norm of the data that produced A: Aᵀ is divided
+    by it before the rank decisions, so that an A that is itself rounding of a larger
+    computation (e.g. a quotient map ``Qᵀ F Q`` of an F with ``||F||`` = 5 that vanishes in
+    exact arithmetic) is not blown up to unit size.
     """
     A = as_matrix(A, "A", square=True)
     n = A.shape[0]
@@ -144,7 +170,7 @@ def max_invariant_in(A: Any, K: Subspace) -> Subspace:
     if K.dim in (0, n):
         return K
     Kp = K.complement().basis
-    At = A.T / (_norm2(A) or 1.0)
+    At = A.T / ((_norm2(A) if scale is None else max(float(scale), _norm2(A))) or 1.0)
     V = Subspace.from_orthonormal(Kp)
     for _ in range(n + 1):
         Vn = Subspace(np.hstack([Kp, At @ V.basis]), scale=1.0)
@@ -171,10 +197,12 @@ def is_unobservability_subspace(A: Any, C: Any, S: Any) -> bool:
     Notes
     -----
     S is ``(A + D0 C)``-invariant and contained in ``Ker(H C) = S + Ker C``, hence in the
-    largest such invariant subspace; equality is therefore decided on the dimensions (a
-    rank decision with a large gap), not by comparing two computed bases whose rounding
-    grows with the conditioning of ``A + D0 C``.  By duality with controllability
-    subspaces (Wonham 1985, Thm 5.5) the test does not depend on the friend chosen.
+    largest such invariant subspace; equality holds iff the quotient pair
+    ``(Qᵀ (A + D0 C) Q, H C Q)`` (Q an orthonormal basis of S^⊥) is observable, which is
+    decided on dimensions (rank decisions with a large gap), not by comparing two
+    computed bases whose rounding grows with the conditioning of ``A + D0 C``.  By
+    duality with controllability subspaces (Wonham 1985, Thm 5.5) the test does not
+    depend on the friend chosen.
 
     The check takes its own rank decisions on ``A + D0 C``: when that matrix has
     eigenvalues spread over many decades (e.g. columns of A scaled by 1e-6), the largest
@@ -187,5 +215,16 @@ def is_unobservability_subspace(A: Any, C: Any, S: Any) -> bool:
         return False
     D0 = friend(A, C, S)
     H = measurement_map(C, S)
-    K = kernel(H @ C) if H.shape[0] else Subspace.full(A.shape[0])
-    return max_invariant_in(A + D0 @ C, K).dim == S.dim
+    n = A.shape[0]
+    if S.dim == n:
+        return True
+    if not H.shape[0]:  # Ker HC = R^n: only R^n itself is the largest invariant in it
+        return False
+    # the largest invariant subspace in Ker HC, modulo S, is the unobservable subspace of
+    # the quotient (Qᵀ (A + D0 C) Q, H C Q), Q a basis of S^⊥: S is the largest iff the
+    # quotient is observable (S is factored out exactly instead of having to survive
+    # the rounding of the recursion)
+    Q = S.complement().basis
+    Ab = Q.T @ (A + D0 @ C) @ Q
+    Cb = H @ C @ Q
+    return max_invariant_in(Ab, kernel(Cb), scale=_norm2(A + D0 @ C)).dim == 0

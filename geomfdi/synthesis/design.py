@@ -42,9 +42,11 @@ from geomfdi.synthesis.construction import (
     checked_margin,
     checked_poles,
 )
+from geomfdi.synthesis.decisions import attach, close_note, record_design, summarise
 from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, frequency_gains
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 from geomfdi.synthesis.least_order import plant_scale
+from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
 from geomfdi.synthesis.realization import minimal_realization
 from geomfdi.synthesis.transforms import default_filter_pole, pseudo_actuator_model
 
@@ -86,8 +88,27 @@ def _design_row(
     factor: PlantFactor,
     omega: float,
     prefix: bool = False,
+    residual_dim: int = 1,
 ) -> ResidualGenerator:
-    """One row: least order for ``"exact"`` (full-quotient fallback on numerical failure)."""
+    """One row: least order for ``"exact"`` (full-quotient fallback on numerical failure).
+
+    ``residual_dim > 1`` (exact method only): that many independent least-order rows
+    stacked (:func:`geomfdi.synthesis.multirow.build_multirow`), no fallback.
+    """
+    if residual_dim > 1:
+        return build_multirow(
+            plant,
+            faults,
+            sigs,
+            target,
+            decouple,
+            residual_dim=residual_dim,
+            poles=poles,
+            omega=omega,
+            row=row,
+            factor=factor,
+            prefix=prefix,
+        )
     if method != "exact":
         transform = "exact" if method == "full" else method
         g = build_full(
@@ -177,6 +198,7 @@ def design_residual_generator(
     filter_pole: float | None = None,
     margin: float | None = None,
     minimal: bool = True,
+    residual_dim: int | None = None,
     exact: bool = False,
 ) -> ResidualGenerator:
     """Design one residual generator that sees ``target`` and ignores ``decouple``.
@@ -210,6 +232,18 @@ def design_residual_generator(
         Minimal realisation of a full-quotient generator.
         Deliver a minimal realization (default); the order before reduction is in
         ``g.info["full_order"]``.
+    residual_dim : int, optional
+        Number of residual components (``method="exact"`` only; default 1, a scalar
+        residual).  ``p > 1`` stacks ``p`` rows that each decouple every signal to be
+        decoupled and are linearly independent over the rational functions: row 0 is the
+        scalar least-order row (it sees every target), row ``i`` a row of the least
+        degree independent of rows ``0 … i−1``.  ``g.info["row_orders"]`` holds the
+        degrees, ``g.info["stacked_order"]`` the order of the delivered stack (a joint
+        minimal realisation when it passes the leakage check).  At most ``ρ`` rows exist
+        (``g.info["max_residual_dim"]``: the measurement combinations blind to the
+        decoupled signals); asking for more raises :class:`DesignError` with
+        ``argument="residual_dim"``.  With ``poles``, every row of order ν uses the
+        first ν of that list (give at least the largest row order).
     exact : bool
         Run the construction in exact arithmetic (rationals, or rational functions of the
         parameters of a parametric plant) and return an
@@ -229,7 +263,9 @@ def design_residual_generator(
     NotIsolableError
         When no residual sees every target while decoupling the others.
     DesignError
-        Bad options (``argument`` names them) or a construction that failed numerically.
+        Bad options (``argument`` names them: e.g. a ``residual_dim`` that is not an
+        integer ``≥ 1``, or exceeds what the decoupling leaves) or a construction that
+        failed numerically.
 
     Examples
     --------
@@ -249,7 +285,21 @@ def design_residual_generator(
     1
     >>> gf.design_residual_generator(p, faults, [0, 1, 2], method="full").order
     3
+
+    Two independent residual components for fault detection: the second row is the
+    least-order row independent of the first.
+
+    >>> g2 = gf.design_residual_generator(p, faults, [0, 1, 2], residual_dim=2)
+    >>> g2.n_outputs, g2.info["row_orders"]
+    (2, [1, 1])
     """
+    rdim = check_residual_dim(residual_dim)
+    if rdim > 1 and (exact or method != "exact"):
+        raise DesignError(
+            "residual_dim: rows beyond the first are designed by the least-order method "
+            f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
+            argument="residual_dim",
+        )
     # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
     if exact:
         from geomfdi.synthesis.exact_design import exact_dispatch
@@ -288,21 +338,25 @@ def design_residual_generator(
     sigs = fault_matrices(faults, plant.n, plant.q)
     factor = PlantFactor(plant)
     omega = plant_scale(plant.A, plant.dt)
-    return _design_row(
-        plant,
-        faults,
-        sigs,
-        method,
-        filter_pole,
-        tgt,
-        dec,
-        poles,
-        mg,
-        minimal,
-        "the residual",
-        factor,
-        omega,
-    )
+    with record_design() as rec:
+        g = _design_row(
+            plant,
+            faults,
+            sigs,
+            method,
+            filter_pole,
+            tgt,
+            dec,
+            poles,
+            mg,
+            minimal,
+            "the residual",
+            factor,
+            omega,
+            residual_dim=rdim,
+        )
+    attach(g, rec, "the residual")
+    return g
 
 
 def _row_poles(poles: Any, rows: int) -> list[Any]:
@@ -321,6 +375,18 @@ def _row_poles(poles: Any, rows: int) -> list[Any]:
             )
         return [checked_poles(p) for p in poles]
     return [checked_poles(poles)] * rows
+
+
+def _row_dims(residual_dim: Any, rows: int) -> list[int]:
+    """``residual_dim`` for a bank: one integer for every row, or one per row."""
+    if isinstance(residual_dim, list | tuple | np.ndarray):
+        if len(residual_dim) != rows:
+            raise DesignError(
+                f"residual_dim: a per-row list must have {rows} entries, got {len(residual_dim)}",
+                argument="residual_dim",
+            )
+        return [check_residual_dim(v) for v in residual_dim]
+    return [check_residual_dim(residual_dim)] * rows
 
 
 def _joint_order(gens: list[ResidualGenerator | None]) -> int:
@@ -356,6 +422,7 @@ def design_bank(
     margin: float | None = None,
     minimal: bool = True,
     common_poles: bool = False,
+    residual_dim: int | Sequence[int] | None = None,
     exact: bool = False,
 ) -> ResidualBank:
     """Design one residual generator per row of a structure matrix.
@@ -375,6 +442,11 @@ def design_bank(
         ``poles``: a row of order ν uses its first ν entries), and
         ``bank.info["joint_order"]`` reports the order of the stacked bank after a joint
         minimal realisation.
+    residual_dim : int or sequence of int, optional
+        Residual components per row (``method="exact"`` only): one integer for every
+        row or one per row (``None`` entries: 1).  Default 1, scalar residuals; see
+        :func:`design_residual_generator`.  A row that cannot have that many independent
+        components is missing, its diagnostic names ``residual_dim`` and the maximum.
     exact : bool
         Exact / parametric design: returns an
         :class:`~geomfdi.synthesis.exact_generator.ExactResidualBank` (see
@@ -389,8 +461,19 @@ def design_bank(
         ``diagnostics[r]``: ``"ok"``; ``"missing: <reason>"``; ``"weak: ..."`` (a target's
         DC gain below ``FD_GAIN_TOL`` of the row's largest fault gain);
         ``"leaks faults [...] on the physical model (...)"`` (paper method);
-        ``"ill-conditioned: ..."``.  Several notes are joined with ``"; "``.
+        ``"ill-conditioned: ..."``; ``"close rank decision: ..."`` (the smallest
+        singular-value gap behind the row is below ``gf.tolerance.GAP_WARN``; also added
+        to a missing row's reason).  Several notes are joined with ``"; "``.
+        ``bank.info["closest_gaps"]``: that gap per row (``g.info["rank_decisions"]``
+        has where it was taken).
     """
+    dims_given = np.atleast_1d(np.asarray(residual_dim, dtype=object)).tolist()
+    if exact and any(v is not None and v != 1 for v in dims_given):
+        raise DesignError(
+            "residual_dim: rows beyond the first are designed by the least-order method "
+            "(method='exact', exact=False), not by the exact-arithmetic design",
+            argument="residual_dim",
+        )
     # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
     if exact:
         from geomfdi.synthesis.exact_design import exact_dispatch
@@ -422,6 +505,13 @@ def design_bank(
     if not np.all((S == 0) | (S == 1)):
         raise GeomFDIError("structure: entries must be 0 or 1", argument="structure")
     req = S.astype(bool)
+    dims = _row_dims(residual_dim, req.shape[0])
+    if max(dims, default=1) > 1 and (exact or method != "exact"):
+        raise DesignError(
+            "residual_dim: rows beyond the first are designed by the least-order method "
+            f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
+            argument="residual_dim",
+        )
     sigs = fault_matrices(faults, plant.n, plant.q)
     info: dict[str, Any] = {}
     if method != "exact" or filter_pole is not None:
@@ -445,34 +535,50 @@ def design_bank(
             gens.append(None)
             diags.append("missing: the row requests no fault")
             continue
+        rec: list = []
         try:
-            g = _design_row(
-                plant,
-                faults,
-                sigs,
-                method,
-                filter_pole,
-                tgt,
-                dec,
-                per_row[r],
-                mg,
-                minimal,
-                f"row {r}",
-                factor,
-                omega,
-                common_poles,
-            )
+            with record_design() as rec:
+                g = _design_row(
+                    plant,
+                    faults,
+                    sigs,
+                    method,
+                    filter_pole,
+                    tgt,
+                    dec,
+                    per_row[r],
+                    mg,
+                    minimal,
+                    f"row {r}",
+                    factor,
+                    omega,
+                    common_poles,
+                    residual_dim=dims[r],
+                )
         except NotIsolableError as exc:
             gens.append(None)
-            diags.append(f"missing: {exc.reason}")
+            close = close_note(summarise(rec))
+            diags.append(f"missing: {exc.reason}" + (f" ({close})" if close else ""))
+            continue
+        except ResidualDimError as exc:
+            gens.append(None)
+            diags.append(f"missing: {exc}")
             continue
         except DesignError as exc:
-            if exc.argument == "poles" and not isinstance(exc, _NumericalDesignError):
-                raise
+            if (
+                exc.argument == "poles"
+                and per_row[r] is not None
+                and not isinstance(exc, _NumericalDesignError)
+            ):
+                raise  # the user's poles are wrong for this row
             gens.append(None)
-            diags.append(f"missing: design failed numerically: {exc}")
+            close = close_note(summarise(rec))
+            diags.append(
+                f"missing: design failed numerically: {exc}" + (f" ({close})" if close else "")
+            )
             continue
         gens.append(g)
+        close = attach(g, rec, f"row {r}")
         achieved[r] = g.info["fault_gain"] > LEAK_TOL
         gain = g.info["fault_gain"]
         weak = _weak_targets(g, plant, sigs, factor, omega, tgt)
@@ -506,6 +612,8 @@ def design_bank(
             )
         if "fallback" in g.info:
             notes.append(f"not least order: {g.info['fallback']}")
+        if close:
+            notes.append(close)
         diags.append("; ".join(notes) if notes else "ok")
     cols = [tuple(achieved[:, j]) for j in range(nf)]
     isolable = np.array(
@@ -513,6 +621,7 @@ def design_bank(
     )
     info.update(margin=mg, plant_scale=omega)
     info["total_order"] = sum(g.order for g in gens if g is not None)
+    info["closest_gaps"] = [None if g is None else g.info.get("closest_gap") for g in gens]
     if common_poles:
         info["joint_order"] = _joint_order(gens)
     return ResidualBank(
