@@ -172,10 +172,19 @@ def test_persistence_is_k_of_n(dbank: gf.ResidualBank) -> None:
     for k in range(800):
         window = raw[:, max(0, k - 3) : k + 1].sum(axis=1)
         np.testing.assert_array_equal(res.alarms[:, k], window >= 2)
-    iso = gf.isolate(res.alarms, dbank.structure)
+    iso = gf.Persistence(2, 4).isolation(res.alarms, dbank.structure)
     np.testing.assert_array_equal(res.isolated, iso.isolated)
+    np.testing.assert_array_equal(res.suspects, iso.suspects)
+    # the held pattern only grows (no reset): once isolated, a decision is never a
+    # momentary "no alarm" again
+    first = int(np.argmax(res.isolated >= 0))
+    assert res.isolated[first] >= 0 and not np.any(res.isolated[first:] == -1)
+    momentary = gf.evaluate(dbank, y, u, t, threshold=thr, persistence=gf.Persistence(2, 4, False))
+    assert np.any(momentary.isolated[first:] == -1)
+    plain = gf.isolate(res.alarms, dbank.structure).isolated
+    np.testing.assert_array_equal(momentary.isolated == -1, plain == -1)
     dur = gf.evaluate(dbank, y, u, t, threshold=thr, persistence=3)
-    assert dur.persistence.k == dur.persistence.n == 3
+    assert dur.persistence == gf.Persistence(3, 3)
 
 
 def test_rms_threshold_on_recorded_data(dbank: gf.ResidualBank) -> None:
