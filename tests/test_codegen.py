@@ -186,8 +186,8 @@ def test_generated_code_latched_rule_with_reset(case: tuple, tmp_path: Path, rul
 def test_generated_code_decides_multiple(tmp_path: Path) -> None:
     """A pattern that is the union of two columns gives -4 in C, Python and evaluate."""
     g = [
-        gf.ResidualGenerator([[0.0]], [-h], [[0.0]], [[0.0]], [h], [[0.0]], dt=DT)
-        for h in ([1.0, 0.0], [0.0, 1.0])
+        gf.ResidualGenerator([[0.0]], -h[None], [[0.0]], [[0.0]], h[None], [[0.0]], dt=DT)
+        for h in (np.array([1.0, 0.0]), np.array([0.0, 1.0]))
     ]
     S = np.eye(2, dtype=bool)
     bank = gf.ResidualBank(g, S, S, np.ones(2, bool), ["ok", "ok"], [], DT)
