@@ -46,6 +46,7 @@ from geomfdi.deployment.program import (
 )
 from geomfdi.errors import GeomFDIError, ShapeError, TimeGridError
 from geomfdi.evaluation.decision import (
+    MULTIPLE,
     FaultEvent,
     Threshold,
     as_threshold,
@@ -174,7 +175,8 @@ class AlarmEpisode:
     residuals : tuple of int
         Bank rows that alarm during the episode.
     fault : int or None
-        The first isolation decision ``>= 0`` in the episode (structure column), if any.
+        The first isolation decision in the episode: a structure column, or
+        :data:`~geomfdi.evaluation.decision.MULTIPLE` (several faults); ``None``: none.
     isolated_at : float or None
         When that decision was first reached.
     """
@@ -199,7 +201,7 @@ def alarm_episodes(t: np.ndarray, alarms: np.ndarray, isolated: np.ndarray) -> l
     cuts = np.searchsorted(ep, np.arange(starts.size + 1)).tolist()
     row_list = row.tolist()
     rows = [tuple(row_list[cuts[i] : cuts[i + 1]]) for i in range(starts.size)]
-    hits = np.flatnonzero(isolated >= 0)
+    hits = np.flatnonzero((isolated >= 0) | (isolated == MULTIPLE))
     first = np.searchsorted(hits, starts)
     first_k = hits[np.minimum(first, max(hits.size - 1, 0))] if hits.size else starts
     found = (first < hits.size) & (first_k < stops) if hits.size else np.zeros(starts.size, bool)
