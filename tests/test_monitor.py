@@ -292,3 +292,44 @@ def test_monitor_reports_multiple_and_restores_the_held_pattern() -> None:
         other.state = {**state, "quiet": 10}
     with pytest.raises(GeomFDIError, match="decisions"):
         other.state = {**state, "decisions": [0, 7]}
+
+
+def test_saved_rule_and_legacy_monitor_files(bank: gf.ResidualBank, tmp_path) -> None:
+    from geomfdi.synthesis.bankfile import _checksum
+
+    Y, U = _data(3, 3, 900, seed=8)
+    rule = gf.Persistence(2, 3, reset=9)
+    mon = gf.Monitor(bank, threshold=0.35, persistence=rule)
+    ref = mon.feed(Y, U)
+    mon.reset()
+    mon.feed(Y[:, :300], U[:, :300])
+    assert mon.state["held"] != [0, 0, 0]
+    back = gf.load_monitor(mon.save(tmp_path / "m.json"))
+    assert back.persistence == rule and back.state == mon.state
+    rest = back.feed(Y[:, 300:], U[:, 300:])
+    np.testing.assert_array_equal(rest.isolated, ref.isolated[300:])
+    np.testing.assert_array_equal(rest.alarms, ref.alarms[:, 300:])
+    # a file that stores the rule as [k, n] (before the held pattern): the old k-of-n
+    # confirmation with momentary isolation, whose decisions now settle
+    old = gf.Monitor(bank, threshold=0.35, persistence=gf.Persistence(2, 3, latch=False))
+    want = old.feed(Y, U)
+    old.reset()
+    old.feed(Y[:, :300], U[:, :300])
+    path = old.save(tmp_path / "old.json")
+    doc = json.loads(path.read_text())
+    doc["payload"]["persistence"] = [2, 3]
+    for key in ("held", "quiet", "decisions"):
+        del doc["payload"]["state"][key]
+    doc["checksum"] = _checksum(doc["payload"])
+    path.write_text(json.dumps(doc))
+    legacy = gf.load_monitor(path)
+    assert legacy.persistence == gf.Persistence(2, 3, latch=False)
+    got = legacy.feed(Y[:, 300:], U[:, 300:])
+    np.testing.assert_array_equal(got.alarms, want.alarms[:, 300:])
+    # the decision history starts afresh: equal once n - 1 samples have passed
+    np.testing.assert_array_equal(got.isolated[2:], want.isolated[302:])
+    doc["payload"]["persistence"] = {"k": 2, "n": 3, "latch": True}
+    doc["checksum"] = _checksum(doc["payload"])
+    path.write_text(json.dumps(doc))
+    with pytest.raises(gf.errors.BankFileError, match="persistence"):
+        gf.load_monitor(path)
