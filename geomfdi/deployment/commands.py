@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.deployment.decide import NO_RULE, as_persistence
+from geomfdi.deployment.decide import as_persistence
 from geomfdi.deployment.recorded import EvaluationResult, channel_columns, evaluate
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.evaluation.persistence import Persistence
@@ -52,7 +52,7 @@ def parse_persistence(text: str | None) -> Any:
 
 def describe_rule(rule: Persistence) -> str:
     """A one-line description of a persistence rule (for reports)."""
-    if rule == NO_RULE:
+    if rule.trivial:
         return "none (per-sample alarms and isolation)"
     text = f"{rule.k} of {rule.n} samples"
     if rule.latch:

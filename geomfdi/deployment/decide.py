@@ -148,6 +148,18 @@ def held_chunk(
     R, L = alarms.shape
     if L == 0:
         return np.zeros((R, 0), dtype=bool), held.copy(), quiet
+    if not alarms.any():  # a quiet chunk: the held pattern until the episode ends
+        pattern = np.zeros((R, L), dtype=bool)
+        if not held.any():
+            return pattern, held.copy(), 0
+        if reset is None:
+            pattern[:] = held[:, None]
+            return pattern, held.copy(), 0
+        stay = min(L, reset - quiet - 1)  # samples before the reset-th quiet one
+        pattern[:, :stay] = held[:, None]
+        if stay == L:
+            return pattern, held.copy(), quiet + L
+        return pattern, np.zeros(R, dtype=bool), 0
     if reset is None:
         pattern = np.logical_or.accumulate(alarms, axis=1)
         pattern |= held[:, None]
@@ -199,10 +211,17 @@ def settle(codes: np.ndarray, history: np.ndarray, k: int, n: int) -> np.ndarray
     """Step 4 for a chunk of pattern decisions ``codes`` (``(L,)``) after the ``n - 1``
     decisions in ``history`` (oldest first), vectorised per decision value."""
     kept = (codes >= 0) | (codes == MULTIPLE)
+    if k == 1 or not kept.any():  # the sample itself is one of the k
+        return codes.copy()
     out = np.where(kept, UNEXPLAINED, codes)
-    if not kept.any():
-        return out
     ext = np.concatenate([history, codes])
+    L = codes.size
+    if n <= _SHIFTED_SUMS:  # count the equal decisions in the window by shifts
+        count = np.ones(L, dtype=np.int8)
+        for d in range(1, n):
+            count += ext[n - 1 - d : n - 1 - d + L] == codes
+        np.copyto(out, codes, where=kept & (count >= k))
+        return out
     for code in np.unique(codes[kept]).tolist():
         hit = ext == code
         ok = k_of_n(hit, k, n)[n - 1 :] & hit[n - 1 :]
@@ -267,11 +286,11 @@ class PatternTable:
         out[codes == 0] = NO_ALARM
         if self.multiple and self.columns.size:
             unexplained = np.flatnonzero(out == UNEXPLAINED)
-            if unexplained.size:
-                c = codes[unexplained, None]
-                inside = (self.columns & ~c) == 0
+            if unexplained.size:  # decided once per distinct pattern
+                c, inv = np.unique(codes[unexplained], return_inverse=True)
+                inside = (self.columns & ~c[:, None]) == 0
                 union = np.bitwise_or.reduce(np.where(inside, self.columns, 0), axis=1)
-                out[unexplained[union == c[:, 0]]] = MULTIPLE
+                out[unexplained[(union == c)[inv]]] = MULTIPLE
         return out
 
     def decide(self, alarms: np.ndarray) -> np.ndarray:

@@ -30,7 +30,6 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from geomfdi.deployment.decide import (
-    NO_RULE,
     PatternTable,
     confirm,
     decision_code,
@@ -200,7 +199,7 @@ def make_step(
     thr2 = np.concatenate([thr, thr])
     k, n = persistence.k, persistence.n
     latch, reset = persistence.latch, persistence.reset
-    multiple = persistence != NO_RULE
+    multiple = not persistence.trivial
     settling = n > 1 and isolation
     structure = program.structure
     # raw pattern -> (packed counts, raw alarms, bit code); packed counts -> (confirmed
@@ -226,6 +225,7 @@ def make_step(
 
     def confirmed(entry: tuple[int, np.ndarray, int]) -> tuple[np.ndarray, int | None]:
         if n == 1:
+            state.history[0] = state.packed = entry[0]
             conf, code = entry[1], entry[2]
         else:
             hist = state.history
@@ -332,7 +332,7 @@ def make_feed(
     rows = program.n_rows
     k, n = persistence.k, persistence.n
     latch, reset = persistence.latch, persistence.reset
-    multiple = persistence != NO_RULE
+    multiple = not persistence.trivial
     settling = n > 1 and isolation
     thr = None if thresholds is None else thresholds[:, None]
     scalar = program.scalar_rows

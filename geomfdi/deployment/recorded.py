@@ -36,7 +36,7 @@ import numpy as np
 
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_positive, as_real_array
-from geomfdi.deployment.decide import NO_RULE, as_persistence
+from geomfdi.deployment.decide import as_persistence
 from geomfdi.deployment.program import (
     as_bank,
     build_program,
@@ -440,7 +440,7 @@ def evaluate(
     thr = as_threshold(threshold, program.n_rows, program.present)
     pers = as_persistence(persistence)
     raw = raw_alarms(residuals, thr)
-    if pers == NO_RULE:
+    if pers.trivial:
         alarms, iso = raw, isolate(raw, program.structure)
     else:
         alarms = pers.apply(raw)

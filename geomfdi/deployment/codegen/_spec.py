@@ -34,7 +34,6 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.deployment.decide import NO_RULE
 from geomfdi.errors import GeomFDIError, NotDiscreteError
 
 __all__ = ["CodeSpec", "code_spec", "check_name"]
@@ -145,7 +144,7 @@ def code_spec(
         n=mon.persistence.n,
         latch=mon.persistence.latch,
         reset=mon.persistence.reset or 0,
-        multiple=mon.persistence != NO_RULE,
+        multiple=not mon.persistence.trivial,
         structure=np.asarray(p.structure, dtype=bool),
         initial=init if isinstance(init, str) else "explicit",
         restart=mon._restart,
