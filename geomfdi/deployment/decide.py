@@ -286,11 +286,14 @@ class PatternTable:
         out[codes == 0] = NO_ALARM
         if self.multiple and self.columns.size:
             unexplained = np.flatnonzero(out == UNEXPLAINED)
-            if unexplained.size:  # decided once per distinct pattern
-                c, inv = np.unique(codes[unexplained], return_inverse=True)
-                inside = (self.columns & ~c[:, None]) == 0
+            if unexplained.size:  # decided once per run of equal patterns (held ones)
+                c = codes[unexplained]
+                starts = np.flatnonzero(np.concatenate(([True], c[1:] != c[:-1])))
+                first = c[starts]
+                inside = (self.columns & ~first[:, None]) == 0
                 union = np.bitwise_or.reduce(np.where(inside, self.columns, 0), axis=1)
-                out[unexplained[(union == c)[inv]]] = MULTIPLE
+                multi = np.repeat(union == first, np.diff(np.append(starts, c.size)))
+                out[unexplained[multi]] = MULTIPLE
         return out
 
     def decide(self, alarms: np.ndarray) -> np.ndarray:
