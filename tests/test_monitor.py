@@ -227,6 +227,10 @@ def test_pattern_table_decides_like_isolate() -> None:
         got = PatternTable.of(S).decide(A)
         want = gf.isolate(A, S).isolated
         np.testing.assert_array_equal(got, want)
+        # with MULTIPLE: the pattern decisions of the persistence rule
+        multi = PatternTable.of(S, multiple=True).decide(A)
+        np.testing.assert_array_equal(multi, gf.Persistence(1, 1, False).isolation(A, S).isolated)
+        assert rows < 3 or MULTIPLE in multi
         assert {-1, -2}.issubset(set(got.tolist())) or rows == 1
         if nf > 2 and S[:, 1].any():
             assert -3 in got
