@@ -217,6 +217,7 @@ def test_pattern_table_decides_like_isolate() -> None:
     from geomfdi.deployment.decide import PatternTable
 
     rng = np.random.default_rng(11)
+    seen = False
     for rows, nf in [(1, 1), (3, 4), (6, 8), (10, 10)]:
         S = rng.random((rows, nf)) < 0.5
         S[:, 0] = False  # a fault no residual sees
@@ -230,10 +231,11 @@ def test_pattern_table_decides_like_isolate() -> None:
         # with MULTIPLE: the pattern decisions of the persistence rule
         multi = PatternTable.of(S, multiple=True).decide(A)
         np.testing.assert_array_equal(multi, gf.Persistence(1, 1, False).isolation(A, S).isolated)
-        assert rows < 3 or MULTIPLE in multi
+        seen |= MULTIPLE in multi
         assert {-1, -2}.issubset(set(got.tolist())) or rows == 1
         if nf > 2 and S[:, 1].any():
             assert -3 in got
+    assert seen
 
 
 @pytest.mark.parametrize("k, n", [(1, 2), (2, 3), (5, 16), (3, 17), (20, 40)])
