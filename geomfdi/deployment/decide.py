@@ -170,16 +170,21 @@ def held_chunk(
     never = -(reset + 2)  # before every episode start
     anyal = alarms.any(axis=0)
     last_any = np.maximum.accumulate(np.where(anyal, idx, before))
-    last_res = np.maximum.accumulate(
-        np.where(alarms, idx, np.where(held, before, never)[:, None]), axis=1
-    )
     prev = np.empty(L, dtype=last_any.dtype)
     prev[0] = before
     prev[1:] = last_any[:-1]
     start = anyal & (idx - prev - 1 >= reset)
-    ep_start = np.maximum.accumulate(np.where(start, idx, before if active0 else never))
     active = idx - last_any < reset
-    pattern = active & (last_res >= ep_start)
+    if not start.any():  # one episode, continued from the state (an alarm exists)
+        pattern = np.logical_or.accumulate(alarms, axis=1)
+        pattern |= held[:, None]
+        pattern &= active
+    else:
+        last_res = np.maximum.accumulate(
+            np.where(alarms, idx, np.where(held, before, never)[:, None]), axis=1
+        )
+        ep_start = np.maximum.accumulate(np.where(start, idx, before if active0 else never))
+        pattern = active & (last_res >= ep_start)
     end = pattern[:, -1].copy()
     return pattern, end, int(L - 1 - last_any[-1]) if end.any() else 0
 
