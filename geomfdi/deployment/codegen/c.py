@@ -126,8 +126,7 @@ def _pattern_c(spec: CodeSpec, P: str) -> str:
         lines.append(f"""    if (any) {{ /* the pattern held over the alarm episode */
         for (i = 0; i < {P}_NR; ++i) s->held[i] = (unsigned char)(s->held[i] | alarms[i]);
         s->quiet = 0;
-    }} else {{{quiet if quiet else " /* held to the end: no reset */"}
-    }}
+    }}{(" else {" + quiet + chr(10) + "    }") if quiet else " /* no reset: held to the end */"}
     for (i = 0; i < {P}_NR; ++i) pattern[i] = s->held[i];""")
     else:
         lines.append(f"    for (i = 0; i < {P}_NR; ++i) pattern[i] = alarms[i];")
@@ -157,9 +156,9 @@ def c_source(spec: CodeSpec, name: str) -> tuple[str, str]:
     if not spec.multiple:
         rule_text = "no persistence rule: isolation on the confirmed pattern of the sample;"
     elif spec.latch:
-        end = f"after {spec.reset} quiet samples" if spec.reset else "never"
+        end = f"ends after {spec.reset} quiet samples" if spec.reset else "never ends"
         rule_text = (
-            f"isolation on the pattern held over the alarm episode (ends {end}),\n"
+            f"isolation on the pattern held over the alarm episode ({end}),\n"
             f" * a decision kept when it held for {spec.k} of the last {spec.n} samples;"
         )
     else:
