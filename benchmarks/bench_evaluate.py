@@ -43,6 +43,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import geomfdi as gf  # noqa: E402
 
 DT = 0.01
+RULE = gf.Persistence(2, 3, reset=50)  # 2 of 3 samples, pattern held over 50-sample episodes
 
 
 def make_bank(n_gen: int = 10, order: int = 3, q: int = 5, m: int = 2, seed: int = 0) -> Any:
@@ -124,13 +125,13 @@ def measure(N: int, repeats: int, tmp: Path) -> dict[str, float]:
     for label, b in (("discrete", bank), ("continuous", continuous_version(bank))):
         ss = b.to_statespace()
         t_ev, t_fr = best_pair(
-            lambda b=b: gf.evaluate(b, Y, U, t, threshold=thr, persistence=(2, 3)),
+            lambda b=b: gf.evaluate(b, Y, U, t, threshold=thr, persistence=RULE),
             lambda ss=ss: control.forced_response(ss, t, Z),
             repeats,
         )
         out[f"evaluate / forced_response ({label})"] = t_fr / t_ev
 
-    mon = gf.Monitor(bank, threshold=thr, persistence=(2, 3))
+    mon = gf.Monitor(bank, threshold=thr, persistence=RULE)
     steps = min(N, 20000)
     cols = [(Y[:, k].copy(), U[:, k].copy()) for k in range(steps)]
 
@@ -163,9 +164,11 @@ def measure(N: int, repeats: int, tmp: Path) -> dict[str, float]:
             lib.bench_run(state, N, *ptrs)
 
         out["generated C step [ns/sample]"] = best(run_c, repeats) / N * 1e9
-        ref = gf.evaluate(bank, Y, U, t, threshold=thr, persistence=(2, 3))
+        ref = gf.evaluate(bank, Y, U, t, threshold=thr, persistence=RULE)
         if not np.max(np.abs(R.T - ref.residuals)) <= 1e-12 * max(1.0, np.abs(R).max()):
             raise RuntimeError("the generated C residuals differ from gf.evaluate")
+        if not (np.array_equal(Al.T, ref.alarms) and np.array_equal(iso, ref.isolated)):
+            raise RuntimeError("the generated C decisions differ from gf.evaluate")
     return out
 
 

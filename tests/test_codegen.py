@@ -159,6 +159,56 @@ def test_generated_python_matches_evaluate(case: tuple, tmp_path: Path) -> None:
         assert i == iso[k]
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "rule",
+    [gf.Persistence(2, 3, reset=150), gf.Persistence(1, 1, reset=40), gf.Persistence(3, 5, False)],
+)
+def test_generated_code_latched_rule_with_reset(case: tuple, tmp_path: Path, rule: object) -> None:
+    """The held pattern, its reset, MULTIPLE and the settling run the same in C and Python."""
+    bank, Y, U, kw, _ = case
+    kw = {**kw, "persistence": rule}
+    res = gf.evaluate(bank, Y, U, dt=DT, **kw)
+    iso = res.isolated
+    assert (iso == -1).any() and (iso >= 0).any()
+    if rule.latch:  # several faults at once, and episodes end: "no alarm" after a decision
+        assert (iso == -4).any() and np.any((iso[:-1] >= 0) & (iso[1:] == -1))
+    mon = gf.Monitor(bank, **kw)
+    if CC is not None:
+        h, c = gf.codegen.c(mon, "fdi_latch", tmp_path)
+        assert "MULTIPLE" in h.read_text()
+        _check(res, *_run_c(_compile(c, tmp_path), "fdi_latch", Y, U, 3))
+    mod = _load(gf.codegen.python(mon, "fdi_latch_py", tmp_path))
+    R, Al, isp = mod.run(Y.T, U.T)
+    _check(res, R.T, Al.T, isp)
+
+
+def test_generated_code_decides_multiple(tmp_path: Path) -> None:
+    """A pattern that is the union of two columns gives -4 in C, Python and evaluate."""
+    g = [
+        gf.ResidualGenerator([[0.0]], -h[None], [[0.0]], [[0.0]], h[None], [[0.0]], dt=DT)
+        for h in (np.array([1.0, 0.0]), np.array([0.0, 1.0]))
+    ]
+    S = np.eye(2, dtype=bool)
+    bank = gf.ResidualBank(g, S, S, np.ones(2, bool), ["ok", "ok"], [], DT)
+    Y = np.zeros((2, 60))
+    Y[0, 10:] = 1.0  # fault 0 from sample 10
+    Y[1, 20:25] = 1.0  # fault 1 for 5 samples: the held pattern keeps it
+    U = np.zeros((1, 60))
+    kw = {"threshold": 0.5, "persistence": gf.Persistence(2, 3, reset=10), "initial": "zero"}
+    res = gf.evaluate(bank, Y, U, dt=DT, **kw)
+    want = np.full(60, -1)
+    want[11], want[12:21] = -2, 0  # confirmed at 11 (2 of 3), decision settled at 12
+    want[21], want[22:] = -2, -4  # pattern {0, 1} held from 21, MULTIPLE settled at 22
+    np.testing.assert_array_equal(res.isolated, want)
+    mon = gf.Monitor(bank, **kw)
+    mod = _load(gf.codegen.python(mon, "multi_py", tmp_path))
+    np.testing.assert_array_equal(mod.run(Y.T, U.T)[2], want)
+    if CC is not None:
+        _, c = gf.codegen.c(mon, "multi", tmp_path)
+        np.testing.assert_array_equal(_run_c(_compile(c, tmp_path), "multi", Y, U, 2)[2], want)
+
+
 def test_continuous_bank_is_refused(tmp_path: Path) -> None:
     with pytest.raises(NotDiscreteError, match="discretize"):
         gf.codegen.c(seed_bank(), "x", tmp_path)

@@ -172,10 +172,19 @@ def test_persistence_is_k_of_n(dbank: gf.ResidualBank) -> None:
     for k in range(800):
         window = raw[:, max(0, k - 3) : k + 1].sum(axis=1)
         np.testing.assert_array_equal(res.alarms[:, k], window >= 2)
-    iso = gf.isolate(res.alarms, dbank.structure)
+    iso = gf.Persistence(2, 4).isolation(res.alarms, dbank.structure)
     np.testing.assert_array_equal(res.isolated, iso.isolated)
+    np.testing.assert_array_equal(res.suspects, iso.suspects)
+    # the held pattern only grows (no reset): once isolated, a decision is never a
+    # momentary "no alarm" again
+    first = int(np.argmax(res.isolated >= 0))
+    assert res.isolated[first] >= 0 and not np.any(res.isolated[first:] == -1)
+    momentary = gf.evaluate(dbank, y, u, t, threshold=thr, persistence=gf.Persistence(2, 4, False))
+    assert np.any(momentary.isolated[first:] == -1)
+    plain = gf.isolate(res.alarms, dbank.structure).isolated
+    np.testing.assert_array_equal(momentary.isolated == -1, plain == -1)
     dur = gf.evaluate(dbank, y, u, t, threshold=thr, persistence=3)
-    assert dur.persistence.k == dur.persistence.n == 3
+    assert dur.persistence == gf.Persistence(3, 3)
 
 
 def test_rms_threshold_on_recorded_data(dbank: gf.ResidualBank) -> None:
@@ -240,13 +249,21 @@ threshold = 0.05
     return path
 
 
-def test_cli_evaluate_round_trip(tmp_path: Path, dplant: gf.Plant) -> None:
+@pytest.mark.parametrize(
+    "cli_rule, rule",
+    [(None, None), ("1/2/50", gf.Persistence(1, 2, reset=50)), ("1/2", gf.Persistence(1, 2))],
+)
+def test_cli_evaluate_round_trip(
+    tmp_path: Path, dplant: gf.Plant, cli_rule: str | None, rule: gf.Persistence | None
+) -> None:
     model = _round_trip_model(tmp_path, dplant)
     bank = gf.design_bank(dplant, [gf.SensorFault(i) for i in range(3)], np.eye(3, dtype=bool))
     t = np.arange(0.0, 12.0 + DT / 2, DT)
     u = np.vstack([np.sin(0.5 * t), np.cos(0.3 * t), np.full(t.size, 0.2)])
     faults = [gf.GainFault(0, start=6.0, gain=1.5, bias=0.02), gf.BiasFault(2, start=9.0, bias=0.1)]
-    sim = gf.simulate(dplant, bank, t, u, controller=K, faults=faults, threshold=0.05)
+    sim = gf.simulate(
+        dplant, bank, t, u, controller=K, faults=faults, threshold=0.05, persistence=rule
+    )
     data = tmp_path / "data.csv"
     with data.open("w", newline="") as fh:
         w = csv.writer(fh)
@@ -254,8 +271,8 @@ def test_cli_evaluate_round_trip(tmp_path: Path, dplant: gf.Plant) -> None:
         for k in range(t.size):
             w.writerow([repr(float(v)) for v in (t[k], *sim.y[:, k], *sim.u[:, k])])
     out = tmp_path / "out"
-    code = main(["evaluate", str(model), str(data), "--out", str(out), "--initial", "zero",
-                 "--quiet"])  # fmt: skip
+    args = ["evaluate", str(model), str(data), "--out", str(out), "--initial", "zero", "--quiet"]
+    code = main(args + (["--persistence", cli_rule] if cli_rule else []))
     assert code == 0
     r = np.genfromtxt(out / "residuals.csv", delimiter=",", skip_header=1)
     a = np.genfromtxt(out / "alarms.csv", delimiter=",", skip_header=1, dtype=int)
@@ -273,9 +290,23 @@ def test_cli_evaluate_round_trip(tmp_path: Path, dplant: gf.Plant) -> None:
     assert "Alarm episodes" in report and "sensor 0" in report
     assert (out / "residuals.png").stat().st_size > 1000
     # the library call with the known faults reproduces simulate's events
-    res = gf.evaluate(bank, sim.y, sim.u, t, threshold=0.05, initial="zero", faults=faults)
+    res = gf.evaluate(
+        bank, sim.y, sim.u, t, threshold=0.05, initial="zero", faults=faults, persistence=rule
+    )
+    assert len(res.events) == len(sim.events) == 2
     for e1, e2 in zip(res.events, sim.events, strict=True):
         assert (e1.detection_time, e1.isolation_time) == (e2.detection_time, e2.isolation_time)
+        assert (e1.decided, e1.hypothesis, e1.residuals) == (
+            e2.decided,
+            e2.hypothesis,
+            e2.residuals,
+        )
+    assert sim.events[0].outcome == "correct"
+    if rule is not None and rule.reset is None:  # the second fault adds to the held pattern
+        assert sim.events[1].outcome == "multiple" and sim.events[1].hypothesis == (0, 2)
+        assert "| several: sensor 0, sensor 2 |" in report
+    else:  # a new episode after 50 quiet samples: isolated alone
+        assert sim.events[1].outcome == "correct" and "several" not in report
 
 
 def test_cli_evaluate_errors(

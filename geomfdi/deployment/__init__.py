@@ -6,10 +6,10 @@
 user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
 """
 
-from geomfdi.deployment.decide import Persistence
 from geomfdi.deployment.monitor import Monitor, MonitorOutput, MonitorStep
 from geomfdi.deployment.persistence import load_bank, load_monitor, save_bank, save_monitor
 from geomfdi.deployment.recorded import AlarmEpisode, EvaluationResult, evaluate
+from geomfdi.evaluation.persistence import Persistence
 from geomfdi.synthesis.discretize import discretize_bank
 
 __all__ = [

@@ -23,12 +23,15 @@ import numpy as np
 from geomfdi.deployment.decide import as_persistence
 from geomfdi.deployment.recorded import EvaluationResult, channel_columns, evaluate
 from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.evaluation.persistence import Persistence
 
-__all__ = ["read_csv", "evaluate_files", "codegen_files", "parse_persistence"]
+__all__ = ["read_csv", "evaluate_files", "codegen_files", "parse_persistence", "describe_rule"]
 
 
 def parse_persistence(text: str | None) -> Any:
-    """``"3"`` (3 consecutive samples) or ``"2/3"`` (2 of 3) from the command line."""
+    """``"3"`` (3 consecutive samples), ``"2/3"`` (2 of 3) or ``"2/3/50"`` (2 of 3, the
+    alarm episode ends after 50 quiet samples) from the command line; the pattern is
+    held over the episode (:class:`geomfdi.Persistence`)."""
     if text is None:
         return None
     try:
@@ -39,9 +42,23 @@ def parse_persistence(text: str | None) -> Any:
         return as_persistence(parts[0])
     if len(parts) == 2:
         return as_persistence(tuple(parts))
+    if len(parts) == 3:
+        return Persistence(parts[0], parts[1], reset=parts[2])
     raise GeomFDIError(
-        f"--persistence: expected D or K/N (integers), got {text!r}", argument="persistence"
+        f"--persistence: expected D, K/N or K/N/RESET (integers), got {text!r}",
+        argument="persistence",
     )
+
+
+def describe_rule(rule: Persistence) -> str:
+    """A one-line description of a persistence rule (for reports)."""
+    if rule.trivial:
+        return "none (per-sample alarms and isolation)"
+    text = f"{rule.k} of {rule.n} samples"
+    if rule.latch:
+        end = f"ends after {rule.reset} quiet samples" if rule.reset else "never ends"
+        return f"{text}, isolation on the pattern held over the alarm episode ({end})"
+    return f"{text}, isolation on the momentary pattern"
 
 
 def read_csv(path: str | Path, q: int, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -95,7 +112,7 @@ def _report(res: EvaluationResult, model: str, data: str, method: str) -> str:
         "",
         f"Data: `{data}`, {res.t.size} samples, t = {res.t[0]:g} .. {res.t[-1]:g} s, "
         f"dt = {res.info['dt']:g} s; design `{method}`; start-up `{res.info['initial']}`; "
-        f"persistence {res.persistence.k} of {res.persistence.n}.",
+        f"persistence: {describe_rule(res.persistence)}.",
         "",
         "| residual | threshold | max abs(r) | alarming samples |",
         "|---|---|---|---|",
@@ -114,7 +131,14 @@ def _report(res: EvaluationResult, model: str, data: str, method: str) -> str:
             "|---|---|---|---|---|",
         ]
         for ep in res.episodes:
-            fault = "-" if ep.fault is None else res.fault_labels[ep.fault]
+            if ep.fault is None:
+                fault = "-"
+            elif ep.fault < 0:  # MULTIPLE: several faults at once
+                k = int(np.searchsorted(res.t, ep.isolated_at))
+                sus = np.flatnonzero(res.suspects[:, k])
+                fault = "several: " + ", ".join(res.fault_labels[j] for j in sus)
+            else:
+                fault = res.fault_labels[ep.fault]
             rs = ", ".join(res.residual_labels[r] for r in ep.residuals)
             lines.append(
                 f"| {ep.start:g} | {ep.stop:g} | {rs} | {fault} | {_fmt(ep.isolated_at)} |"

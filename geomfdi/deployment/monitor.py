@@ -2,7 +2,9 @@
 
 A monitor runs a bank sample by sample (:meth:`Monitor.step`) or chunk by chunk
 (:meth:`Monitor.feed`) with the same fused recursion, start-up rule, missing-sample
-handling, threshold, k-of-n persistence and isolation as :func:`geomfdi.evaluate`, so
+handling, threshold, persistence rule (:class:`geomfdi.Persistence`: k-of-n
+confirmation, the pattern held over the alarm episode, settled decisions) and isolation
+as :func:`geomfdi.evaluate` and :func:`geomfdi.simulate`, so
 step-by-step, chunked and recorded evaluation agree (residuals to rounding, decisions
 exactly).  Its :attr:`Monitor.state` is a plain dict (JSON-serialisable) and
 :meth:`Monitor.save` writes the whole monitor to a versioned JSON file.  See the user
@@ -11,6 +13,7 @@ guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
 
 from __future__ import annotations
 
+from collections import deque
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +30,8 @@ from geomfdi.deployment.online import (
 )
 from geomfdi.deployment.program import Program, as_bank, build_program, check_initial, restart_rule
 from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.evaluation.decision import AMBIGUOUS, MULTIPLE, NO_ALARM, UNEXPLAINED
+from geomfdi.evaluation.persistence import Persistence
 from geomfdi.synthesis.bankfile import _enc_float, _write, bank_to_dict, encode
 
 __all__ = ["Monitor", "MonitorStep", "MonitorOutput"]
@@ -44,7 +49,8 @@ class Monitor:
     threshold : None, float, (n_residuals,) or Threshold
         Alarm when ``|r_i| > threshold_i`` (the ``"abs"`` statistic).
     persistence : None, int, (k, n) or Persistence
-        k-of-n confirmation (:mod:`geomfdi.deployment.decide`).
+        The decision rule (:class:`geomfdi.Persistence`, as in :func:`geomfdi.simulate`;
+        :mod:`geomfdi.deployment.decide`); ``None``: per-sample alarms and isolation.
     isolation : bool
         Compute the isolation decision per sample.
     initial : {"steady", "zero"} or array_like
@@ -114,8 +120,11 @@ class Monitor:
 
     @property
     def state(self) -> dict[str, Any]:
-        """The current state as plain lists (generator state ``xi``, pending start-up
-        rule, raw alarms of the last ``n`` samples oldest first, samples seen)."""
+        """The current state as plain lists: generator state ``xi``, last sample,
+        pending start-up rule, raw alarms of the last ``n`` samples oldest first
+        (``ring``), the held pattern of the alarm episode (``held``, 0/1 per row), the
+        samples since its last confirmed alarm (``quiet``), the pattern decisions of the
+        last ``n - 1`` samples (``decisions``) and the samples seen."""
         return state_dict(self._state, self.program)
 
     @state.setter
@@ -131,7 +140,7 @@ class Monitor:
         thr = "set" if self.thresholds is not None else None
         return (
             f"Monitor(rows={self.n_residuals}, order={self.program.nw}, dt={self.dt:g}, "
-            f"persistence={p.k}-of-{p.n}, threshold={thr})"
+            f"persistence={p.k}-of-{p.n} latch={p.latch} reset={p.reset}, threshold={thr})"
         )
 
 
@@ -148,17 +157,31 @@ def state_dict(state: MonitorState, program: Program) -> dict[str, Any]:
         "last_sample": [float(x) for x in state.last],
         "pending": _pending_json(state.pending),
         "ring": state.ordered_ring().astype(int).tolist(),
+        "held": state.held_rows().astype(int).tolist(),
+        "quiet": int(state.quiet),
+        "decisions": [int(d) for d in state.decisions],
         "samples": int(state.samples),
     }
 
 
+_RULE_STATE = {"held", "quiet", "decisions"}
+
+
 def set_state(state: MonitorState, program: Any, persistence: Any, value: Any) -> None:
-    """Restore a state written by :func:`state_dict` (checked)."""
+    """Restore a state written by :func:`state_dict` (checked).
+
+    A state without the entries of the held pattern and the decisions (``held``,
+    ``quiet``, ``decisions``: written before the persistence rule had them) starts them
+    afresh: no episode, no past decision.
+    """
     if not isinstance(value, dict):
         raise GeomFDIError("state: expected a dict", argument="state")
     need = {"xi", "last_sample", "pending", "ring", "samples"}
-    if set(value) != need:
-        raise GeomFDIError(f"state: expected the keys {sorted(need)}", argument="state")
+    if set(value) not in (need, need | _RULE_STATE):
+        raise GeomFDIError(
+            f"state: expected the keys {sorted(need | _RULE_STATE)}", argument="state"
+        )
+    held, quiet, decisions = _rule_state(value, program, persistence)
     xi = np.asarray(value["xi"], dtype=float)
     last = np.asarray(value["last_sample"], dtype=float)
     ring = np.asarray(value["ring"])
@@ -188,7 +211,65 @@ def set_state(state: MonitorState, program: Any, persistence: Any, value: Any) -
     state.last = last
     state.pending = pending
     state.set_ring(ring.astype(bool))
+    state.set_held(held)
+    state.quiet = quiet
+    state.decisions = deque(decisions)
     state.samples = samples
+
+
+def _rule_state(value: dict[str, Any], program: Any, persistence: Any) -> tuple:
+    """``held``, ``quiet``, ``decisions`` of a state dict, checked (defaults when absent)."""
+    rows, n = program.n_rows, persistence.n
+    if "held" not in value:
+        return np.zeros(rows, dtype=bool), 0, [NO_ALARM] * (n - 1)
+    held = np.asarray(value["held"])
+    if held.shape != (rows,) or not np.isin(held, (0, 1)).all():
+        raise ShapeError(f"state: held must be {rows} values 0 or 1", argument="state")
+    quiet = value["quiet"]
+    limit = persistence.reset if persistence.latch and persistence.reset is not None else 1
+    if isinstance(quiet, bool) or not isinstance(quiet, int) or not 0 <= quiet < limit:
+        raise GeomFDIError(f"state: quiet must be an integer in [0, {limit})", argument="state")
+    if held.any() and not persistence.latch:
+        raise GeomFDIError("state: a held pattern needs a latching rule", argument="state")
+    dec = value["decisions"]
+    codes = (NO_ALARM, UNEXPLAINED, AMBIGUOUS, MULTIPLE)
+    nf = program.structure.shape[1]
+    if (
+        not isinstance(dec, list)
+        or len(dec) != n - 1
+        or not all(
+            isinstance(d, int) and not isinstance(d, bool) and (0 <= d < nf or d in codes)
+            for d in dec
+        )
+    ):
+        raise GeomFDIError(
+            f"state: decisions must be {n - 1} decision codes (fault index, -1 .. -4)",
+            argument="state",
+        )
+    return held.astype(bool), quiet, list(dec)
+
+
+def persistence_dict(rule: Persistence) -> dict[str, Any]:
+    """The rule as it is stored in a monitor file."""
+    return {"k": rule.k, "n": rule.n, "latch": rule.latch, "reset": rule.reset}
+
+
+def persistence_from(value: Any) -> Persistence:
+    """The rule stored in a monitor file.
+
+    Files written before the rule had its memory store ``[k, n]``: that was k-of-n
+    confirmation with per-sample isolation, loaded as ``Persistence(k, n,
+    latch=False)`` (the same alarms; decisions now settle for ``k`` of ``n`` samples).
+    """
+    if isinstance(value, list) and len(value) == 2:
+        return Persistence(value[0], value[1], latch=False)
+    if not isinstance(value, dict) or set(value) != {"k", "n", "latch", "reset"}:
+        raise GeomFDIError(
+            "persistence: expected {k, n, latch, reset} (or [k, n])", argument="persistence"
+        )
+    if any(isinstance(value[x], float) for x in ("k", "n", "reset")):
+        raise GeomFDIError("persistence: k, n, reset must be integers", argument="persistence")
+    return Persistence(value["k"], value["n"], value["latch"], value["reset"])
 
 
 def save_monitor(monitor: Any, path: str | Path) -> Path:
@@ -198,7 +279,7 @@ def save_monitor(monitor: Any, path: str | Path) -> Path:
         "bank": bank_to_dict(monitor.bank),
         "dt": _enc_float(float(monitor.dt)),
         "threshold": None if monitor.thresholds is None else encode(monitor.thresholds),
-        "persistence": [monitor.persistence.k, monitor.persistence.n],
+        "persistence": persistence_dict(monitor.persistence),
         "isolation": monitor.isolation,
         "initial": initial if isinstance(initial, str) else encode(initial),
         "state": encode(state_dict(monitor._state, monitor.program)),

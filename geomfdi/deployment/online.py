@@ -6,9 +6,11 @@ State of a monitor (all in preallocated arrays, updated in place):
   ``z = [y; u]``, so that one product ``Phi v`` with ``Phi = [[A, B], [C, D]]`` gives the
   next state and the residual components (:mod:`geomfdi.deployment.program`);
 * ``pending``: the initial-state rule still to apply (start, or after a missing sample);
-* ``ring`` (``n`` x rows, bool), ``pos``, ``count``: the raw alarms of the last ``n``
-  samples (oldest at ``pos``) and their per-row sum, for the k-of-n rule of
-  :mod:`geomfdi.deployment.decide`.
+* ``history`` / ``packed``: the raw alarms of the last ``n`` samples and their per-row
+  sums, for the k-of-n count of :mod:`geomfdi.deployment.decide`;
+* ``held``, ``quiet``: the pattern held over the current alarm episode (a bit code, row
+  ``i`` is bit ``i``) and the samples since its last confirmed alarm;
+* ``decisions``: the pattern decisions of the last ``n - 1`` samples (settling).
 
 :func:`make_step` builds the one-sample update as a closure over these arrays (no
 attribute look-ups, no allocation but the returned copies); :func:`make_feed` likewise
@@ -27,18 +29,26 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from geomfdi.deployment.decide import PatternTable, Persistence, confirm, decision_code
+from geomfdi.deployment.decide import (
+    PatternTable,
+    confirm,
+    decision_code,
+    held_chunk,
+    settle,
+    settle_one,
+)
 from geomfdi.deployment.program import Program, initial_state, run_program
 from geomfdi.errors import ShapeError
-from geomfdi.evaluation.decision import isolate
+from geomfdi.evaluation.decision import NO_ALARM, isolate
+from geomfdi.evaluation.persistence import Persistence
 
 __all__ = ["MonitorStep", "MonitorOutput", "MonitorState", "make_step", "make_feed"]
 
 
 class MonitorStep(NamedTuple):
     """Outcome of one :meth:`Monitor.step`: residual per bank row, confirmed alarms, and
-    the isolation decision (fault index, or ``-1`` / ``-2`` / ``-3``; ``None`` when
-    isolation is off)."""
+    the isolation decision (fault index, or ``-1`` / ``-2`` / ``-3`` / ``-4``; ``None``
+    when isolation is off)."""
 
     residuals: np.ndarray
     alarms: np.ndarray
@@ -70,7 +80,10 @@ class MonitorState:
     ``xi`` (generator state), ``last`` (the last sample ``z``), ``pending`` (start-up
     rule still to apply), ``history`` (the raw alarm patterns of the last ``n`` samples,
     oldest first, each packed into an int with ``width`` bits per row) and ``packed``
-    (their per-row sums, packed the same way), ``samples`` (samples seen).
+    (their per-row sums, packed the same way), ``held`` (bit code of the held pattern,
+    0 outside an episode), ``quiet`` (samples since the episode's last confirmed alarm),
+    ``decisions`` (pattern decisions of the last ``n - 1`` samples, oldest first),
+    ``samples`` (samples seen).
     """
 
     def __init__(self, program: Program, persistence: Persistence, pending: Any) -> None:
@@ -87,7 +100,18 @@ class MonitorState:
         self.pending = pending
         self.history: deque[int] = deque([0] * persistence.n)
         self.packed = 0
+        self.held = 0
+        self.quiet = 0
+        self.decisions: deque[int] = deque([NO_ALARM] * (persistence.n - 1))
         self.samples = 0
+
+    def held_rows(self) -> np.ndarray:
+        """The held pattern as a bool per row."""
+        return np.array([(self.held >> i) & 1 for i in range(self.rows)], dtype=bool)
+
+    def set_held(self, rows: Any) -> None:
+        """Set the held pattern from a bool per row."""
+        self.held = code_of(rows)
 
     def pack(self, bits: Any) -> int:
         """One alarm pattern (bool per row) as an int, ``width`` bits per row."""
@@ -116,6 +140,11 @@ class MonitorState:
         else:
             self.history = deque(self.pack(row) for row in ordered)
         self.packed = sum(self.history)
+
+
+def code_of(bits: Any) -> int:
+    """The bit code of a pattern (row ``i`` is bit ``i``)."""
+    return sum(1 << i for i, b in enumerate(np.asarray(bits).tolist()) if b)
 
 
 def _signal(value: Any, size: int, name: str) -> None:
@@ -148,7 +177,9 @@ def make_step(
     state), ``[C D]`` and ``[-C -D]`` (the residual rows and their negatives, so that
     ``|r| > threshold`` is one comparison).  A sample is missing when ``v . v`` is not
     finite (a ``nan`` or an infinite entry).  The raw alarm pattern, its k-of-n counts
-    and the isolation decision are looked up in caches keyed by the packed pattern.
+    and the pattern decision are looked up in caches keyed by the packed pattern; the
+    held pattern and the settling of decisions (:mod:`geomfdi.deployment.decide`) are
+    integer operations on bit codes.
     """
     nw, q, m, nz = program.nw, program.q, program.m, program.nz
     rows = program.n_rows
@@ -167,36 +198,65 @@ def make_step(
     thr = np.full(rows, np.inf) if thresholds is None else thresholds
     thr2 = np.concatenate([thr, thr])
     k, n = persistence.k, persistence.n
+    latch, reset = persistence.latch, persistence.reset
+    multiple = not persistence.trivial
+    settling = n > 1 and isolation
     structure = program.structure
-    raw_cache: dict[bytes, tuple[int, np.ndarray]] = {}
-    dec_cache: dict[int, tuple[np.ndarray, int | None]] = {}
+    # raw pattern -> (packed counts, raw alarms, bit code); packed counts -> (confirmed
+    # alarms, bit code); pattern code -> pattern decision
+    raw_cache: dict[bytes, tuple[int, np.ndarray, int]] = {}
+    conf_cache: dict[int, tuple[np.ndarray, int]] = {}
+    dec_cache: dict[int, int] = {}
     nan_rows = np.full(rows, np.nan)
     concatenate, isfinite = np.concatenate, math.isfinite
     empty = np.zeros(0)
+    row_bits = [1 << i for i in range(rows)]
 
-    def decision(conf: np.ndarray) -> int | None:
-        return decision_code(conf, structure) if isolation else None
-
-    def raw_entry(key: bytes, raw: np.ndarray) -> tuple[int, np.ndarray]:
-        entry = raw_cache[key] = (state.pack(raw), _read_only(raw))
-        return entry
-
-    def confirmed(code: int, raw: np.ndarray) -> tuple[np.ndarray, int | None]:
-        if n == 1:
-            dec = dec_cache.get(code)
-            if dec is None:
-                dec = dec_cache[code] = (raw, decision(raw))
-            return dec
-        hist = state.history
-        hist.append(code)
-        packed = state.packed = state.packed + code - hist.popleft()
-        dec = dec_cache.get(packed)
+    def pattern_decision(code: int) -> int:
+        dec = dec_cache.get(code)
         if dec is None:
-            conf = _read_only(state.counts(packed) >= k)
-            dec = dec_cache[packed] = (conf, decision(conf))
+            bits = np.array([code & b != 0 for b in row_bits], dtype=bool)
+            dec = dec_cache[code] = decision_code(bits, structure, multiple)
         return dec
 
-    zero_raw = _read_only(np.zeros(rows, dtype=bool))
+    def raw_entry(key: bytes, raw: np.ndarray) -> tuple[int, np.ndarray, int]:
+        entry = raw_cache[key] = (state.pack(raw), _read_only(raw), code_of(raw))
+        return entry
+
+    def confirmed(entry: tuple[int, np.ndarray, int]) -> tuple[np.ndarray, int | None]:
+        if n == 1:
+            state.history[0] = state.packed = entry[0]
+            conf, code = entry[1], entry[2]
+        else:
+            hist = state.history
+            hist.append(entry[0])
+            packed = state.packed = state.packed + entry[0] - hist.popleft()
+            got = conf_cache.get(packed)
+            if got is None:
+                c = _read_only(state.counts(packed) >= k)
+                got = conf_cache[packed] = (c, code_of(c))
+            conf, code = got
+        if latch:
+            if code:
+                state.held |= code
+                state.quiet = 0
+            elif state.held and reset is not None:
+                state.quiet += 1
+                if state.quiet >= reset:
+                    state.held = state.quiet = 0
+            code = state.held
+        if not isolation:
+            return conf, None
+        dec = pattern_decision(code)
+        if settling:
+            hist_d = state.decisions
+            out = settle_one(dec, hist_d, k)
+            hist_d.append(dec)
+            hist_d.popleft()
+            return conf, out
+        return conf, dec
+
+    zero_entry = (0, _read_only(np.zeros(rows, dtype=bool)), 0)
 
     def step(y: Any, u: Any = None) -> MonitorStep:
         if len(y) != q:
@@ -210,7 +270,7 @@ def make_step(
         state.samples += 1
         if not isfinite(v.dot(v)):  # a missing sample: flagged, state not advanced
             state.pending = restart
-            conf, code = confirmed(0, zero_raw)
+            conf, code = confirmed(zero_entry)
             return MonitorStep(nan_rows.copy(), conf, code)
         state.last = v[nw:]
         if state.pending is not None:
@@ -230,7 +290,7 @@ def make_step(
             raw = np.abs(r) > thr
             key = raw.tobytes()
             entry = raw_cache.get(key) or raw_entry(key, raw)
-        conf, code = confirmed(entry[0], entry[1])
+        conf, code = confirmed(entry)
         return MonitorStep(r, conf, code)
 
     return step
@@ -262,23 +322,30 @@ def make_feed(
 
     Runs ``L`` samples (``Y`` (q, L), ``U`` (m, L)) with the loop-free recursion of
     :func:`~geomfdi.deployment.program.run_program`, then the threshold, the k-of-n
-    rule over the ring of the previous raw alarms and the isolation decision, and
-    leaves the same state behind as ``L`` calls of the step would.  The isolation
-    decision of a confirmed alarm pattern is looked up by its bit code
-    (:class:`~geomfdi.deployment.decide.PatternTable`).
+    count over the ring of the previous raw alarms, the held pattern continued from
+    the state (:func:`~geomfdi.deployment.decide.held_chunk`), the pattern decisions
+    looked up by bit code (:class:`~geomfdi.deployment.decide.PatternTable`) and their
+    settling after the previous ones, and leaves the same state behind as ``L`` calls
+    of the step would.
     """
     q, m, nz = program.q, program.m, program.nz
     rows = program.n_rows
-    n = persistence.n
+    k, n = persistence.k, persistence.n
+    latch, reset = persistence.latch, persistence.reset
+    multiple = not persistence.trivial
+    settling = n > 1 and isolation
     thr = None if thresholds is None else thresholds[:, None]
     scalar = program.scalar_rows
     structure = program.structure
-    table = PatternTable.of(structure) if rows <= PatternTable.MAX_ROWS else None
+    table = PatternTable.of(structure, multiple) if rows <= PatternTable.MAX_ROWS else None
+    plain = Persistence(1, 1, latch=False)  # the pattern decisions of step 3, with -4
 
-    def decisions(alarms: np.ndarray) -> np.ndarray:
-        if table is None:  # too many rows for a bit code
-            return isolate(alarms, structure).isolated
-        return table.decide(alarms)
+    def decisions(pattern: np.ndarray) -> np.ndarray:
+        if table is not None:
+            return table.decide(pattern)
+        if multiple:  # too many rows for a bit code
+            return plain.isolation(pattern, structure).isolated
+        return isolate(pattern, structure).isolated
 
     def feed(Y: Any, U: Any = None) -> MonitorOutput:
         Y = _chunk(Y, q, "Y")
@@ -313,7 +380,19 @@ def make_feed(
             state.set_ring(raw[:, L - n :].T)
         else:
             state.set_ring(np.concatenate([ordered[L:], raw.T], axis=0))
-        isolated = decisions(alarms) if isolation else None
+        pattern = alarms
+        if latch:
+            pattern, held, state.quiet = held_chunk(alarms, reset, state.held_rows(), state.quiet)
+            state.set_held(held)
+        isolated = None
+        if isolation:
+            isolated = decisions(pattern)
+            if settling:
+                past = np.array(state.decisions, dtype=np.int64)
+                out = settle(isolated, past, k, n)
+                tail = np.concatenate([past, isolated])[isolated.size :]
+                state.decisions = deque(tail.tolist())
+                isolated = out
         return MonitorOutput(residuals, raw, alarms, isolated, ~valid)
 
     return feed

@@ -133,7 +133,14 @@ def load_bank(path: str | Path) -> ResidualBank:
 
 
 def load_monitor(path: str | Path) -> Any:
-    """Read a monitor written by ``monitor.save(path)``, state included."""
+    """Read a monitor written by ``monitor.save(path)``, state included.
+
+    The persistence rule is stored as ``{k, n, latch, reset}``.  A file that stores it
+    as ``[k, n]`` (written before the rule held the pattern over alarm episodes) loads
+    with ``Persistence(k, n, latch=False)``: the same confirmed alarms, isolation on the
+    momentary pattern, with decisions kept when they held for ``k`` of the last ``n``
+    samples; its state starts the decision history afresh.
+    """
     from geomfdi.deployment.monitor import Monitor
     from geomfdi.evaluation.decision import Threshold
 
@@ -150,9 +157,12 @@ def load_monitor(path: str | Path) -> Any:
         initial = payload["initial"]
         if not isinstance(initial, str):
             initial = decode_array(initial, "monitor.initial")
-        pers = payload["persistence"]
-        if not isinstance(pers, list) or len(pers) != 2:
-            raise _Bad("monitor.persistence: expected [k, n]")
+        from geomfdi.deployment.monitor import persistence_from
+
+        try:
+            pers = persistence_from(payload["persistence"])
+        except GeomFDIError as exc:
+            raise _Bad(f"monitor.{exc}") from exc
         if not isinstance(payload["isolation"], bool):
             raise _Bad("monitor.isolation: expected true or false")
         try:
@@ -160,7 +170,7 @@ def load_monitor(path: str | Path) -> Any:
                 bank,
                 dt=_dec_float(payload["dt"], "monitor.dt"),
                 threshold=thr,
-                persistence=tuple(pers),
+                persistence=pers,
                 isolation=payload["isolation"],
                 initial=initial,
             )

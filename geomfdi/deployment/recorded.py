@@ -5,8 +5,9 @@ uniform grid.  The recursion is the fused sampled form of the bank
 (:mod:`geomfdi.deployment.program`: exact first-order-hold sampling of a continuous
 bank, as :func:`geomfdi.simulate` and :func:`control.forced_response` do; a discrete
 bank as it is), solved without a per-sample Python loop by the same LTI core as
-:func:`geomfdi.simulate`.  Decisions (threshold, k-of-n persistence, isolation on the
-achieved structure) follow :mod:`geomfdi.deployment.decide`.
+:func:`geomfdi.simulate`.  Decisions (threshold, the persistence rule
+:class:`geomfdi.Persistence`, isolation on the achieved structure) are those of
+:func:`geomfdi.simulate` for the same residuals (:mod:`geomfdi.deployment.decide`).
 
 *Start-up.*  ``initial="steady"`` starts every generator at the fixed point for the
 first sample held constant (``xi0 = (I - A)^-1 B z[0]``): on healthy data in steady
@@ -35,9 +36,8 @@ import numpy as np
 
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_positive, as_real_array
-from geomfdi.deployment.decide import Persistence, as_persistence, confirm
+from geomfdi.deployment.decide import as_persistence
 from geomfdi.deployment.program import (
-    Program,
     as_bank,
     build_program,
     check_initial,
@@ -46,12 +46,14 @@ from geomfdi.deployment.program import (
 )
 from geomfdi.errors import GeomFDIError, ShapeError, TimeGridError
 from geomfdi.evaluation.decision import (
+    MULTIPLE,
     FaultEvent,
     Threshold,
     as_threshold,
     detection_events,
     isolate,
 )
+from geomfdi.evaluation.persistence import Persistence
 
 __all__ = ["evaluate", "EvaluationResult", "AlarmEpisode", "check_time", "channel_columns"]
 
@@ -173,7 +175,8 @@ class AlarmEpisode:
     residuals : tuple of int
         Bank rows that alarm during the episode.
     fault : int or None
-        The first isolation decision ``>= 0`` in the episode (structure column), if any.
+        The first isolation decision in the episode: a structure column, or
+        :data:`~geomfdi.evaluation.decision.MULTIPLE` (several faults); ``None``: none.
     isolated_at : float or None
         When that decision was first reached.
     """
@@ -198,7 +201,7 @@ def alarm_episodes(t: np.ndarray, alarms: np.ndarray, isolated: np.ndarray) -> l
     cuts = np.searchsorted(ep, np.arange(starts.size + 1)).tolist()
     row_list = row.tolist()
     rows = [tuple(row_list[cuts[i] : cuts[i + 1]]) for i in range(starts.size)]
-    hits = np.flatnonzero(isolated >= 0)
+    hits = np.flatnonzero((isolated >= 0) | (isolated == MULTIPLE))
     first = np.searchsorted(hits, starts)
     first_k = hits[np.minimum(first, max(hits.size - 1, 0))] if hits.size else starts
     found = (first < hits.size) & (first_k < stops) if hits.size else np.zeros(starts.size, bool)
@@ -237,7 +240,9 @@ class EvaluationResult:
         without a threshold).
     isolated : ndarray of int, (N,)
     candidates, suspects : ndarray of bool, (n_faults, N)
-        Isolation on the confirmed alarms (:func:`geomfdi.isolate`).
+        Isolation under the persistence rule (:meth:`geomfdi.Persistence.isolation`: on
+        the pattern held over the alarm episode, ``MULTIPLE`` for several faults);
+        without a rule per sample on the confirmed alarms (:func:`geomfdi.isolate`).
     events : list of FaultEvent
         Detection/isolation of the fault signals passed as ``faults`` (as in
         :func:`geomfdi.simulate`); empty otherwise.
@@ -245,6 +250,7 @@ class EvaluationResult:
         The alarm episodes (:func:`alarm_episodes`), built on first access.
     threshold : Threshold or None
     persistence : Persistence
+        The rule (``Persistence(1, 1, latch=False)``: none).
     structure : ndarray of bool
     fault_labels, residual_labels : list of str
     info : dict
@@ -303,24 +309,16 @@ def _fault_label(f: Any) -> str:
     return str(getattr(f, "name", None) or f)
 
 
-def decide(
-    program: Program,
-    residuals: np.ndarray,
-    thr: Threshold | None,
-    persistence: Persistence,
-    history: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Raw and confirmed alarms of ``residuals`` (``(n_rows, L)``), given the raw
-    alarms of the ``n - 1`` previous samples in ``history``."""
+def raw_alarms(residuals: np.ndarray, thr: Threshold | None) -> np.ndarray:
+    """Threshold crossings of ``residuals`` (``(n_rows, N)``); a masked (``nan``) sample
+    never alarms."""
     if thr is None:
-        raw = np.zeros(residuals.shape, dtype=bool)
-    elif thr.statistic == "abs" or thr.window == 1:
+        return np.zeros(residuals.shape, dtype=bool)
+    if thr.statistic == "abs" or thr.window == 1:
         v = thr.values[:, None]
-        raw = (residuals > v) | (residuals < -v)  # nan never alarms
-    else:
-        s = thr.statistic_of(np.nan_to_num(residuals, nan=0.0))
-        raw = (s > thr.values[:, None]) & np.isfinite(residuals)
-    return raw, confirm(raw, persistence, history)
+        return (residuals > v) | (residuals < -v)  # nan never alarms
+    s = thr.statistic_of(np.nan_to_num(residuals, nan=0.0))
+    return (s > thr.values[:, None]) & np.isfinite(residuals)
 
 
 @limit_blas_threads
@@ -335,6 +333,7 @@ def evaluate(
     persistence: Any = None,
     initial: Any = "steady",
     faults: Sequence[Any] = (),
+    detection_window: float | None = None,
     outputs: Sequence[str] | None = None,
     inputs: Sequence[str] | None = None,
     time: str | None = None,
@@ -359,12 +358,18 @@ def evaluate(
     threshold : None, float, (n_residuals,) or Threshold
         Decision thresholds on ``|r|`` (or a :class:`Threshold`, also on the moving RMS).
     persistence : None, int, (k, n) or Persistence
-        k-of-n confirmation of raw alarms (an int ``d``: ``d`` consecutive samples).
+        The decision rule, as in :func:`geomfdi.simulate` (:class:`geomfdi.Persistence`:
+        k-of-n confirmation, isolation from the pattern held over the alarm episode,
+        settled decisions, ``MULTIPLE`` for several faults; an int ``d``: ``d``
+        consecutive samples).  ``None``: per-sample alarms and isolation.
     initial : {"steady", "zero"} or array_like (nw,)
         Generator state at the first sample (module docstring).
     faults : sequence of fault signals, optional
         Known fault signals (``GainFault`` ...) to time detection and isolation as
         :func:`geomfdi.simulate` does (``result.events``).
+    detection_window : float, optional
+        Seconds after each fault's onset in which its alarms and decisions count, as in
+        :func:`geomfdi.simulate` (``None``: to the end of the record).
 
     Returns
     -------
@@ -382,8 +387,9 @@ def evaluate(
     -----
     Recursion ``xi[k+1] = A xi[k] + B z[k]``, ``c[k] = C xi[k] + D z[k]`` with
     ``z = [y; u]`` (:mod:`geomfdi.deployment.program`), solved over the whole record by
-    the loop-free LTI core; decisions ``|r_i| > threshold_i``, k-of-n persistence and
-    isolation on the achieved structure (:mod:`geomfdi.deployment.decide`).  Runs with
+    the loop-free LTI core; decisions ``|r_i| > threshold_i`` (or the threshold's
+    statistic), the persistence rule and isolation on the achieved structure by the
+    functions :func:`geomfdi.simulate` uses (:mod:`geomfdi.deployment.decide`).  Runs with
     the BLAS limited to :func:`geomfdi.get_blas_threads` threads (one by default).  See
     the user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
 
@@ -433,17 +439,29 @@ def evaluate(
     residuals[:, ~valid] = np.nan
     thr = as_threshold(threshold, program.n_rows, program.present)
     pers = as_persistence(persistence)
-    raw, alarms = decide(
-        program, residuals, thr, pers, np.zeros((program.n_rows, pers.n - 1), dtype=bool)
-    )
-    iso = isolate(alarms, program.structure)
+    raw = raw_alarms(residuals, thr)
+    if pers.trivial:
+        alarms, iso = raw, isolate(raw, program.structure)
+    else:
+        alarms = pers.apply(raw)
+        iso = pers.isolation(alarms, program.structure)
     fl = list(faults)
     events: list[FaultEvent] = []
     if fl:
+        from geomfdi.simulation.context import detection_window_of
         from geomfdi.simulation.signals import validate_faults
 
+        window = detection_window_of(detection_window)
         fl = validate_faults(fl, program.q)
-        events = detection_events(t, alarms, iso.isolated, fl, _fault_indices(bank, fl))
+        events = detection_events(
+            t,
+            alarms,
+            iso.isolated,
+            fl,
+            _fault_indices(bank, fl),
+            window=window,
+            suspects=iso.suspects,
+        )
     return EvaluationResult(
         t=t,
         residuals=residuals,

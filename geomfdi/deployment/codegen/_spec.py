@@ -12,8 +12,18 @@ Both generators (C and Python) emit exactly the per-sample algorithm of
    ``sqrt(c[a]^2 + ... )`` (sequential sum), ``0`` for a missing generator;
 4. raw alarm ``|r_i| > threshold_i``; k-of-n ring buffer of raw alarms; confirmed when the
    count reaches ``k``;
-5. isolation: the structure column equal to the confirmed pattern (``-1`` no alarm,
-   ``-2`` unexplained, ``-3`` ambiguous), as :func:`geomfdi.isolate`.
+5. with ``latch``: the held pattern, the OR of the confirmed alarms since the episode
+   began; a sample with a confirmed alarm sets the quiet counter to 0, otherwise it
+   counts up and at ``reset`` (``0``: never) the pattern is cleared; without
+   ``latch`` the pattern is the confirmed alarms;
+6. isolation: the structure column equal to the pattern (``-1`` no alarm, ``-2``
+   unexplained, ``-3`` ambiguous), ``-4`` (``multiple``) when the OR of the columns
+   inside the pattern equals it;
+7. settling (``n > 1``): a fault index or ``-4`` is returned when the pattern decision
+   was the same for ``k`` of the last ``n`` samples (a ring of the last ``n - 1``
+   decisions), else ``-2``.
+
+This is the rule :class:`geomfdi.Persistence` (:mod:`geomfdi.deployment.decide`).
 """
 
 from __future__ import annotations
@@ -47,6 +57,9 @@ class CodeSpec:
     thresholds: np.ndarray  # +inf: row never alarms
     k: int
     n: int
+    latch: bool
+    reset: int  # 0: never
+    multiple: bool  # a persistence rule: MULTIPLE decisions and settling
     structure: np.ndarray
     initial: str  # "zero", "steady" or "explicit"
     restart: str
@@ -129,6 +142,9 @@ def code_spec(
         thresholds=np.asarray(thr, dtype=float),
         k=mon.persistence.k,
         n=mon.persistence.n,
+        latch=mon.persistence.latch,
+        reset=mon.persistence.reset or 0,
+        multiple=not mon.persistence.trivial,
         structure=np.asarray(p.structure, dtype=bool),
         initial=init if isinstance(init, str) else "explicit",
         restart=mon._restart,

@@ -51,6 +51,17 @@ def _rows_code(spec: CodeSpec) -> str:
     return "\n".join(lines)
 
 
+def _rule_text(spec: CodeSpec) -> str:
+    if not spec.multiple:
+        return "no persistence rule: isolation on the confirmed pattern of the sample"
+    held = "the pattern held over the alarm episode" if spec.latch else "the confirmed pattern"
+    end = f" (ends after {spec.reset} quiet samples)" if spec.latch and spec.reset else ""
+    return (
+        f"isolation on {held}{end}, a decision kept when it held for {spec.k} of the "
+        f"last {spec.n} samples"
+    )
+
+
 def _template(spec: CodeSpec, name: str) -> str:
     from geomfdi import __version__
 
@@ -58,9 +69,10 @@ def _template(spec: CodeSpec, name: str) -> str:
 
 Bank: {spec.n_rows} residuals, {spec.nw} generator states, {spec.q} outputs, {spec.m} inputs,
 dt = {spec.dt!r}.  Decision: |r_i| > threshold_i, confirmed when {spec.k} of the last
-{spec.n} samples alarm; isolation returns the fault column, -1 (no alarm), -2
-(unexplained) or -3 (ambiguous).  A sample with a non-finite entry gives nan residuals,
-no raw alarm, and restarts the generators at the next valid sample.
+{spec.n} samples alarm; {_rule_text(spec)}; isolation returns the fault column,
+-1 (no alarm), -2 (unexplained), -3 (ambiguous) or -4 (several faults).  A sample with a
+non-finite entry gives nan residuals, no raw alarm, and restarts the generators at the
+next valid sample.
 """
 
 import math
@@ -74,6 +86,8 @@ def _table(hexes, shape):
 
 NY, NU, NR, NW, NF = {spec.q}, {spec.m}, {spec.n_rows}, {spec.nw}, {spec.n_faults}
 K, N = {spec.k}, {spec.n}
+LATCH, RESET, MULTIPLE = {spec.latch!r}, {spec.reset!r}, {spec.multiple!r}
+SETTLE = MULTIPLE and N > 1
 A = {_array(spec.A)}
 B = {_array(spec.B)}
 C = {_array(spec.C)}
@@ -91,7 +105,8 @@ INITIAL, RESTART = {spec.initial!r}, {spec.restart!r}
 
 
 class State:
-    """Generator state, pending start-up rule, persistence ring buffer."""
+    """Generator state, pending start-up rule, persistence ring buffer, held pattern,
+    quiet samples, past pattern decisions."""
 
     def __init__(self):
         self.xi = np.zeros(NW)
@@ -99,6 +114,9 @@ class State:
         self.ring = np.zeros((N, NR), dtype=bool)
         self.count = np.zeros(NR, dtype=int)
         self.pos = 0
+        self.held = np.zeros(NR, dtype=bool)
+        self.quiet = 0
+        self.decisions = [-1] * (N - 1)
         self.samples = 0
 
 
@@ -117,13 +135,19 @@ def _start(state, z):
     state.pending = None
 
 
-def _decide(alarms):
-    if not alarms.any():
+def _decide(pattern):
+    if not pattern.any():
         return -1
-    match = np.flatnonzero(np.all(STRUCTURE == alarms[:, None], axis=0))
+    match = np.flatnonzero(np.all(STRUCTURE == pattern[:, None], axis=0))
     if match.size == 1:
         return int(match[0])
-    return -3 if match.size > 1 else -2
+    if match.size > 1:
+        return -3
+    if MULTIPLE:  # the columns inside the pattern cover it: several faults at once
+        inside = STRUCTURE.any(axis=0) & ~np.any(STRUCTURE & ~pattern[:, None], axis=0)
+        if np.array_equal(STRUCTURE[:, inside].any(axis=1), pattern):
+            return -4
+    return -2
 
 
 def step(state, y, u=()):
@@ -154,10 +178,28 @@ def step(state, y, u=()):
         state.ring[p] = raw
         state.pos = p + 1 if p + 1 < N else 0
         alarms = state.count >= K
-    key = alarms.tobytes()
+    pattern = alarms
+    if LATCH:  # the pattern held over the alarm episode
+        if alarms.any():
+            state.held = state.held | alarms
+            state.quiet = 0
+        elif RESET and state.held.any():
+            state.quiet += 1
+            if state.quiet >= RESET:
+                state.held = np.zeros(NR, dtype=bool)
+                state.quiet = 0
+        pattern = state.held
+    key = pattern.tobytes()
     decision = _DECISIONS.get(key)
     if decision is None:
-        decision = _DECISIONS[key] = _decide(alarms)
+        decision = _DECISIONS[key] = _decide(pattern)
+    if SETTLE:  # kept when the same for K of the last N samples
+        past = state.decisions
+        count = past.count(decision) + 1
+        past.append(decision)
+        del past[0]
+        if (decision >= 0 or decision == -4) and count < K:
+            return r, alarms, -2
     return r, alarms, decision
 
 
