@@ -469,7 +469,12 @@ def _add_deployment_parsers(sub: Any) -> None:
         sp.add_argument("--out", type=Path, default=Path.cwd(), help="output directory")
         sp.add_argument("--method", default=None, help="design method (default: the first)")
         sp.add_argument("--threshold", type=float, default=None, help="override the threshold")
-        sp.add_argument("--persistence", default=None, help="D consecutive or K/N samples")
+        sp.add_argument(
+            "--persistence",
+            default=None,
+            help="D consecutive, K/N or K/N/RESET samples (an alarm holds K of N samples; "
+            "an alarm episode ends after RESET quiet samples)",
+        )
         sp.add_argument("--initial", choices=("steady", "zero"), default="steady")
         sp.add_argument("--no-plots", action="store_true", help="do not write PNG figures")
         sp.add_argument("--quiet", action="store_true", help="print nothing but errors")

@@ -612,6 +612,9 @@ def design_bank(
             )
         if "fallback" in g.info:
             notes.append(f"not least order: {g.info['fallback']}")
+        cert = g.info.get("least_order")
+        if isinstance(cert, dict) and cert.get("delivered_order", g.order) != cert.get("order"):
+            notes.append(f"not least order: {cert.get('statement', '')}")
         if close:
             notes.append(close)
         diags.append("; ".join(notes) if notes else "ok")
