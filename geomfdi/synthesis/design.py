@@ -613,7 +613,11 @@ def design_bank(
         if "fallback" in g.info:
             notes.append(f"not least order: {g.info['fallback']}")
         cert = g.info.get("least_order")
-        if isinstance(cert, dict) and cert.get("delivered_order", g.order) != cert.get("order"):
+        if (  # above the least order for numerical reasons (a raise for strength is "ok")
+            isinstance(cert, dict)
+            and "raised_from" not in cert
+            and cert.get("delivered_order", g.order) != cert.get("order")
+        ):
             notes.append(f"not least order: {cert.get('statement', '')}")
         if close:
             notes.append(close)
