@@ -196,7 +196,8 @@ def block_recursion(
     direct: tuple[list[np.ndarray], list[list[np.ndarray | None]]] | None = None,
     out: list[list[np.ndarray | None]] | None = None,
     lift: int | None = None,
-) -> list[list[np.ndarray]]:
+    final: bool = False,
+) -> Any:
     """Independent subsystems ``x_b[k+1] = A_b x_b[k] + W_b d[k]``, chunked over time.
 
     Parameters
@@ -225,10 +226,16 @@ def block_recursion(
     lift : int, optional
         Lifting factor ``M`` (see Notes); by default chosen by :func:`_lift_factor`
         from the sizes; 1 runs the plain recursion.
+    final : bool
+        Also return the state at the last sample ``N - 1`` (sum n_b, R), in the
+        coordinates of ``x0``: a long record simulated in consecutive calls (each call's
+        window ending on the sample where the next one starts) carries it over as the
+        next call's ``x0``.
 
     Returns
     -------
     list of list of ndarray, each (p, R, N)
+        With ``final=True``, the pair ``(outputs, state at sample N - 1)``.
 
     Notes
     -----
@@ -447,6 +454,8 @@ def block_recursion(
         else:
             G[:, :, 1:] = 0.0
         zc = recursion_inplace(TbM, G, stops)
+        if final and s <= N - 1 < s + Lp:
+            last = _state_at(N - 1, s, M, zc, Tb, V, drives, spans)
         if nd:
             F = work("F", (p_tot, Rdd, L))
             for fi, (sigs, Dq) in enumerate(feeds):
@@ -513,7 +522,35 @@ def block_recursion(
     res: list[list[np.ndarray]] = [[] for _ in outputs]
     for b, _, _, dest, _ in flat:
         res[b].append(dest)
-    return res
+    if not final:
+        return res
+    if N == 0:
+        return res, np.array(np.broadcast_to(x0, (nS, R)), dtype=float)
+    Zb = scipy.linalg.block_diag(*Zs) if Zs else np.zeros((0, 0))
+    return res, np.ascontiguousarray(_real_product(Zb, last))
+
+
+def _state_at(
+    k: int,
+    s: int,
+    M: int,
+    zc: np.ndarray,
+    Tb: np.ndarray,
+    V: np.ndarray,
+    drives: list[Drive],
+    spans: list[tuple[int, int]],
+) -> np.ndarray:
+    """Modal state at sample ``k`` of a chunk starting at ``s``: the block-start state
+    before it (``zc[:, :, b]`` is the state at ``s + b M``), then the remaining steps
+    (fewer than ``M``) one by one."""
+    b0 = (k - s) // M
+    z = np.array(zc[:, :, b0])
+    for j in range(s + b0 * M, k):  # step j -> j + 1
+        f = np.zeros(z.shape, dtype=z.dtype)
+        for d, (c0, c1) in zip(drives, spans, strict=True):
+            f = f + V[:, c0:c1] @ d.window(j, 1)[..., 0]
+        z = Tb @ z + f
+    return z
 
 
 def driven_recursion(

@@ -111,7 +111,6 @@ from geomfdi.simulation.context import (
     Context,
     RawRuns,
     detection_window_of,
-    draw_noise,
     from_balanced,
     prepare,
     residual_labels_of,
@@ -121,14 +120,68 @@ from geomfdi.simulation.context import (
     unbalance_states,
     with_input_faults,
 )
-from geomfdi.simulation.noise import Noise
-from geomfdi.simulation.open_loop import run_open_loop
+from geomfdi.simulation.noise import Noise, NoiseStream
+from geomfdi.simulation.open_loop import OpenLoopEngine
 from geomfdi.simulation.results import (
     SimulationResult,
 )
 from geomfdi.simulation.schedule import FaultSchedule, fault_schedule, structure_columns
 from geomfdi.simulation.signals import FaultSignal
+from geomfdi.simulation.streaming import DecisionStream, chunk_plan, time_chunks
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
+
+
+def noise_streams(ctx: Context, rngs: list[np.random.Generator | None]) -> list[NoiseStream] | None:
+    """One :class:`NoiseStream` per run (``None`` without noise)."""
+    if ctx.Lv is None and ctx.Lw is None:
+        return None
+    rv = ctx.plant.q if ctx.Lv is not None else 0
+    rw = ctx.Lw.shape[1] if ctx.Lw is not None else 0
+    return [NoiseStream(rng, rv, rw, ctx.N) for rng in rngs]  # type: ignore[arg-type]
+
+
+def noise_window(
+    ctx: Context, streams: list[NoiseStream] | None, s: int, e1: int
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Measurement ``(q, R, L)`` and process ``(k, R, L)`` noise of samples ``s .. e1-1``."""
+    if streams is None:
+        return None, None
+    L, R = e1 - s, len(streams)
+    v = np.empty((ctx.plant.q, R, L)) if ctx.Lv is not None else None
+    w = np.empty((ctx.Lw.shape[0], R, L)) if ctx.Lw is not None else None
+    for r, st in enumerate(streams):
+        zv, zw = st.take(s, e1)
+        if v is not None:
+            np.matmul(ctx.Lv, zv, out=v[:, r])
+        if w is not None:
+            np.matmul(ctx.Lw, zw, out=w[:, r])
+    return v, w
+
+
+def chunk_width(ctx: Context, *, keep_states: bool = False, stored: int = 0) -> float:
+    """Working bytes per run and sample of one time chunk (an upper estimate).
+
+    Doubles: the exogenous samples and noise draws, the plant state and outputs, the
+    noisy and faulty readings, the fault profiles and the per-interval drives of the
+    sensors, the residual rows and vector components (and generator states); bytes: the
+    alarms, decisions and persistence counters; ``stored``: bytes of the caller's own
+    per-sample copies.  Half again as margin for the temporaries of numpy expressions.
+    """
+    p, view = ctx.plant, ctx.view
+    gens = [g for g in view.generators if g is not None]
+    nres, nf = len(view.generators), view.structure.shape[1]
+    doubles = (
+        p.m
+        + p.nd
+        + 2 * ctx.nwp
+        + p.n
+        + 16 * p.q
+        + nres
+        + 2
+        + sum(g.n_outputs for g in gens if g.n_outputs > 1)
+        + (sum(g.order for g in gens) if keep_states else 0)
+    )
+    return 1.5 * (8.0 * doubles + 10.0 * nres + 3.0 * nf + 16.0 + stored)
 
 
 def run_chunk(
@@ -139,19 +192,12 @@ def run_chunk(
     schedules: list[FaultSchedule],
     shared: bool,
 ) -> RawRuns:
-    """Simulate one chunk of runs (``schedules``: one per run, or one shared)."""
-    draws = [draw_noise(ctx, rng) if rng is not None else (None, None) for rng in rngs]
-    v = np.stack([dv for dv, _ in draws]) if ctx.Lv is not None else None
-    wp = np.stack([dw for _, dw in draws]) if ctx.Lw is not None else None
-    if ctx.ctrl.mode != "output":
-        return run_open_loop(
-            with_input_faults(ctx, schedules[:1] if shared else schedules),
-            x0,
-            v,
-            wp,
-            [s.sensor for s in schedules],
-            shared,
-        )
+    """Output feedback: the whole record of a chunk of runs (one schedule per run, or
+    one shared), arrays ``(R, k, N)``."""
+    streams = noise_streams(ctx, rngs)
+    v, wp = noise_window(ctx, streams, 0, ctx.N)
+    tr = lambda a: None if a is None else a.transpose(1, 0, 2)  # noqa: E731
+    v, wp = tr(v), tr(wp)
     if shared:
         ctx1 = with_input_faults(ctx, schedules[:1])
         return run_output_feedback(ctx1, x0, xc0, v, wp, schedules[0].sensor)
@@ -295,24 +341,34 @@ def simulate(
     rule = as_persistence(persistence)
     window = detection_window_of(detection_window)
     rng = np.random.default_rng(noise.seed) if noise is not None else None
-    raw = run_chunk(ctx, to_balanced(ctx, x0a), xc0a, [rng], [sched], True)
-    res = residual_rows(ctx, raw)[0]
-    alarms, iso = decisions(res, thr, view.structure, rule)
     cols = structure_columns(sched.faults, view.design_faults, plant)
-    events = detection_events(ctx.t, alarms, iso.isolated, sched.faults, cols, window=window)
     first = lambda a: None if a is None else a[0]  # noqa: E731
+    if ctx.ctrl.mode == "output":  # the whole record at once (closed_loop)
+        raw = run_chunk(ctx, to_balanced(ctx, x0a), xc0a, [rng], [sched], True)
+        res = residual_rows(ctx, raw)[0]
+        alarms, iso = decisions(res, thr, view.structure, rule)
+        x, y, yh, u = from_balanced(ctx, raw.x[0]), raw.y[0], raw.y_healthy[0], raw.u[0]
+        vectors = [first(r) for r in raw.r_vectors]
+        ws = [first(w) for w in raw.w]
+        xc = first(raw.xc)
+        isolated, candidates, suspects = iso.isolated, iso.candidates, iso.suspects
+    else:
+        out = _stream_one(ctx, to_balanced(ctx, x0a), rng, sched, thr, rule)
+        res, alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws = out
+        xc = None
+    events = detection_events(ctx.t, alarms, isolated, sched.faults, cols, window=window)
     return SimulationResult(
         t=ctx.t,
-        x=from_balanced(ctx, raw.x[0]),
-        y=raw.y[0],
-        y_healthy=np.ascontiguousarray(raw.y_healthy[0]),
-        u=np.ascontiguousarray(raw.u[0]),
+        x=x,
+        y=y,
+        y_healthy=np.ascontiguousarray(yh),
+        u=np.ascontiguousarray(u),
         residuals=res,
-        residual_vectors=[first(r) for r in raw.r_vectors],
+        residual_vectors=vectors,
         alarms=alarms,
-        isolated=iso.isolated,
-        candidates=iso.candidates,
-        suspects=iso.suspects,
+        isolated=isolated,
+        candidates=candidates,
+        suspects=suspects,
         threshold=thr,
         events=events,
         faults=list(sched.faults),
@@ -321,8 +377,61 @@ def simulate(
         requested=view.requested,
         fault_labels=view.fault_labels,
         residual_labels=residual_labels_of(view),
-        xc=first(raw.xc),
-        w=unbalance_states(view, ctx.info, [first(w) for w in raw.w]),
+        xc=xc,
+        w=unbalance_states(view, ctx.info, ws),
         info=ctx.info,
         vector_rows=[g is not None and g.n_outputs > 1 for g in view.generators],
     )
+
+
+def _stream_one(
+    ctx: Context,
+    x0: np.ndarray,
+    rng: np.random.Generator | None,
+    sched: FaultSchedule,
+    thr: Any,
+    rule: Any,
+) -> tuple[Any, ...]:
+    """One run, open loop or state feedback, in time chunks written into the result.
+
+    Every returned array is allocated once at its full size; the chunk's signals,
+    noise draws and decisions are temporaries of the chunk's size (module
+    :mod:`geomfdi.simulation.streaming`).
+    """
+    p, view, N = ctx.plant, ctx.view, ctx.N
+    gens = view.generators
+    nres, nf = len(gens), view.structure.shape[1]
+    _, L = chunk_plan(N, 1, chunk_width(ctx, keep_states=ctx.keep_states))
+    ctx1 = with_input_faults(ctx, [sched])
+    eng = OpenLoopEngine(ctx1, x0, [sched.sensor], True, 1, L)
+    streams = noise_streams(ctx, [rng])
+    rows = np.zeros((1, nres, N))
+    x, y = np.empty((p.n, N)), np.empty((p.q, N))
+    yh, u = np.empty((p.q, N)), np.empty((p.m, N))
+    vectors = [None if g is None or g.n_outputs == 1 else np.empty((g.n_outputs, N)) for g in gens]
+    ws = [None if g is None or not ctx.keep_states else np.empty((g.order, N)) for g in gens]
+    alarms = np.empty((nres, N), dtype=bool)
+    isolated = np.empty(N, dtype=int)
+    candidates = np.empty((nf, N), dtype=bool)
+    suspects = np.empty((nf, N), dtype=bool)
+    ds = DecisionStream(thr, view.structure, rule)
+    for s, e, e1 in time_chunks(N, L):
+        v, wp = noise_window(ctx, streams, s, e1)
+        pc = eng.advance(s, e1, v, wp, rows[:, :, s:e1])
+        x[:, s:e1], y[:, s:e1] = from_balanced(ctx, pc.X[:, 0]), pc.y[:, 0]
+        yh[:, s:e1], u[:, s:e1] = pc.y0n[:, 0], pc.u[:, 0]
+        for k, a in enumerate(pc.vectors):
+            if a is not None:
+                vectors[k][:, s:e1] = a[:, 0]
+        for k, a in enumerate(pc.ws):
+            if a is not None:
+                ws[k][:, s:e1] = a[:, 0]
+        al, iso = ds.step(rows[:, :, s:e])
+        alarms[:, s:e] = al[0]
+        isolated[s:e] = iso.isolated[0]
+        candidates[:, s:e] = iso.candidates[0]
+        suspects[:, s:e] = iso.suspects[0]
+    for k, g in enumerate(gens):  # a scalar residual's component is its row
+        if g is not None and g.n_outputs == 1:
+            vectors[k] = rows[0, k : k + 1]
+    return rows[0], alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws
