@@ -257,8 +257,9 @@ def _pieces(
     eng = OpenLoopEngine(ctx1, x0, [sc.sensor for sc in schedules], shared, Rc, L)
     streams = noise_streams(ctx, rngs)
     direct = R_res is not None and eng.R == Rc
-    buf = None if direct else np.zeros((eng.R, nres, min(L + 1, N)))
-    for s, e, e1 in time_chunks(N, L):
+    chunks = time_chunks(N, L)
+    buf = None if direct else np.zeros((eng.R, nres, max(e1 - s for s, _, e1 in chunks)))
+    for s, e, e1 in chunks:
         dest = R_res[a : a + Rc, :, s:e1] if direct else buf[:, :, : e1 - s]
         v, wp = noise_window(ctx, streams, s, e1)
         pc = eng.advance(s, e1, v, wp, dest)

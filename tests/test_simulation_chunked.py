@@ -1,0 +1,323 @@
+"""Long records in time chunks: chunked == unchunked, and memory proportional to the chunk.
+
+``gf.limits.limits(chunk_memory=...)`` sets the working-memory budget of one chunk; a
+tiny budget cuts a short record into many chunks of a few dozen samples, so that fault
+onsets, held readings, persistence windows and noise blocks all straddle chunk
+boundaries.  The results must not depend on it (1e-12, same decisions and events).
+"""
+
+from __future__ import annotations
+
+import tracemalloc
+
+import numpy as np
+import pytest
+
+import geomfdi as gf
+from geomfdi.errors import GeomFDIError
+from geomfdi.simulation.noise import NoiseStream
+from geomfdi.simulation.streaming import MIN_CHUNK, chunk_plan, time_chunks
+
+A = np.array([[1.0, 1, 1], [0, 1, 0], [2, 0, 1]])
+B = np.array([[1.0, 0, 1], [0, 1, 1], [0, 1, 0]])
+C = np.array([[0.0, 1, 0], [0, 0, 1], [1, 0, 2]])
+K_FB = np.array([[5, -1.5, 3], [2, 0, 2], [-2, 2.5, -2]])
+X0 = np.array([0.5, -0.3, 0.2])
+P_PAPER = np.array([[0.0, 1, 0], [-2, 2, 1], [-3, 3, 1]])
+TINY = 3e4  # bytes: chunks of a few dozen samples
+
+
+def setup(vector: bool = False, dt: float = 0.0):
+    """Seed 001's plant and three generators ``F P = P A + E C``, ``M P = H C`` (continuous),
+    or a stable discrete plant with the same construction (``dt > 0``)."""
+    Ap = A if dt == 0 else 0.3 * A / max(abs(np.linalg.eigvals(A)))
+    plant = gf.Plant(Ap, B, C, dt=dt)
+    Ci = np.linalg.inv(C)
+    f = -2.0 if dt == 0 else 0.5
+    gens = []
+    for j in range(3):
+        P = P_PAPER[j : j + 1]
+        F = np.array([[f]])
+        gens.append(
+            gf.ResidualGenerator(
+                F, (F @ P - P @ Ap) @ Ci, P @ B, np.eye(1), P @ Ci, np.zeros((1, 3)), dt=dt
+            )
+        )
+    if vector:  # a generator with two residual components (rows of two paper generators)
+        P = P_PAPER[:2]
+        F = -2.0 * np.eye(2)
+        gens[2] = gf.ResidualGenerator(
+            F, (F @ P - P @ A) @ Ci, P @ B, np.eye(2), P @ Ci, np.zeros((2, 3))
+        )
+    S = np.array([[1, 0, 0], [1, 1, 1], [1, 1, 1]], dtype=bool)
+    bank = gf.ResidualBank(
+        gens,
+        np.eye(3, dtype=bool),
+        S,
+        np.array([True, False, False]),
+        ["ok"] * 3,
+        [gf.SensorFault(i) for i in range(3)],
+    )
+    return plant, bank
+
+
+def v_ext(t):
+    return np.vstack([np.sin(0.5 * t), np.cos(0.3 * t), 0.2 * np.ones_like(t)])
+
+
+FAULTS = [
+    gf.BiasFault(1, start=1.234, bias=0.05),  # onsets off the chunk grid
+    gf.GainFault(0, start=2.017, gain=1.4, bias=0.01, end=3.5),
+    gf.StuckFault(2, start=3.003),  # holds the (noisy) reading at its start
+    gf.GainFault(1, start=4.1, gain=lambda s: 1.0 + 0.2 * (s - 4.1)),  # time-varying
+]
+
+
+def close(a, b, tol=1e-12):
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.shape == b.shape
+    scale = max(1.0, float(np.max(np.abs(b))) if b.size else 1.0)
+    assert np.max(np.abs(a - b), initial=0.0) <= tol * scale
+
+
+def same_events(ea, eb):
+    assert len(ea) == len(eb)
+    for a, b in zip(ea, eb, strict=True):
+        assert a.fault is b.fault and a.index == b.index and a.onset == b.onset
+        assert a.detection_time == b.detection_time and a.isolation_time == b.isolation_time
+        assert a.decided == b.decided and a.residuals == b.residuals
+
+
+def assert_same_result(a, b):
+    for name in ("x", "y", "y_healthy", "u", "residuals"):
+        close(getattr(a, name), getattr(b, name))
+    for name in ("alarms", "isolated", "candidates", "suspects"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    for ra, rb in zip(a.residual_vectors, b.residual_vectors, strict=True):
+        assert (ra is None) == (rb is None)
+        if ra is not None:
+            close(ra, rb)
+    for wa, wb in zip(a.w, b.w, strict=True):
+        assert (wa is None) == (wb is None)
+        if wa is not None:
+            close(wa, wb)
+    same_events(a.events, b.events)
+
+
+def test_chunk_plan_follows_the_budget():
+    with gf.limits.limits(chunk_memory=1e6):
+        assert chunk_plan(10**6, 1, 100.0) == (1, 10**4)
+        assert chunk_plan(100, 50, 100.0) == (50, 100)  # whole records of all runs fit
+        assert chunk_plan(10**6, 8, 100.0, runs_per_chunk=4) == (4, 2500)
+    with gf.limits.limits(chunk_memory=1.0):
+        assert chunk_plan(10**6, 1, 100.0) == (1, MIN_CHUNK)
+    chunks = time_chunks(1000, 64)
+    assert chunks[0] == (0, 64, 65) and chunks[-1][1:] == (1000, 1000)
+    assert all(b[0] == a[1] for a, b in zip(chunks[:-1], chunks[1:], strict=True))
+    with pytest.raises(GeomFDIError) as err:
+        gf.limits.set_limits(chunk_memory=0)
+    assert err.value.argument == "chunk_memory"
+
+
+def test_noise_stream_is_independent_of_the_ranges_asked():
+    N, block = 1000, 128
+    full = NoiseStream(np.random.default_rng(5), 2, 1, N, block=block).take(0, N)
+    st = NoiseStream(np.random.default_rng(5), 2, 1, N, block=block)
+    cuts = [0, 7, 128, 129, 300, 555, 999, 1000]
+    for s, e in zip(cuts[:-1], cuts[1:], strict=True):
+        zv, zw = st.take(s, min(e + 1, N))  # overlapping by one sample, like the chunks
+        np.testing.assert_array_equal(zv, full[0][:, s : min(e + 1, N)])
+        np.testing.assert_array_equal(zw, full[1][:, s : min(e + 1, N)])
+    # one block: exactly numpy's (rows, N) draw, measurement rows first
+    rng = np.random.default_rng(5)
+    zv, zw = NoiseStream(np.random.default_rng(5), 2, 1, 100, block=block).take(0, 100)
+    np.testing.assert_array_equal(zv, rng.standard_normal((2, 100)))
+    np.testing.assert_array_equal(zw, rng.standard_normal((1, 100)))
+    with pytest.raises(GeomFDIError):
+        st.take(0, 10)  # the past is gone
+
+
+@pytest.mark.parametrize("vector", [False, True])
+def test_simulate_chunked_equals_unchunked_with_noise_faults_and_persistence(vector):
+    plant, bank = setup(vector)
+    t = np.arange(0, 6.0, 0.01)
+    noise = gf.Noise(measurement=[2e-3, 1e-3, 3e-3], process=[0.0, 1e-2, 0.0], seed=3)
+    kw = dict(
+        faults=FAULTS,
+        x0=X0,
+        controller=K_FB,
+        noise=noise,
+        threshold=0.03,
+        persistence=(3, 5),
+        detection_window=1.5,
+        keep_states=True,
+    )
+    ref = gf.simulate(plant, bank, t, v_ext, **kw)
+    with gf.limits.limits(chunk_memory=TINY):
+        _, L = chunk_plan(t.size, 1, 1.0e3)
+        assert L < 60  # many chunks
+        chunked = gf.simulate(plant, bank, t, v_ext, **kw)
+    assert_same_result(chunked, ref)
+    assert ref.alarms.any() and any(ev.detected for ev in ref.events)
+    # the persistence rule changed something across the record (not a trivial check)
+    raw = gf.simulate(plant, bank, t, v_ext, **{**kw, "persistence": None})
+    assert not np.array_equal(raw.alarms, ref.alarms)
+
+
+def test_rms_statistic_and_discrete_plant_chunked():
+    plant, bank = setup()
+    dplant, dbank = setup(dt=0.01)
+    t = np.arange(0, 4.0, 0.01)
+    thr = gf.Threshold(np.full(3, 0.01), statistic="rms", window=7)
+    for p, b, ctrl in ((plant, bank, K_FB), (dplant, dbank, None)):
+        kw = dict(
+            faults=[gf.BiasFault(0, start=1.505, bias=0.05), gf.StuckFault(1, start=2.5)],
+            controller=ctrl,
+            noise=gf.Noise(measurement=1e-3, seed=9),
+            threshold=thr,
+            persistence=2,
+        )
+        ref = gf.simulate(p, b, t, v_ext, **kw)
+        with gf.limits.limits(chunk_memory=TINY):
+            chunked = gf.simulate(p, b, t, v_ext, **kw)
+        assert_same_result(chunked, ref)
+        assert ref.alarms.any()
+
+
+def test_noise_blocks_cross_chunk_boundaries():
+    """A record longer than one noise block: the same draws whatever the chunks."""
+    plant, bank = setup()
+    t = np.arange(70_000) * 1e-3
+    kw = dict(controller=K_FB, noise=gf.Noise(measurement=1e-3, seed=4), threshold=0.01)
+    ref = gf.simulate(plant, bank, t, v_ext, **kw)
+    with gf.limits.limits(chunk_memory=4e6):
+        chunked = gf.simulate(plant, bank, t, v_ext, **kw)
+    close(chunked.y_healthy, ref.y_healthy)
+    close(chunked.residuals, ref.residuals)
+    np.testing.assert_array_equal(chunked.alarms, ref.alarms)
+
+
+@pytest.mark.parametrize("store", ["summary", "residuals", "all"])
+def test_batch_chunked_equals_unchunked_and_single_runs(store):
+    plant, bank = setup()
+    t = np.arange(0, 6.0, 0.01)
+    fault_lists = [
+        [gf.BiasFault(0, start=2.0 + 0.137 * i, bias=0.02 * (i + 1)), gf.StuckFault(2, start=4.2)]
+        for i in range(4)
+    ]
+    kw = dict(
+        faults=fault_lists,
+        x0=X0,
+        controller=K_FB,
+        noise=gf.Noise(measurement=2e-3, process=[0.0, 1e-2, 0.0], seed=8),
+        threshold=0.04,
+        persistence=(2, 3),
+        detection_window=2.0,
+        store=store,
+        progress=False,
+    )
+    ref = gf.simulate_batch(plant, bank, t, v_ext, **kw)
+    with gf.limits.limits(chunk_memory=TINY):
+        chunked = gf.simulate_batch(plant, bank, t, v_ext, **kw)
+        two = gf.simulate_batch(plant, bank, t, v_ext, chunk_size=2, **kw)
+    for other in (chunked, two):
+        close(other.peak, ref.peak)
+        np.testing.assert_array_equal(other.false_alarm_counts, ref.false_alarm_counts)
+        np.testing.assert_array_equal(other.healthy_samples, ref.healthy_samples)
+        np.testing.assert_array_equal(other.false_alarm_events, ref.false_alarm_events)
+        for ea, eb in zip(other.events, ref.events, strict=True):
+            same_events(ea, eb)
+        if store != "summary":
+            close(other.residuals, ref.residuals)
+            np.testing.assert_array_equal(other.alarms, ref.alarms)
+            np.testing.assert_array_equal(other.isolated, ref.isolated)
+    assert 0 < sum(ev.detected for e in ref.events for ev in e)
+    # every run equals a single simulate with its seed (events through the whole-record
+    # detection_events, peaks and false alarms through the result's own methods)
+    for i in (0, 3):
+        single = gf.simulate(
+            plant,
+            bank,
+            t,
+            v_ext,
+            faults=fault_lists[i],
+            x0=X0,
+            controller=K_FB,
+            noise=gf.Noise(measurement=2e-3, process=[0.0, 1e-2, 0.0], seed=ref.seeds[i]),
+            threshold=0.04,
+            persistence=(2, 3),
+            detection_window=2.0,
+        )
+        same_events(chunked.events[i], single.events)
+        close(chunked.peak[i], np.max(np.abs(single.residuals), axis=1))
+        fa = single._false_alarms()
+        assert chunked.healthy_samples[i] == fa.samples
+        assert chunked.false_alarm_counts[i] == fa.alarm_samples
+        assert chunked.false_alarm_events[i] == fa.events
+
+
+def test_output_feedback_batch_summary_matches_stored_residuals():
+    import control
+
+    plant, bank = setup()
+    t = np.arange(0, 4.0, 0.01)
+    ctrl = control.ss(-np.eye(3), np.eye(3), -0.5 * np.eye(3), np.zeros((3, 3)))
+    kw = dict(
+        runs=3,
+        faults=[gf.BiasFault(0, start=2.0, bias=0.1)],
+        controller=ctrl,
+        noise=gf.Noise(measurement=1e-3, seed=2),
+        threshold=0.02,
+        progress=False,
+    )
+    full = gf.simulate_batch(plant, bank, t, **kw)
+    with gf.limits.limits(chunk_memory=TINY):
+        summ = gf.simulate_batch(plant, bank, t, store="summary", **kw)
+    close(summ.peak, np.max(np.abs(full.residuals), axis=-1))
+    for ea, eb in zip(summ.events, full.events, strict=True):
+        same_events(ea, eb)
+
+
+def _traced_peak(fn):
+    tracemalloc.start()
+    try:
+        out = fn()
+        return out, tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+@pytest.mark.slow
+def test_memory_is_proportional_to_the_chunk_not_the_record():
+    """3e5-sample records with a 4 MiB chunk budget.
+
+    The summary batch (2 runs) peaks at a few budgets plus the fixed work arrays of the
+    recursion (about 8 MiB), not at a whole record of one run's signals (about 150 MB
+    before chunking); a single record peaks at its returned arrays plus that (before
+    chunking: about 2.9 times the returned arrays).
+    """
+    plant, bank = setup()
+    N = 3 * 10**5
+    t = np.arange(N) * 1e-3
+    u = v_ext(t)
+    budget = 4 * 2**20
+    kw = dict(
+        faults=[gf.BiasFault(0, start=200.0, bias=0.02)],
+        controller=K_FB,
+        noise=gf.Noise(measurement=2e-4, seed=1),
+        threshold=0.01,
+        persistence=(2, 3),
+    )
+    with gf.limits.limits(chunk_memory=budget):
+        batch, peak = _traced_peak(
+            lambda: gf.simulate_batch(
+                plant, bank, t, u, runs=2, store="summary", progress=False, **kw
+            )
+        )
+        assert peak < 12 * budget, peak / 2**20
+        assert all(e[0].detected for e in batch.events)
+        res, peak = _traced_peak(lambda: gf.simulate(plant, bank, t, u, **kw))
+    arrays = (res.x, res.y, res.y_healthy, res.u, res.residuals, res.alarms, res.isolated)
+    arrays += (res.candidates, res.suspects)
+    returned = sum(a.nbytes for a in arrays)
+    assert peak < returned + 8 * budget, (peak / 2**20, returned / 2**20)
