@@ -14,7 +14,7 @@ from geomfdi.evaluation.decision import (
     as_threshold,
 )
 from geomfdi.evaluation.persistence import as_persistence
-from geomfdi.limits import check_allocation, check_runs, get_limits
+from geomfdi.limits import check_allocation, check_runs
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.context import (
     detection_window_of,
@@ -22,19 +22,16 @@ from geomfdi.simulation.context import (
     prepare,
     progress_bar,
     residual_labels_of,
-    residual_rows,
     state_vector,
     to_balanced,
-    with_input_faults,
 )
 from geomfdi.simulation.noise import Noise, run_seeds
-from geomfdi.simulation.open_loop import OpenLoopEngine, Piece
 from geomfdi.simulation.results import (
     BatchResult,
 )
 from geomfdi.simulation.schedule import fault_schedule, structure_columns
 from geomfdi.simulation.signals import FaultSignal
-from geomfdi.simulation.simulate import chunk_width, noise_streams, noise_window, run_chunk
+from geomfdi.simulation.simulate import chunk_width, make_engine, noise_streams, noise_window
 from geomfdi.simulation.streaming import DecisionStream, RunSummary, chunk_plan, time_chunks
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
@@ -160,12 +157,8 @@ def simulate_batch(
             cache[id(sched)] = structure_columns(sched.faults, view.design_faults, plant)
         columns.append(cache[id(sched)])
     summary = RunSummary(ctx.t, [sc.faults for sc in schedules], columns, nres, window)
-    if ctx.ctrl.mode == "output":  # whole records (closed_loop), a few runs at a time
-        width = chunk_width(ctx, keep_states=True) * 2
-        Rc = chunk_size or max(1, int(get_limits().chunk_memory // max(width * N, 1)))
-        L = N
-    else:
-        Rc, L = chunk_plan(N, runs, chunk_width(ctx), runs_per_chunk=chunk_size)
+    width = chunk_width(ctx, keep_states=ctx.ctrl.mode == "output")
+    Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size)
     bar = progress_bar(ctx.progress, runs, "runs")
     for a in range(0, runs, Rc):
         b = min(a + Rc, runs)
@@ -240,21 +233,12 @@ def _pieces(
     """The time chunks of a chunk of runs: ``(s, e, signals, residuals (Rc, n, e-s),
     written)`` (``written``: the residuals are already in ``R_res``).
 
-    Open loop and state feedback advance chunk by chunk (the residual rows written
-    straight into ``R_res`` when it is kept and every run differs); output feedback
-    yields its whole record as one chunk.
+    The engine advances chunk by chunk; the residual rows are written straight into
+    ``R_res`` when it is kept and every run differs.
     """
     view, N = ctx.view, ctx.N
     nres, Rc = len(view.generators), len(rngs)
-    if ctx.ctrl.mode == "output":
-        raw = run_chunk(ctx, x0, xc0, rngs, schedules, shared)
-        rows = np.broadcast_to(residual_rows(ctx, raw), (Rc, nres, N))
-        tr = lambda z: z.transpose(1, 0, 2)  # noqa: E731
-        pc = Piece(0, tr(raw.x), tr(raw.y), tr(raw.y_healthy), tr(raw.u), [], [])
-        yield 0, N, pc, rows, False
-        return
-    ctx1 = with_input_faults(ctx, schedules[:1] if shared else schedules)
-    eng = OpenLoopEngine(ctx1, x0, [sc.sensor for sc in schedules], shared, Rc, L)
+    eng = make_engine(ctx, x0, xc0, schedules, shared, Rc, L)
     streams = noise_streams(ctx, rngs)
     direct = R_res is not None and eng.R == Rc
     chunks = time_chunks(N, L)

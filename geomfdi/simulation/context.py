@@ -265,6 +265,25 @@ class RawRuns:
     rows: np.ndarray | None = None  # residual rows (R, n_rows, N), when already formed
 
 
+@dataclass
+class Piece:
+    """The signals of one time chunk, samples ``s .. s + L - 1``, state-major ``(k, R, L)``.
+
+    ``vectors[k]`` holds the components of a vector residual (bank row ``k``), ``ws[k]``
+    the generator states (with ``keep_states``); the residual rows were written into the
+    caller's array.
+    """
+
+    s: int
+    X: np.ndarray
+    y: np.ndarray
+    y0n: np.ndarray
+    u: np.ndarray
+    vectors: list[np.ndarray | None]
+    ws: list[np.ndarray | None]
+    xc: np.ndarray | None = None
+
+
 def progress_bar(enabled: bool, total: int, desc: str) -> Any:
     if not enabled:
         return None

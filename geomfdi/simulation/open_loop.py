@@ -14,12 +14,10 @@ state of the next), so the memory is proportional to the chunk, not to the recor
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import scipy.linalg
 
-from geomfdi.simulation.context import Context
+from geomfdi.simulation.context import Context, Piece
 from geomfdi.simulation.initial_state import (
     EXACT_TOL,
     consistent_start,
@@ -36,25 +34,6 @@ from geomfdi.simulation.signals import (
 
 
 # ===================================================== open loop / state fb
-@dataclass
-class Piece:
-    """The signals of one time chunk, samples ``s .. s + L - 1``, state-major ``(k, R, L)``.
-
-    ``vectors[k]`` holds the components of a vector residual (bank row ``k``), ``ws[k]``
-    the generator states (with ``keep_states``); the residual rows were written into the
-    caller's array.
-    """
-
-    s: int
-    X: np.ndarray
-    y: np.ndarray
-    y0n: np.ndarray
-    u: np.ndarray
-    vectors: list[np.ndarray | None]
-    ws: list[np.ndarray | None]
-    xc: np.ndarray | None = None
-
-
 class OpenLoopEngine:
     """Open loop / state feedback over a record, advanced one time chunk at a time.
 

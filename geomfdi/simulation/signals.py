@@ -47,6 +47,7 @@ __all__ = [
     "apply_faults",
     "fault_profile",
     "first_active",
+    "activity_span",
     "FaultProfile",
 ]
 
@@ -436,6 +437,21 @@ def first_active(fault: FaultSignal, t: np.ndarray) -> int | None:
     if fault.end is not None and not t[k] < fault.end - _time_tol(fault.end):
         return None
     return k
+
+
+def activity_span(fault: FaultSignal, t: np.ndarray) -> tuple[int, int] | None:
+    """``(ks, ke)``: the fault is active on the samples ``ks .. ke-1`` of the increasing
+    grid ``t`` (``None``: never).  The activity window is one interval of the grid."""
+    ks = first_active(fault, t)
+    if ks is None:
+        return None
+    t = np.asarray(t, dtype=float)
+    if type(fault).mask is not FaultSignal.mask:
+        off = np.flatnonzero(~fault.mask(t[ks:]))
+        return ks, ks + int(off[0]) if off.size else t.shape[0]
+    if fault.end is None:
+        return ks, t.shape[0]
+    return ks, int(np.searchsorted(t, fault.end - _time_tol(fault.end), side="left"))
 
 
 def fault_profile(

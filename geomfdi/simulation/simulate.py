@@ -104,17 +104,15 @@ from geomfdi.evaluation.decision import (
     as_threshold,
     detection_events,
 )
-from geomfdi.evaluation.persistence import as_persistence, decisions
+from geomfdi.evaluation.persistence import as_persistence
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.simulation.closed_loop import run_output_feedback
+from geomfdi.simulation.closed_loop import FeedbackRuns
 from geomfdi.simulation.context import (
     Context,
-    RawRuns,
     detection_window_of,
     from_balanced,
     prepare,
     residual_labels_of,
-    residual_rows,
     state_vector,
     to_balanced,
     unbalance_states,
@@ -181,54 +179,35 @@ def chunk_width(ctx: Context, *, keep_states: bool = False, stored: int = 0) -> 
         + sum(g.n_outputs for g in gens if g.n_outputs > 1)
         + (sum(g.order for g in gens) if keep_states else 0)
     )
+    if ctx.ctrl.mode == "output":  # loop inputs, states and outputs, with the segment copies
+        ne = p.m + p.nd + ctx.nwp + 2 * p.q
+        nS = p.n + ctx.ctrl.nc + sum(g.order for g in gens)
+        nout = 2 * p.q + p.m + sum(g.n_outputs for g in gens)
+        doubles += 3 * (ne + nS + nout)
     return 1.5 * (8.0 * doubles + 10.0 * nres + 3.0 * nf + 16.0 + stored)
 
 
-def run_chunk(
+def make_engine(
     ctx: Context,
     x0: np.ndarray,
     xc0: np.ndarray,
-    rngs: list[np.random.Generator | None],
     schedules: list[FaultSchedule],
     shared: bool,
-) -> RawRuns:
-    """Output feedback: the whole record of a chunk of runs (one schedule per run, or
-    one shared), arrays ``(R, k, N)``."""
-    streams = noise_streams(ctx, rngs)
-    v, wp = noise_window(ctx, streams, 0, ctx.N)
-    tr = lambda a: None if a is None else a.transpose(1, 0, 2)  # noqa: E731
-    v, wp = tr(v), tr(wp)
-    if shared:
-        ctx1 = with_input_faults(ctx, schedules[:1])
-        return run_output_feedback(ctx1, x0, xc0, v, wp, schedules[0].sensor)
-    parts = []
-    for r, sched in enumerate(schedules):  # the loop differs per run: one at a time
-        parts.append(
-            run_output_feedback(
-                with_input_faults(ctx, [sched]),
-                x0[r : r + 1] if x0.shape[0] > 1 else x0,
-                xc0,
-                None if v is None else v[r : r + 1],
-                None if wp is None else wp[r : r + 1],
-                sched.sensor,
-            )
-        )
-    cat = lambda xs: np.concatenate(xs)  # noqa: E731
-    return RawRuns(
-        cat([p.x for p in parts]),
-        cat([p.xc for p in parts]),
-        cat([p.y for p in parts]),
-        cat([p.y_healthy for p in parts]),
-        cat([p.u for p in parts]),
-        [
-            None if parts[0].r_vectors[k] is None else cat([p.r_vectors[k] for p in parts])
-            for k in range(len(parts[0].r_vectors))
-        ],
-        [
-            None if parts[0].w[k] is None else cat([p.w[k] for p in parts])
-            for k in range(len(parts[0].w))
-        ],
-    )
+    runs: int,
+    chunk: int,
+) -> OpenLoopEngine | FeedbackRuns:
+    """The engine that advances ``runs`` runs over the record chunk by chunk: open loop
+    and state feedback (:class:`OpenLoopEngine`) or output feedback
+    (:class:`FeedbackRuns`); ``schedules``: one shared, or one per run."""
+    sensor = [sc.sensor for sc in schedules]
+    if ctx.ctrl.mode == "output":
+        if shared:
+            ctx1 = with_input_faults(ctx, schedules[:1])
+            return FeedbackRuns(ctx1, x0, xc0, sensor[:1], True, runs)
+        ctxs = [with_input_faults(ctx, [sc]) for sc in schedules]
+        return FeedbackRuns(ctx, x0, xc0, sensor, False, runs, contexts=ctxs)
+    ctx1 = with_input_faults(ctx, schedules[:1] if shared else schedules)
+    return OpenLoopEngine(ctx1, x0, sensor, shared, runs, chunk)
 
 
 @limit_blas_threads
@@ -342,20 +321,8 @@ def simulate(
     window = detection_window_of(detection_window)
     rng = np.random.default_rng(noise.seed) if noise is not None else None
     cols = structure_columns(sched.faults, view.design_faults, plant)
-    first = lambda a: None if a is None else a[0]  # noqa: E731
-    if ctx.ctrl.mode == "output":  # the whole record at once (closed_loop)
-        raw = run_chunk(ctx, to_balanced(ctx, x0a), xc0a, [rng], [sched], True)
-        res = residual_rows(ctx, raw)[0]
-        alarms, iso = decisions(res, thr, view.structure, rule)
-        x, y, yh, u = from_balanced(ctx, raw.x[0]), raw.y[0], raw.y_healthy[0], raw.u[0]
-        vectors = [first(r) for r in raw.r_vectors]
-        ws = [first(w) for w in raw.w]
-        xc = first(raw.xc)
-        isolated, candidates, suspects = iso.isolated, iso.candidates, iso.suspects
-    else:
-        out = _stream_one(ctx, to_balanced(ctx, x0a), rng, sched, thr, rule)
-        res, alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws = out
-        xc = None
+    out = _stream_one(ctx, to_balanced(ctx, x0a), xc0a, rng, sched, thr, rule)
+    res, alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws, xc = out
     events = detection_events(ctx.t, alarms, isolated, sched.faults, cols, window=window)
     return SimulationResult(
         t=ctx.t,
@@ -387,12 +354,13 @@ def simulate(
 def _stream_one(
     ctx: Context,
     x0: np.ndarray,
+    xc0: np.ndarray,
     rng: np.random.Generator | None,
     sched: FaultSchedule,
     thr: Any,
     rule: Any,
 ) -> tuple[Any, ...]:
-    """One run, open loop or state feedback, in time chunks written into the result.
+    """One run in time chunks written into the result.
 
     Every returned array is allocated once at its full size; the chunk's signals,
     noise draws and decisions are temporaries of the chunk's size (module
@@ -401,15 +369,17 @@ def _stream_one(
     p, view, N = ctx.plant, ctx.view, ctx.N
     gens = view.generators
     nres, nf = len(gens), view.structure.shape[1]
-    _, L = chunk_plan(N, 1, chunk_width(ctx, keep_states=ctx.keep_states))
-    ctx1 = with_input_faults(ctx, [sched])
-    eng = OpenLoopEngine(ctx1, x0, [sched.sensor], True, 1, L)
+    feedback = ctx.ctrl.mode == "output"  # generator states come for free there
+    keep = ctx.keep_states or feedback
+    _, L = chunk_plan(N, 1, chunk_width(ctx, keep_states=keep))
+    eng = make_engine(ctx, x0, xc0, [sched], True, 1, L)
     streams = noise_streams(ctx, [rng])
     rows = np.zeros((1, nres, N))
     x, y = np.empty((p.n, N)), np.empty((p.q, N))
     yh, u = np.empty((p.q, N)), np.empty((p.m, N))
     vectors = [None if g is None or g.n_outputs == 1 else np.empty((g.n_outputs, N)) for g in gens]
-    ws = [None if g is None or not ctx.keep_states else np.empty((g.order, N)) for g in gens]
+    ws = [None if g is None or not keep else np.empty((g.order, N)) for g in gens]
+    xc = np.empty((ctx.ctrl.nc, N)) if feedback else None
     alarms = np.empty((nres, N), dtype=bool)
     isolated = np.empty(N, dtype=int)
     candidates = np.empty((nf, N), dtype=bool)
@@ -426,6 +396,8 @@ def _stream_one(
         for k, a in enumerate(pc.ws):
             if a is not None:
                 ws[k][:, s:e1] = a[:, 0]
+        if xc is not None:
+            xc[:, s:e1] = pc.xc[:, 0]
         al, iso = ds.step(rows[:, :, s:e])
         alarms[:, s:e] = al[0]
         isolated[s:e] = iso.isolated[0]
@@ -434,4 +406,4 @@ def _stream_one(
     for k, g in enumerate(gens):  # a scalar residual's component is its row
         if g is not None and g.n_outputs == 1:
             vectors[k] = rows[0, k : k + 1]
-    return rows[0], alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws
+    return rows[0], alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws, xc
