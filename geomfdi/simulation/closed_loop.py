@@ -3,7 +3,9 @@
 The horizon is cut at every fault switching instant; each segment (plant, controller,
 every generator) is one LTI system for the segment's sensor gains, simulated exactly
 with the loop-free recursion.  Segments with a time-varying gain are stepped sample by
-sample (gain frozen over the interval, ``O(dt^2)``).
+sample (gain frozen over the interval, ``O(dt^2)``).  The record is also cut at the
+boundaries of the time chunks of the simulation (:class:`OutputFeedbackEngine`), the
+loop state carried over: memory is proportional to the chunk.
 """
 
 from __future__ import annotations
@@ -314,21 +316,6 @@ class OutputFeedbackEngine:
             r_vectors,
             ws,
         )
-
-
-def run_output_feedback(
-    ctx: Context,
-    x0: np.ndarray,
-    xc0: np.ndarray,
-    v: np.ndarray | None,
-    wp: np.ndarray | None,
-    faults: list[SensorFaultSignal],
-) -> RawRuns:
-    """The whole record in one window (:class:`OutputFeedbackEngine`); ``v``, ``wp``:
-    (R, q|k, N) noise samples of every run."""
-    runs = max(x0.shape[0], 1 if v is None else v.shape[0], 1 if wp is None else wp.shape[0])
-    eng = OutputFeedbackEngine(ctx, x0, xc0, runs, faults)
-    return eng.advance(0, ctx.N, v, wp)
 
 
 def _step_segment(

@@ -1,7 +1,8 @@
 """Checked inputs of a simulation: the bank, the controller, the exogenous signals, the context.
 
 :func:`prepare` validates everything once and returns a :class:`Context` that the
-open-loop and closed-loop engines read; :class:`RawRuns` holds the arrays they return.
+open-loop and closed-loop engines read; :class:`Piece` holds the arrays of one time
+chunk that they return (:class:`RawRuns`: the closed loop's own layout).
 """
 
 from __future__ import annotations
@@ -253,7 +254,7 @@ class Context:
 
 @dataclass
 class RawRuns:
-    """Arrays of one chunk of runs (leading axis: runs, possibly 1 = broadcast)."""
+    """Arrays of the output-feedback engine for one time chunk (leading axis: runs)."""
 
     x: np.ndarray
     xc: np.ndarray | None
@@ -262,7 +263,6 @@ class RawRuns:
     u: np.ndarray
     r_vectors: list[np.ndarray | None]
     w: list[np.ndarray | None]
-    rows: np.ndarray | None = None  # residual rows (R, n_rows, N), when already formed
 
 
 @dataclass
@@ -386,15 +386,6 @@ def from_balanced(ctx: Context, x: np.ndarray) -> np.ndarray:
     return x if ctx.x_scale is None else x * ctx.x_scale[:, None]
 
 
-def draw_noise(
-    ctx: Context, rng: np.random.Generator
-) -> tuple[np.ndarray | None, np.ndarray | None]:
-    N = ctx.N
-    v = ctx.Lv @ rng.standard_normal((ctx.plant.q, N)) if ctx.Lv is not None else None
-    w = ctx.Lw @ rng.standard_normal((ctx.Lw.shape[1], N)) if ctx.Lw is not None else None
-    return v, w
-
-
 def state_vector(value: Any, n: int, name: str, runs: int | None = None) -> np.ndarray:
     if value is None:
         return np.zeros((1, n))
@@ -407,21 +398,6 @@ def state_vector(value: Any, n: int, name: str, runs: int | None = None) -> np.n
         return arr
     expect = f"({n},)" if runs is None else f"({n},) or ({runs}, {n})"
     raise ShapeError(f"{name}: expected shape {expect}, got {arr.shape}", argument=name)
-
-
-def residual_rows(ctx: Context, raw: RawRuns) -> np.ndarray:
-    """Residual rows (R, n_rows, N): one per bank row, norms for vector residuals."""
-    if raw.rows is not None:
-        return raw.rows
-    r_vectors = raw.r_vectors
-    R = max(r.shape[0] for r in r_vectors if r is not None)
-    N = ctx.N
-    out = np.zeros((R, len(r_vectors), N))
-    for k, rv in enumerate(r_vectors):
-        if rv is None:
-            continue
-        out[:, k] = rv[:, 0] if rv.shape[1] == 1 else np.sqrt(np.sum(rv * rv, axis=1))
-    return out
 
 
 def residual_labels_of(view: BankView) -> list[str]:

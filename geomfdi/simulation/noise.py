@@ -75,7 +75,10 @@ class Noise:
         ``Bw``; the identity (noise on every state) by default.
     seed : int, numpy SeedSequence or None
         Seed of :func:`numpy.random.default_rng`.  In :func:`simulate_batch` run ``i``
-        uses the ``i``-th child of ``SeedSequence(seed)`` unless seeds are given.
+        uses the ``i``-th child of ``SeedSequence(seed)`` unless seeds are given.  The
+        draws are made in blocks of :data:`NOISE_BLOCK` samples (:class:`NoiseStream`):
+        the noise of a sample depends on the seed and its index only, not on how the
+        simulation cuts its time axis into chunks.
 
     Examples
     --------
@@ -122,8 +125,8 @@ class NoiseStream:
     the same seed.  A record of at most one block draws exactly what
     ``rng.standard_normal((rows, N))`` would.
 
-    Ranges must be asked for in increasing order (consecutive ranges may overlap by
-    the samples of the last block kept); at most two blocks are held in memory.
+    Ranges must be asked for in increasing order (a range may start in the last block
+    of the previous one); only the blocks of the last range are kept.
 
     Parameters
     ----------

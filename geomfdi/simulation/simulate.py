@@ -72,6 +72,23 @@ gain is then exact (stepping uses ``eta(t_k)``).
 *Noise.*  :class:`Noise`: measurement noise ``v`` (i.i.d. per sample) and process noise
 ``w`` (i.i.d. samples entering through ``Bw``, interpolated with the same hold as ``u``
 for continuous plants: for a white-noise intensity ``Q`` use covariance ``Q / dt``).
+The standard-normal draws are made in blocks of 65 536 samples
+(:class:`~geomfdi.simulation.noise.NoiseStream`), so a sample's noise depends only on
+the seed and its index.
+
+*Time chunks.*  The time axis is processed in chunks sized from the memory budget
+``gf.limits.get_limits().chunk_memory`` (:mod:`geomfdi.limits`, default 64 MiB;
+:func:`geomfdi.simulation.streaming.chunk_plan`).  The recursion is linear: the final
+state of a chunk (plant, controller and generator states, and the held readings of
+stuck sensors) is the initial state of the next, so a chunked run equals the
+unchunked one to rounding (about 1e-15 relative; the same noise, decisions and events).
+Residuals, alarms and decisions are written into the result arrays, allocated once; the
+decisions of a chunk see the residual history that a persistence rule or a moving-RMS
+statistic needs (:class:`geomfdi.simulation.streaming.DecisionStream`).  Peak memory is
+the returned arrays plus about the budget, whatever the record's length; with
+``simulate_batch(store="summary")`` it does not grow with the record.  (Additive input
+faults' signals and the exogenous ``u`` and ``d`` are still formed over the whole
+record.)
 
 *Multiple outputs per generator.*  ``residuals`` has one row per bank row; a generator
 with several residual components contributes their Euclidean norm (the components are in
@@ -80,7 +97,8 @@ are zero and never alarm.
 
 Modules: :mod:`~geomfdi.simulation.context` (checked inputs),
 :mod:`~geomfdi.simulation.open_loop` and :mod:`~geomfdi.simulation.closed_loop` (the two
-engines), :mod:`~geomfdi.simulation.initial_state`, :mod:`~geomfdi.simulation.results`,
+engines), :mod:`~geomfdi.simulation.streaming` (chunks, decisions and summaries chunk by
+chunk), :mod:`~geomfdi.simulation.initial_state`, :mod:`~geomfdi.simulation.results`,
 :mod:`~geomfdi.simulation.batch` (Monte-Carlo runs).
 
 References
