@@ -160,13 +160,14 @@ def simulate_batch(
     width = chunk_width(ctx, keep_states=ctx.ctrl.mode == "output")
     Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size)
     bar = progress_bar(ctx.progress, runs, "runs")
+    engines: dict[str, Any] = {}  # an open-loop engine kept for the next chunk of runs
     for a in range(0, runs, Rc):
         b = min(a + Rc, runs)
         rngs = [None if sd is None else np.random.default_rng(sd) for sd in seeds[a:b]]
         x0c = to_balanced(ctx, x0a[a:b] if x0a.shape[0] > 1 else x0a)
         chunk = schedules[a:b]
         ds = DecisionStream(thr, view.structure, rule)
-        pieces = _pieces(ctx, x0c, xc0a, rngs, chunk, not per_run, L, R_res, a)
+        pieces = _pieces(ctx, x0c, xc0a, rngs, chunk, not per_run, L, R_res, a, engines)
         for s, e, pc, res, written in pieces:
             al, iso = ds.step(res)
             summary.update(s, res, al, iso.isolated, a)
@@ -229,16 +230,25 @@ def _pieces(
     L: int,
     R_res: np.ndarray | None,
     a: int,
+    engines: dict[str, Any],
 ) -> Iterator[tuple[int, int, Any, np.ndarray, bool]]:
     """The time chunks of a chunk of runs: ``(s, e, signals, residuals (Rc, n, e-s),
     written)`` (``written``: the residuals are already in ``R_res``).
 
     The engine advances chunk by chunk; the residual rows are written straight into
-    ``R_res`` when it is kept and every run differs.
+    ``R_res`` when it is kept and every run differs.  With one fault list shared by
+    every run, the open-loop engine of the first chunk of runs is restarted for the
+    next (``engines``).
     """
     view, N = ctx.view, ctx.N
     nres, Rc = len(view.generators), len(rngs)
-    eng = make_engine(ctx, x0, xc0, schedules, shared, Rc, L)
+    eng = engines.get("open")
+    if eng is not None:  # shared fault list in open loop: same matrices, new runs
+        eng.restart(x0, Rc)
+    else:
+        eng = make_engine(ctx, x0, xc0, schedules, shared, Rc, L)
+        if shared and ctx.ctrl.mode != "output":
+            engines["open"] = eng
     streams = noise_streams(ctx, rngs)
     direct = R_res is not None and eng.R == Rc
     chunks = time_chunks(N, L)

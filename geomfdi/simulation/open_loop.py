@@ -155,8 +155,6 @@ class OpenLoopEngine:
                 Pi_all = np.vstack(Pis)
                 dc = ctx.discretize(F_all, np.hstack([Gam_all - Pi_all @ B_X, -E_all]))
                 r0, cols = 0, []
-                for (k, _), Pi in zip(gens, Pis, strict=True):
-                    w0s[k] = w0s[k] - Pi @ x0T
             else:  # one matrix exponential of the plant and the whole bank
                 dc = ctx.discretize(Ac, np.block([[B_X, np.zeros((n, q))], [Gam_all, -E_all]]))
                 r0, cols = n, [dc.Ad[n:, :n]]
@@ -195,17 +193,33 @@ class OpenLoopEngine:
             else:
                 self.outs.append([g.M])
                 self.dmats.append([Dm])
-        # the carried states: plant (n, R0) and bank (sum of orders, R)
+        self.Pis = Pis
+        self.use_pi = [ctx.consistent and Pi is not None for Pi in Pis]
+        self.restart(x0, runs)
+
+    def restart(self, x0: np.ndarray, runs: int) -> None:
+        """Start a new chunk of ``runs`` runs from the initial plant states ``x0``
+        (R0, n) at the first sample (the matrices are kept: the same fault lists)."""
+        ctx = self.ctx
+        x0T = np.ascontiguousarray(x0.T)
         per_run = (
             ctx.Lv is not None
             or ctx.Lw is not None
-            or not shared
+            or not self.shared
             or x0.shape[0] > 1
             or (ctx.d.ndim == 3 and ctx.d.shape[0] > 1)
         )
         self.R = R = int(runs) if per_run else 1
+        ws = []
+        for (_, g), Pi, use in zip(self.gens, self.Pis, self.use_pi, strict=True):
+            w = Pi @ x0T if use else np.zeros((g.order, 1))
+            if self.decoupled:  # the state w~ = w - Pi x
+                w = w - Pi @ x0T
+            ws.append(np.broadcast_to(w, (g.order, R)))
+        # the carried states: plant (n, R0) and bank (sum of orders, R)
         self.x = x0T
-        self.w = np.vstack([np.broadcast_to(w0s[k], (g.order, R)) for k, g in gens])
+        self.w = np.vstack(ws)
+        self.holds = [{} for _ in self.fault_lists]
 
     # ------------------------------------------------------------------ helpers
     def _gain_channels(self, chunk: int) -> list[int]:
