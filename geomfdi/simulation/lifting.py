@@ -9,6 +9,7 @@ and :func:`driven_recursion` are its one-system forms.
 
 from __future__ import annotations
 
+import hashlib
 import threading
 from dataclasses import dataclass
 from typing import Any
@@ -184,6 +185,129 @@ def _real_product(Mat: np.ndarray, arr: np.ndarray) -> np.ndarray:
     return Mat.real @ arr
 
 
+_CACHE_ENTRIES = 64
+_MODAL: dict[Any, Any] = {}
+_LIFTED: dict[Any, Any] = {}
+
+
+def _digest(arrays: list[np.ndarray]) -> bytes:
+    """A fingerprint of the shapes and values of ``arrays``."""
+    h = hashlib.blake2b(digest_size=16)
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(repr((a.shape, a.dtype.str)).encode())
+        h.update(a.tobytes())
+    return h.digest()
+
+
+def _cached(cache: dict[Any, Any], key: Any, make: Any) -> Any:
+    """``cache[key]``, made by ``make()`` when missing.  The set-up of
+    :func:`block_recursion` depends on the matrices only, so a long record simulated
+    chunk by chunk (the same matrices each time) computes it once; the cached arrays
+    are never written to."""
+    hit = cache.get(key)
+    if hit is None:
+        hit = make()
+        if len(cache) >= _CACHE_ENTRIES:
+            cache.clear()
+        cache[key] = hit
+    return hit
+
+
+def _modal_setup(blocks: list[np.ndarray], W: np.ndarray) -> tuple[Any, ...]:
+    """Modal (or Schur) forms of the blocks: ``(Ts, Zs, Zis, stops, Z^-1, complex, Z^-1 W)``."""
+    Ts, Zs, Zis, stops = [], [], [], []
+    i = 0
+    for A in blocks:
+        T, Z, Zi, diagonal = modal_form(A)
+        Ts.append(T)
+        Zs.append(Z)
+        Zis.append(Zi)
+        n_b = A.shape[0]
+        # state j couples to the states after it up to the end of its block (Schur form)
+        stops += list(range(i + 1, i + n_b + 1)) if diagonal else [i + n_b] * n_b
+        i += n_b
+    Zinv = scipy.linalg.block_diag(*Zis) if Zis else np.zeros((0, 0))
+    cplx = any(np.iscomplexobj(T) for T in Ts)
+    return Ts, Zs, Zis, stops, Zinv, cplx, Zinv @ W
+
+
+def _lifted_setup(
+    blocks: list[np.ndarray],
+    W: np.ndarray,
+    outputs: list[list[np.ndarray]],
+    flat: list[Any],
+    srcs: list[_Source],
+    modal: tuple[Any, ...],
+    M: int,
+    nL: int,
+    nzc: int,
+    nz: int,
+    p_tot: int,
+) -> tuple[Any, ...]:
+    """The lifted system of :func:`block_recursion` (see its Notes):
+    ``(Tb, Tb^M, Hz, Gam, splits, CZ, state_maps)``."""
+    Ts, Zs, _, _, _, cplx, V = modal
+    nS = V.shape[0]
+    dtype = complex if cplx else float
+    Tb = scipy.linalg.block_diag(*Ts) if Ts else np.zeros((0, 0), dtype=dtype)
+    TbM = np.linalg.matrix_power(Tb, M)  # A^M in modal coordinates: the lifted transition
+    # Hp[:, c, j] = Z^-1 A^(M-1-j) W[:, c] = T^(M-1-j) V[:, c]: forcing of step j of a block
+    Hp = np.empty((nS, nz, M), dtype=dtype)
+    Hj = V.astype(dtype)
+    for j in range(M - 1, -1, -1):
+        Hp[:, :, j] = Hj
+        Hj = Tb @ Hj
+    # Markov parameters C A^(i-1-j) W (j < i) map the drive steps of a block to its
+    # outputs, rows (i, o); the feedthrough is applied at the original rate
+    Gp = None
+    if M > 1 and nz:
+        Cb = np.zeros((p_tot, nS))
+        for _, sl, C, _, o0 in flat:
+            Cb[o0 : o0 + C.shape[0], sl] = C
+        Gp = _markov_toeplitz(scipy.linalg.block_diag(*blocks), W, Cb, M)
+    # gather the per-drive columns (c, step j) onto the lifted rows of their source
+    Hz = np.zeros((nS, nL), dtype=dtype)
+    Gam = np.zeros((M * p_tot, nL)) if Gp is not None else None
+    for src in srcs:
+        for shift, c0 in src.parts:
+            j = np.arange(M) + shift - src.smin  # sample of step jj within the window
+            ch = np.arange(src.k)[:, None]
+            rows = np.where(
+                j < M, j * nzc + src.row0 + ch, src.tail0 + (j - M) * src.k + ch
+            ).ravel()  # (channel, step) order, distinct within one drive
+            Hz[:, rows] += Hp[:, c0 : c0 + src.k].reshape(nS, src.k * M)
+            if Gam is not None:
+                Gam[:, rows] += Gp[:, :, c0 : c0 + src.k].reshape(M * p_tot, src.k * M)
+    # output rows (i, o) with i in [i0, i1) see steps j < i only, whose lifted rows (all at
+    # sample <= i1 - 1, a step read one sample late included) are the first i1 nzc: the
+    # product is split in row blocks that skip the zero blocks above the diagonal
+    splits = []
+    if Gam is not None:
+        nspl = min(_TOEPLITZ_SPLITS, M - 1)
+        edges = [1 + round(q * (M - 1) / nspl) for q in range(nspl + 1)]
+        splits = [(i0, i1) for i0, i1 in zip(edges[:-1], edges[1:], strict=True) if i1 > i0]
+    # C A^i Z = C Z T^i on the block-start state, rows (i, o), grouped by output and block
+    # sizes so that each group is one stacked product (slices when the group is contiguous)
+    groups: dict[tuple[int, int], list[tuple[slice, int, np.ndarray]]] = {}
+    CZ = []
+    for b, sl, C, _, o0 in flat:
+        P = [C @ Zs[b]]
+        CZ.append(P[0])
+        for _ in range(M - 1):
+            P.append(P[-1] @ Ts[b])
+        groups.setdefault((C.shape[0], sl.stop - sl.start), []).append(
+            (sl, o0, np.stack(P).reshape(M * C.shape[0], -1))
+        )
+    state_maps = []
+    for (p, _), members in groups.items():
+        sidx = np.concatenate([np.arange(sl.start, sl.stop) for sl, _, _ in members])
+        oidx = np.concatenate([np.arange(o0, o0 + p) for _, o0, _ in members])
+        Psi = np.stack([P for _, _, P in members])
+        state_maps.append((_as_slice(sidx), _as_slice(oidx), p, Psi))
+    return Tb, TbM, Hz, Gam, splits, CZ, state_maps
+
+
 def block_recursion(
     blocks: list[np.ndarray],
     W: np.ndarray,
@@ -269,21 +393,10 @@ def block_recursion(
     nS = int(sum(sizes))
     Rd = max([d.runs for d in drives] + [1])
     R = max(Rd, x0.shape[1])
-    Ts, Zs, Zis, stops = [], [], [], []
-    i = 0
-    for A in blocks:
-        T, Z, Zi, diagonal = modal_form(A)
-        Ts.append(T)
-        Zs.append(Z)
-        Zis.append(Zi)
-        n_b = A.shape[0]
-        # state j couples to the states after it up to the end of its block (Schur form)
-        stops += list(range(i + 1, i + n_b + 1)) if diagonal else [i + n_b] * n_b
-        i += n_b
-    Zinv = scipy.linalg.block_diag(*Zis) if Zis else np.zeros((0, 0))
-    cplx = any(np.iscomplexobj(T) for T in Ts)
+    mkey = _digest(blocks + [W])
+    modal = _cached(_MODAL, mkey, lambda: _modal_setup(blocks, W))
+    Ts, Zs, Zis, stops, Zinv, cplx, V = modal
     dtype = complex if cplx else float
-    V = Zinv @ W
     col = np.cumsum([0] + [d.arr.shape[0] for d in drives])
     spans = list(zip(col[:-1], col[1:], strict=True))
     nz = int(col[-1])
@@ -321,43 +434,16 @@ def block_recursion(
         r0 += src.k
         t0 += (src.smax - src.smin) * src.k
     nL = M * nzc + t0
-    Tb = scipy.linalg.block_diag(*Ts) if Ts else np.zeros((0, 0), dtype=dtype)
-    TbM = np.linalg.matrix_power(Tb, M)  # A^M in modal coordinates: the lifted transition
-    # Hp[:, c, j] = Z^-1 A^(M-1-j) W[:, c] = T^(M-1-j) V[:, c]: forcing of step j of a block
-    Hp = np.empty((nS, nz, M), dtype=dtype)
-    Hj = V.astype(dtype)
-    for j in range(M - 1, -1, -1):
-        Hp[:, :, j] = Hj
-        Hj = Tb @ Hj
-    # Markov parameters C A^(i-1-j) W (j < i) map the drive steps of a block to its
-    # outputs, rows (i, o); the feedthrough is applied at the original rate
-    Gp = None
-    if M > 1 and nz:
-        Cb = np.zeros((p_tot, nS))
-        for _, sl, C, _, o0 in flat:
-            Cb[o0 : o0 + C.shape[0], sl] = C
-        Gp = _markov_toeplitz(scipy.linalg.block_diag(*blocks), W, Cb, M)
-    # gather the per-drive columns (c, step j) onto the lifted rows of their source
-    Hz = np.zeros((nS, nL), dtype=dtype)
-    Gam = np.zeros((M * p_tot, nL)) if Gp is not None else None
-    for src in srcs:
-        for shift, c0 in src.parts:
-            j = np.arange(M) + shift - src.smin  # sample of step jj within the window
-            ch = np.arange(src.k)[:, None]
-            rows = np.where(
-                j < M, j * nzc + src.row0 + ch, src.tail0 + (j - M) * src.k + ch
-            ).ravel()  # (channel, step) order, distinct within one drive
-            Hz[:, rows] += Hp[:, c0 : c0 + src.k].reshape(nS, src.k * M)
-            if Gam is not None:
-                Gam[:, rows] += Gp[:, :, c0 : c0 + src.k].reshape(M * p_tot, src.k * M)
-    # output rows (i, o) with i in [i0, i1) see steps j < i only, whose lifted rows (all at
-    # sample <= i1 - 1, a step read one sample late included) are the first i1 nzc: the
-    # product is split in row blocks that skip the zero blocks above the diagonal
-    splits = []
-    if Gam is not None:
-        nspl = min(_TOEPLITZ_SPLITS, M - 1)
-        edges = [1 + round(q * (M - 1) / nspl) for q in range(nspl + 1)]
-        splits = [(i0, i1) for i0, i1 in zip(edges[:-1], edges[1:], strict=True) if i1 > i0]
+    layout = tuple(
+        (src.k, src.smin, src.smax, tuple(src.parts), src.drive.scale is None) for src in srcs
+    )
+    lkey = (mkey, _digest([C for outs in outputs for C in outs]), layout, M)
+    hit = _LIFTED.get(lkey)
+    if hit is not None:
+        Tb, TbM, Hz, Gam, splits, CZ, state_maps = hit
+    else:
+        lifted = _lifted_setup(blocks, W, outputs, flat, srcs, modal, M, nL, nzc, nz, p_tot)
+        Tb, TbM, Hz, Gam, splits, CZ, state_maps = _cached(_LIFTED, lkey, lambda: lifted)
     # feedthrough: signals of every run, then the signals shared by all runs (their
     # product computed once and added to every run)
     Rdd = max([a.shape[1] for a in dsig] + [1])
@@ -378,26 +464,9 @@ def block_recursion(
             if sel:
                 cols = np.concatenate([np.arange(cstart[i], cstart[i + 1]) for i in sel])
                 feeds.append(([dsig[i] for i in sel], np.ascontiguousarray(Dall[:, cols])))
-    # C A^i Z = C Z T^i on the block-start state, rows (i, o), grouped by output and block
-    # sizes so that each group is one stacked product (slices when the group is contiguous)
-    groups: dict[tuple[int, int], list[tuple[slice, int, np.ndarray]]] = {}
-    CZ = []
-    for b, sl, C, _, o0 in flat:
-        P = [C @ Zs[b]]
-        CZ.append(P[0])
-        for _ in range(M - 1):
-            P.append(P[-1] @ Ts[b])
-        groups.setdefault((C.shape[0], sl.stop - sl.start), []).append(
-            (sl, o0, np.stack(P).reshape(M * C.shape[0], -1))
-        )
-    state_maps = []
-    for (p, _), members in groups.items():
-        sidx = np.concatenate([np.arange(sl.start, sl.stop) for sl, _, _ in members])
-        oidx = np.concatenate([np.arange(o0, o0 + p) for _, o0, _ in members])
-        Psi = np.stack([P for _, _, P in members])
-        state_maps.append((_as_slice(sidx), _as_slice(oidx), p, Psi))
     z = (Zinv @ np.broadcast_to(x0, (nS, x0.shape[1]))).astype(dtype)
     z = np.broadcast_to(z, (nS, R))
+
     # real states, no lifting: every output is one product (per run) written straight
     # into its destination, then the feedthrough added in place
     straight = M == 1 and not cplx
