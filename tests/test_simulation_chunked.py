@@ -137,6 +137,48 @@ def test_noise_stream_is_independent_of_the_ranges_asked():
         st.take(0, 10)  # the past is gone
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_decision_stream_and_run_summary_equal_the_whole_record(seed):
+    """Random residuals cut at random points: the chunked decisions (moving RMS and a
+    k-of-n rule both looking back across the cuts) and the accumulated events, peaks and
+    false alarms equal those of the whole record."""
+    from geomfdi.evaluation.decision import detection_events
+    from geomfdi.evaluation.metrics import false_alarms
+    from geomfdi.evaluation.persistence import Persistence, decisions
+    from geomfdi.simulation.streaming import DecisionStream, RunSummary
+
+    rng = np.random.default_rng(seed)
+    N, R = 400, 3
+    t = np.arange(N) * 0.01
+    res = rng.standard_normal((R, 3, N)) * np.linspace(0.5, 2.0, N)
+    S = np.array([[1, 0, 1], [0, 1, 1], [1, 1, 0]], dtype=bool)
+    thr = gf.Threshold(np.array([1.2, 1.5, 1.0]), statistic="rms", window=1 + seed)
+    rule = Persistence(2, 3 + seed)
+    faults = [
+        [gf.BiasFault(0, start=1.0 + r, bias=1.0), gf.BiasFault(1, start=2.5, bias=1.0)]
+        for r in range(R)
+    ]
+    cols = [[0, 1]] * R
+    window = None if seed % 2 else 0.7
+    al, iso = decisions(res, thr, S, rule)
+    ds = DecisionStream(thr, S, rule)
+    summ = RunSummary(t, faults, cols, 3, window)
+    cuts = np.unique(np.concatenate([[0, N], rng.integers(1, N, 9)]))
+    for s, e in zip(cuts[:-1], cuts[1:], strict=True):
+        a, i = ds.step(res[..., s:e])
+        np.testing.assert_array_equal(a, al[..., s:e])
+        np.testing.assert_array_equal(i.isolated, iso.isolated[..., s:e])
+        np.testing.assert_array_equal(i.candidates, iso.candidates[..., s:e])
+        summ.update(int(s), res[..., s:e], a, i.isolated)
+    np.testing.assert_array_equal(summ.peak, np.max(np.abs(res), axis=-1))
+    for r in range(R):
+        ref = detection_events(t, al[r], iso.isolated[r], faults[r], cols[r], window=window)
+        same_events(summ.events(r), ref)
+        first = min(1.0 + r, 2.5)  # the healthy part ends at the first onset
+        assert summ.false_alarms(r) == false_alarms(al[r], int(np.searchsorted(t, first - 1e-12)))
+    assert al.any() and not al.all()
+
+
 @pytest.mark.parametrize("vector", [False, True])
 def test_simulate_chunked_equals_unchunked_with_noise_faults_and_persistence(vector):
     plant, bank = setup(vector)
