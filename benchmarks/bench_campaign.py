@@ -1,44 +1,71 @@
-"""Campaign throughput: ``gf.Campaign`` against a loop of ``gf.simulate`` calls.
+"""Campaign throughput against a loop of ``gf.simulate`` calls, and scaling to 2 workers.
 
 Workload: the closed loop of seed 001 (Hou, Wen & Chen 2011, section 4) with its exact
 bank of three residual generators (``examples/seed001.toml``), measurement noise 0.01 on
 every sensor, ``10^4`` samples per run (20 s at 2 ms), a bias on sensor 1 at 8 s swept over
 10 sizes x 1000 noise seeds = ``10^4`` runs, every run evaluated by the windowed chi-square
-test (50 samples, analytic threshold) into the campaign table (scores, detection, delay).
+test (50 samples, analytic threshold) into the campaign table (scores, detection, delay,
+isolation with a 2-of-3 rule).
 
-* **baseline**: a Python loop of ``gf.simulate`` calls, one per run, each followed by the
-  same test and scores.  It is timed on a subset of the runs (``--loop-runs``, default
-  100) and **extrapolated linearly** to all runs (rows marked ``*``);
-* **campaign, 1 worker**: ``Campaign.run("serial")`` (blocks of ``--block`` runs, each one
-  vectorised ``gf.simulate_batch`` call);
-* **campaign, 2 workers**: ``Campaign.run`` on a local ``ProcessPoolExecutor`` with two
-  processes.
+Methods, timed in one process run and alternated (every repeat times each method once;
+the best of ``--repeats`` is kept):
 
-Everything runs twice: with one BLAS thread (threadpoolctl, also inside the worker
-processes) and with the default threads.  Times are wall-clock (``time.perf_counter``).
-The tables of the serial and the process runs are checked to be identical.
+* **loop**: a Python loop of ``gf.simulate`` calls, one per run, each followed by the same
+  test, scores and isolation.  Timed on the first ``--loop-runs`` runs of the grid and
+  **extrapolated linearly** to all runs (rows marked ``*``);
+* **serial**: ``Campaign.run("serial")`` (blocks of ``--block`` runs, each one vectorised
+  ``gf.simulate_batch`` call);
+* **processes, 1 / 2 workers**: a ``ProcessPoolExecutor`` with 1 and with 2 processes
+  (started and warmed up before timing);
+* **dask, 1 / 2 workers**: one ``distributed.LocalCluster`` of 2 single-threaded worker
+  processes; the 1-worker case pins every task to one worker (skipped without
+  ``distributed`` or with ``--no-dask``).
 
-Run ``python benchmarks/bench_campaign.py`` (``--runs 1000`` for a shorter run).
+A task carries ``--blocks-per-task`` blocks (default 1: a block of 64 runs x 10^4
+samples is already about half a second of vectorised work, against milliseconds of
+per-task overhead -- pickling the job and the results, scheduling); many equal tasks keep
+the two workers equally busy to the end.  The per-task overhead is estimated as
+``(t(processes, 1 worker) - t(serial)) / tasks``.  The scaling ratio ``t(1 worker) /
+t(2 workers)`` is reported per executor with the machine's load average
+(``os.getloadavg``) read before every timed run: on a machine whose 2 cores are busy with
+other work the ratio cannot reach 2, so the load is part of the result.
+
+Everything runs twice (``benchmarks/_threads.py``): one BLAS thread, then the default
+threads (worker processes inherit the limit through their initializer; Dask sets one
+thread per worker process itself).  The tables of the serial and the parallel runs are
+checked to be identical.
+
+``python benchmarks/bench_campaign.py`` (the full workload, many minutes on 2 cores);
+``--quick`` (256 runs x 2000 samples, one repeat, under a minute); ``--runs``,
+``--samples``, ``--threads 1|default`` to choose.
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
+import math
+import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from _threads import run_thread_modes  # noqa: E402
 
 import geomfdi as gf  # noqa: E402
-from geomfdi.campaign.runner import evaluate_runs  # noqa: E402
+from geomfdi.campaign.runner import evaluate_runs, isolate_runs  # noqa: E402
 from geomfdi.io.cli import design_all  # noqa: E402
 from geomfdi.io.modelfile import load_model  # noqa: E402
+
+RULE = gf.Persistence(2, 3)
+_STATE: dict[str, Any] = {}  # the Dask cluster, shared by both thread modes
 
 
 def _limit_threads(n: int | None) -> None:
@@ -48,19 +75,21 @@ def _limit_threads(n: int | None) -> None:
         threadpool_limits(n)
 
 
-def setup(runs: int, samples: int, block: int) -> tuple[gf.Campaign, dict]:
+def setup(runs: int, samples: int, block: int) -> tuple[gf.Campaign, dict[str, Any]]:
     spec = load_model(ROOT / "examples" / "seed001.toml")
     bank = design_all(spec)["exact"]
     t = 0.002 * np.arange(samples)
+    onset = float(t[int(0.4 * samples)])
     noise = gf.Noise(measurement=0.01, seed=1)
     models = gf.residual_noise_models(spec.plant, bank, noise, step=0.002, controller=spec.K)
     test = gf.ChiSquareTest.design(models, 50, 1e-4)
     sizes = np.linspace(0.0, 0.03, 10)
     per = max(1, runs // sizes.size)
+    window = min(2.0, float(t[-1] - onset))
     camp = gf.Campaign(
         spec.plant,
         bank,
-        [gf.Scenario.sensor("bias", 1, sizes, [8.0])],
+        [gf.Scenario.sensor("bias", 1, sizes, [onset])],
         noise,
         t=t,
         runs=per,
@@ -68,81 +97,208 @@ def setup(runs: int, samples: int, block: int) -> tuple[gf.Campaign, dict]:
         u=spec.u,
         controller=spec.K,
         x0=spec.x0,
-        detection_window=2.0,
-        eval_start=2.0,
+        detection_window=window,
+        eval_start=min(2.0, onset / 2),
         block_size=block,
+        persistence=RULE,
     )
-    return camp, {"spec": spec, "bank": bank, "t": t, "test": test}
+    return camp, {"spec": spec, "bank": bank, "t": t, "test": test, "window": window}
 
 
-def loop_baseline(camp: gf.Campaign, ctx: dict, n: int) -> float:
+def loop_baseline(camp: gf.Campaign, ctx: dict[str, Any], n: int) -> float:
     """Seconds for the first ``n`` runs of the grid, one ``gf.simulate`` call each."""
     g = camp.grid()
-    spec = ctx["spec"]
+    spec, test, t = ctx["spec"], ctx["test"], ctx["t"]
     root = np.random.SeedSequence(camp.noise.seed)
+    S = np.asarray(ctx["bank"].structure, dtype=bool)
     t0 = time.perf_counter()
     for i in range(n):
         sc = camp.scenarios[g["scenario"][i]]
+        size, onset = float(g["size"][i]), g["onset"][i : i + 1]
         seed = np.random.SeedSequence(root.entropy, spawn_key=(int(g["repetition"][i]),))
         res = gf.simulate(
             spec.plant,
             ctx["bank"],
-            ctx["t"],
+            t,
             camp.u,
-            faults=sc.faults(float(g["size"][i]), float(g["onset"][i])),
+            faults=sc.faults(size, float(onset[0])),
             noise=gf.Noise(measurement=0.01, seed=seed),
             controller=spec.K,
             x0=spec.x0,
         )
-        stat = ctx["test"].statistic(res.residuals[None])
-        evaluate_runs(ctx["t"], stat, ctx["test"].thresholds, g["onset"][i : i + 1], 2.0, 2.0)
+        stat = test.statistic(res.residuals[None])
+        evaluate_runs(t, stat, test.thresholds, onset, ctx["window"], camp.eval_start)
+        col = res.events[0].index if size else -1
+        truth = np.array([col])
+        isolate_runs(
+            t, stat, test.thresholds, S, RULE, truth, [frozenset({col})], onset, ctx["window"]
+        )
     return time.perf_counter() - t0
 
 
-def timed(fn) -> tuple[float, object]:
-    t0 = time.perf_counter()
-    out = fn()
-    return time.perf_counter() - t0, out
+class _Pinned:
+    """A Dask client seen as an executor whose tasks all run on the given workers."""
+
+    def __init__(self, client: Any, workers: list[str]) -> None:
+        self.client, self.workers = client, workers
+
+    def scatter(self, data: Any, **kwargs: Any) -> Any:
+        return self.client.scatter(data, workers=self.workers, **kwargs)
+
+    def submit(self, fn: Any, *args: Any) -> Any:
+        return self.client.submit(fn, *args, workers=self.workers, pure=False)
 
 
-def main() -> None:
+def _dask() -> Any:
+    if "client" not in _STATE:
+        from distributed import Client, LocalCluster
+
+        cluster = LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        )
+        _STATE["cluster"], _STATE["client"] = cluster, Client(cluster)
+    return _STATE["client"]
+
+
+def _close_dask() -> None:
+    if "client" in _STATE:
+        _STATE.pop("client").close()
+        _STATE.pop("cluster").close()
+
+
+def main(argv: list[str]) -> dict[str, Any]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=10_000)
     ap.add_argument("--samples", type=int, default=10_000)
     ap.add_argument("--loop-runs", type=int, default=100)
     ap.add_argument("--block", type=int, default=64)
-    args = ap.parse_args()
-    from threadpoolctl import threadpool_limits
+    ap.add_argument("--blocks-per-task", type=int, default=1)
+    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--no-dask", action="store_true")
+    ap.add_argument("--quick", action="store_true", help="256 runs x 2000 samples, 1 repeat")
+    args = ap.parse_args(argv)
+    if args.quick:
+        args.runs, args.samples, args.loop_runs, args.repeats = 256, 2000, 8, 1
+    from threadpoolctl import threadpool_info
 
+    blas = max((b["num_threads"] for b in threadpool_info() if b["user_api"] == "blas"), default=1)
+    limit = 1 if blas == 1 else None  # the mode run_thread_modes set for this process
     camp, ctx = setup(args.runs, args.samples, args.block)
     total = camp.grid()["run"].size
+    nblocks = len(camp.blocks())
+    per = args.blocks_per_task
+    tasks = math.ceil(nblocks / per)
     print(
         f"campaign: {total} runs x {args.samples} samples, bank of 3 (seed 001, exact), "
-        f"chi-square test, blocks of {args.block} runs"
+        f"chi-square test (isolation {RULE.k} of {RULE.n} samples, held pattern), "
+        f"{nblocks} blocks of {args.block} runs, {tasks} tasks of {per} block(s)"
     )
-    print(f"{'BLAS threads':<13} {'method':<34} {'time [s]':>10} {'runs/s':>9} {'vs loop':>8}")
-    for threads in (1, None):
-        label = "1" if threads == 1 else "default"
-        with threadpool_limits(threads) if threads else contextlib.nullcontext():
-            n = min(args.loop_runs, total)
-            t_loop = loop_baseline(camp, ctx, n) * total / n
-            t1, r1 = timed(lambda: camp.run("serial", progress=False))
-            with ProcessPoolExecutor(
-                max_workers=2, initializer=_limit_threads, initargs=(threads,)
-            ) as ex:
-                ex.submit(int, 0).result()  # start the workers before timing
-                t2, r2 = timed(lambda ex=ex: camp.run(ex, progress=False))
-        same = r1.table.equals(r2.table)
-        rows = [
-            (f"loop of gf.simulate ({n} runs)*", t_loop),
-            ("campaign, 1 worker (serial)", t1),
-            ("campaign, 2 worker processes", t2),
-        ]
-        for name, tt in rows:
-            print(f"{label:<13} {name:<34} {tt:>10.1f} {total / tt:>9.1f} {t_loop / tt:>7.2f}x")
-        print(f"{label:<13} scaling 1 -> 2 workers: {t1 / t2:.2f}x; identical tables: {same}")
+    print(f"machine: {os.cpu_count()} CPUs, BLAS threads in this process: {blas}")
+    # every method is a function of the campaign: a small one (8 blocks of 5 runs, so
+    # that every worker gets tasks) warms each executor up before anything is timed
+    small = setup(40, 400, 5)[0]
+    methods: dict[str, Any] = {}
+    n = min(args.loop_runs, total)
+    methods["loop"] = lambda c: loop_baseline(camp, ctx, n) * total / n
+    methods["serial"] = lambda c: c.run("serial", progress=False)
+    pools = {}
+    for w in (1, 2):
+        pools[w] = ProcessPoolExecutor(max_workers=w, initializer=_limit_threads, initargs=(limit,))
+        methods[f"processes, {w} worker{'s' * (w > 1)}"] = lambda c, w=w: c.run(
+            pools[w], blocks_per_task=per, progress=False
+        )
+    dask_note = ""
+    if not args.no_dask:
+        try:
+            client = _dask()
+        except ImportError:
+            dask_note = "(dask skipped: distributed is not installed)"
+        else:
+            addrs = sorted(client.scheduler_info()["workers"])
+            for w in (1, 2):
+                ex = _Pinned(client, addrs[:w])
+                methods[f"dask, {w} worker{'s' * (w > 1)}"] = lambda c, ex=ex, w=w: c.run(
+                    ex, blocks_per_task=per, progress=False
+                )
+    for name, fn in methods.items():
+        if name != "loop":
+            fn(small)
+    # one block's compute time in this process and inside a worker: tells a slower
+    # worker (memory settings, contention) from per-task transfer and scheduling
+    job, block = camp._job(), camp.blocks()[0]
+    where = {"this process": _block_seconds(job, block)}
+    where["a process worker"] = pools[1].submit(_block_seconds, job, block).result()
+    if "client" in _STATE:
+        fut = _STATE["client"].submit(_block_seconds, job, block, pure=False)
+        where["a Dask worker"] = fut.result()
+        env = _STATE["client"].run(_worker_env)
+        print(f"Dask worker environment: {next(iter(env.values()))}")
+    print(
+        f"one block of {args.block} runs: " + ", ".join(f"{k} {v:.2f} s" for k, v in where.items())
+    )
+    best: dict[str, float] = {}
+    load: dict[str, tuple[float, float, float]] = {}
+    tables: dict[str, Any] = {}
+    try:
+        for _ in range(args.repeats):
+            for name, fn in methods.items():
+                la = os.getloadavg()
+                t0 = time.perf_counter()
+                out = fn(camp)
+                dt = out if name == "loop" else time.perf_counter() - t0
+                print(f"  {name}: {dt:.2f} s (load {la[0]:.2f})", flush=True)
+                if name not in best or dt < best[name]:
+                    best[name], load[name] = dt, la
+                if name != "loop":
+                    tables[name] = out.table
+    finally:
+        for p in pools.values():
+            p.shutdown()
+    t_loop = best["loop"]
+    print(
+        f"{'method':<34} {'time [s]':>9} {'runs/s':>8} {'vs loop':>8} "
+        f"{'load 1/5/15 min before':>24}"
+    )
+    for name, tt in best.items():
+        label = f"loop of gf.simulate ({n} runs)*" if name == "loop" else name
+        la = "/".join(f"{x:.2f}" for x in load[name])
+        print(f"{label:<34} {tt:>9.2f} {total / tt:>8.1f} {t_loop / tt:>7.2f}x {la:>24}")
+    for ex in ("processes", "dask"):
+        one, two = f"{ex}, 1 worker", f"{ex}, 2 workers"
+        if one in best and two in best:
+            print(
+                f"scaling 1 -> 2 workers ({ex}): {best[one] / best[two]:.2f}x "
+                f"(load before: {load[one][0]:.2f} / {load[two][0]:.2f}; "
+                f"{os.cpu_count()} CPUs)"
+            )
+    if "processes, 1 worker" in best:
+        over = (best["processes, 1 worker"] - best["serial"]) / tasks
+        print(f"per-task overhead (processes, 1 worker - serial) / tasks: {1e3 * over:.1f} ms")
+    ref = tables["serial"]
+    same = all(tb.equals(ref) for tb in tables.values())
+    print(f"identical tables (serial, processes, dask): {same}")
     print("* timed on the first runs of the grid and extrapolated linearly to all runs")
+    if dask_note:
+        print(dask_note)
+    return {"best": best, "load": load, "identical": same}
+
+
+def _block_seconds(job: dict[str, Any], block: Any) -> float:
+    """Seconds to simulate and evaluate one block where this function runs."""
+    from geomfdi.campaign.runner import _run_block
+
+    t0 = time.perf_counter()
+    _run_block(job, block)
+    return time.perf_counter() - t0
+
+
+def _worker_env() -> dict[str, str | None]:
+    keys = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+    return {k: os.environ.get(k) for k in (*keys, "MALLOC_TRIM_THRESHOLD_")}
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        run_thread_modes(main)
+    finally:
+        _close_dask()

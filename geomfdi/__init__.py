@@ -46,7 +46,12 @@ _register("geomfdi.deployment.monitor", "Monitor")
 _register("geomfdi.deployment.persistence", "load_bank", "load_monitor")
 _register("geomfdi.deployment.recorded", "evaluate")
 _register(
-    "geomfdi.diagnosability.bank", "BankDiagnosability", "bank_diagnosability", "bank_window_sweep"
+    "geomfdi.diagnosability.bank",
+    "BankDiagnosability",
+    "StructuredIsolability",
+    "bank_diagnosability",
+    "bank_structured_isolability",
+    "bank_window_sweep",
 )
 _register("geomfdi.diagnosability.model", "WindowModel")
 _register(
@@ -63,7 +68,7 @@ _register(
     "residual_noise_model",
     "residual_noise_models",
 )
-_register("geomfdi.evaluation.decision", "FaultEvent", "Threshold", "isolate")
+_register("geomfdi.evaluation.decision", "FaultEvent", "Threshold", "isolate", "fault_hypotheses")
 _register("geomfdi.evaluation.metrics", "DetectionMetrics")
 _register("geomfdi.evaluation.persistence", "Persistence")
 _register("geomfdi.evaluation.roc", "roc_curve", "wilson_interval")
@@ -128,7 +133,7 @@ _register("geomfdi.parity.estimation", "FaultEstimate", "StateEstimate")
 _register("geomfdi.parity.model", "ParityFDI")
 _register("geomfdi.parity.montecarlo", "RocCurve")
 _register("geomfdi.parity.results", "ParityDiagnosis")
-_register("geomfdi.plotting.curves", "plot_detection", "plot_roc")
+_register("geomfdi.plotting.curves", "plot_confusion", "plot_detection", "plot_roc")
 _register("geomfdi.plotting.diagnosability", "plot_isolability")
 _register("geomfdi.plotting.monitoring", "plot_ar_monitor")
 _register("geomfdi.plotting.residuals", "plot_residuals", "plot_structure", "save_png")
@@ -238,11 +243,13 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.deployment.monitor import Monitor  # noqa: F401
     from geomfdi.deployment.persistence import load_bank, load_monitor  # noqa: F401
     from geomfdi.deployment.recorded import evaluate  # noqa: F401
-    from geomfdi.diagnosability.bank import (
+    from geomfdi.diagnosability.bank import (  # noqa: F401
         BankDiagnosability,
+        StructuredIsolability,
         bank_diagnosability,
+        bank_structured_isolability,
         bank_window_sweep,
-    )  # noqa: F401
+    )
     from geomfdi.diagnosability.model import WindowModel  # noqa: F401
     from geomfdi.diagnosability.results import (
         ApplicabilityReport,
@@ -256,7 +263,12 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         residual_noise_model,
         residual_noise_models,
     )  # noqa: F401
-    from geomfdi.evaluation.decision import FaultEvent, Threshold, isolate  # noqa: F401
+    from geomfdi.evaluation.decision import (  # noqa: F401
+        FaultEvent,
+        Threshold,
+        fault_hypotheses,
+        isolate,
+    )
     from geomfdi.evaluation.metrics import DetectionMetrics  # noqa: F401
     from geomfdi.evaluation.persistence import Persistence  # noqa: F401
     from geomfdi.evaluation.roc import roc_curve, wilson_interval  # noqa: F401
@@ -309,7 +321,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.parity.model import ParityFDI  # noqa: F401
     from geomfdi.parity.montecarlo import RocCurve  # noqa: F401
     from geomfdi.parity.results import ParityDiagnosis  # noqa: F401
-    from geomfdi.plotting.curves import plot_detection, plot_roc  # noqa: F401
+    from geomfdi.plotting.curves import plot_confusion, plot_detection, plot_roc  # noqa: F401
     from geomfdi.plotting.diagnosability import plot_isolability  # noqa: F401
     from geomfdi.plotting.monitoring import plot_ar_monitor  # noqa: F401
     from geomfdi.plotting.residuals import plot_residuals, plot_structure, save_png  # noqa: F401

@@ -46,13 +46,17 @@ INT_MAX = int(np.iinfo(np.int64).max)
 
 
 def _sympy_to_numpy(value: Any) -> Any:
-    try:  # sympy matrices convert through their list form
-        import sympy
+    """A sympy matrix as an object array (through its list form); anything else as is.
 
-        if isinstance(value, sympy.MatrixBase):
-            return np.array(value.tolist(), dtype=object)
-    except ImportError:  # pragma: no cover - sympy is a dependency
-        pass
+    sympy is only imported for values whose type comes from it (a plain list or array
+    never pays for the import).
+    """
+    if type(value).__module__.split(".")[0] != "sympy":
+        return value
+    import sympy
+
+    if isinstance(value, sympy.MatrixBase):
+        return np.array(value.tolist(), dtype=object)
     return value
 
 

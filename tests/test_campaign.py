@@ -48,6 +48,9 @@ def _campaign(spec, bank, **kw):
         detection_window=1.0,
         eval_start=0.5,
         block_size=10,
+        # 2 of 3 samples; an episode ends after 0.1 s without alarm (the perturbed
+        # models' start-up alarms do not stay in the pattern)
+        persistence=gf.Persistence(2, 3, reset=50),
     )
     args.update(kw)
     return gf.Campaign(spec.plant, bank, **args)
@@ -88,6 +91,122 @@ def test_grid_and_table_layout(serial):
     det = tb["detected"].to_numpy()
     assert np.all(np.isnan(tb["delay"].to_numpy()[~det]))
     assert np.all((tb["delay"][det] >= 0) & (tb["delay"][det] < 1.0))
+
+
+def test_isolation_columns_per_run(serial):
+    c, res = serial
+    tb = res.table
+    bank = tb[tb["residual"] == "bank"]
+    other = tb[tb["residual"] != "bank"]
+    assert other[["true_fault", "isolated", "isolation"]].isna().all().all()
+    assert other["isolation_delay"].isna().all()
+    labels = c.fault_labels
+    assert labels == ["sensor 0", "sensor 1", "sensor 2"]
+    assert list(bank["isolated"].cat.categories) == [*labels, "multiple", "none"]
+    assert not bank[["true_fault", "isolated", "isolation"]].isna().any().any()
+    faulty = bank["size"] > 0
+    assert (bank.loc[~faulty, "true_fault"] == "no fault").all()
+    truth = np.where(bank["scenario"].str.startswith("bias"), "sensor 0", "sensor 2")
+    assert (bank.loc[faulty, "true_fault"] == truth[faulty.to_numpy()]).all()
+    # correct = the first decision is the true fault; none = no decision
+    dec, true, out = bank["isolated"], bank["true_fault"], bank["isolation"]
+    assert ((out == "correct") == (dec.astype(str) == true.astype(str))).all()
+    assert ((out == "none") == (dec == "none")).all()
+    assert ((out == "wrong") == ~((out == "correct") | (out == "none"))).all()
+    # an isolation delay exactly for the runs with a correct decision in the window
+    d = bank["isolation_delay"]
+    assert (d.notna() >= (out == "correct")).all()
+    assert ((d[d.notna()] >= 0) & (d[d.notna()] < 1.0)).all()
+    assert (out[faulty] == "correct").mean() > 0.9
+    # summary: rates with Wilson bounds, delays, on the bank rows
+    s = res.summary()
+    sb = s.xs("bank", level="residual")
+    for (sc, z), row in sb.iterrows():
+        sel = bank[(bank["scenario"] == sc) & (bank["size"] == z)]
+        n = len(sel)
+        for k in ("correct", "wrong", "none"):
+            p = float(np.mean(sel["isolation"] == k))
+            assert row[f"iso_{k}"] == pytest.approx(p)
+            lo, hi = gf.wilson_interval(p * n, n)
+            assert row[f"iso_{k}_low"] == pytest.approx(lo)
+            assert row[f"iso_{k}_high"] == pytest.approx(hi)
+        assert row["iso_multiple"] == pytest.approx(np.mean(sel["isolated"] == "multiple"))
+        dd = sel["isolation_delay"].dropna()
+        if len(dd):
+            assert row["iso_delay_median"] == pytest.approx(dd.median())
+    assert s.xs("r[0]", level="residual")["iso_correct"].isna().all()
+    # confusion: every run once, rows = true faults, columns = decisions
+    C = res.confusion()
+    assert C.to_numpy().sum() == len(bank)
+    assert list(C.columns) == [*labels, "multiple", "none"]
+    assert C.loc["no fault"].sum() == (~faulty).sum()
+    pd.testing.assert_series_equal(
+        C.loc["sensor 0"], res.confusion(scenario="bias on sensor 0").loc["sensor 0"]
+    )
+    norm = res.confusion(normalize=True)
+    np.testing.assert_allclose(norm.sum(axis=1), 1.0)
+    fig = res.plot_confusion(size=0.02)
+    assert [t.get_text() for t in fig.axes[0].get_yticklabels()] == ["sensor 0"]
+
+
+def test_isolation_of_runs_by_hand():
+    """First decision, outcome and delay of hand-made statistics (threshold 1)."""
+    from geomfdi.campaign.runner import isolate_runs
+    from geomfdi.evaluation.decision import MULTIPLE
+
+    t = np.arange(10) * 0.5
+    S = np.eye(3, dtype=bool)
+    z = np.zeros((5, 3, 10))
+    z[0, 0, 4:] = 2  # run 0: fault 0 from k=4 (onset k=3): correct, delay 0.5
+    z[1, 1, 4] = 2  # run 1: fault 0, r1 alone at k=4 (wrong), then r0 from k=6
+    z[1, 0, 6:] = 2
+    z[2, 2, 1] = 2  # run 2: fault-free, false alarm before the onset only: none
+    z[3, :2, 5:] = 2  # run 3: faults 0 and 1 at once: MULTIPLE with the right suspects
+    z[4, 2, 8] = 2  # run 4: fault-free, an alarm in the window: a wrong isolation
+    truth = np.array([0, 0, -1, MULTIPLE, -1])
+    sets = [frozenset({0}), frozenset({0}), frozenset(), frozenset({0, 1}), frozenset()]
+    onsets = np.full(5, 1.5)
+    out = isolate_runs(t, z, np.ones(3), S, None, truth, sets, onsets, 3.0)
+    # per-sample decisions: run 3's pattern matches no column (no decision)
+    assert out["decision"].tolist() == [0, 1, -1, -1, 2]
+    assert out["outcome"].tolist() == [0, 1, 2, 2, 1]  # correct, wrong, none, none, wrong
+    np.testing.assert_array_equal(out["iso_delay"], [0.5, 1.5, np.nan, np.nan, np.nan])
+    # the window ends before run 1's r0 (k=6 at 3.0 s): no correct decision in it
+    short = isolate_runs(t, z, np.ones(3), S, None, truth, sets, onsets, 1.5)
+    assert short["outcome"].tolist()[:2] == [0, 1] and np.isnan(short["iso_delay"][1])
+    # the held pattern: run 1's r1 stays ("multiple" from k=6, never fault 0 alone), run
+    # 3 is "multiple" with suspects {0, 1} (correct), run 2's early alarm stays (wrong)
+    held = isolate_runs(t, z, np.ones(3), S, gf.Persistence(1, 1), truth, sets, onsets, 3.0)
+    assert held["decision"].tolist() == [0, 1, 2, MULTIPLE, 2]
+    assert held["outcome"].tolist() == [0, 1, 1, 0, 1]
+    np.testing.assert_array_equal(held["iso_delay"], [0.5, np.nan, np.nan, 1.0, np.nan])
+    # ... unless its episode ends (2 quiet samples), or it is before eval_start
+    rule = gf.Persistence(1, 1, reset=2)
+    assert isolate_runs(t, z, np.ones(3), S, rule, truth, sets, onsets, 3.0)["outcome"][2] == 2
+    late = isolate_runs(t, z, np.ones(3), S, gf.Persistence(1, 1), truth, sets, onsets, 3.0, 1.0)
+    assert late["outcome"].tolist() == [0, 1, 2, 0, 1]
+
+
+def test_simultaneous_faults_in_a_campaign(seed001):
+    spec, bank = seed001
+    both = gf.Scenario(
+        "bias on sensors 0 and 2",
+        lambda size, onset: [
+            gf.BiasFault(0, start=onset, bias=size),
+            gf.BiasFault(2, start=onset, bias=size),
+        ],
+        sizes=[0.05],
+        onsets=[2.5],
+    )
+    # settled over 10 samples (20 ms): r0 and r2 cross within it
+    rule = gf.Persistence(10, 10, reset=50)
+    res = _campaign(spec, bank, scenarios=[both], runs=4, block_size=4, persistence=rule).run()
+    bank_rows = res.table[res.table["residual"] == "bank"]
+    assert (bank_rows["true_fault"] == "multiple").all()
+    assert (bank_rows["isolated"] == "multiple").all()
+    assert (bank_rows["isolation"] == "correct").all()
+    assert res.confusion().loc["multiple", "multiple"] == 4
+    assert bank_rows["isolation_delay"].between(0.0, 0.1).all()
 
 
 def test_same_table_for_every_grouping_of_blocks(seed001, serial):

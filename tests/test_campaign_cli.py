@@ -33,7 +33,15 @@ def test_cli_campaign_writes_tables_and_figures(tmp_path, capsys):
     # 2 scenarios x 6 sizes x 1 onset x 3 runs, 4 residuals + bank each
     assert len(tb) == 2 * 6 * 3 * 5
     summ = pd.read_csv(out / "summary.csv")
-    assert {"pd", "far", "delay_median"} <= set(summ.columns)
+    assert {"pd", "far", "delay_median", "iso_correct", "iso_wrong", "iso_none"} <= set(
+        summ.columns
+    )
+    assert {"true_fault", "isolated", "isolation", "isolation_delay"} <= set(tb.columns)
+    conf = pd.read_csv(out / "confusion.csv", index_col=0)
+    assert list(conf.columns)[-2:] == ["multiple", "none"]
+    assert conf.to_numpy().sum() == 2 * 6 * 3  # every run once
+    assert "confusion (runs; rows: true fault" in text
+    assert (out / "confusion.png").read_bytes()[:4] == b"\x89PNG"
     for name in ("roc_bias-on-sensor-1", "detection_gain-on-sensor-2"):
         assert (out / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
 
@@ -50,6 +58,24 @@ def test_cli_campaign_errors(tmp_path, capsys):
     assert main(["campaign", str(bad), "--out", str(tmp_path)]) == 2
 
 
+def test_campaign_persistence_entry(tmp_path, capsys):
+    import geomfdi as gf
+    from geomfdi.io.cli import load_campaign
+
+    text = (ROOT / "examples" / "discrete_disturbance.toml").read_text()
+    path = tmp_path / "p.toml"
+    path.write_text(
+        text.replace("runs = 100", "runs = 2\npersistence = {k = 2, n = 3, reset = 50}")
+    )
+    assert load_campaign(path).campaign.persistence == gf.Persistence(2, 3, reset=50)
+    path.write_text(text.replace("runs = 100", "runs = 2\npersistence = [2, 4]"))
+    assert load_campaign(path).campaign.persistence == gf.Persistence(2, 4)
+    for bad in ("[3, 2]", '"x"', "{k = 2, n = 3, hold = 1}"):
+        path.write_text(text.replace("runs = 100", f"runs = 2\npersistence = {bad}"))
+        assert main(["campaign", str(path), "--out", str(tmp_path)]) == 2
+        assert "campaign.persistence" in capsys.readouterr().err
+
+
 @pytest.mark.slow
 def test_campaign_example_script_saves_the_figures(tmp_path):
     spec = importlib.util.spec_from_file_location(
@@ -62,7 +88,9 @@ def test_campaign_example_script_saves_the_figures(tmp_path):
     pngs = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*.png"))
     assert "seed001/roc_bias-on-sensor-0.png" in pngs
     assert "discrete_disturbance/detection_gain-on-sensor-2.png" in pngs
-    assert len(pngs) == 3 * 2 + 2 + 2 * 2
+    # ROC and detection figures per scenario, and one confusion matrix per campaign
+    assert "seed001/confusion.png" in pngs
+    assert len(pngs) == 3 * 2 + 2 + 2 * 2 + 3
     # a large bias on sensor 1 of seed 001 is always detected
     s = results["seed001"].summary().xs("bank", level="residual")
     assert s.loc[("bias on sensor 1", 0.03), "pd"] == 1.0

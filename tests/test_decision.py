@@ -209,8 +209,14 @@ def test_evaluation_and_plotting_do_not_import_the_simulator():
 
 
 # ------------------------------------------------------------ persistence and metrics
+from geomfdi.evaluation.decision import MULTIPLE, fault_hypotheses  # noqa: E402
 from geomfdi.evaluation.metrics import detection_metrics, false_alarms  # noqa: E402
-from geomfdi.evaluation.persistence import Persistence, as_persistence, k_of_n  # noqa: E402
+from geomfdi.evaluation.persistence import (  # noqa: E402
+    Persistence,
+    as_persistence,
+    held_pattern,
+    k_of_n,
+)
 
 
 def test_k_of_n_persistence_by_hand():
@@ -226,16 +232,122 @@ def test_k_of_n_persistence_by_hand():
             as_persistence(bad)
 
 
-def test_isolation_needs_a_persistent_pattern():
+def test_isolation_needs_a_held_pattern():
     S = np.eye(2, dtype=bool)
     # r0 alarms throughout; r1 drops out for two samples (a coincidental single pattern)
     a = np.array([[1] * 8, [1, 1, 1, 0, 0, 1, 1, 1]], dtype=bool)
     assert isolate(a, S).isolated.tolist() == [-2, -2, -2, 0, 0, -2, -2, -2]
-    iso = Persistence(3, 3).isolation(a, S).isolated
-    assert iso.tolist() == [-2] * 8  # the two-sample pattern never settles
-    # a pattern held for 3 samples is decided at its third sample
+    # memoryless rule: the two-sample pattern never settles ...
+    free = Persistence(3, 3, latch=False)
+    assert free.isolation(a, S).isolated.tolist() == [-2, -2, MULTIPLE, -2, -2, -2, -2, MULTIPLE]
+    # ... but a three-sample one is decided at its third sample, although r1 had alarmed
     b = np.array([[1] * 8, [1, 1, 0, 0, 0, 0, 1, 1]], dtype=bool)
-    assert Persistence(3, 3).isolation(b, S).isolated.tolist() == [-2, -2, -2, -2, 0, 0, -2, -2]
+    assert free.isolation(b, S).isolated.tolist() == [-2, -2, -2, -2, 0, 0, -2, -2]
+    # the held pattern keeps r1: both faults, at every sample (settled after 3 samples)
+    for al in (a, b):
+        iso = Persistence(3, 3).isolation(al, S)
+        assert iso.isolated.tolist() == [-2, -2] + [MULTIPLE] * 6
+        assert iso.suspects[:, 2:].all()
+    # an episode ends after `reset` quiet samples: a later single alarm is isolated
+    c = np.array([[1, 1, 0, 0, 0, 0, 0, 0, 0], [1, 1, 0, 0, 0, 1, 1, 1, 1]], dtype=bool)
+    assert Persistence(2, 2).isolation(c, S).isolated.tolist() == [-2] + [MULTIPLE] * 8
+    iso = Persistence(2, 2, reset=3).isolation(c, S).isolated
+    assert iso.tolist() == [-2, MULTIPLE, MULTIPLE, MULTIPLE, -1, -2, 1, 1, 1]
+
+
+def test_held_pattern_against_a_loop():
+    rng = np.random.default_rng(4)
+    a = rng.random((3, 2, 60)) < 0.08
+    for reset in (None, 1, 3, 7):
+        out = held_pattern(a, reset)
+        for r in range(3):
+            held = np.zeros(2, dtype=bool)
+            quiet = 10**9
+            for k in range(60):
+                if a[r, :, k].any():
+                    if reset is not None and quiet >= reset:
+                        held[:] = False
+                    held |= a[r, :, k]
+                    quiet = 0
+                else:
+                    quiet += 1
+                    if reset is not None and quiet >= reset:
+                        held[:] = False
+                assert out[r, :, k].tolist() == held.tolist(), (reset, r, k)
+
+
+def test_multiple_fault_hypotheses():
+    S = np.array([[1, 0, 1, 0], [0, 1, 1, 0], [0, 0, 0, 1]], dtype=bool)
+    assert fault_hypotheses([1, 1, 0], S) == [(2,), (0, 1)]
+    assert fault_hypotheses([1, 1, 1], S) == [(2, 3), (0, 1, 3)]
+    assert fault_hypotheses([1, 0, 1], S) == [(0, 3)]
+    assert fault_hypotheses([0, 0, 0], S) == []
+    # no set of faults gives r0 and r2 without r1 if fault 0 is absent
+    assert fault_hypotheses([1, 0, 1], S[:, 1:]) == []
+    assert fault_hypotheses([1, 1, 1], S, max_faults=2) == [(2, 3)]
+    # the decision rule: a held pattern that is a union of suspects' columns is MULTIPLE,
+    # one that is not is UNEXPLAINED
+    al = np.zeros((3, 6), dtype=bool)
+    al[0, 1:] = True
+    al[2, 3:] = True
+    iso = Persistence(1, 1).isolation(al, S[:, [0, 1, 3]]).isolated
+    assert iso.tolist() == [-1, 0, 0, MULTIPLE, MULTIPLE, MULTIPLE]
+    assert Persistence(1, 1).isolation(al, S[:, [1, 3]]).isolated.tolist()[3] == UNEXPLAINED
+    with pytest.raises(ShapeError, match="pattern"):
+        fault_hypotheses([1, 1], S)
+
+
+def test_persistence_removes_the_coincidental_isolation_of_three_simultaneous_faults():
+    """Three simultaneous sensor-gain faults of seed 001 (Hou, Wen & Chen 2011, sec. 4).
+
+    Every residual alarms at the onset; afterwards the gain faults' effects pass through
+    zero with the closed-loop outputs they multiply, so single residuals alarm alone for
+    seconds (r2 alone around 9.3-10.2 s, r0 alone around 12.9-14.7 s for the full-quotient
+    bank) and the momentary pattern equals one fault's signature.  No isolation may be
+    decided at any time of the run: the decision is "multiple faults" naming all three.
+    """
+    from pathlib import Path
+
+    from geomfdi.io.modelfile import load_model
+
+    spec = load_model(Path(__file__).parents[1] / "examples" / "seed001.toml")
+    (sc,) = [s for s in spec.scenarios if s.name.startswith("gain steps on all three")]
+    kw = dict(faults=sc.faults, x0=spec.x0, controller=spec.K, threshold=spec.threshold)
+    full = gf.design_bank(spec.plant, spec.faults, spec.structure, method="full")
+    (opt,) = [o for o in spec.methods if o.method == "exact"]
+    example = gf.design_bank(spec.plant, spec.faults, spec.structure, poles=opt.poles)
+    example = example.normalized(opt.normalize)
+    k0 = int(np.searchsorted(spec.t, 8.0))
+    for bank in (full, example):
+        # per-sample decisions: "fault 0 isolated" 76-116 ms after the onset
+        raw = gf.simulate(spec.plant, bank, spec.t, spec.u, **kw)
+        assert all(ev.detection_delay == 0.0 for ev in raw.events)
+        assert raw.events[0].outcome == "correct" and raw.events[0].isolation_delay < 0.12
+        # a 50 ms minimum duration on the momentary pattern: still single-fault decisions
+        free = gf.simulate(
+            spec.plant, bank, spec.t, spec.u, persistence=gf.Persistence(25, 25, latch=False), **kw
+        )
+        assert np.any(free.isolated[k0:] >= 0)
+        # the same confirmation with the held pattern: never a single fault, all run long
+        res = gf.simulate(spec.plant, bank, spec.t, spec.u, persistence=25, **kw)
+        assert not np.any(res.isolated >= 0)
+        assert not np.any(res.alarms[:, :k0])
+        decided = res.isolated[k0:] == MULTIPLE
+        assert decided.any() and decided[int(np.argmax(decided)) :].all()
+        assert np.all(res.suspects[:, k0:][:, decided])  # the hypothesis: faults 0, 1, 2
+        assert [ev.outcome for ev in res.events] == ["multiple"] * 3
+        assert all(ev.hypothesis == (0, 1, 2) and not ev.isolated for ev in res.events)
+        assert all(ev.detected and ev.detection_delay < 0.06 for ev in res.events)
+        m = res.metrics()
+        assert m.isolation["multiple"] == 1.0
+        assert m.confusion.tolist() == [[0, 0, 0, 1, 0]] * 3
+    # the single-fault scenario of the same file is still isolated under the same rule
+    (one,) = [s for s in spec.scenarios if s.name.startswith("sensor 0 gain")]
+    res = gf.simulate(
+        spec.plant, example, spec.t, spec.u, persistence=25, **{**kw, "faults": one.faults}
+    )
+    assert res.events[0].outcome == "correct" and res.events[0].isolation_delay < 0.2
+    assert set(np.unique(res.isolated)) <= {NO_ALARM, UNEXPLAINED, 0}
 
 
 def _hand_runs(window=None):
@@ -274,9 +386,11 @@ def test_every_metric_against_a_hand_computed_case():
     assert m.detection_delay["p90"] == pytest.approx(0.95)
     # isolation delays 1.0 (A, correct) and 1.5 (B: r1 alone from k=8)
     assert m.isolation_delay["mean"] == pytest.approx(1.25)
-    assert m.isolation == pytest.approx({"correct": 1 / 3, "wrong": 1 / 3, "none": 1 / 3})
-    # rows: true fault; columns: first decision (fault 0, fault 1, none)
-    assert m.confusion.tolist() == [[1, 0, 1], [1, 0, 0]]
+    assert m.isolation == pytest.approx(
+        {"correct": 1 / 3, "wrong": 1 / 3, "multiple": 0.0, "none": 1 / 3}
+    )
+    # rows: true fault; columns: first decision (fault 0, fault 1, multiple, none)
+    assert m.confusion.tolist() == [[1, 0, 0, 1], [1, 0, 0, 0]]
     assert "P_d 0.6667" in m.summary()
 
 

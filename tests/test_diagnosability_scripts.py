@@ -48,3 +48,17 @@ def test_model23_example(tmp_path):
     tables = ex.main(["--out", str(tmp_path)])
     assert abs(tables["Table 1 (KL)"].values[3, 0] - 299 / 279) < 1e-12
     assert len(list(tmp_path.glob("diagnosability_model23_*.png"))) == 2
+
+
+def test_bank_example_prints_joint_and_structured_tables(capsys):
+    ex = _load("examples/diagnosability_bank_seed001.py")
+    out = ex.main(["--window", "20"])
+    text = capsys.readouterr().out
+    assert "structured KL indices" in text and "raw outputs" in text
+    s = out["structured"]
+    off = ~np.eye(3, dtype=bool)
+    assert (s["exact"].fi[off] > 0).all()
+    assert (s["paper"].fi[1:, :][off[1:, :]] == 0).all() and (s["paper"].fi[0, 1:] > 0).all()
+    assert (
+        out["joint"]["paper"].model.residual_dim == out["joint"]["raw outputs"].model.residual_dim
+    )

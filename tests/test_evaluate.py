@@ -326,3 +326,62 @@ def test_alarm_episodes_match_their_definition() -> None:
             ok = np.flatnonzero(iso[s:e] >= 0)
             assert ep.fault == (int(iso[s + ok[0]]) if ok.size else None)
             assert ep.isolated_at == (t[s + ok[0]] if ok.size else None)
+
+
+def _odd_bank() -> gf.ResidualBank:
+    """Discrete generators with complex poles, a non-normal block, one state and a
+    two-component residual: every case of the Schur-coordinate recursion."""
+    rng = np.random.default_rng(5)
+    c, s = 0.97 * np.cos(0.3), 0.97 * np.sin(0.3)
+    Fs = [
+        np.array([[c, -s, 0.2], [s, c, 0.0], [0.0, 0.0, 0.5]]),  # complex pair
+        np.array([[0.9, 4.0, 0.0], [0.0, 0.9, 3.0], [0.0, 0.0, 0.9]]),  # defective
+        np.array([[-0.6]]),
+        np.diag([0.3, 0.8]),
+    ]
+    gens = [
+        gf.ResidualGenerator(
+            F,
+            rng.normal(size=(len(F), 3)),
+            rng.normal(size=(len(F), 2)),
+            rng.normal(size=(2 if k == 3 else 1, len(F))),
+            rng.normal(size=(2 if k == 3 else 1, 3)),
+            rng.normal(size=(2 if k == 3 else 1, 2)),
+            dt=DT,
+        )
+        for k, F in enumerate(Fs)
+    ]
+    S = np.eye(4, dtype=bool)
+    return gf.ResidualBank(gens, S, S, np.ones(4, bool), ["ok"] * 4, [], DT)
+
+
+@pytest.mark.parametrize("lift", [None, 1, 4])
+def test_lifted_recursion_equals_the_sample_loop(lift: int | None) -> None:
+    import dataclasses
+
+    from geomfdi.deployment.program import build_program, run_program
+    from geomfdi.simulation.recursion import lifted_maps
+
+    program = build_program(_odd_bank())
+    lifted = program.lifted
+    assert np.iscomplexobj(lifted.Hz) and lifted.M > 1
+    if lift is not None:  # the same system on blocks of another length
+        T, Zu = lifted.powers[1], program.basis
+        maps = lifted_maps(program.A, program.B, program.C, program.D, T, Zu, lift, lifted.stops)
+        program = dataclasses.replace(program, lifted=maps)
+    M = program.lifted.M
+    rng = np.random.default_rng(6)
+    # one partial block, whole blocks, a few blocks (doubling scan), many blocks (lfilter)
+    for L in (1, M - 1 or 1, 3 * M, 7 * M + 3, 400 * M + M - 1):
+        Z = rng.normal(size=(program.nz, L))
+        xi0 = rng.normal(size=program.nw)
+        comp, valid, xi, _ = run_program(program, Z, xi0, None, "steady")
+        want = np.empty((program.nc, L))
+        x = xi0.copy()
+        for k in range(L):
+            want[:, k] = program.C @ x + program.D @ Z[:, k]
+            x = program.A @ x + program.B @ Z[:, k]
+        assert valid.all()
+        scale = max(1.0, np.abs(want).max())
+        assert np.abs(comp - want).max() <= 1e-12 * scale
+        assert np.abs(xi - x).max() <= 1e-12 * max(1.0, np.abs(x).max())

@@ -195,3 +195,34 @@ def test_property_random_banks(case: tuple) -> None:
     mon.reset()
     _agree(res, *_chunked(mon, Y, U, np.random.default_rng(chunk_seed)))
     assert order == res.info["xi"].size
+
+
+def test_pattern_table_decides_like_isolate() -> None:
+    from geomfdi.deployment.decide import PatternTable
+
+    rng = np.random.default_rng(11)
+    for rows, nf in [(1, 1), (3, 4), (6, 8), (10, 10)]:
+        S = rng.random((rows, nf)) < 0.5
+        S[:, 0] = False  # a fault no residual sees
+        if nf > 2:
+            S[:, 2] = S[:, 1]  # two faults with one signature: ambiguous
+        # patterns: random ones, every column's own pattern, and no alarm
+        A = np.hstack([rng.random((rows, 300)) < 0.4, S, np.zeros((rows, 2), bool)])
+        got = PatternTable.of(S).decide(A)
+        want = gf.isolate(A, S).isolated
+        np.testing.assert_array_equal(got, want)
+        assert {-1, -2}.issubset(set(got.tolist())) or rows == 1
+        if nf > 2 and S[:, 1].any():
+            assert -3 in got
+
+
+@pytest.mark.parametrize("k, n", [(1, 2), (2, 3), (5, 16), (3, 17), (20, 40)])
+def test_confirm_is_the_k_of_n_count(k: int, n: int) -> None:
+    from geomfdi.deployment.decide import Persistence, confirm
+
+    rng = np.random.default_rng(n)
+    raw = rng.random((4, 120)) < 0.6
+    hist = rng.random((4, n - 1)) < 0.6
+    ext = np.hstack([hist, raw]).astype(int)
+    want = np.array([[ext[r, j : j + n].sum() >= k for j in range(120)] for r in range(4)])
+    np.testing.assert_array_equal(confirm(raw, Persistence(k, n), hist), want)

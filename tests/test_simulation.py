@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -602,41 +601,3 @@ def test_false_alarm_rate_is_a_method_like_detection_rate():
     # no fault: every sample is fault-free; |r| > 0.5 once sqrt(5) x > 0.5
     expect = np.mean(np.sqrt(5) * (1 - np.exp(-res.t)) > 0.5)
     assert res.false_alarm_rate() == pytest.approx(expect)
-
-
-def test_persistence_removes_the_coincidental_isolation_of_three_simultaneous_faults():
-    from geomfdi.io.modelfile import load_model
-
-    spec = load_model(Path(__file__).parents[1] / "examples" / "seed001.toml")
-    (sc,) = [s for s in spec.scenarios if s.name.startswith("gain steps on all three")]
-    kw = dict(
-        faults=sc.faults,
-        x0=spec.x0,
-        controller=spec.K,
-        threshold=spec.threshold,
-        detection_window=1.0,
-    )
-    # the full-quotient bank is the one that reported "isolated after 0.116 s": every
-    # residual alarms at the onset (three faults), yet residuals 1 and 2 cross zero
-    # together and the short pattern "r0 only" reads as "fault 0 isolated"
-    full = gf.design_bank(spec.plant, spec.faults, spec.structure, method="full")
-    raw = gf.simulate(spec.plant, full, spec.t, spec.u, **kw)
-    assert all(ev.detection_delay == 0.0 for ev in raw.events)
-    assert raw.events[0].isolation_delay == pytest.approx(0.116)
-    assert [ev.outcome for ev in raw.events] == ["correct", "wrong", "wrong"]
-    # a 0.25 s minimum duration: no pattern in the window settles on one fault
-    held = gf.simulate(spec.plant, full, spec.t, spec.u, persistence=125, **kw)
-    assert [ev.outcome for ev in held.events] == ["none"] * 3
-    assert all(ev.detected and not ev.isolated for ev in held.events)
-    # the example's own (least-order, Markov-normalised) bank shows the same coincidence,
-    # a fault-0 "isolation" shorter than the persistence, and persistence removes it too
-    (opt,) = [o for o in spec.methods if o.method == "exact"]
-    example = gf.design_bank(spec.plant, spec.faults, spec.structure, poles=opt.poles)
-    example = example.normalized(opt.normalize)
-    raw = gf.simulate(spec.plant, example, spec.t, spec.u, **kw)
-    assert all(ev.detection_delay == 0.0 for ev in raw.events)
-    assert raw.events[0].outcome == "correct"
-    assert 0.0 < raw.events[0].isolation_delay < 0.25
-    held = gf.simulate(spec.plant, example, spec.t, spec.u, persistence=125, **kw)
-    assert [ev.outcome for ev in held.events] == ["none"] * 3
-    assert all(ev.detected and not ev.isolated for ev in held.events)

@@ -240,3 +240,140 @@ def test_ill_posed_algebraic_loop_is_refused():
     g = gf.ResidualGenerator([[-2.0]], [[-1.0]], [[1.0]], [[1.0]], [[1.0]], [[1.0]])
     with pytest.raises(GeomFDIError, match="algebraic loop"):
         gf.simulate(plant, g, np.linspace(0, 1, 11), controller=control.ss([], [], [], [[1.0]]))
+
+
+# ------------------------------------------------------------ actuator faults in the loop
+def _actuator_bank(plant):
+    faults = [gf.ActuatorFault(B[:, i], name=f"actuator {i}") for i in range(3)]
+    return gf.design_bank(plant, faults, np.eye(3, dtype=bool))
+
+
+@pytest.mark.parametrize("feedback", ["state", "output"])
+def test_closed_loop_actuator_gain_and_stuck_faults_are_isolated(feedback):
+    plant = gf.Plant(A, B, C)
+    abank = _actuator_bank(plant)
+    ctrl = K_FB if feedback == "state" else CTRL
+    t = np.arange(0.0, 6.0, 0.002)
+    lists = [
+        [gf.ActuatorGainFault(0, start=3.0, gain=0.5)],  # loss of effectiveness
+        [gf.ActuatorStuckFault(1, start=3.0)],  # holds the commanded input at the onset
+        [gf.ActuatorStuckFault(2, start=3.0, value=1.0)],
+    ]
+    kw = dict(x0=[0.1, 0, 0], controller=ctrl, threshold=0.01)
+    batch = gf.simulate_batch(
+        plant, abank, t, v_ext, faults=lists, store="all", persistence=5, progress=False, **kw
+    )
+    healthy = gf.simulate(plant, abank, t, v_ext, **kw)
+    before = t < 3.0
+    scale = np.max(np.abs(batch.residuals))
+    # before the onset: the healthy loop, residuals zero
+    dev = np.abs(batch.residuals[:, :, before] - healthy.residuals[None, :, before])
+    assert np.max(dev) < 1e-12 * scale
+    assert np.max(np.abs(healthy.residuals)) < 1e-12 * scale
+    pre = np.broadcast_to(healthy.x[:, before], batch.x[:, :, before].shape)
+    np.testing.assert_allclose(batch.x[:, :, before], pre, rtol=0, atol=1e-12)
+    for j in range(3):
+        (ev,) = batch.events[j]
+        assert ev.index == j and ev.outcome == "correct" and ev.isolation_delay < 1.0
+        peaks = np.max(np.abs(batch.residuals[j][:, ~before]), axis=1)
+        assert peaks[j] > 0.05 and np.all(np.delete(peaks, j) < 1e-9 * peaks[j])
+        # the controller reacts to the fault: its (commanded) output leaves the healthy one
+        assert np.max(np.abs(batch.u[j][:, ~before] - healthy.u[:, ~before])) > 1e-3
+    np.testing.assert_array_equal(batch.metrics().confusion[:, :3], np.eye(3, dtype=int))
+    # the recorded u is the commanded input (from x, or from the faulty loop's y); the
+    # plant got the applied one
+    one = gf.simulate(plant, abank, t, v_ext, faults=lists[0], **kw)
+    np.testing.assert_array_equal(one.u, batch.u[0])
+    if feedback == "state":
+        np.testing.assert_allclose(one.u, v_ext(t) - K_FB @ one.x, atol=1e-9)
+    else:
+        np.testing.assert_allclose(one.u, v_ext(t) - 0.5 * one.xc - KY @ one.y, atol=1e-9)
+        return
+    # the stuck actuator holds the commanded input at the onset (continuous there, D = 0)
+    held = batch.u[1][1, int(np.searchsorted(t, 3.0))]
+    ref = _closed_loop_x(t, 1, gain=0.0, bias=held, x0=[0.1, 0, 0])
+    np.testing.assert_allclose(batch.x[1], ref, rtol=0, atol=1e-6 * np.max(np.abs(ref)))
+
+
+def _closed_loop_x(t, i, gain, bias, x0, onset=3.0):
+    """State feedback with actuator i faulty from the onset, by a tight ODE solver."""
+    uext = v_ext(t)
+
+    def rhs(s, x):
+        u = np.array([np.interp(s, t, uext[k]) for k in range(3)]) - K_FB @ x
+        if s >= onset:
+            u[i] = gain * u[i] + bias
+        return A @ x + B @ u
+
+    kw = dict(rtol=1e-10, atol=1e-12, method="DOP853")
+    first = solve_ivp(rhs, (t[0], onset), x0, t_eval=t[t < onset], dense_output=True, **kw)
+    second = solve_ivp(rhs, (onset, t[-1]), first.sol(onset), t_eval=t[t >= onset], **kw)
+    return np.hstack([first.y, second.y])
+
+
+def test_closed_loop_actuator_faults_match_the_closed_form():
+    """x' = a x + b u^a, u = -k x; residual r = w - y of the observer w' = f w + (a - f) y
+    + b u (F = f, E = f - a, G = b, M = H = 1).  Loss of effectiveness u^a = gamma u from
+    t0: x = x(t0) e^{lam tau} (lam = a - b gamma k, tau = t - t0) and
+    r = -b k (1 - gamma) x(t0) (e^{lam tau} - e^{f tau}) / (lam - f).  Stuck at s:
+    x = (x(t0) + b s / a) e^{a tau} - b s / a and r = int e^{f(tau-s')} b (u - s) ds'."""
+    a, b, k, f = -1.0, 2.0, 1.5, -3.0
+    gam, t0, x0 = 0.4, 1.0, 0.8
+    plant = gf.Plant([[a]], [[b]], [[1.0]])
+    g = gf.ResidualGenerator([[f]], [[f - a]], [[b]], [[1.0]], [[1.0]], [[0.0]])
+    t = np.arange(0, 3.0 + 1e-9, 0.01)
+    tau = np.maximum(t - t0, 0.0)
+    xt0 = x0 * np.exp((a - b * k) * t0)
+    pre = np.where(t < t0, x0 * np.exp((a - b * k) * t), 0.0)
+    res = gf.simulate(
+        plant, g, t, controller=[[k]], x0=[x0], faults=gf.ActuatorGainFault(0, start=t0, gain=gam)
+    )
+    lam = a - b * gam * k
+    x = np.where(t < t0, pre, xt0 * np.exp(lam * tau))
+    r = np.where(t < t0, 0.0, -b * k * (1 - gam) * xt0 * (np.exp(lam * tau) - np.exp(f * tau)))
+    r = r / (lam - f)
+    np.testing.assert_allclose(res.x[0], x, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(res.residuals[0], r, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(res.u[0], -k * x, rtol=0, atol=1e-9)  # commanded input
+    assert res.info["mode"] == "state feedback" and res.info["segments"] == 2
+    s = 0.3
+    res = gf.simulate(
+        plant, g, t, controller=[[k]], x0=[x0], faults=gf.ActuatorStuckFault(0, start=t0, value=s)
+    )
+    c1, c2 = xt0 + b * s / a, -b * s / a
+    x = np.where(t < t0, pre, c1 * np.exp(a * tau) + c2)
+    eps = -k * c1 * (np.exp(a * tau) - np.exp(f * tau)) / (a - f)
+    eps = b * (eps + (-k * c2 - s) * (1 - np.exp(f * tau)) / (-f))
+    np.testing.assert_allclose(res.x[0], x, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(res.residuals[0], np.where(t < t0, 0.0, eps), rtol=0, atol=1e-9)
+
+
+def test_closed_loop_progressive_actuator_loss_is_stepped():
+    """A loss of effectiveness growing with time under state feedback: stepped with the
+    gain frozen over each interval, O(dt^2) against a tight ODE solution."""
+    plant = gf.Plant(A, B, C)
+    t = np.arange(0.0, 2.0001, 5e-3)
+    gain = lambda s: 1.0 - 0.5 * (s - 1.0)  # noqa: E731
+    res = gf.simulate(
+        plant,
+        _actuator_bank(plant),
+        t,
+        v_ext,
+        x0=X0,
+        controller=K_FB,
+        faults=gf.ActuatorGainFault(2, start=1.0, gain=gain),
+        progress=False,
+    )
+    assert res.info["stepped_samples"] == 200
+    uext = v_ext(t)
+
+    def rhs(s, x):
+        u = np.array([np.interp(s, t, uext[k]) for k in range(3)]) - K_FB @ x
+        if s >= 1.0:
+            u[2] = gain(s) * u[2]
+        return A @ x + B @ u
+
+    kw = dict(rtol=1e-10, atol=1e-12, method="DOP853", max_step=5e-3)
+    ref = solve_ivp(rhs, (0.0, 2.0), X0, t_eval=t, **kw).y
+    assert np.max(np.abs(res.x - ref)) < 1e-4 * np.max(np.abs(ref))
+    assert np.max(np.abs(res.residuals[:2])) < 1e-9 * np.max(np.abs(res.residuals[2]))

@@ -139,7 +139,12 @@ def check_row(plant, faults, row):
         return None
     assert ref is not None, f"design delivers order {g.order}, reference finds none"
     assert g.info.get("synthesis") == "least_order"
-    assert g.order == ref
+    cert = g.info["least_order"]
+    if "raised_from" in cert:  # the least-order row was weak at DC: order raised, stated
+        assert cert["order"] == cert["raised_from"] == ref < g.order
+        assert g.info["weak_targets"] == []
+    else:
+        assert g.order == ref
     assert _stable(g, plant.dt)
     args = (plant.A, plant.B, plant.C, plant.D)
     for j in dec:
@@ -231,3 +236,33 @@ def test_certificate_and_user_poles():
     assert gf.verify(g2, p).ok
     with pytest.raises(gf.errors.DesignError, match="poles"):
         gf.design_residual_generator(p, faults, 1, poles=[-1, -2])
+
+
+@pytest.mark.slow
+def test_weak_least_order_rows_are_raised_until_strong(monkeypatch):
+    # sampled DC motor: the order-1 rows see some sensor faults with a DC gain below
+    # FD_GAIN_TOL of their peak; the design raises them to order 2, where none is weak
+    from pathlib import Path
+
+    from geomfdi.io.modelfile import load_model
+
+    spec = load_model(
+        Path(__file__).resolve().parents[1] / "examples" / "discrete_disturbance.toml"
+    )
+    p = spec.plant
+    faults = [gf.SensorFault(i) for i in range(p.q)]
+    bank = gf.design_bank(p, faults, spec.structure)
+    assert bank.diagnostics == ["ok"] * 4
+    for g in bank.generators:
+        cert = g.info["least_order"]
+        assert g.order == 2 and cert["order"] == 1 and cert["raised_from"] == 1
+        assert "above the least order 1" in cert["statement"]
+        assert g.info["weak_targets"] == []
+    assert gf.verify(bank, p).ok
+    # the least-order rows themselves are weak: with the raise disabled they are reported
+    import geomfdi.synthesis.build as build
+
+    monkeypatch.setattr(build, "MAX_RAISE", 0)
+    weak = gf.design_bank(p, faults, spec.structure)
+    assert [g.order for g in weak.generators] == [1] * 4
+    assert all(d.startswith("weak") for d in weak.diagnostics)

@@ -17,6 +17,8 @@ The rest of the file is the model file of :mod:`geomfdi.io.modelfile` (plant, de
     # or {type = "abs", threshold = 0.05}, {type = "cusum", drift = 0.5, arl = 1e4},
     #    {type = "glr", window = 20, false_alarm_rate = 1e-3}
     uncertainty = {relative = 0.02, samples = 4, seed = 0}
+    persistence = [3, 5]            # isolation rule: k of n samples (or n), held pattern;
+                                    # or {k = 3, n = 5, reset = 500, latch = true}
 
 Without ``faults`` every sensor gets a bias scenario.
 """
@@ -30,9 +32,15 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.errors import ModelFileError
+from geomfdi.errors import GeomFDIError, ModelFileError
 
-__all__ = ["CampaignConfig", "read_campaign", "build_campaign", "write_outputs"]
+__all__ = [
+    "CampaignConfig",
+    "read_campaign",
+    "build_campaign",
+    "write_outputs",
+    "campaign_report",
+]
 
 _KEYS = {
     "runs",
@@ -46,6 +54,7 @@ _KEYS = {
     "seed",
     "test",
     "uncertainty",
+    "persistence",
 }
 _TESTS = {
     "chi2": {"type", "window", "false_alarm_rate", "method"},
@@ -135,6 +144,7 @@ def build_campaign(
     """
     from geomfdi.campaign.runner import Campaign
     from geomfdi.campaign.spec import Scenario, Uncertainty
+    from geomfdi.evaluation.persistence import Persistence, as_persistence
     from geomfdi.simulation.noise import Noise
 
     src = spec.source
@@ -167,6 +177,24 @@ def build_campaign(
             matrices=tuple(unc.get("matrices", ("A", "B"))),
             seed=int(unc.get("seed", 0)),
         )
+    persistence = camp.get("persistence")
+    if persistence is not None:
+        try:
+            if isinstance(persistence, dict):
+                extra = set(persistence) - {"k", "n", "reset", "latch"}
+                if extra:
+                    raise GeomFDIError(f"unknown keys {sorted(extra)}")
+                persistence = Persistence(**persistence)
+            else:
+                if isinstance(persistence, list):
+                    persistence = tuple(persistence)
+                persistence = as_persistence(persistence)
+        except (GeomFDIError, TypeError) as exc:
+            raise _err(
+                src,
+                "persistence",
+                f"expected n, [k, n] or {{k, n, reset, latch}} with 1 <= k <= n ({exc})",
+            ) from exc
     test = _test(src, camp.get("test", {"type": "chi2"}), spec, bank, noise)
     c = Campaign(
         spec.plant,
@@ -184,12 +212,14 @@ def build_campaign(
         detection_window=camp.get("detection_window"),
         eval_start=float(camp.get("eval_start", 0.0)),
         block_size=int(camp.get("block_size", 64)),
+        persistence=persistence,
     )
     return CampaignConfig(spec, method, bank, c)
 
 
 def write_outputs(result: Any, out: Path, *, plots: bool = True, name: str = "") -> list[Path]:
-    """``campaign.csv``, ``summary.csv`` and, per scenario, ROC and P_d-vs-size PNGs."""
+    """``campaign.csv``, ``summary.csv``, ``confusion.csv`` (with a bank) and, per
+    scenario, ROC and P_d-vs-size PNGs (and the confusion matrix as a PNG)."""
     import re
 
     from geomfdi.plotting.residuals import save_png
@@ -198,8 +228,14 @@ def write_outputs(result: Any, out: Path, *, plots: bool = True, name: str = "")
     files = [out / "campaign.csv", out / "summary.csv"]
     result.table.to_csv(files[0], index=False)
     result.summary().to_csv(files[1])
+    if result.has_isolation:
+        files.append(out / "confusion.csv")
+        result.confusion().to_csv(files[-1])
     if not plots:
         return files
+    if result.has_isolation:
+        fig = result.plot_confusion(title=f"{name}\nisolation (first decision in the window)")
+        files.append(save_png(fig, out / "confusion.png"))
     for scen in result.table["scenario"].cat.categories:
         slug = re.sub(r"[^a-z0-9]+", "-", str(scen).lower()).strip("-")
         tb = result.table[result.table["scenario"] == scen]
@@ -213,3 +249,37 @@ def write_outputs(result: Any, out: Path, *, plots: bool = True, name: str = "")
         )
         files.append(save_png(fig, out / f"detection_{slug}.png"))
     return files
+
+
+def campaign_report(cfg: CampaignConfig, result: Any, files: list[Path]) -> str:
+    """The text report of ``geomfdi campaign``: summary of the bank, confusion matrix."""
+    import pandas as pd
+
+    c = cfg.campaign
+    rule = c.persistence
+    lines = [
+        f"campaign: {cfg.spec.name}, bank {cfg.method!r}, test {result.info['test']}, "
+        f"{len(c.grid()['run'])} runs x {c.t.size} samples, {len(c.plants)} model(s)"
+    ]
+    summ = result.summary().xs("bank", level="residual")
+    with pd.option_context("display.width", 120, "display.max_rows", 200):
+        cols = ["runs", "pd", "pd_low", "pd_high", "far", "delay_mean", "delay_median"]
+        cols += ["delay_p90"]
+        lines.append(summ[cols].round(4).to_string())
+        if result.has_isolation:
+            how = (
+                "per-sample decisions"
+                if rule is None
+                else f"{rule.k} of {rule.n} samples, pattern held over the alarm episode"
+                if rule.latch
+                else f"{rule.k} of {rule.n} samples"
+            )
+            lines.append(f"isolation ({how}): first decision in the detection window")
+            iso = ["iso_correct", "iso_correct_low", "iso_correct_high", "iso_wrong"]
+            iso += ["iso_none", "iso_multiple", "iso_delay_mean", "iso_delay_median"]
+            iso += ["iso_delay_p90"]
+            lines.append(summ[iso].round(4).to_string())
+            lines.append("confusion (runs; rows: true fault, columns: first decision):")
+            lines.append(result.confusion().to_string())
+    lines.append("written: " + ", ".join(str(f) for f in files))
+    return "\n".join(lines)

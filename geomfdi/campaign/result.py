@@ -19,7 +19,13 @@ class CampaignResult:
     """Tidy table of a campaign: one row per run and residual (and ``"bank"``).
 
     Columns: ``run, model, scenario, size, onset, repetition, residual, score_pre,
-    score_post, false_alarm, detected, delay`` (see :mod:`geomfdi.campaign.runner`).
+    score_post, false_alarm, detected, delay`` and, for a bank (on its ``"bank"`` rows;
+    missing on the residuals' rows), the isolation of the run: ``true_fault`` (a fault
+    label, ``"multiple"`` for simultaneous faults, ``"no fault"`` for size 0),
+    ``isolated`` (the first decision in the detection window: a fault label,
+    ``"multiple"`` or ``"none"``), ``isolation`` (``"correct"``, ``"wrong"``, ``"none"``)
+    and ``isolation_delay`` (seconds to the first correct decision; NaN if none).  See
+    :mod:`geomfdi.campaign.runner`.
     """
 
     table: Any
@@ -64,13 +70,26 @@ class CampaignResult:
         )
         table["false_alarm"] = table["score_pre"] > 1.0
         table["detected"] = table["score_post"] > 1.0
+        if campaign.structure is not None:
+            iso = {
+                k: np.concatenate([p[k] for p in parts])[order]
+                for k in ("decision", "truth", "outcome", "iso_delay")
+            }
+            _isolation_columns(table, iso, campaign.fault_labels, n)
         info = {
             "test": getattr(campaign.test, "name", type(campaign.test).__name__),
             "window": campaign.window,
             "models": len(campaign.plants),
             "runs": campaign.runs,
+            "fault_labels": list(campaign.fault_labels),
+            "persistence": campaign.persistence,
         }
         return cls(table, labels, info)
+
+    @property
+    def has_isolation(self) -> bool:
+        """The table has isolation columns (the campaign's bank has a structure)."""
+        return "isolation" in self.table.columns
 
     def summary(self) -> Any:
         """Per scenario, size and residual: runs, ``pd`` (with Wilson 95 % bounds),
@@ -89,7 +108,49 @@ class CampaignResult:
         lo, hi = wilson_interval(out["pd"] * out["runs"], out["runs"])
         out.insert(2, "pd_low", lo)
         out.insert(3, "pd_high", hi)
+        if self.has_isolation:
+            out = _isolation_summary(self.table, out)
         return out
+
+    def confusion(
+        self, *, scenario: str | None = None, size: float | None = None, normalize: bool = False
+    ) -> Any:
+        """Confusion matrix of the isolation: true fault (rows) x first decision (columns).
+
+        Rows: the true faults met in the runs (fault labels, ``"multiple"``, ``"no
+        fault"``); columns: every fault label, then ``"multiple"`` and ``"none"``.
+        ``normalize``: fractions of each row's runs instead of counts.
+        """
+        import pandas as pd
+
+        if not self.has_isolation:
+            raise GeomFDIError(
+                "confusion: the campaign's bank has no structure matrix", argument="campaign"
+            )
+        tb = self.table[self.table["residual"] == "bank"]
+        if scenario is not None:
+            tb = tb[tb["scenario"] == scenario]
+            if tb.empty:
+                raise GeomFDIError(f"scenario: no runs named {scenario!r}", argument="scenario")
+        if size is not None:
+            tb = tb[np.isclose(tb["size"], size)]
+            if tb.empty:
+                raise GeomFDIError(f"size: no runs of size {size}", argument="size")
+        C = pd.crosstab(tb["true_fault"], tb["isolated"], dropna=False)
+        rows = [r for r in tb["true_fault"].cat.categories if r in set(tb["true_fault"])]
+        C = C.reindex(index=rows, columns=list(tb["isolated"].cat.categories), fill_value=0)
+        C.index.name, C.columns.name = "true fault", "isolated"
+        if normalize:
+            C = C.div(C.sum(axis=1).replace(0, 1), axis=0)
+        return C
+
+    def plot_confusion(
+        self, *, scenario: str | None = None, size: float | None = None, **kwargs: Any
+    ) -> Any:
+        """The confusion matrix (row fractions, with counts) as a matplotlib Figure."""
+        from geomfdi.plotting.curves import plot_confusion
+
+        return plot_confusion(self.confusion(scenario=scenario, size=size), **kwargs)
 
     def _select(self, scenario: str | None, residual: str) -> Any:
         if residual not in self.residual_labels:
@@ -155,3 +216,75 @@ class CampaignResult:
         res = ["bank"] if residuals is None else list(residuals)
         curves = {r: self.detection_curve(scenario=scenario, residual=r) for r in res}
         return plot_detection(curves, **kwargs)
+
+
+_OUTCOMES = ["correct", "wrong", "none"]
+
+
+def _isolation_columns(table: Any, iso: dict[str, np.ndarray], faults: list[str], n: int) -> None:
+    """Add the isolation columns (values on the ``"bank"`` rows, the last of each run)."""
+    import pandas as pd
+
+    from geomfdi.evaluation.decision import MULTIPLE
+
+    decided = [*faults, "multiple", "none"]
+    truths = [*faults, "multiple", "no fault", "unmodelled"]
+
+    def label(codes: np.ndarray, none: str, unknown: str) -> np.ndarray:
+        out = np.empty(codes.size, dtype=object)
+        for i, c in enumerate(codes.tolist()):
+            out[i] = (
+                faults[c]
+                if c >= 0
+                else "multiple"
+                if c == MULTIPLE
+                else none
+                if c == -1
+                else unknown
+            )
+        return out
+
+    bank = np.zeros(len(table), dtype=bool)
+    bank[n - 1 :: n] = True
+
+    def on_bank(values: np.ndarray, cats: list[str] | None) -> Any:
+        full = np.full(len(table), np.nan, dtype=object if cats else float)
+        full[bank] = values
+        if cats is None:
+            return full
+        full[~bank] = None
+        return pd.Categorical(full, categories=cats)
+
+    table["true_fault"] = on_bank(label(iso["truth"], "no fault", "unmodelled"), truths)
+    table["isolated"] = on_bank(label(iso["decision"], "none", "none"), decided)
+    table["isolation"] = on_bank(np.asarray(_OUTCOMES, dtype=object)[iso["outcome"]], _OUTCOMES)
+    table["isolation_delay"] = on_bank(iso["iso_delay"].astype(float), None)
+
+
+def _isolation_summary(table: Any, out: Any) -> Any:
+    """Isolation rates (Wilson 95 % bounds) and delays on the ``"bank"`` rows of ``out``."""
+    from geomfdi.evaluation.roc import wilson_interval
+
+    tb = table[table["residual"] == "bank"]
+    grp = tb.groupby(["scenario", "size"], observed=True)
+    iso = grp.agg(
+        iso_runs=("run", "size"),
+        iso_correct=("isolation", lambda s: float(np.mean(s == "correct"))),
+        iso_wrong=("isolation", lambda s: float(np.mean(s == "wrong"))),
+        iso_none=("isolation", lambda s: float(np.mean(s == "none"))),
+        iso_multiple=("isolated", lambda s: float(np.mean(s == "multiple"))),
+        iso_delay_mean=("isolation_delay", "mean"),
+        iso_delay_median=("isolation_delay", "median"),
+        iso_delay_p90=("isolation_delay", lambda s: s.quantile(0.9)),
+    )
+    for k in _OUTCOMES:
+        lo, hi = wilson_interval(iso[f"iso_{k}"] * iso["iso_runs"], iso["iso_runs"])
+        iso[f"iso_{k}_low"], iso[f"iso_{k}_high"] = lo, hi
+    order = ["iso_correct", "iso_correct_low", "iso_correct_high", "iso_wrong", "iso_wrong_low"]
+    order += ["iso_wrong_high", "iso_none", "iso_none_low", "iso_none_high", "iso_multiple"]
+    order += ["iso_delay_mean", "iso_delay_median", "iso_delay_p90"]
+    iso = iso[order]
+    joined = out.join(iso, on=["scenario", "size"])
+    not_bank = joined.index.get_level_values("residual") != "bank"
+    joined.loc[not_bank, order] = np.nan
+    return joined

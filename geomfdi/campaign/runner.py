@@ -20,6 +20,19 @@ Per run and residual (and for the bank: any residual), with the residual's stati
   > 1 (for size 0 this is again a false-alarm probability over ``W``);
 * ``delay``: first alarm time in the detection window minus the onset (NaN if none).
 
+Per run (for the bank), isolation: the alarms ``z > 1`` go through the campaign's
+decision rule (:class:`geomfdi.Persistence`: k-of-n confirmation, the pattern held over
+the alarm episode, settled decisions; none: per-sample decisions), and the first
+decision in the detection window is compared with the true fault (the structure column
+of the run's fault, several columns for simultaneous faults, none for size 0):
+
+* ``decision``: the first decision (a fault index, ``MULTIPLE`` = -4, or -1 for none);
+* ``truth``: the true column (``MULTIPLE`` for several faults, -1 for a fault-free run,
+  -2 when no column of the bank models the fault);
+* ``outcome``: 0 correct, 1 wrong, 2 none (a ``MULTIPLE`` decision is correct when its
+  suspects are exactly the true faults; any decision in a fault-free run is wrong);
+* ``iso_delay``: first time in the window with the correct decision minus the onset.
+
 See the user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
 """
 
@@ -108,6 +121,109 @@ def evaluate_runs(
     return {"score_pre": score_pre, "score_post": score_post, "delay": delay}
 
 
+def isolate_runs(
+    t: np.ndarray,
+    statistic: np.ndarray,
+    thresholds: np.ndarray,
+    structure: np.ndarray,
+    rule: Any,
+    truth: np.ndarray,
+    true_sets: list[frozenset[int]],
+    onsets: np.ndarray,
+    window: float,
+    eval_start: float = -np.inf,
+) -> dict[str, np.ndarray]:
+    """Isolation of runs ``(R, n, N)``: first decision, outcome, delay (module docstring).
+
+    Alarms before ``eval_start`` (start-up transients) are ignored, as in the scores.
+    """
+    from geomfdi.evaluation.decision import MULTIPLE, isolate
+
+    thr = np.asarray(thresholds, dtype=float)
+    R, N = statistic.shape[0], statistic.shape[-1]
+    tol = 1e-9 * max(1.0, float(np.abs(t).max()))
+    alarms = statistic > thr[:, None]  # +inf (missing rows): never
+    alarms &= t >= eval_start - tol
+    if rule is None or rule.trivial:
+        iso = isolate(alarms, structure)
+    else:
+        iso = rule.isolation(rule.apply(alarms), structure)
+    on = onsets[:, None]
+    post = (t[None, :] >= on - tol) & (t[None, :] < on + window - tol)
+    dec = iso.isolated
+    made = post & ((dec >= 0) | (dec == MULTIPLE))
+    first = np.argmax(made, axis=-1)
+    rows = np.arange(R)
+    has = made[rows, first]
+    decision = np.where(has, dec[rows, first], -1)
+    # a decision is right: the true single fault, or MULTIPLE with the true suspects
+    right = np.zeros((R, N), dtype=bool)
+    for r in range(R):
+        if truth[r] >= 0:
+            right[r] = dec[r] == truth[r]
+        elif truth[r] == MULTIPLE:
+            want = np.zeros(structure.shape[1], dtype=bool)
+            want[list(true_sets[r])] = True
+            same = np.all(iso.suspects[r] == want[:, None], axis=0)
+            right[r] = (dec[r] == MULTIPLE) & same
+    right &= post
+    k_right = np.argmax(right, axis=-1)
+    ok = right[rows, k_right]
+    iso_delay = np.where(ok, t[k_right] - onsets, np.nan)
+    outcome = np.where(~has, 2, np.where(right[rows, first] & (truth != -1), 0, 1))
+    return {
+        "decision": decision.astype(np.int64),
+        "truth": np.asarray(truth, dtype=np.int64),
+        "outcome": outcome.astype(np.int64),
+        "iso_delay": iso_delay,
+    }
+
+
+def _fault_key(f: Any) -> Any:
+    """The channel that decides a fault signal's structure column (None: not known)."""
+    from geomfdi.simulation.input_faults import AdditiveFault
+    from geomfdi.simulation.signals import SensorFaultSignal
+
+    if isinstance(f, SensorFaultSignal):
+        return ("sensor", f.sensor)
+    if isinstance(f, AdditiveFault):
+        return ("fault", id(f.fault))
+    if hasattr(f, "actuator"):
+        return ("actuator", f.actuator)
+    return None
+
+
+def _truth(
+    faults: list[Any], size: float, design: Any, plant: Any, cache: dict[Any, Any]
+) -> tuple[int, frozenset[int]]:
+    """True structure column of a run: index, MULTIPLE, -1 (no fault) or -2 (unknown).
+
+    ``cache`` keeps the column of each fault channel met (the signature match takes SVDs
+    and a campaign meets the same few channels in every run).
+    """
+    from geomfdi.evaluation.decision import MULTIPLE
+    from geomfdi.simulation.schedule import structure_columns
+
+    if size == 0 or not faults:
+        return -1, frozenset()
+    cols = []
+    for f in faults:
+        key = _fault_key(f)
+        if key is not None and key in cache:
+            cols.append(cache[key])
+            continue
+        (col,) = structure_columns([f], design, plant)
+        if key is not None:
+            cache[key] = col
+        cols.append(col)
+    if any(c is None for c in cols):
+        return -2, frozenset()
+    found = frozenset(int(c) for c in cols)
+    if len(found) == 1:
+        return next(iter(found)), found
+    return MULTIPLE, found
+
+
 def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
     """Simulate and evaluate one block (runs in a worker)."""
     from geomfdi.simulation.batch import simulate_batch
@@ -148,6 +264,27 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
         job["t"], stat, test.thresholds, block.onset, job["window"], job["eval_start"]
     )
     out["run"] = block.runs
+    structure = job["structure"]
+    if structure is not None:
+        cache: dict[Any, Any] = {}
+        truths = [
+            _truth(fl, float(z), job["design_faults"], job["nominal"], cache)
+            for fl, z in zip(fault_lists, block.size, strict=True)
+        ]
+        out.update(
+            isolate_runs(
+                job["t"],
+                stat,
+                test.thresholds,
+                structure,
+                job["persistence"],
+                np.array([tr for tr, _ in truths]),
+                [ts for _, ts in truths],
+                block.onset,
+                job["window"],
+                job["eval_start"],
+            )
+        )
     return out
 
 
@@ -186,6 +323,8 @@ class Campaign:
     block_size : int
         Runs simulated together in one vectorised call.
     hold : {"foh", "zoh"}
+    persistence : None, int, (k, n) or Persistence
+        Decision rule of the isolation (module docstring); ``None``: per-sample decisions.
 
     Examples
     --------
@@ -219,7 +358,9 @@ class Campaign:
         eval_start: float = 0.0,
         block_size: int = 64,
         hold: str = "foh",
+        persistence: Any = None,
     ) -> None:
+        from geomfdi.evaluation.persistence import as_persistence
         from geomfdi.model.plant import as_plant
         from geomfdi.simulation.noise import Noise
 
@@ -227,6 +368,17 @@ class Campaign:
         self.bank = bank
         gens = bank.generators if hasattr(bank, "generators") else [bank]
         self.n_residuals = len(gens)
+        structure = getattr(bank, "structure", None)
+        self.structure = None if structure is None else np.asarray(structure, dtype=bool)
+        self.fault_labels = (
+            []
+            if structure is None
+            else [
+                getattr(f, "name", None) or f"fault {j}"
+                for j, f in enumerate(getattr(bank, "faults", [None] * self.structure.shape[1]))
+            ]
+        )
+        self.persistence = as_persistence(persistence)
         self.scenarios = list(scenarios)
         if not self.scenarios or not all(isinstance(s, Scenario) for s in self.scenarios):
             raise GeomFDIError(
@@ -315,6 +467,10 @@ class Campaign:
             "scenarios": self.scenarios,
             "seed_root": root,
             "perturbed": self.uncertainty is not None,
+            "structure": self.structure,
+            "nominal": self.plant,
+            "design_faults": list(getattr(self.bank, "faults", [])),
+            "persistence": self.persistence,
         }
 
     # ------------------------------------------------------------------- running
@@ -380,7 +536,9 @@ class Campaign:
                 if not hasattr(executor, "submit"):
                     raise GeomFDIError("executor: has no submit method", argument="executor")
                 if hasattr(executor, "scatter"):  # a Dask client: ship the job once
-                    job = executor.scatter([job], broadcast=True)[0]
+                    # (a fresh key: a campaign run twice must not share it with a
+                    # previous run's data being released)
+                    job = executor.scatter([job], broadcast=True, hash=False)[0]
                 futures = [executor.submit(_run_task, job, tk) for tk in tasks]
                 for fut in futures:
                     parts.extend(fut.result())

@@ -31,6 +31,7 @@ from geomfdi.errors import GeomFDIError
 from geomfdi.evaluation.decision import AMBIGUOUS, NO_ALARM, UNEXPLAINED, Threshold, as_threshold
 
 __all__ = [
+    "PatternTable",
     "Persistence",
     "as_persistence",
     "confirm",
@@ -107,15 +108,26 @@ def threshold_values(threshold: Any, n_rows: int, present: list[int]) -> np.ndar
     return values
 
 
+_SHIFTED_SUMS = 16  # longest window summed by shifted byte additions (counts <= 16)
+
+
 def confirm(raw: np.ndarray, persistence: Persistence, history: np.ndarray) -> np.ndarray:
     """Confirmed alarms of ``raw`` (``(R, L)`` bool) under k-of-n persistence.
 
     ``history`` (``(R, n-1)``, oldest first) holds the raw alarms of the ``n - 1``
-    samples before ``raw``.  Exact integer moving sums.
+    samples before ``raw``.  Exact integer moving sums: ``n`` shifted byte sums for a
+    short window, differences of a cumulative sum for a long one.
     """
     k, n = persistence.k, persistence.n
     if n == 1:
         return raw.copy()
+    if n <= _SHIFTED_SUMS:
+        L = raw.shape[1]
+        ext = np.concatenate([history, raw], axis=1).astype(bool, copy=False).view(np.uint8)
+        counts = ext[:, n - 1 :].copy()
+        for j in range(1, n):
+            counts += ext[:, n - 1 - j : n - 1 - j + L]
+        return counts >= k
     ext = np.concatenate([history.astype(np.int64), raw.astype(np.int64)], axis=1)
     cs = np.zeros((ext.shape[0], ext.shape[1] + 1), dtype=np.int64)
     np.cumsum(ext, axis=1, out=cs[:, 1:])
@@ -131,3 +143,55 @@ def decision_code(pattern: np.ndarray, structure: np.ndarray) -> int:
     if match.size == 1:
         return int(match[0])
     return AMBIGUOUS if match.size > 1 else UNEXPLAINED
+
+
+@dataclass(frozen=True)
+class PatternTable:
+    """Isolation decisions looked up by the bit code of the alarm pattern.
+
+    Row ``i`` of a pattern is bit ``i`` of its code; the codes of the structure's columns
+    are sorted once, so the decision of every sample of a chunk is one binary search:
+    the column index when exactly one column has the sample's code, ``-3`` when several
+    do, ``-2`` when none does, ``-1`` for code 0 (the rules of :func:`geomfdi.isolate`).
+
+    Attributes
+    ----------
+    bits : ndarray of int64, (rows,)
+        ``2**i``.
+    codes : ndarray of int64
+        The distinct codes of the structure's columns, sorted.
+    decisions : ndarray of int64
+        The decision for each of ``codes``.
+    """
+
+    bits: np.ndarray
+    codes: np.ndarray
+    decisions: np.ndarray
+
+    MAX_ROWS = 62  # codes are int64
+
+    @classmethod
+    def of(cls, structure: np.ndarray) -> PatternTable:
+        """The table of a structure matrix (``(rows, n_faults)`` bool, rows <= 62)."""
+        S = np.asarray(structure, dtype=bool)
+        if S.shape[0] > cls.MAX_ROWS:
+            raise GeomFDIError(
+                f"structure: at most {cls.MAX_ROWS} rows for pattern codes, got {S.shape[0]}",
+                argument="structure",
+            )
+        bits = np.left_shift(1, np.arange(S.shape[0], dtype=np.int64))
+        codes, first, count = np.unique(
+            bits @ S.astype(np.int64), return_index=True, return_counts=True
+        )
+        return cls(bits, codes, np.where(count > 1, AMBIGUOUS, first).astype(np.int64))
+
+    def decide(self, alarms: np.ndarray) -> np.ndarray:
+        """Decisions ``(L,)`` for confirmed alarms ``(rows, L)``."""
+        codes = self.bits @ alarms
+        if self.codes.size:
+            at = np.minimum(np.searchsorted(self.codes, codes), self.codes.size - 1)
+            out = np.where(self.codes[at] == codes, self.decisions[at], UNEXPLAINED)
+        else:
+            out = np.full(codes.shape, UNEXPLAINED, dtype=np.int64)
+        out[codes == 0] = NO_ALARM
+        return out

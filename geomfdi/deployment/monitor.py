@@ -16,12 +16,13 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi.deployment.decide import as_persistence, threshold_values
 from geomfdi.deployment.online import (
     MonitorOutput,
     MonitorState,
     MonitorStep,
-    feed_chunk,
+    make_feed,
     make_step,
 )
 from geomfdi.deployment.program import Program, as_bank, build_program, check_initial, restart_rule
@@ -58,6 +59,7 @@ class Monitor:
     [False, False, False, True, False]
     """
 
+    @limit_blas_threads
     def __init__(
         self,
         bank: Any,
@@ -84,7 +86,7 @@ class Monitor:
     def reset(self) -> None:
         """Back to the state before the first sample."""
         self._state = MonitorState(self.program, self.persistence, self.initial)
-        self._step = make_step(
+        args = (
             self.program,
             self._state,
             self.thresholds,
@@ -92,6 +94,8 @@ class Monitor:
             self.isolation,
             self._restart,
         )
+        self._step = make_step(*args)
+        self._feed = make_feed(*args)
 
     def step(self, y: Any, u: Any = None) -> MonitorStep:
         """One sample ``y`` (q,), ``u`` (m,): residual per bank row, confirmed alarms and
@@ -99,18 +103,14 @@ class Monitor:
         no alarm, and restarts the generators at the next valid sample."""
         return self._step(y, u)
 
+    @limit_blas_threads
     def feed(self, Y: Any, U: Any = None) -> MonitorOutput:
-        """A chunk of samples ``Y`` (q, L), ``U`` (m, L), without a per-sample loop."""
-        return feed_chunk(
-            self.program,
-            self._state,
-            Y,
-            U,
-            self.thresholds,
-            self.persistence,
-            self.isolation,
-            self._restart,
-        )
+        """A chunk of samples ``Y`` (q, L), ``U`` (m, L), without a per-sample loop.
+
+        Like the other entry points of geomfdi it runs with the BLAS limited to
+        :func:`geomfdi.get_blas_threads` threads (one by default): its products are small.
+        """
+        return self._feed(Y, U)
 
     @property
     def state(self) -> dict[str, Any]:

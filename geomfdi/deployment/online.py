@@ -11,10 +11,11 @@ State of a monitor (all in preallocated arrays, updated in place):
   :mod:`geomfdi.deployment.decide`.
 
 :func:`make_step` builds the one-sample update as a closure over these arrays (no
-attribute look-ups, no allocation but the returned copies); :func:`feed_chunk` runs a
-whole chunk with the loop-free recursion and leaves the same state behind, so any mix of
-steps and chunks gives the same residuals (to rounding) and the same decisions.  See the
-user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
+attribute look-ups, no allocation but the returned copies); :func:`make_feed` likewise
+the chunk update, which runs a whole chunk with the loop-free recursion and leaves the
+same state behind, so any mix of steps and chunks gives the same residuals (to
+rounding) and the same decisions.  See the user guide, *Theory: residual evaluation*
+(``docs/theory/evaluation.md``).
 """
 
 from __future__ import annotations
@@ -26,12 +27,12 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from geomfdi.deployment.decide import Persistence, confirm, decision_code
+from geomfdi.deployment.decide import PatternTable, Persistence, confirm, decision_code
 from geomfdi.deployment.program import Program, initial_state, run_program
 from geomfdi.errors import ShapeError
 from geomfdi.evaluation.decision import isolate
 
-__all__ = ["MonitorStep", "MonitorOutput", "MonitorState", "make_step", "feed_chunk"]
+__all__ = ["MonitorStep", "MonitorOutput", "MonitorState", "make_step", "make_feed"]
 
 
 class MonitorStep(NamedTuple):
@@ -75,6 +76,12 @@ class MonitorState:
     def __init__(self, program: Program, persistence: Persistence, pending: Any) -> None:
         self.rows = program.n_rows
         self.width = persistence.n.bit_length()
+        # packed patterns fit an int64 (vectorised packing) when the bits do
+        self._shifts = (
+            np.arange(self.rows, dtype=np.int64) * self.width
+            if self.width * self.rows <= 62
+            else None
+        )
         self.xi = np.zeros(program.nw)
         self.last = np.zeros(program.nz)
         self.pending = pending
@@ -94,12 +101,20 @@ class MonitorState:
 
     def ordered_ring(self) -> np.ndarray:
         """The raw alarms of the last ``n`` samples, oldest first (``(n, rows)`` bool)."""
+        if self._shifts is not None:
+            codes = np.array(self.history, dtype=np.int64)
+            return ((codes[:, None] >> self._shifts) & 1).astype(bool)
         return np.array([self.counts(p) for p in self.history], dtype=bool).reshape(
             len(self.history), self.rows
         )
 
     def set_ring(self, ordered: np.ndarray) -> None:
-        self.history = deque(self.pack(row) for row in ordered)
+        """Set the raw alarms of the last ``n`` samples (``(n, rows)`` bool, oldest first)."""
+        if self._shifts is not None:
+            codes = (ordered.astype(np.int64) << self._shifts).sum(axis=1).tolist()
+            self.history = deque(codes)
+        else:
+            self.history = deque(self.pack(row) for row in ordered)
         self.packed = sum(self.history)
 
 
@@ -221,48 +236,84 @@ def make_step(
     return step
 
 
-def feed_chunk(
+def _chunk(value: Any, rows: int, name: str, L: int | None = None) -> np.ndarray:
+    """A ``(rows, L)`` float array (non-finite entries allowed: missing samples)."""
+    if not (isinstance(value, np.ndarray) and value.dtype == np.float64):
+        from geomfdi._validation import as_real_array
+
+        value = as_real_array(value, name, allow_nonfinite=True)
+    if value.ndim != 2 or value.shape[0] != rows or (L is not None and value.shape[1] != L):
+        cols = "L" if L is None else str(L)
+        raise ShapeError(
+            f"{name}: expected ({rows}, {cols}), got shape {value.shape}", argument=name
+        )
+    return value
+
+
+def make_feed(
     program: Program,
     state: MonitorState,
-    Y: Any,
-    U: Any,
     thresholds: np.ndarray | None,
     persistence: Persistence,
     isolation: bool,
     restart: str,
-) -> MonitorOutput:
-    """Run ``L`` samples (``Y`` (q, L), ``U`` (m, L)) and update ``state`` in place."""
-    from geomfdi._validation import as_real_array
+) -> Any:
+    """The chunk update ``feed(Y, U) -> MonitorOutput`` over ``state``.
 
-    Y = as_real_array(Y, "Y", allow_nonfinite=True)
-    if Y.ndim != 2 or Y.shape[0] != program.q:
-        raise ShapeError(f"Y: expected ({program.q}, L), got shape {Y.shape}", argument="Y")
-    L = Y.shape[1]
-    if U is None:
-        U = np.zeros((program.m, L))
-        if program.m:
-            raise ShapeError(f"U: the bank reads {program.m} inputs; pass U", argument="U")
-    U = as_real_array(U, "U", allow_nonfinite=True)
-    if U.shape != (program.m, L):
-        raise ShapeError(f"U: expected ({program.m}, {L}), got shape {U.shape}", argument="U")
-    Z = np.vstack([Y, U])
-    comp, valid, xi, pending = run_program(program, Z, state.xi, state.pending, restart)
-    state.xi = xi
-    if valid.any():
-        state.last = Z[:, np.flatnonzero(valid)[-1]].copy()
-    state.pending = pending
-    state.samples += L
-    residuals = program.row_values(comp)
-    residuals[:, ~valid] = np.nan
-    ordered = state.ordered_ring()
-    if thresholds is None:
-        raw = np.zeros(residuals.shape, dtype=bool)
-    else:
-        v = thresholds[:, None]
-        raw = (residuals > v) | (residuals < -v)
-    alarms = confirm(raw, persistence, ordered[1:].T)
+    Runs ``L`` samples (``Y`` (q, L), ``U`` (m, L)) with the loop-free recursion of
+    :func:`~geomfdi.deployment.program.run_program`, then the threshold, the k-of-n
+    rule over the ring of the previous raw alarms and the isolation decision, and
+    leaves the same state behind as ``L`` calls of the step would.  The isolation
+    decision of a confirmed alarm pattern is looked up by its bit code
+    (:class:`~geomfdi.deployment.decide.PatternTable`).
+    """
+    q, m, nz = program.q, program.m, program.nz
+    rows = program.n_rows
     n = persistence.n
-    full = np.concatenate([ordered, raw.T], axis=0)
-    state.set_ring(full[full.shape[0] - n :])
-    isolated = isolate(alarms, program.structure).isolated if isolation else None
-    return MonitorOutput(residuals, raw, alarms, isolated, ~valid)
+    thr = None if thresholds is None else thresholds[:, None]
+    scalar = program.scalar_rows
+    structure = program.structure
+    table = PatternTable.of(structure) if rows <= PatternTable.MAX_ROWS else None
+
+    def decisions(alarms: np.ndarray) -> np.ndarray:
+        if table is None:  # too many rows for a bit code
+            return isolate(alarms, structure).isolated
+        return table.decide(alarms)
+
+    def feed(Y: Any, U: Any = None) -> MonitorOutput:
+        Y = _chunk(Y, q, "Y")
+        L = Y.shape[1]
+        if U is None:
+            if m:
+                raise ShapeError(f"U: the bank reads {m} inputs; pass U", argument="U")
+            U = np.zeros((0, L))
+        U = _chunk(U, m, "U", L)
+        Zt = np.empty((L, nz))  # sample-major: the layout of the lifted recursion
+        Zt[:, :q] = Y.T
+        Zt[:, q:] = U.T
+        comp, valid, xi, pending = run_program(program, Zt.T, state.xi, state.pending, restart)
+        every = bool(valid.all())
+        state.xi = xi
+        if every and L:
+            state.last = Zt[L - 1].copy()
+        elif valid.any():
+            state.last = Zt[np.flatnonzero(valid)[-1]].copy()
+        state.pending = pending
+        state.samples += L
+        residuals = comp if scalar else program.row_values(comp)
+        if not every:
+            residuals[:, ~valid] = np.nan
+        if thr is None:
+            raw = np.zeros(residuals.shape, dtype=bool)
+        else:
+            raw = (residuals > thr) | (residuals < -thr)
+        ordered = state.ordered_ring()
+        alarms = confirm(raw, persistence, ordered[1:].T)
+        if L >= n:
+            state.set_ring(raw[:, L - n :].T)
+        else:
+            state.set_ring(np.concatenate([ordered[L:], raw.T], axis=0))
+        isolated = decisions(alarms) if isolation else None
+        return MonitorOutput(residuals, raw, alarms, isolated, ~valid)
+
+    return feed

@@ -32,7 +32,14 @@ import numpy as np
 import scipy.linalg
 
 from geomfdi._validation import as_vector
-from geomfdi.deployment._lti import discretize_hold, schur_form, triangular_recursion
+from geomfdi.deployment._lti import (
+    LiftedMaps,
+    discretize_hold,
+    lift_factor,
+    lifted_maps,
+    lifted_recursion,
+    schur_form,
+)
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
@@ -82,10 +89,12 @@ class Program:
         ``"discrete"`` or ``"foh"`` (sampled from a continuous bank).
     structure : ndarray of bool, (n_rows, n_faults)
         Achieved structure used for isolation.
-    schur : (T, Z, Z^H B, stops, output blocks) or None
-        Block-diagonal Schur form ``A = Z T Z^H`` (one unitary block per generator) used
-        by the loop-free recursion of :func:`run_program`; ``stops[i]`` ends the block of
-        state ``i``; per generator its component rows, state columns and ``C_b Z_b``.
+    basis : ndarray (nw, nw) or None
+        Unitary ``Z`` of the block-diagonal Schur form ``A = Z T Z^H`` (one block per
+        generator).
+    lifted : LiftedMaps or None
+        The lifted form on blocks of samples in those coordinates, used by the loop-free
+        recursion of :func:`run_program`.
     """
 
     A: np.ndarray
@@ -100,7 +109,8 @@ class Program:
     dt: float
     hold: str
     structure: np.ndarray
-    schur: tuple[Any, ...] | None = None
+    basis: np.ndarray | None = None
+    lifted: LiftedMaps | None = None
 
     @property
     def nw(self) -> int:
@@ -220,7 +230,7 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
     else:
         steady = np.zeros((0, nz))
     rows: list[tuple[int, int] | None] = []
-    schur = _block_schur(A, B, C, gens) if nw else None
+    basis, lifted = _lifted_form(A, B, C, D, gens) if nw else (None, None)
     o = 0
     for g in bank.generators:
         if g is None:
@@ -241,43 +251,34 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
         step,
         hold,
         np.asarray(bank.structure, dtype=bool),
-        schur,
+        basis,
+        lifted,
     )
 
 
-def _block_schur(
-    A: np.ndarray, B: np.ndarray, C: np.ndarray, gens: list[ResidualGenerator]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[Any]]:
-    """Schur form of the block-diagonal ``A``, one generator block at a time.
+def _lifted_form(
+    A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, gens: list[ResidualGenerator]
+) -> tuple[np.ndarray, LiftedMaps]:
+    """Schur basis of the block-diagonal ``A`` (one generator block at a time) and the
+    lifted maps of the fused system in it.
 
     The unitary basis keeps the rounding of the recursion at the level of the plain
     sample-by-sample update (a modal basis would amplify it by its condition number).
     """
     Ts, Zs, stops = [], [], []
-    groups: dict[tuple[int, int], list[Any]] = {}
-    i = o = 0
+    i = 0
     for g in gens:
-        n, p = g.order, g.n_outputs
+        n = g.order
         if n:
             T, Z = schur_form(A[i : i + n, i : i + n])
             Ts.append(T)
             Zs.append(Z)
             stops += [i + n] * n
-            groups.setdefault((p, n), []).append((o, i, C[o : o + p, i : i + n] @ Z))
         i += n
-        o += p
-    # generators of equal sizes share one batched product (rows, states, C_b Z_b)
-    out_blocks = [
-        (
-            np.array([np.arange(o, o + p) for o, _, _ in items]),
-            np.array([np.arange(i, i + n) for _, i, _ in items]),
-            np.array([cz for _, _, cz in items]),
-        )
-        for (p, n), items in groups.items()
-    ]
     T = scipy.linalg.block_diag(*Ts)
     Z = scipy.linalg.block_diag(*Zs)
-    return T, Z, Z.conj().T @ B, np.array(stops, dtype=int), out_blocks
+    M = lift_factor(A.shape[0], C.shape[0], B.shape[1])
+    return Z, lifted_maps(A, B, C, D, T, Z, M, np.array(stops, dtype=int))
 
 
 INITIAL = ("zero", "steady")
@@ -353,13 +354,20 @@ def run_program(
         Set when the record ends on missing samples (or was empty and still pending).
     """
     L = Z.shape[1]
-    valid = np.isfinite(Z).all(axis=0)
-    comp = np.full((program.nc, L), np.nan)
+    # a finite sum proves every entry finite (cheap); otherwise the exact per-sample test
+    every = bool(np.isfinite(Z.sum()))
+    valid = np.ones(L, dtype=bool) if every else np.isfinite(Z).all(axis=0)
+    every = every or bool(valid.all())
+    comp = np.empty((program.nc, L)) if every else np.full((program.nc, L), np.nan)
     if L == 0:
         return comp, valid, xi, pending
-    edges = np.flatnonzero(np.diff(np.concatenate(([0], valid.astype(np.int8), [0]))))
+    if every:
+        segments = [(0, L)]
+    else:
+        edges = np.flatnonzero(np.diff(np.concatenate(([0], valid.astype(np.int8), [0]))))
+        segments = list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
     xi = np.array(xi, dtype=float)
-    for s, e in zip(edges[::2], edges[1::2], strict=True):
+    for s, e in segments:
         if s > 0:  # missing samples before this segment
             pending = restart
         Zs = Z[:, s:e]
@@ -367,27 +375,10 @@ def run_program(
             xi = initial_state(program, pending, Zs[:, 0])
             pending = None
         if program.nw:
-            T, Zu, ZhB, stops, out_blocks = program.schur
-            g = (ZhB @ Zs)[:, None, :]
-            zt = triangular_recursion(T, g, (Zu.conj().T @ xi)[:, None], stops)[:, 0, :]
-            seg = program.D @ Zs
-            for rows_idx, cols_idx, CZs in out_blocks:  # block-diagonal output product
-                nb, n = cols_idx.shape
-                if cols_idx.size == program.nw:  # every generator: a view, no gather
-                    states = zt[:, :-1].reshape(nb, n, -1)
-                else:
-                    states = zt[cols_idx, :-1]  # (blocks, n, L)
-                prod = np.einsum("bpn,bnl->bpl", CZs, states, optimize=False)
-                prod = prod.real if np.iscomplexobj(prod) else prod
-                if rows_idx.size == program.nc:
-                    seg += prod.reshape(program.nc, -1)
-                else:
-                    seg[rows_idx] += prod
-            if e - s == L:
-                comp = seg
-            else:
-                comp[:, s:e] = seg
-            xi = (Zu @ zt[:, -1]).real
+            Zt = Zs.T if Zs.T.flags.c_contiguous else np.ascontiguousarray(Zs.T)
+            Zu = program.basis
+            se = lifted_recursion(program.lifted, Zt, Zu.conj().T @ xi, comp[:, s:e])
+            xi = (Zu @ se).real
         else:
             comp[:, s:e] = program.D @ Zs
     if not valid[-1]:

@@ -25,6 +25,7 @@ See the user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -32,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_positive, as_real_array
 from geomfdi.deployment.decide import Persistence, as_persistence, confirm
 from geomfdi.deployment.program import (
@@ -192,7 +194,10 @@ def alarm_episodes(t: np.ndarray, alarms: np.ndarray, isolated: np.ndarray) -> l
     if starts.size == 0:
         return []
     # rows alarming in each episode: OR over [start_i, start_{i+1}) (zeros between episodes)
-    rows = np.logical_or.reduceat(alarms, starts, axis=1).T.tolist()
+    ep, row = np.nonzero(np.logical_or.reduceat(alarms, starts, axis=1).T)
+    cuts = np.searchsorted(ep, np.arange(starts.size + 1)).tolist()
+    row_list = row.tolist()
+    rows = [tuple(row_list[cuts[i] : cuts[i + 1]]) for i in range(starts.size)]
     hits = np.flatnonzero(isolated >= 0)
     first = np.searchsorted(hits, starts)
     first_k = hits[np.minimum(first, max(hits.size - 1, 0))] if hits.size else starts
@@ -203,7 +208,7 @@ def alarm_episodes(t: np.ndarray, alarms: np.ndarray, isolated: np.ndarray) -> l
         AlarmEpisode(
             ts[i],
             te[i],
-            tuple(r for r, b in enumerate(rows[i]) if b),
+            rows[i],
             int(faults[i]) if found[i] else None,
             tk[i] if found[i] else None,
         )
@@ -237,6 +242,7 @@ class EvaluationResult:
         Detection/isolation of the fault signals passed as ``faults`` (as in
         :func:`geomfdi.simulate`); empty otherwise.
     episodes : list of AlarmEpisode
+        The alarm episodes (:func:`alarm_episodes`), built on first access.
     threshold : Threshold or None
     persistence : Persistence
     structure : ndarray of bool
@@ -256,13 +262,16 @@ class EvaluationResult:
     candidates: np.ndarray
     suspects: np.ndarray
     events: list[FaultEvent]
-    episodes: list[AlarmEpisode]
     threshold: Threshold | None
     persistence: Persistence
     structure: np.ndarray
     fault_labels: list[str]
     residual_labels: list[str]
     info: dict[str, Any] = field(default_factory=dict)
+
+    @functools.cached_property
+    def episodes(self) -> list[AlarmEpisode]:
+        return alarm_episodes(self.t, self.alarms, self.isolated)
 
     @property
     def first_alarm(self) -> float | None:
@@ -314,6 +323,7 @@ def decide(
     return raw, confirm(raw, persistence, history)
 
 
+@limit_blas_threads
 def evaluate(
     bank: Any,
     y: Any,
@@ -373,8 +383,9 @@ def evaluate(
     Recursion ``xi[k+1] = A xi[k] + B z[k]``, ``c[k] = C xi[k] + D z[k]`` with
     ``z = [y; u]`` (:mod:`geomfdi.deployment.program`), solved over the whole record by
     the loop-free LTI core; decisions ``|r_i| > threshold_i``, k-of-n persistence and
-    isolation on the achieved structure (:mod:`geomfdi.deployment.decide`).  See the
-    user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
+    isolation on the achieved structure (:mod:`geomfdi.deployment.decide`).  Runs with
+    the BLAS limited to :func:`geomfdi.get_blas_threads` threads (one by default).  See
+    the user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
 
     Examples
     --------
@@ -414,8 +425,10 @@ def evaluate(
     program = build_program(bank, None if bank.dt > 0 else step)
     initial = check_initial(initial, program)
     restart = restart_rule(program, initial)
-    Z = np.vstack([y, u])
-    comp, valid, xi, _ = run_program(program, Z, np.zeros(program.nw), initial, restart)
+    Zt = np.empty((N, program.nz))  # sample-major: the layout of the lifted recursion
+    Zt[:, : program.q] = y.T
+    Zt[:, program.q :] = u.T
+    comp, valid, xi, _ = run_program(program, Zt.T, np.zeros(program.nw), initial, restart)
     residuals = program.row_values(comp)
     residuals[:, ~valid] = np.nan
     thr = as_threshold(threshold, program.n_rows, program.present)
@@ -443,7 +456,6 @@ def evaluate(
         candidates=iso.candidates,
         suspects=iso.suspects,
         events=events,
-        episodes=alarm_episodes(t, alarms, iso.isolated),
         threshold=thr,
         persistence=pers,
         structure=program.structure,

@@ -13,7 +13,9 @@ See the user guide, *Theory: diagnosability* (``docs/theory/diagnosability.md``)
 
 from geomfdi.diagnosability.bank import (
     BankDiagnosability,
+    StructuredIsolability,
     bank_diagnosability,
+    bank_structured_isolability,
     bank_window_sweep,
 )
 from geomfdi.diagnosability.model import WindowModel
@@ -37,4 +39,6 @@ __all__ = [
     "BankDiagnosability",
     "bank_diagnosability",
     "bank_window_sweep",
+    "StructuredIsolability",
+    "bank_structured_isolability",
 ]

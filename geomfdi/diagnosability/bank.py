@@ -11,7 +11,13 @@ The measurement noise ``v`` reaches both the bank's state and its output, hence 
 process-noise feedthrough ``Dw`` of the :class:`~geomfdi.diagnosability.model.WindowModel`
 built here.  The unknown initial state of plant and bank is projected out over the
 window, exactly as for a plant (Li, Wang & Liu 2015), so the indices measure what the
-residual sequence itself reveals about each fault, leaks included.
+residual sequence itself reveals about each fault, leaks included.  When the bank is
+blind to the plant's state (``F P = P A + E C``, ``M P = H C`` for some ``P``, true of
+every designed bank) the model is written in the error coordinates ``e = w - P x``::
+
+    e' = F e - (P Bf + E Df) f - P Bw w_p - E v,        r = M e - H Df f - H v,
+
+which gives the same indices without the plant's (possibly unstable) unobservable modes.
 
 Continuous-time plant and bank are discretised with a zero-order hold of period ``dt``;
 the noises are then sequences held over each period, with the given covariances per
@@ -32,8 +38,15 @@ from geomfdi.diagnosability.model import WindowModel
 from geomfdi.diagnosability.results import DiagnosabilityTable
 from geomfdi.diagnosability.tables import diagnosability_table
 from geomfdi.errors import DesignError, GeomFDIError
+from geomfdi.tolerance import get_rtol
 
-__all__ = ["BankDiagnosability", "bank_diagnosability", "bank_window_sweep"]
+__all__ = [
+    "BankDiagnosability",
+    "StructuredIsolability",
+    "bank_diagnosability",
+    "bank_structured_isolability",
+    "bank_window_sweep",
+]
 
 
 @dataclass(frozen=True)
@@ -80,8 +93,26 @@ class BankDiagnosability:
         )
 
 
-def _stack_bank(bank: Any) -> tuple[np.ndarray, ...]:
-    gens = [g for g in getattr(bank, "generators", []) if g is not None]
+def _rows(bank: Any, residuals: Any) -> list[int]:
+    """Rows of ``bank`` whose generators are used (existing ones; all by default)."""
+    gens = list(getattr(bank, "generators", []))
+    present = [k for k, g in enumerate(gens) if g is not None]
+    if residuals is None:
+        return present
+    rows = [as_int(r, "residuals", minimum=0) for r in np.atleast_1d(residuals).tolist()]
+    bad = [r for r in rows if r not in present]
+    if bad or not rows:
+        raise GeomFDIError(
+            f"residuals: expected a non-empty subset of the existing rows {present}, got {rows}",
+            argument="residuals",
+        )
+    return sorted(set(rows))
+
+
+def _stack_bank(bank: Any, residuals: Any = None) -> tuple[np.ndarray, ...]:
+    if not hasattr(bank, "generators"):
+        raise GeomFDIError("bank: expected a ResidualBank", argument="bank")
+    gens = [bank.generators[k] for k in _rows(bank, residuals)]
     if not gens:
         raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
     F = sla.block_diag(*[g.F for g in gens]) if any(g.order for g in gens) else np.zeros((0, 0))
@@ -103,6 +134,31 @@ def _zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarra
     return ex[:n, :n], ex[:n, n:]
 
 
+def _error_map(
+    F: np.ndarray, E: np.ndarray, M: np.ndarray, H: np.ndarray, A: np.ndarray, C: np.ndarray
+) -> np.ndarray | None:
+    """``P`` with ``F P = P A + E C`` and ``M P = H C`` (the bank is blind to the state).
+
+    Then ``e = w - P x`` obeys ``e' = F e - (P Bf + E Df) f - P Bw w_p - E v`` and
+    ``r = M e - H Df f - H v``: the composite reduces to the bank's own order and the
+    plant's modes, unobservable from ``r`` (unstable ones included), leave the window
+    model instead of entering its rank decisions at rounding level.  ``None`` when the
+    Sylvester equation is singular (common eigenvalues) or the bank is not blind to the
+    state (relative residual above the tolerance policy's ``rtol``).
+    """
+    if F.shape[0] == 0:
+        P = np.zeros((0, A.shape[0]))
+    else:
+        if np.min(np.abs(np.subtract.outer(np.linalg.eigvals(F), np.linalg.eigvals(A)))) < 1e-8:
+            return None
+        P = sla.solve_sylvester(F, -A, E @ C)
+    rtol = get_rtol(A.shape[0] + F.shape[0])
+    norm = np.linalg.norm
+    sylv = norm(F @ P - P @ A - E @ C) <= rtol * ((norm(F) + norm(A)) * norm(P) + norm(E) * norm(C))
+    blind = norm(M @ P - H @ C) <= rtol * (norm(M) * norm(P) + norm(H) * norm(C))
+    return P if sylv and blind else None
+
+
 def _composite(
     bank: Any,
     plant: Any,
@@ -111,6 +167,7 @@ def _composite(
     process_input: Any,
     window: int | None,
     dt: float | None,
+    residuals: Any = None,
 ) -> tuple[WindowModel, float]:
     from geomfdi.model.faults import fault_matrices
     from geomfdi.model.plant import as_plant
@@ -123,7 +180,7 @@ def _composite(
             argument="plant",
         )
     n, q = P.n, P.q
-    Fb, Eb, Mb, Hb = _stack_bank(bank)
+    Fb, Eb, Mb, Hb = _stack_bank(bank, residuals)
     if Eb.shape[1] != q:
         raise GeomFDIError(
             f"bank: its generators read {Eb.shape[1]} outputs, the plant has {q}", argument="bank"
@@ -152,11 +209,28 @@ def _composite(
     )
     Rv = _as_covariance(measurement_noise, "measurement_noise", q)
     nw = Fb.shape[0]
-    Ac = np.block([[P.A, np.zeros((n, nw))], [-Eb @ P.C, Fb]])
-    Bfc = np.vstack([Bf, -Eb @ Df])
-    Bec = np.block([[Bw, np.zeros((n, q))], [np.zeros((nw, l)), -Eb]])
-    Cc = np.hstack([-Hb @ P.C, Mb])
+    # a fault the verification found decoupled from every residual used (the achieved
+    # structure) does not reach them: drop its rounding-level route (E Df ~ 1e-17), which
+    # the minimisation over all profiles of f_j would otherwise amplify into a full
+    # direction and so annul every FI(i, j)
+    rows = _rows(bank, residuals)
+    achieved = np.asarray(bank.structure, dtype=bool)[rows]
+    cols = [k for k, f in enumerate(bank.faults) for _ in range(f.k)]
+    blind = np.array([not achieved[:, k].any() for k in cols])
+    Pe = _error_map(Fb, Eb, Mb, Hb, P.A, P.C)
+    if Pe is not None:  # error coordinates e = w - Pe x: the plant's states drop out
+        Ac = Fb
+        Bfc = -(Pe @ Bf) - Eb @ Df
+        Bec = np.hstack([-(Pe @ Bw), -Eb])
+        Cc = Mb
+    else:
+        Ac = np.block([[P.A, np.zeros((n, nw))], [-Eb @ P.C, Fb]])
+        Bfc = np.vstack([Bf, -Eb @ Df])
+        Bec = np.block([[Bw, np.zeros((n, q))], [np.zeros((nw, l)), -Eb]])
+        Cc = np.hstack([-Hb @ P.C, Mb])
     Dfc = -Hb @ Df
+    Bfc[:, blind] = 0.0
+    Dfc[:, blind] = 0.0
     Dec = np.hstack([np.zeros((Hb.shape[0], l)), -Hb])
     if P.dt == 0.0:
         if dt is None:
@@ -203,6 +277,7 @@ def bank_diagnosability(
     dt: float | None = None,
     theta: Any = None,
     alpha: float = 0.01,
+    residuals: Any = None,
 ) -> BankDiagnosability:
     """FD/FI tables (KL and probability indices) of a designed bank's residuals.
 
@@ -227,6 +302,9 @@ def bank_diagnosability(
         Fault profile; default a unit step over the window, i.e. indices per unit fault.
     alpha : float
         False-alarm rate of the probability indices.
+    residuals : sequence of int, optional
+        Rows of the bank (indices into ``bank.generators``) whose residuals are used;
+        default all existing ones.
 
     Returns
     -------
@@ -236,10 +314,19 @@ def bank_diagnosability(
 
     Notes
     -----
-    A bank that decouples fault ``j`` from the residuals that see fault ``i`` makes them
-    isolable (``FI(i, j) > 0``); a leak of ``j`` into those residuals (the paper method of
-    Hou, Wen & Chen 2011 on its own example) makes ``f_j`` explain part of ``f_i``'s
-    signature and lowers ``FI``.
+    The indices are those of the *joint* residual vector, i.e. of the best test that
+    uses all residuals together with their exact transfers, leaks included: a leak of a
+    known transfer is not a loss of information, so it need not lower this ``FI``.  What
+    the joint indices do measure is how much of the output information the bank keeps:
+    a bank whose residuals are a complete set of parity relations (the paper bank of
+    Hou, Wen & Chen 2011 on its own example: three first-order residuals of a
+    three-state plant with invertible ``C``) has about the indices of the raw outputs,
+    whereas a decoupled bank whose residuals each eliminate the whole initial state from
+    one sensor (the exact bank there: orders 1, 3, 3) keeps less, and a unit step fault
+    is partly explained by the extra initial-state transients.  The effect of a leak on
+    *structured* isolation -- deciding from the residuals designed to be blind to fault
+    ``j`` -- is measured by :func:`bank_structured_isolability`.  See the user guide,
+    *Theory: diagnosability* (``docs/theory/diagnosability.md``).
 
     Examples
     --------
@@ -255,7 +342,7 @@ def bank_diagnosability(
     """
     alpha = as_probability(alpha, "alpha")
     model, step = _composite(
-        bank, plant, measurement_noise, process_noise, process_input, window, dt
+        bank, plant, measurement_noise, process_noise, process_input, window, dt, residuals
     )
     s = model.window
     th = np.ones(s) if theta is None else as_real_array(theta, "theta").reshape(-1)
@@ -296,3 +383,112 @@ def bank_window_sweep(
             alpha=alpha,
         )
     return out
+
+
+@dataclass(frozen=True)
+class StructuredIsolability:
+    """KL indices of each fault pair on the residuals a structure dedicates to it.
+
+    Attributes
+    ----------
+    fd : ndarray, (p, p)
+        ``fd[i, j]``: KL detectability of fault ``i`` on the residual set ``R_ij``.
+    fi : ndarray, (p, p)
+        ``fi[i, j]``: KL isolability of fault ``i`` from fault ``j`` on ``R_ij`` (0 when
+        ``R_ij`` is empty: the structure does not isolate ``i`` from ``j``).
+    residual_sets : dict
+        ``(i, j) -> tuple`` of bank rows ``R_ij``: the residuals whose structure entry
+        sees fault ``i`` and ignores fault ``j``.
+    structure : ndarray of bool, (rows, p)
+        The structure matrix the sets come from.
+    """
+
+    fd: np.ndarray
+    fi: np.ndarray
+    residual_sets: dict
+    structure: np.ndarray
+
+    @property
+    def fraction(self) -> np.ndarray:
+        """``fi / fd`` (0 where ``fd = 0``): 1 when the residuals ``R_ij`` are truly blind
+        to fault ``j``, below 1 when ``j`` leaks into them."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(self.fd > 0, self.fi / np.where(self.fd > 0, self.fd, 1.0), 0.0)
+
+
+def bank_structured_isolability(
+    bank: Any,
+    plant: Any,
+    *,
+    measurement_noise: Any,
+    structure: str = "requested",
+    process_noise: Any = None,
+    process_input: Any = None,
+    window: int | None = None,
+    dt: float | None = None,
+    theta: Any = None,
+) -> StructuredIsolability:
+    """KL isolability of each fault pair on the residuals that should separate them.
+
+    For faults ``i != j`` let ``R_ij`` be the existing rows ``r`` of the bank with
+    ``structure[r, i] = 1`` and ``structure[r, j] = 0`` (the residuals a structured
+    decision uses to tell ``i`` from ``j``).  On the joint residual of ``R_ij`` (the true
+    transfers from every fault, leaks included, as in :func:`bank_diagnosability`)
+
+        fd[i, j] = FD_KL(f_i),      fi[i, j] = FI_KL(f_i, f_j)
+
+    and both are 0 when ``R_ij`` is empty.  If the residuals of ``R_ij`` are blind to
+    ``f_j`` no profile of ``f_j`` explains any part of ``f_i``'s signature, so
+    ``fi = fd > 0``; a leak of ``f_j`` into them gives ``fi < fd``.
+
+    Parameters
+    ----------
+    structure : {"requested", "achieved"}
+        ``"requested"`` (default): the structure the bank was designed for, i.e. the one
+        a structured decision logic assumes -- a leak then shows as ``fi < fd``.
+        ``"achieved"``: the structure verified on the physical model (``bank.structure``)
+        -- the leaking pairs then have no dedicated residual and ``fi = 0``.
+    bank, plant, measurement_noise, process_noise, process_input, window, dt, theta
+        As for :func:`bank_diagnosability` (indices per unit step fault by default).
+
+    Returns
+    -------
+    StructuredIsolability
+    """
+    if structure not in ("requested", "achieved"):
+        raise GeomFDIError(
+            f"structure: expected 'requested' or 'achieved', got {structure!r}",
+            argument="structure",
+        )
+    S = np.asarray(getattr(bank, "requested" if structure == "requested" else "structure"))
+    S = S.astype(bool)
+    present = _rows(bank, None)
+    cols = [k for k, f in enumerate(bank.faults) for _ in range(f.k)]  # scalar column -> fault
+    p = len(cols)
+    fd, fi = np.zeros((p, p)), np.zeros((p, p))
+    sets: dict = {}
+    cache: dict = {}
+    for a in range(p):
+        for b in range(p):
+            if a == b:
+                continue
+            i, j = cols[a], cols[b]
+            rows = tuple(r for r in present if S[r, i] and not S[r, j])
+            sets[(a, b)] = rows
+            if not rows:
+                continue
+            if rows not in cache:
+                cache[rows] = bank_diagnosability(
+                    bank,
+                    plant,
+                    measurement_noise=measurement_noise,
+                    process_noise=process_noise,
+                    process_input=process_input,
+                    window=window,
+                    dt=dt,
+                    theta=theta,
+                    residuals=list(rows),
+                ).kl
+            fd[a, b] = cache[rows].detectability[a]
+            fi[a, b] = cache[rows].isolability[a, b]
+    return StructuredIsolability(fd, fi, sets, S)

@@ -1,7 +1,7 @@
 """Residual evaluation and decisions: thresholds, alarms, isolation, tests, metrics, curves.
 
 * :mod:`~geomfdi.evaluation.decision` -- fixed thresholds, alarms, isolation.
-* :mod:`~geomfdi.evaluation.persistence` -- k-of-n / minimum-duration persistence.
+* :mod:`~geomfdi.evaluation.persistence` -- k-of-n confirmation, held patterns, decisions.
 * :mod:`~geomfdi.evaluation.metrics` -- FAR, MDR, delays, isolation outcomes.
 * :mod:`~geomfdi.evaluation.covariance` -- residual noise covariance (Stein equation).
 * :mod:`~geomfdi.evaluation.statistics` -- windowed chi-square, CUSUM, GLR tests.
@@ -13,7 +13,7 @@ from geomfdi.evaluation.covariance import (
     residual_noise_model,
     residual_noise_models,
 )
-from geomfdi.evaluation.decision import FaultEvent, Threshold, isolate
+from geomfdi.evaluation.decision import FaultEvent, Threshold, fault_hypotheses, isolate
 from geomfdi.evaluation.metrics import DetectionMetrics
 from geomfdi.evaluation.persistence import Persistence
 from geomfdi.evaluation.roc import RocCurve, roc_curve, wilson_interval
@@ -38,6 +38,7 @@ __all__ = [
     "Threshold",
     "FaultEvent",
     "isolate",
+    "fault_hypotheses",
     "Persistence",
     "DetectionMetrics",
     "ResidualNoiseModel",

@@ -24,7 +24,11 @@ when its column equals the pattern.  Per sample the decision is
 
 For several simultaneous faults, :func:`isolate` also returns **suspects**: faults with
 a non-zero column contained in the alarm pattern (every residual that should react to
-them does).
+them does).  A pattern that matches no column but is the union (element-wise OR) of the
+columns of its suspects is explained by several faults at once;
+:func:`fault_hypotheses` lists the smallest such sets.  The decisions under a
+persistence rule (:mod:`geomfdi.evaluation.persistence`) report it as :data:`MULTIPLE`
+(-4).
 """
 
 from __future__ import annotations
@@ -52,11 +56,13 @@ __all__ = [
     "NO_ALARM",
     "UNEXPLAINED",
     "AMBIGUOUS",
+    "MULTIPLE",
     "STATISTICS",
     "Threshold",
     "as_threshold",
     "decision_statistic",
     "isolate",
+    "fault_hypotheses",
     "Isolation",
     "FaultEvent",
     "detection_events",
@@ -65,6 +71,7 @@ __all__ = [
 NO_ALARM = -1
 UNEXPLAINED = -2
 AMBIGUOUS = -3
+MULTIPLE = -4
 STATISTICS = ("abs", "rms")
 
 
@@ -282,7 +289,8 @@ class Isolation:
     Attributes
     ----------
     isolated : ndarray of int, (..., N)
-        Fault index, or ``NO_ALARM`` / ``UNEXPLAINED`` / ``AMBIGUOUS``.
+        Fault index, or ``NO_ALARM`` / ``UNEXPLAINED`` / ``AMBIGUOUS`` (and ``MULTIPLE``
+        from the decisions under a persistence rule).
     candidates : ndarray of bool, (..., n_faults, N)
         Faults whose structure column equals the alarm pattern.
     suspects : ndarray of bool, (..., n_faults, N)
@@ -356,6 +364,60 @@ def isolate(alarms: Any, structure: Any) -> Isolation:
     return Isolation(iso, cand, sus)
 
 
+def fault_hypotheses(
+    pattern: Any, structure: Any, *, max_faults: int | None = None
+) -> list[tuple[int, ...]]:
+    """The smallest sets of faults whose joint signature is the alarm pattern.
+
+    Under the usual assumption that simultaneous faults do not cancel in a residual, the
+    signature of a set of faults is the element-wise OR of their structure columns.  A
+    hypothesis is a set ``J`` with ``OR_{j in J} S[:, j] == pattern``; only minimal ones
+    (no proper subset is a hypothesis) are returned, smallest first.
+
+    Parameters
+    ----------
+    pattern : array_like of bool, (n_residuals,)
+    structure : array_like of bool, (n_residuals, n_faults)
+    max_faults : int, optional
+        Largest set size searched (default: every suspect).
+
+    Returns
+    -------
+    list of tuple of int
+        Empty when no set of faults explains the pattern (or the pattern is all False).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from geomfdi.evaluation.decision import fault_hypotheses
+    >>> S = np.array([[1, 0, 1], [0, 1, 1]], dtype=bool)
+    >>> fault_hypotheses([True, True], S)
+    [(2,), (0, 1)]
+    """
+    from itertools import combinations
+
+    p = as_bool_array(pattern, "pattern")
+    S = as_bool_array(structure, "structure")
+    if S.ndim != 2 or p.shape != (S.shape[0],):
+        raise ShapeError(
+            f"pattern: expected ({S.shape[0]},) for a structure of shape {S.shape}, got {p.shape}",
+            argument="pattern",
+        )
+    if not p.any():
+        return []
+    # suspects: non-zero columns inside the pattern
+    sus = [j for j in range(S.shape[1]) if S[:, j].any() and not np.any(S[:, j] & ~p)]
+    top = len(sus) if max_faults is None else min(len(sus), as_int(max_faults, "max_faults"))
+    found: list[tuple[int, ...]] = []
+    for size in range(1, top + 1):
+        for combo in combinations(sus, size):
+            if any(set(f) <= set(combo) for f in found):
+                continue
+            if np.array_equal(S[:, list(combo)].any(axis=1), p):
+                found.append(combo)
+    return found
+
+
 @dataclass(frozen=True)
 class FaultEvent:
     """Detection and isolation of one simulated fault.
@@ -377,9 +439,13 @@ class FaultEvent:
     residuals : tuple of int
         Residuals that alarm at some sample at or after the onset.
     decided : int or None
-        The first isolation decision (a fault index) in the detection window.
+        The first isolation decision in the detection window: a fault index, or
+        :data:`MULTIPLE` (several faults at once); ``None``: no decision.
     window_end : float or None
         End of the detection window (``None``: the end of the run).
+    hypothesis : tuple of int
+        With a ``MULTIPLE`` decision: the suspects at that sample (faults whose
+        signatures are inside the alarm pattern, and whose union is the pattern).
 
     Only alarms and decisions at or after the onset and before ``window_end`` count: an
     alarm before the onset is a false alarm, not a detection.
@@ -395,6 +461,7 @@ class FaultEvent:
     residuals: tuple[int, ...]
     decided: int | None = None
     window_end: float | None = None
+    hypothesis: tuple[int, ...] = ()
 
     @property
     def detected(self) -> bool:
@@ -406,9 +473,12 @@ class FaultEvent:
 
     @property
     def outcome(self) -> str:
-        """``"correct"``, ``"wrong"`` (the first decision named another fault) or ``"none"``."""
+        """``"correct"``, ``"wrong"`` (the first decision named another fault),
+        ``"multiple"`` (the first decision was several faults at once) or ``"none"``."""
         if self.decided is None:
             return "none"
+        if self.decided == MULTIPLE:
+            return "multiple"
         return "correct" if self.decided == self.index else "wrong"
 
 
@@ -420,6 +490,7 @@ def detection_events(
     indices: Sequence[int | None],
     *,
     window: float | None = None,
+    suspects: np.ndarray | None = None,
 ) -> list[FaultEvent]:
     """Detection and isolation times of each fault signal (one run).
 
@@ -433,6 +504,9 @@ def detection_events(
         Structure column of each fault signal.
     window : float, optional
         Detection window (seconds after the onset); ``None``: to the end of the run.
+    suspects : ndarray of bool, (n_faults, N), optional
+        Suspects of the decisions (:class:`Isolation`); gives the hypothesis of a
+        ``MULTIPLE`` decision.
 
     Returns
     -------
@@ -460,8 +534,12 @@ def detection_events(
         if j is not None:
             ih = np.flatnonzero(isolated[ks:ke] == j)
             iso_t = float(t[ks + ih[0]]) if ih.size else None
-        dh = np.flatnonzero(isolated[ks:ke] >= 0)
-        decided = int(isolated[ks + dh[0]]) if dh.size else None
+        seg = isolated[ks:ke]
+        dh = np.flatnonzero((seg >= 0) | (seg == MULTIPLE))
+        decided = int(seg[dh[0]]) if dh.size else None
+        hyp: tuple[int, ...] = ()
+        if decided == MULTIPLE and suspects is not None:
+            hyp = tuple(int(f) for f in np.flatnonzero(suspects[:, ks + dh[0]]))
         rows = tuple(int(r) for r in np.flatnonzero(alarms[:, ks:ke].any(axis=1)))
         out.append(
             FaultEvent(
@@ -475,6 +553,7 @@ def detection_events(
                 rows,
                 decided,
                 wend,
+                hyp,
             )
         )
     return out

@@ -14,9 +14,11 @@ is the samples before its first fault onset):
 * **Delays**: detection and isolation delays of the detected (isolated) events: mean and
   percentiles.
 * **Isolation outcome** of an event: the first isolation decision in the window is its
-  own structure column (correct), another fault (wrong), or there is none (none).
+  own structure column (correct), another fault (wrong), several faults at once
+  (multiple), or there is none (none).
 * **Confusion matrix** ``C[i, j]``: events of fault ``i`` whose first decision was fault
-  ``j``; the last column counts events without a decision.
+  ``j``; the last two columns count the events decided "multiple" and those without a
+  decision.
 
 See the user guide, *Theory: evaluation* (``docs/theory/evaluation.md``).
 """
@@ -30,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import GeomFDIError
-from geomfdi.evaluation.decision import FaultEvent
+from geomfdi.evaluation.decision import MULTIPLE, FaultEvent
 
 __all__ = ["FalseAlarms", "DetectionMetrics", "false_alarms", "detection_metrics"]
 
@@ -91,9 +93,11 @@ class DetectionMetrics:
     detection_delay, isolation_delay : dict
         ``mean``, ``p50``, ``p90``, ``p95`` (seconds; ``None`` without data).
     isolation : dict
-        Fractions of events with a ``correct``, ``wrong`` and ``none`` isolation outcome.
-    confusion : ndarray of int, (n_faults, n_faults + 1)
-        Rows: the true structure column; columns: the first decision, last = none.
+        Fractions of events with a ``correct``, ``wrong``, ``multiple`` and ``none``
+        isolation outcome.
+    confusion : ndarray of int, (n_faults, n_faults + 2)
+        Rows: the true structure column; columns: the first decision (a fault), then
+        ``multiple``, then ``none``.
     labels : list of str
         Fault labels of the confusion rows.
     """
@@ -128,7 +132,7 @@ class DetectionMetrics:
             f"isolation delay mean {f(di['mean'], ' s')}, p50 {f(di['p50'], ' s')}, "
             f"p95 {f(di['p95'], ' s')}",
             f"isolation correct {f(iso['correct'])}, wrong {f(iso['wrong'])}, "
-            f"none {f(iso['none'])}",
+            f"multiple {f(iso['multiple'])}, none {f(iso['none'])}",
         ]
         return "\n".join(lines)
 
@@ -178,13 +182,18 @@ def detection_metrics(
     outcomes = [e.outcome for e in evs]
     iso = {
         k: (outcomes.count(k) / len(outcomes) if outcomes else None)
-        for k in ("correct", "wrong", "none")
+        for k in ("correct", "wrong", "multiple", "none")
     }
-    C = np.zeros((n_faults, n_faults + 1), dtype=int)
+    C = np.zeros((n_faults, n_faults + 2), dtype=int)
     for e in evs:
         if e.index is None or e.index >= n_faults:
             continue
-        col = n_faults if e.decided is None else e.decided
+        if e.decided is None:
+            col = n_faults + 1
+        elif e.decided == MULTIPLE:
+            col = n_faults
+        else:
+            col = e.decided
         C[e.index, col] += 1
     return DetectionMetrics(
         runs=len(events),

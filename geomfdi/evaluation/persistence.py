@@ -1,12 +1,27 @@
-"""Persistence rules: an alarm, or an isolation decision, only when it holds k of n samples.
+"""Persistence rules: alarms confirmed k of n samples, isolation from a held pattern.
 
 A threshold crossing of one sample is often noise, and with several simultaneous faults
-residuals crossing zero together can match one column of the structure matrix for a
-sample or two (a coincidental isolation).  A **k-of-n** rule keeps an alarm at sample
-``j`` only when the raw alarm was on for at least ``k`` of the samples ``j-n+1 .. j``;
-``k = n`` is a minimum duration.  Isolation is then decided from the persistent alarm
-pattern, and a decision for fault ``f`` is kept only when it too held for ``k`` of the
-last ``n`` samples.  See the user guide, *Theory: evaluation* (``docs/theory/evaluation.md``).
+the residuals cross their thresholds in and out at different times, so that a
+*momentary* alarm pattern can equal one column of the structure matrix while several
+faults are present (a coincidental isolation).  A rule here has three parts:
+
+1. **Confirmation** (k-of-n): the alarm of residual ``i`` holds at sample ``j`` when its
+   raw alarm was on for at least ``k`` of the samples ``j-n+1 .. j``; ``k = n`` is a
+   minimum duration.
+2. **Memory** (``latch``): within an alarm *episode* the pattern is the set of residuals
+   confirmed at some sample since the episode began.  A residual that drops below its
+   threshold does not exonerate its faults: the effect of a gain fault passes through
+   zero with the signal it multiplies, yet the fault is still there.  An episode starts
+   at the first confirmed alarm and ends after ``reset`` samples without any confirmed
+   alarm (``reset=None``: at the end of the record).
+3. **Settling**: a decision (a fault, or several faults) is kept only when the decision
+   on the held pattern was the same for ``k`` of the last ``n`` samples.
+
+Isolation is thus decided only from a held pattern that matches a fault signature; a
+pattern that matches no single column but is the union of the columns of its suspects is
+the decision :data:`~geomfdi.evaluation.decision.MULTIPLE` (the suspects name the
+faults).  ``latch=False`` gives the memoryless rule (confirmation and settling only).
+See the user guide, *Theory: evaluation* (``docs/theory/evaluation.md``).
 """
 
 from __future__ import annotations
@@ -18,11 +33,28 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_int
+from geomfdi._validation import as_bool, as_int
 from geomfdi.errors import GeomFDIError
-from geomfdi.evaluation.decision import NO_ALARM, UNEXPLAINED, Isolation, Threshold, isolate
+from geomfdi.evaluation.decision import (
+    AMBIGUOUS,
+    MULTIPLE,
+    NO_ALARM,
+    UNEXPLAINED,
+    Isolation,
+    Threshold,
+    isolate,
+)
 
-__all__ = ["Persistence", "as_persistence", "decisions", "k_of_n"]
+__all__ = [
+    "Persistence",
+    "as_persistence",
+    "decisions",
+    "held_pattern",
+    "held_pattern_carry",
+    "k_of_n",
+    "pattern_decisions",
+    "settle",
+]
 
 
 def k_of_n(flags: Any, k: int, n: int) -> np.ndarray:
@@ -40,16 +72,142 @@ def k_of_n(flags: Any, k: int, n: int) -> np.ndarray:
     return win >= k
 
 
+def held_pattern(alarms: Any, reset: int | None = None) -> np.ndarray:
+    """The alarm pattern held over each alarm episode (time on the last axis).
+
+    ``out[..., i, j]`` is True when residual ``i`` alarmed at some sample of the episode
+    containing ``j``, up to ``j``.  An episode starts at a sample with an alarm (on any
+    residual) and ends after ``reset`` consecutive samples without one; ``reset=None``:
+    never (the pattern only grows to the end of the record).
+
+    Parameters
+    ----------
+    alarms : array_like of bool, (..., n_residuals, N)
+        Confirmed alarms.
+    reset : int, optional
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a = np.array([[1, 0, 0, 0, 0, 0], [0, 0, 1, 0, 0, 1]], dtype=bool)
+    >>> held_pattern(a).astype(int).tolist()
+    [[1, 1, 1, 1, 1, 1], [0, 0, 1, 1, 1, 1]]
+    >>> held_pattern(a, reset=2).astype(int).tolist()
+    [[1, 1, 1, 1, 0, 0], [0, 0, 1, 1, 0, 1]]
+    """
+    return held_pattern_carry(alarms, reset)[0]
+
+
+#: "No such sample yet" in the episode state of :func:`held_pattern_carry`.
+_NEVER = np.iinfo(np.int64).min // 4
+
+
+def held_pattern_carry(
+    alarms: Any, reset: int | None = None, state: tuple[np.ndarray, ...] | None = None
+) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+    """:func:`held_pattern` of a record given in consecutive pieces.
+
+    ``state`` (``None`` at the start of the record) is what the pattern after the
+    previous piece depends on, returned for the next piece: with ``reset=None`` the
+    residuals held so far ``(..., n_residuals)``; otherwise the last sample with an
+    alarm on any residual ``(...)``, the last one of each residual ``(..., n_residuals)``
+    and the start of the current episode ``(...)``, as indices relative to the start of
+    the next piece.  The pieces' patterns, concatenated, equal the pattern of the
+    whole record.
+    """
+    a = np.asarray(alarms, dtype=bool)
+    if a.ndim < 2:
+        raise GeomFDIError(
+            f"alarms: expected (..., n_residuals, N), got shape {a.shape}", argument="alarms"
+        )
+    lead, N = a.shape[:-1], a.shape[-1]
+    if reset is None:
+        out = np.logical_or.accumulate(a, axis=-1)
+        if state is not None:
+            out |= state[0][..., None]
+        held = out[..., -1].copy() if N else (np.zeros(lead, bool) if state is None else state[0])
+        return out, (held,)
+    reset = as_int(reset, "reset", minimum=1)
+    idx = np.arange(N)
+    if state is None:
+        state = (
+            np.full(lead[:-1], _NEVER, dtype=np.int64),
+            np.full(lead, _NEVER, dtype=np.int64),
+            np.full(lead[:-1], _NEVER, dtype=np.int64),
+        )
+    last0, res0, ep0 = state
+    # last sample with an alarm (any residual / each residual), carried from the past
+    anyal = a.any(axis=-2)
+    last_any = np.maximum.accumulate(np.where(anyal, idx, last0[..., None]), axis=-1)
+    last_res = np.maximum.accumulate(np.where(a, idx, res0[..., None]), axis=-1)
+    # an episode starts at an alarm sample preceded by >= reset quiet samples (or none)
+    prev_last = np.concatenate([last0[..., None], last_any[..., :-1]], axis=-1)
+    start = anyal & ((prev_last == _NEVER) | (idx - prev_last - 1 >= reset))
+    ep_start = np.maximum.accumulate(np.where(start, idx, ep0[..., None]), axis=-1)
+    active = (ep_start > _NEVER) & (idx - last_any < reset)
+    out = active[..., None, :] & (last_res >= ep_start[..., None, :])
+    if N == 0:
+        return out, state
+    shift = lambda x: np.where(x == _NEVER, _NEVER, x - N)  # noqa: E731
+    return out, (shift(last_any[..., -1]), shift(last_res[..., -1]), shift(ep_start[..., -1]))
+
+
+def pattern_decisions(pattern: Any, structure: Any) -> Isolation:
+    """Per-sample decisions on an alarm pattern, with :data:`MULTIPLE`.
+
+    As :func:`geomfdi.isolate`, except that an ``UNEXPLAINED`` pattern that is the union
+    of the columns of its suspects is decided ``MULTIPLE`` (the suspects' columns are
+    inside the pattern by definition).
+    """
+    pattern = np.asarray(pattern, dtype=bool)
+    iso = isolate(pattern, structure)
+    S = np.asarray(structure, dtype=bool)
+    raw = iso.isolated.copy()
+    unexplained = raw == UNEXPLAINED
+    if unexplained.any():
+        # residuals covered by the columns of the suspects; MULTIPLE when they cover
+        # the whole pattern
+        covered = np.zeros(pattern.shape, dtype=bool)
+        for j in range(S.shape[1]):
+            col = S[:, j]
+            if col.any():
+                covered |= iso.suspects[..., j : j + 1, :] & col[:, None]
+        whole = ~np.any(pattern & ~covered, axis=-2)
+        raw[unexplained & whole] = MULTIPLE
+    return Isolation(raw, iso.candidates, iso.suspects)
+
+
+def settle(raw: np.ndarray, k: int, n: int, n_faults: int) -> np.ndarray:
+    """Settled decisions: a fault index or ``MULTIPLE`` is kept at sample ``j`` when it
+    was the per-sample decision ``raw`` for ``k`` of the last ``n`` samples and is it at
+    ``j`` (otherwise ``UNEXPLAINED``); ``NO_ALARM`` and ``AMBIGUOUS`` are kept."""
+    out = np.where(raw == NO_ALARM, NO_ALARM, UNEXPLAINED)
+    out[raw == AMBIGUOUS] = AMBIGUOUS
+    for code in (*range(n_faults), MULTIPLE):
+        hit = raw == code
+        if hit.any():
+            out[hit & k_of_n(hit, k, n)] = code
+    return out
+
+
 @dataclass(frozen=True)
 class Persistence:
-    """A k-of-n persistence rule for alarms and isolation decisions.
+    """A decision rule: k-of-n confirmation, episode memory, settled decisions.
 
     Attributes
     ----------
     k, n : int
         An alarm (decision) holds at sample ``j`` when the raw one held for at least ``k``
-        of the ``n`` samples ending at ``j``; ``1 <= k <= n``.  ``Persistence(1, 1)`` is
-        no persistence.
+        of the ``n`` samples ending at ``j``; ``1 <= k <= n``.
+    latch : bool, default True
+        Decide from the pattern held over the alarm episode (module docstring);
+        ``False``: from the momentary pattern of confirmed alarms.
+    reset : int, optional
+        Samples without any confirmed alarm that end an episode (``None``: the episode
+        lasts to the end of the record, the diagnosis of a permanent fault is not
+        withdrawn).
+
+    ``Persistence(1, 1, latch=False)`` is no rule at all (per-sample decisions).
 
     Examples
     --------
@@ -61,6 +219,8 @@ class Persistence:
 
     k: int = 1
     n: int = 1
+    latch: bool = True
+    reset: int | None = None
 
     def __post_init__(self) -> None:
         k = as_int(self.k, "persistence.k", minimum=1)
@@ -71,9 +231,12 @@ class Persistence:
             )
         object.__setattr__(self, "k", k)
         object.__setattr__(self, "n", n)
+        object.__setattr__(self, "latch", as_bool(self.latch, "persistence.latch"))
+        if self.reset is not None:
+            object.__setattr__(self, "reset", as_int(self.reset, "persistence.reset", minimum=1))
 
     @classmethod
-    def from_duration(cls, duration: float, dt: float) -> Persistence:
+    def from_duration(cls, duration: float, dt: float, **kwargs: Any) -> Persistence:
         """A minimum duration: ``k = n = ceil(duration / dt)`` samples (at least 1)."""
         if isinstance(duration, bool) or not isinstance(duration, numbers.Real):
             raise GeomFDIError("duration: must be a number of seconds", argument="duration")
@@ -82,39 +245,44 @@ class Persistence:
         if not (isinstance(dt, numbers.Real) and math.isfinite(dt) and dt > 0):
             raise GeomFDIError(f"dt: must be > 0, got {dt}", argument="dt")
         m = max(1, math.ceil(duration / dt - 1e-9))
-        return cls(m, m)
+        return cls(m, m, **kwargs)
 
     @property
     def trivial(self) -> bool:
-        return self.k == 1 and self.n == 1
+        """No rule: per-sample alarms and decisions."""
+        return self.k == 1 and self.n == 1 and not self.latch
 
     def apply(self, alarms: Any) -> np.ndarray:
-        """Persistent alarms, same shape as ``alarms`` (time on the last axis)."""
+        """Confirmed alarms, same shape as ``alarms`` (time on the last axis)."""
         return k_of_n(alarms, self.k, self.n)
 
     def isolation(self, alarms: Any, structure: Any) -> Isolation:
-        """Isolation decided from the persistent alarm pattern, kept when it persists.
+        """Isolation decisions from confirmed alarms ``(..., n_residuals, N)``.
 
-        ``alarms`` are the (already persistent) alarms; a fault index stays the decision
-        at sample ``j`` when the per-sample decision was that fault for ``k`` of the last
-        ``n`` samples and is it at ``j``; otherwise the sample is ``UNEXPLAINED`` (an alarm
-        without a settled pattern) or ``NO_ALARM``.
+        The pattern is the held one (:func:`held_pattern`, with ``latch``) or the
+        momentary one.  Per sample, the pattern's decision is a fault index (one column
+        equals it), :data:`MULTIPLE` (no column equals it, the union of its suspects'
+        columns does), ``AMBIGUOUS``, ``UNEXPLAINED`` or ``NO_ALARM``; a fault index or
+        ``MULTIPLE`` is kept at sample ``j`` when it was the decision for ``k`` of the
+        last ``n`` samples and is it at ``j`` (otherwise ``UNEXPLAINED``).  Candidates
+        and suspects refer to the pattern decided on.
         """
-        iso = isolate(alarms, structure)
-        if self.trivial:
+        a = np.asarray(alarms, dtype=bool)
+        pattern = held_pattern(a, self.reset) if self.latch else a
+        iso = pattern_decisions(pattern, structure)
+        if self.k == 1 and self.n == 1:
             return iso
-        raw = iso.isolated
-        out = np.where(raw == NO_ALARM, NO_ALARM, UNEXPLAINED)
-        nf = np.asarray(structure).shape[1]
-        for j in range(nf):
-            hit = raw == j
-            if hit.any():
-                out[hit & k_of_n(hit, self.k, self.n)] = j
-        return Isolation(out, iso.candidates, iso.suspects)
+        n_faults = np.shape(structure)[1]
+        return Isolation(
+            settle(iso.isolated, self.k, self.n, n_faults), iso.candidates, iso.suspects
+        )
 
 
 def as_persistence(value: Any) -> Persistence | None:
-    """``None``, ``n`` (minimum duration of ``n`` samples), ``(k, n)`` or a Persistence."""
+    """``None``, ``n`` (minimum duration of ``n`` samples), ``(k, n)`` or a Persistence.
+
+    An int or a pair gives the default memory (``latch=True``, no reset).
+    """
     if value is None or isinstance(value, Persistence):
         return value
     if isinstance(value, numbers.Integral) and not isinstance(value, bool):
@@ -135,13 +303,19 @@ def decisions(
 ) -> tuple[np.ndarray, Isolation]:
     """Alarms and isolation of residuals ``(..., n_residuals, N)`` under a rule.
 
-    No threshold: no alarm.  With a persistence rule the alarms are the persistent ones
-    and isolation is :meth:`Persistence.isolation`.
+    No threshold: no alarm.  With a persistence rule the alarms are the confirmed ones
+    and isolation is :meth:`Persistence.isolation`; without one (or a trivial rule) both
+    are per sample (:func:`geomfdi.isolate`).
     """
     if threshold is None:
-        alarms = np.zeros(np.shape(residuals), dtype=bool)
-    else:
-        alarms = threshold.alarms(residuals)
+        # no alarm anywhere: every decision is NO_ALARM (nothing to compute)
+        shape = np.shape(residuals)
+        S = np.asarray(structure, dtype=bool)
+        lead, N = shape[:-2], shape[-1]
+        none = np.zeros((*lead, S.shape[1], N), dtype=bool)
+        iso = Isolation(np.full((*lead, N), NO_ALARM, dtype=int), none, none.copy())
+        return np.zeros(shape, dtype=bool), iso
+    alarms = threshold.alarms(residuals)
     if persistence is None or persistence.trivial:
         return alarms, isolate(alarms, structure)
     alarms = persistence.apply(alarms)

@@ -53,6 +53,7 @@ from geomfdi.io.report import (
     _sim_table,
     _threshold_values,
 )
+from geomfdi.model.plant import Plant
 from geomfdi.synthesis.generator import ResidualBank
 
 __all__ = ["main", "design_all", "run_model", "check_outputs", "decimate_minmax"]
@@ -116,10 +117,10 @@ def design_all(spec: ModelSpec) -> dict[str, ResidualBank]:
     return banks
 
 
-def _verify(spec: ModelSpec, bank: ResidualBank, symbolic: bool) -> dict[str, Any]:
+def _verify(plant: Plant, bank: ResidualBank, symbolic: bool) -> dict[str, Any]:
     from geomfdi.verification import verify, verify_symbolic
 
-    rep = verify(bank, spec.plant)
+    rep = verify(bank, plant)
     out: dict[str, Any] = {
         "ok": bool(rep.ok),
         "complete": bool(rep.complete),
@@ -128,8 +129,8 @@ def _verify(spec: ModelSpec, bank: ResidualBank, symbolic: bool) -> dict[str, An
         "missing_rows": rep.missing,
         "details": rep.details,
     }
-    if symbolic and spec.plant.n <= SYMBOLIC_MAX_N and bank.present:
-        sym = verify_symbolic(bank, spec.plant)
+    if symbolic and plant.n <= SYMBOLIC_MAX_N and bank.present:
+        sym = verify_symbolic(bank, plant)
         out["symbolic_ok"] = bool(sym.ok)
         out["symbolic_summary"] = sym.summary()
         out["symbolic_rounding_level"] = float(sym.rounding_level)
@@ -365,12 +366,15 @@ def _run_steps(
                 png.name, _draw_structure, _structure_figure_args(b, f"structure — {m}"), png
             )
             figures.append((f"achieved structure — {m}", png.name))
-    if "verify" in steps:
+    if "simulate" in steps and spec.scenarios:
+        thresholds: dict[str, Any] = {}
+        rows = _simulate(spec, banks, out, plots, progress, thresholds, figs)
+    if "verify" in steps:  # after the scenarios: the figures are drawn meanwhile
         summary["verification"] = {}
         for m, b in banks.items():
             exact = symbolic and spec.plant.n <= SYMBOLIC_MAX_N and b.present
             say(f"verifying {m}" + (" (numerically and exactly)" if exact else ""))
-            summary["verification"][m] = _verify(spec, b, symbolic)
+            summary["verification"][m] = _verify(spec.plant, b, symbolic)
         lines += [
             "### Verification",
             "",
@@ -386,8 +390,6 @@ def _run_steps(
             )
         lines.append("")
     if "simulate" in steps and spec.scenarios:
-        thresholds: dict[str, Any] = {}
-        rows = _simulate(spec, banks, out, plots, progress, thresholds, figs)
         summary["simulation"] = rows
         summary["thresholds"] = {
             m: _threshold_values(th, banks[m].structure.shape[0]) for m, th in thresholds.items()
@@ -568,7 +570,7 @@ def load_campaign(path: str | Path, *, runs: int | None = None) -> Any:
 
 def campaign_command(args: argparse.Namespace) -> int:
     """``geomfdi campaign MODEL.toml``: run, write CSV tables and PNGs, print the summary."""
-    from geomfdi.campaign.config import write_outputs
+    from geomfdi.campaign.config import campaign_report, write_outputs
 
     try:
         if args.runs is not None and args.runs < 1:
@@ -606,16 +608,7 @@ def campaign_command(args: argparse.Namespace) -> int:
         )
         return 1
     if not args.quiet:
-        import pandas as pd
-
-        c = cfg.campaign
-        print(
-            f"campaign: {cfg.spec.name}, bank {cfg.method!r}, test {result.info['test']}, "
-            f"{len(c.grid()['run'])} runs x {c.t.size} samples, {len(c.plants)} model(s)"
-        )
-        with pd.option_context("display.width", 120, "display.max_rows", 200):
-            print(result.summary().xs("bank", level="residual").round(4).to_string())
-        print("written: " + ", ".join(str(f) for f in files))
+        print(campaign_report(cfg, result, files))
     return 0
 
 

@@ -75,16 +75,14 @@ def _structure_figure_args(bank: ResidualBank, title: str) -> dict[str, Any]:
 def _draw_residuals(kwargs: dict[str, Any], path: Path) -> str:
     """Worker: one residual figure from (decimated) traces, saved as PNG.
 
-    The stacked axes get fixed margins (in inches) instead of the constrained layout,
-    which would cost a second drawing pass per figure.
+    The stacked axes get fixed margins (in inches) and no layout engine: with one (even a
+    placeholder), ``savefig`` draws the figure twice.
     """
-    from matplotlib.layout_engine import PlaceHolderLayoutEngine
-
     from geomfdi.plotting.residuals import plot_residuals, save_png
 
     fig = plot_residuals(**kwargs)
     w, h = fig.get_size_inches()
-    fig.set_layout_engine(PlaceHolderLayoutEngine(adjust_compatible=True, colorbar_gridspec=True))
+    fig.set_layout_engine(None)  # no layout engine: ``savefig`` draws the figure once
     top = 0.55 if kwargs.get("title") else 0.2
     fig.subplots_adjust(left=0.9 / w, right=1 - 0.2 / w, bottom=0.55 / h, top=1 - top / h)
     return save_png(fig, path, dpi=FIGURE_DPI).name
@@ -126,7 +124,10 @@ def _residual_figure_args(res: Any, title: str) -> dict[str, Any]:
 class _Figures:
     """PNG figures drawn by worker processes while the main process goes on.
 
-    Falls back to drawing in this process when no process pool can be started.
+    One worker starts at once and loads matplotlib while the main process designs; the
+    others start when jobs are waiting (on two cores, two workers importing matplotlib
+    beside the design would slow the design down).  Falls back to running in this
+    process when no process pool can be started.
     """
 
     def __init__(self, enabled: bool) -> None:
@@ -139,16 +140,15 @@ class _Figures:
 
             methods = multiprocessing.get_all_start_methods()
             ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
-            # the main process mostly waits once the simulations are done
             workers = max(1, min(4, os.cpu_count() or 1))
             try:
                 self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
-                for _ in range(workers):  # load matplotlib while the main process works
-                    self.pool.submit(_warm_up)
+                self.pool.submit(_warm_up)
             except (OSError, NotImplementedError, ValueError, RuntimeError):
                 self.pool = None
 
     def submit(self, key: Any, fn: Callable[..., str], *args: Any) -> None:
+        """Draw a figure (``fn(*args)`` returns its file name), when figures are on."""
         if not self.enabled:
             return
         if self.pool is not None:
@@ -157,19 +157,26 @@ class _Figures:
                 return
             except RuntimeError:  # the pool broke: draw here
                 self.pool = None
-        self.jobs.append((key, fn(*args)))
+        self.jobs.append((key, _Done(fn(*args))))
 
     def results(self) -> dict[Any, str]:
         """Wait for every figure; ``{key: file name}``."""
-        out = {}
         try:
-            for key, job in self.jobs:
-                out[key] = job if isinstance(job, str) else job.result()
+            return {key: job.result() for key, job in self.jobs}
         finally:
             self.close()
-        return out
 
     def close(self) -> None:
         if self.pool is not None:
             self.pool.shutdown(wait=True, cancel_futures=True)
             self.pool = None
+
+
+class _Done:
+    """The value of a job run in this process (the ``result()`` of a future)."""
+
+    def __init__(self, value: Any) -> None:
+        self.value = value
+
+    def result(self) -> Any:
+        return self.value

@@ -360,9 +360,7 @@ def _method_options(ctx: _Ctx, d: dict[str, Any], plant: Plant) -> list[MethodOp
     out = []
     for k, meth in enumerate(methods):
         if meth not in METHODS:
-            raise ctx.err(
-                f"design.methods[{k}]", f"unknown method {meth!r} ({', '.join(METHODS)})"
-            )
+            raise ctx.err(f"design.methods[{k}]", f"unknown method {meth!r} ({', '.join(METHODS)})")
         sub = ctx.keys(d.get(meth, {}), _METHOD, f"design.{meth}")
         merged = {key: d.get(key) for key in _METHOD} | sub
 

@@ -68,6 +68,10 @@ class ARMonitor:
         Stored normal innovations used by ``prefill`` and the reset strategy.
     training_coefficients : ndarray, (N, order)
         AR coefficients of the training windows.
+    training_model : ndarray, (order,)
+        AR coefficients of one least-squares fit pooled over all training data: the
+        fitted null model the joint ``T^2`` test is calibrated on
+        (:func:`~geomfdi.monitoring.baselines.coefficient_t2`).
 
     Notes
     -----
@@ -75,11 +79,7 @@ class ARMonitor:
     ordinary least squares to the ``m - n`` equations ``t = s+n, ..., s+m-1`` of the
     window ``X_s, ..., X_{s+m-1}`` (the paper's model; innovations of a consistent
     filter are zero-mean).  No intercept is deliberate: a bias fault then shows as a
-    Notes
-    -----
-    **Model.**  ``X_t = sum_{k=1}^{n} phi_k X_{t-k} + e_t`` without intercept, fitted by
-    ordinary least squares to the ``m - n`` equations of the window (the paper's model);
-    a bias fault then shows as a change of the coefficients.
+    change of the coefficients.
 
     **Test.**  ``lambda = ((phi_c - mu) / delta)**2`` against ``T = chi2.isf(pfa, 1)``.
     The chi-square(1) law is an approximation: for ``n = 5, m = 60`` on Gaussian
@@ -121,6 +121,7 @@ class ARMonitor:
     consecutive alarms.  See the user guide, *Theory: AR monitoring*
     (``docs/theory/ar-monitoring.md``).
 
+    Examples
     --------
     >>> import geomfdi as gf
     >>> mon = gf.ARMonitor(order=5, window=60, reset_after=None)
@@ -185,6 +186,8 @@ class ARMonitor:
         self.delta: float | None = None
         self.normal: np.ndarray | None = None
         self.training_coefficients: np.ndarray | None = None
+        self.training_model: np.ndarray | None = None
+        self._t2_null: dict = {}  # bootstrap T^2 samples of the joint test, per (n_draws, rng)
         self.last: ARStep | None = None
         self._state_ready = False
 

@@ -16,7 +16,30 @@ from geomfdi.monitoring._kernels import _gram_map, _normal_equations, _rows_fit,
 if TYPE_CHECKING:
     from geomfdi.monitoring.monitor import ARMonitor
 
-__all__ = ["window_coefficients", "fit"]
+__all__ = ["window_coefficients", "fit", "pooled_fit"]
+
+
+def pooled_fit(training: np.ndarray, order: int) -> np.ndarray:
+    """One AR(order) least-squares fit of all training data (the fitted null model).
+
+    For ``(N, L)`` windows the normal equations of every window are summed (the windows
+    are not joined: no regression row spans two windows); a 1-D sequence is fitted as a
+    whole.  ``phi = (sum_w R_w^T R_w)^{-1} sum_w R_w^T y_w`` with ``R_w`` the regressor
+    rows ``(X_{j-1}, ..., X_{j-n})`` and ``y_w`` the targets ``X_j`` of window ``w``.
+
+    Returns
+    -------
+    ndarray, (order,)
+        ``(phi_1, ..., phi_n)`` of the pooled fit.
+    """
+    from numpy.lib.stride_tricks import sliding_window_view
+
+    w = np.atleast_2d(training)
+    R = sliding_window_view(w, order, axis=1)[:, :-1, ::-1]  # (N, L - n, n)
+    y = w[:, order:]
+    A = np.einsum("wji,wjk->ik", R, R)
+    b = np.einsum("wji,wj->i", R, y)
+    return np.linalg.solve(A, b)
 
 
 def window_coefficients(mon: ARMonitor, windows: Any) -> np.ndarray:
@@ -121,5 +144,7 @@ def fit(mon: ARMonitor, training: Any, *, step: int = 1, normal: Any = None) -> 
         )
     mon.mu, mon.delta = mu, delta
     mon.training_coefficients = phi
+    mon.training_model = pooled_fit(tr, n)
+    mon._t2_null.clear()
     mon.set_normal(last[-(m - 1) :] if normal is None else normal)
     return mon

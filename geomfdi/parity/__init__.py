@@ -46,8 +46,15 @@ from geomfdi.parity.sequential import (
     SEQUENTIAL_METHODS,
     calibrate_sequential,
     cusum_statistic,
-    sprt_statistic,
+    window_sprt_statistic,
     windowed_statistic,
+)
+from geomfdi.parity.sprt import (
+    SprtCalibration,
+    calibrate_sprt,
+    sprt_statistic,
+    wald_boundaries,
+    wald_rate,
 )
 from geomfdi.parity.thresholds import chi2_threshold, normal_threshold, opt_false_alarm_bound
 from geomfdi.plotting.parity import plot_rates, plot_roc, plot_seed004
@@ -74,6 +81,11 @@ __all__ = [
     "windowed_statistic",
     "cusum_statistic",
     "sprt_statistic",
+    "window_sprt_statistic",
+    "calibrate_sprt",
+    "SprtCalibration",
+    "wald_boundaries",
+    "wald_rate",
     "calibrate_sequential",
     "FaultEstimate",
     "StateEstimate",

@@ -189,7 +189,7 @@ def diagnose(
     if not isinstance(method, str) or method not in METHODS:
         raise GeomFDIError(
             f"method: expected one of {', '.join(METHODS)} (or, for a time series, "
-            f"windowed, cusum, sprt), got {method!r:.40}",
+            f"windowed, cusum, sprt, sprt-window), got {method!r:.40}",
             argument="method",
         )
     if max_faults is not None:

@@ -277,7 +277,7 @@ class ParityFDI:
         self._subset_cache: dict[int, dict[str, np.ndarray]] = {}
         self._reduced_cache: dict[tuple[int, ...], ParityFDI] = {}
         self._opt: dict[str, np.ndarray] | None = None
-        self._sequential_thresholds: dict[tuple, float] = {}
+        self._sequential_thresholds: dict[tuple, Any] = {}
         self.isolable = self.detectable & ~_multiple._subset_info(self, 1)["ambiguous"]
         self._lut = np.where(self.isolable, np.arange(self.k), -1).astype(np.intp)
 
@@ -373,12 +373,15 @@ class ParityFDI:
 
         ``method`` in ``"glt", "opt", "opt-uncorrected", "search", "glr"`` treats the rows
         of ``Z`` as independent samples (:func:`.decision.diagnose`, ``max_faults``);
-        ``"windowed"`` (moving-average GLT over ``window`` samples), ``"cusum"`` and
-        ``"sprt"`` (tuned to a bias of ``shift * sigma``; SPRT restarts on accepting "no
-        fault" with missed-detection probability ``beta``) treat them as consecutive
-        samples, ``Z`` of shape ``(N, m)`` or ``(R, N, m)``, with a per-epoch false-alarm
-        rate ``pfa``: exact for ``"windowed"``, calibrated by Monte-Carlo for the others
-        unless ``threshold`` is given (:mod:`.sequential`).
+        ``"windowed"`` (moving-average GLT over ``window`` samples), ``"cusum"``
+        (window-limited), ``"sprt"`` (Wald's repeated SPRT: cumulative log-likelihood
+        ratio of a bias of ``shift * sigma`` per sensor and sign, restarted on accepting
+        "no fault" -- lower boundary ``log(beta / (1 - alpha))`` -- and after each alarm)
+        and ``"sprt-window"`` (the window-limited restart variant) treat them as
+        consecutive samples, ``Z`` of shape ``(N, m)`` or ``(R, N, m)``, with a per-epoch
+        false-alarm rate ``pfa``: exact for ``"windowed"``, calibrated by Monte-Carlo for
+        the others unless ``threshold`` is given (for ``"sprt"``: the upper boundary
+        ``A``).  See :mod:`.sequential` and :mod:`.sprt`.
         """
         if isinstance(method, str) and method in _sequential.SEQUENTIAL_METHODS:
             return _sequential.diagnose_sequential(

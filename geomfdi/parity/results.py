@@ -39,6 +39,9 @@ class ParityDiagnosis:
         The first-stage threshold it was compared with.
     method, pfa, max_faults
         The options used.
+    info : dict
+        Method-specific details (for ``"sprt"``: Wald's boundaries, the calibrated
+        rate's Monte-Carlo error...); empty for the per-sample tests.
     """
 
     def __init__(
@@ -50,6 +53,7 @@ class ParityDiagnosis:
         method: str,
         pfa: float,
         unresolved: np.ndarray | None = None,
+        info: dict | None = None,
     ) -> None:
         self.detected = detected
         self.faults = faults
@@ -58,6 +62,7 @@ class ParityDiagnosis:
         self.method = method
         self.pfa = float(pfa)
         self._unresolved = unresolved
+        self.info = {} if info is None else dict(info)
 
     @property
     def isolated(self) -> np.ndarray:

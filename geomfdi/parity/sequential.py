@@ -13,15 +13,21 @@ accumulating the parity vector over time makes it visible:
   over the last ``window`` samples (window-limited CUSUM, Lai 1998:
   ``S_t = max_{t - window < tau <= t} sum_{tau..t} l``); statistic
   ``max_{i,+/-} S_t``.
-* ``"sprt"``: the same increments in Wald's sequential probability ratio test run over
-  the last ``window`` samples, restarted at 0 whenever it accepts "no fault"
-  (``S <= log beta``); alarm when the ratio at ``t`` is above the threshold.
+* ``"sprt"``: Wald's sequential probability ratio test of every hypothesis on the same
+  increments, cumulative from the last restart, with the boundaries ``A`` and
+  ``B = log(beta / (1 - alpha))``, restarted after accepting "no fault" and after every
+  alarm (repeated testing); in :mod:`~geomfdi.parity.sprt`, ``A`` calibrated for the
+  per-epoch rate ``pfa`` by simulation;
+* ``"sprt-window"``: the window-limited variant, the same recursion run over the last
+  ``window`` samples only, with no upper boundary (alarm when the ratio at ``t`` is
+  above the threshold).
 
-Both depend on the last ``window`` samples only, so without fault the statistic has the
-same law at every epoch from ``window - 1`` on.  Its threshold has no closed form:
-:func:`calibrate_sequential` draws independent noise-only blocks of ``window`` samples
-of the same model and takes the ``1 - pfa`` quantile (a binomial estimate of the
-per-epoch rate); the result is cached on the :class:`~geomfdi.parity.model.ParityFDI`.
+``"cusum"`` and ``"sprt-window"`` depend on the last ``window`` samples only, so without
+fault the statistic has the same law at every epoch from ``window - 1`` on.  Its threshold
+has no closed form: :func:`calibrate_sequential` draws independent noise-only blocks of
+``window`` samples of the same model and takes the ``1 - pfa`` quantile (a binomial
+estimate of the per-epoch rate); the result is cached on the
+:class:`~geomfdi.parity.model.ParityFDI`.
 See the user guide, *Theory: parity space* (``docs/theory/parity-space.md``).
 """
 
@@ -33,7 +39,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from geomfdi._validation import as_int, as_positive, as_probability
-from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.errors import GeomFDIError
+from geomfdi.parity import sprt as _sprt
+from geomfdi.parity._increments import _llr, _series, _standardised
 from geomfdi.parity._input import _as_rng
 from geomfdi.parity.results import ParityDiagnosis
 from geomfdi.parity.thresholds import chi2_threshold
@@ -45,34 +53,13 @@ __all__ = [
     "SEQUENTIAL_METHODS",
     "windowed_statistic",
     "cusum_statistic",
-    "sprt_statistic",
+    "window_sprt_statistic",
     "calibrate_sequential",
     "diagnose_sequential",
 ]
 
-SEQUENTIAL_METHODS = ("windowed", "cusum", "sprt")
+SEQUENTIAL_METHODS = ("windowed", "cusum", "sprt", "sprt-window")
 """Time-series rules accepted by :meth:`ParityFDI.diagnose`."""
-
-
-def _series(pf: ParityFDI, Z: Any) -> np.ndarray:
-    """``Z`` as a float array ``(R, N, m)`` (a single stream gets ``R = 1``)."""
-    arr = np.asarray(Z, dtype=float) if not isinstance(Z, np.ndarray) else Z.astype(float)
-    if arr.ndim == 2:
-        arr = arr[None]
-    if arr.ndim != 3 or arr.shape[-1] != pf.m or arr.shape[1] == 0:
-        raise ShapeError(
-            f"Z: a time series needs shape (N, {pf.m}) or (R, N, {pf.m}) with N >= 1, "
-            f"got {np.shape(Z)}",
-            argument="Z",
-        )
-    if not np.isfinite(arr).all():
-        raise GeomFDIError("Z: entries must be finite", argument="Z")
-    return arr
-
-
-def _standardised(pf: ParityFDI, X: np.ndarray) -> np.ndarray:
-    """``e_i = a_i / sqrt(w_ii)``, N(0, 1) per hypothesis without fault, (R, N, k)."""
-    return X @ pf._Bn
 
 
 def windowed_statistic(pf: ParityFDI, Z: Any, window: int) -> tuple[np.ndarray, np.ndarray]:
@@ -115,14 +102,6 @@ def _moving_sum(X: np.ndarray, w: int) -> np.ndarray:
     return out
 
 
-def _llr(pf: ParityFDI, X: np.ndarray, shift: float) -> np.ndarray:
-    """Log-likelihood-ratio increments ``+/- nu_i e_i - nu_i^2 / 2``, (R, N, 2k)."""
-    E = _standardised(pf, X)
-    nu = shift * np.sqrt(pf._w)
-    nu = np.where(pf.detectable, nu, 0.0)
-    return np.concatenate([nu * E, -nu * E], axis=-1) - 0.5 * np.concatenate([nu, nu]) ** 2
-
-
 def cusum_statistic(
     pf: ParityFDI, Z: Any, shift: float = 0.5, window: int = 100
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -161,14 +140,18 @@ def cusum_statistic(
     return np.take_along_axis(S, j[..., None], axis=-1)[..., 0], j % pf.k
 
 
-def sprt_statistic(
+def window_sprt_statistic(
     pf: ParityFDI, Z: Any, shift: float = 0.5, beta: float = 0.1, window: int = 100
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Wald's SPRT log-likelihood ratio over the last ``window`` samples, per hypothesis.
+    """Window-limited restart SPRT: the log-likelihood ratio over the last ``window`` samples.
 
     For each epoch ``t`` the test starts at ``t - window + 1`` with ratio 0, adds the
     increments ``l`` and restarts at 0 whenever the ratio falls to ``log beta`` (it
     accepts "no fault"; ``beta`` is Wald's missed-detection probability of one cycle).
+    Unlike Wald's repeated SPRT (:mod:`~geomfdi.parity.sprt`, method ``"sprt"``) it has no
+    upper boundary and no restart after an alarm: its finite memory gives the statistic
+    the same law at every epoch, so a plain quantile sets its threshold (method
+    ``"sprt-window"``).
 
     Returns
     -------
@@ -194,7 +177,7 @@ def sprt_statistic(
 def _stat(pf: ParityFDI, Z: Any, method: str, opts: dict) -> tuple[np.ndarray, np.ndarray]:
     if method == "cusum":
         return cusum_statistic(pf, Z, opts["shift"], opts["window"])
-    return sprt_statistic(pf, Z, opts["shift"], opts["beta"], opts["window"])
+    return window_sprt_statistic(pf, Z, opts["shift"], opts["beta"], opts["window"])
 
 
 def calibrate_sequential(
@@ -208,7 +191,10 @@ def calibrate_sequential(
     n_blocks: int | None = None,
     rng: Any = 0,
 ) -> float:
-    """Threshold of the CUSUM or SPRT statistic with per-epoch false-alarm rate ``pfa``.
+    """Threshold of the window-limited CUSUM or SPRT with per-epoch false-alarm rate ``pfa``.
+
+    ``method`` is ``"cusum"`` or ``"sprt-window"``; Wald's repeated SPRT (``"sprt"``) is
+    calibrated by :func:`geomfdi.parity.sprt.calibrate_sprt`.
 
     Draws ``n_blocks`` (default ``min(100000, 2e7 / window)``, bounding the work)
     independent noise-only blocks of ``window`` samples of the model;
@@ -221,8 +207,8 @@ def calibrate_sequential(
     float
         The threshold ``h``: ``P(stat_t > h) = pfa`` without fault.
     """
-    if method not in ("cusum", "sprt"):
-        raise GeomFDIError(f"method: 'cusum' or 'sprt', got {method!r}", argument="method")
+    if method not in ("cusum", "sprt-window"):
+        raise GeomFDIError(f"method: 'cusum' or 'sprt-window', got {method!r}", argument="method")
     pfa = as_probability(pfa, "pfa")
     window = as_int(window, "window", minimum=1)
     if n_blocks is None:
@@ -280,12 +266,13 @@ def diagnose_sequential(
         ``(..., 1)``); ``threshold`` is exact (windowed) or calibrated (cusum, sprt).
     """
     pfa = as_probability(pfa, "pfa")
+    info: dict = {}
     if method == "windowed":
         fd, fi = windowed_statistic(pf, Z, window)
         thr = chi2_threshold(pfa, pf.s) if threshold is None else float(threshold)
         stat, best = fd, np.argmax(fi, axis=-1)
         det = stat >= thr
-    elif method in ("cusum", "sprt"):
+    elif method in ("cusum", "sprt-window"):
         opts = {
             "shift": as_positive(shift, "shift"),
             "beta": as_probability(beta, "beta"),
@@ -302,6 +289,21 @@ def diagnose_sequential(
             thr = float(threshold)
         stat, best = _stat(pf, Z, method, opts)
         det = stat > thr
+    elif method == "sprt":
+        shift = as_positive(shift, "shift")
+        beta = as_probability(beta, "beta")
+        if threshold is None:
+            key = (method, pfa, shift, beta)
+            if key not in pf._sequential_thresholds:
+                pf._sequential_thresholds[key] = _sprt.calibrate_sprt(
+                    pf, pfa, shift=shift, beta=beta
+                )
+            cal = pf._sequential_thresholds[key]
+            thr, info = cal.upper, cal.as_dict()
+        else:
+            thr = float(as_positive(threshold, "threshold"))
+            info = {"upper": thr, "lower": _sprt._lower_for(thr, beta)}
+        stat, det, best = _sprt.sprt_statistic(pf, Z, thr, shift=shift, beta=beta)
     else:
         raise GeomFDIError(
             f"method: expected one of {', '.join(SEQUENTIAL_METHODS)}, got {method!r}",
@@ -311,4 +313,4 @@ def diagnose_sequential(
     one = np.ndim(Z) == 2
     if one:
         det, iso, stat = det[0], iso[0], stat[0]
-    return ParityDiagnosis(det, iso[..., None], stat, thr, method, pfa)
+    return ParityDiagnosis(det, iso[..., None], stat, thr, method, pfa, info=info)

@@ -1,4 +1,5 @@
-"""Evaluation curves: ROC (P_d versus false-alarm probability) and P_d / delay versus size.
+"""Evaluation curves: ROC (P_d versus false-alarm probability), P_d / delay versus size,
+and the isolation confusion matrix.
 
 Figures are built with :class:`matplotlib.figure.Figure` directly (no pyplot); save them
 with :func:`geomfdi.save_png`.  See the user guide, *Theory: residual evaluation*
@@ -14,7 +15,7 @@ import numpy as np
 
 from geomfdi.errors import GeomFDIError
 
-__all__ = ["plot_roc", "plot_detection"]
+__all__ = ["plot_roc", "plot_detection", "plot_confusion"]
 
 
 def _figure(figsize: tuple[float, float]) -> Any:
@@ -113,4 +114,74 @@ def plot_detection(
     ax2.grid(True, alpha=0.3)
     if title:
         ax1.set_title(title, fontsize="medium")
+    return fig
+
+
+def plot_confusion(
+    confusion: Any,
+    *,
+    title: str | None = None,
+    figsize: tuple[float, float] | None = None,
+    cmap: str = "Blues",
+    ax: Any = None,
+) -> Any:
+    """An isolation confusion matrix: row fractions as colours, counts as text.
+
+    Parameters
+    ----------
+    confusion : pandas.DataFrame or array_like of int
+        Counts, rows = true fault, columns = decision (e.g.
+        :meth:`geomfdi.CampaignResult.confusion`); an array gets numbered labels.
+    title : str, optional
+    figsize : (float, float), optional
+    cmap : str
+        Matplotlib colour map of the row fractions.
+    ax : matplotlib Axes, optional
+        Draw into it (its figure is returned).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if hasattr(confusion, "to_numpy") and hasattr(confusion, "index"):
+        counts = np.asarray(confusion.to_numpy(), dtype=float)
+        rows = [str(r) for r in confusion.index]
+        cols = [str(c) for c in confusion.columns]
+    else:
+        counts = np.asarray(confusion, dtype=float)
+        if counts.ndim != 2:
+            raise GeomFDIError("confusion: expected a 2-D table of counts", argument="confusion")
+        rows = [str(i) for i in range(counts.shape[0])]
+        cols = [str(j) for j in range(counts.shape[1])]
+    if counts.size == 0 or np.any(counts < 0) or not np.all(np.isfinite(counts)):
+        raise GeomFDIError(
+            "confusion: expected a non-empty table of counts >= 0", argument="confusion"
+        )
+    total = counts.sum(axis=1, keepdims=True)
+    frac = counts / np.where(total > 0, total, 1.0)
+    if ax is None:
+        size = figsize or (1.2 + 0.9 * len(cols), 1.0 + 0.6 * len(rows))
+        fig = _figure(size)
+        ax = fig.subplots()
+    else:
+        fig = ax.figure
+    im = ax.imshow(frac, cmap=cmap, vmin=0.0, vmax=1.0, aspect="auto")
+    for i in range(counts.shape[0]):
+        for j in range(counts.shape[1]):
+            ax.text(
+                j,
+                i,
+                f"{int(counts[i, j])}",
+                ha="center",
+                va="center",
+                color="white" if frac[i, j] > 0.6 else "black",
+                fontsize=8,
+            )
+    ax.set_xticks(range(len(cols)), cols, rotation=30, ha="right")
+    ax.set_yticks(range(len(rows)), rows)
+    ax.set_xlabel("isolated")
+    ax.set_ylabel("true fault")
+    fig.colorbar(im, ax=ax, label="fraction of the row's runs")
+    if title:
+        ax.set_title(title)
     return fig

@@ -26,12 +26,19 @@ from geomfdi.simulation.context import (
     to_balanced,
 )
 from geomfdi.simulation.noise import Noise, run_seeds
+from geomfdi.simulation.open_loop import OpenLoopEngine
 from geomfdi.simulation.results import (
     BatchResult,
 )
 from geomfdi.simulation.schedule import fault_schedule, structure_columns
 from geomfdi.simulation.signals import FaultSignal
-from geomfdi.simulation.simulate import chunk_width, make_engine, noise_streams, noise_window
+from geomfdi.simulation.simulate import (
+    chunk_width,
+    in_loop,
+    make_engine,
+    noise_streams,
+    noise_window,
+)
 from geomfdi.simulation.streaming import DecisionStream, RunSummary, chunk_plan, time_chunks
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
@@ -157,7 +164,8 @@ def simulate_batch(
             cache[id(sched)] = structure_columns(sched.faults, view.design_faults, plant)
         columns.append(cache[id(sched)])
     summary = RunSummary(ctx.t, [sc.faults for sc in schedules], columns, nres, window)
-    width = chunk_width(ctx, keep_states=ctx.ctrl.mode == "output")
+    loop = in_loop(ctx, schedules)
+    width = chunk_width(ctx, keep_states=loop, loop=loop)
     Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size)
     bar = progress_bar(ctx.progress, runs, "runs")
     engines: dict[str, Any] = {}  # an open-loop engine kept for the next chunk of runs
@@ -170,7 +178,7 @@ def simulate_batch(
         pieces = _pieces(ctx, x0c, xc0a, rngs, chunk, not per_run, L, R_res, a, engines)
         for s, e, pc, res, written in pieces:
             al, iso = ds.step(res)
-            summary.update(s, res, al, iso.isolated, a)
+            summary.update(s, res, al, iso.isolated, a, iso.suspects)
             if keep_r:
                 if not written:
                     R_res[a:b, :, s:e] = res
@@ -247,7 +255,7 @@ def _pieces(
         eng.restart(x0, Rc)
     else:
         eng = make_engine(ctx, x0, xc0, schedules, shared, Rc, L)
-        if shared and ctx.ctrl.mode != "output":
+        if shared and isinstance(eng, OpenLoopEngine):
             engines["open"] = eng
     streams = noise_streams(ctx, rngs)
     direct = R_res is not None and eng.R == Rc

@@ -13,10 +13,15 @@ Every one of them is an additive signal ``phi(t)`` with a signature ``(Bphi, Dph
   :class:`geomfdi.Fault`) driven by a signal: a step of a given size, a ramp, or any
   vectorised function of ``t``.
 
-Gain and stuck actuator faults depend on the commanded input, which is known beforehand
-only in open loop: under feedback they would change the loop dynamics and are refused
-with a named error (actuator bias and general faults are exogenous and work in every
-mode).  See the user guide, *Theory: evaluation* (``docs/theory/evaluation.md``).
+Gain and stuck actuator faults depend on the commanded input.  In open loop it is known
+beforehand and ``phi`` is exogenous.  Under feedback (state or output) the commanded input
+comes from the controller and the fault changes the loop itself: the applied input is
+``u^a = Gamma(t) u + lambda^a(t)`` with ``Gamma = diag(eta)`` piecewise constant between
+fault events, so the loop is a switched linear system simulated segment by segment
+(:func:`actuator_profile` gives ``Gamma`` and ``lambda^a`` per sample; see
+:mod:`geomfdi.simulation.closed_loop`).  The residual generators read the commanded ``u``
+in every mode.  Actuator bias and general faults are exogenous in every mode.  See the
+user guide, *Theory: evaluation* (``docs/theory/evaluation.md``).
 """
 
 from __future__ import annotations
@@ -31,12 +36,14 @@ from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.model.faults import Fault
 from geomfdi.model.plant import Plant
 from geomfdi.simulation.signals import (
+    FaultProfile,
     FaultSignal,
     Value,
     _check_channel,
     _check_value,
     _describe,
     _evaluate,
+    activity_span,
 )
 
 __all__ = [
@@ -45,6 +52,7 @@ __all__ = [
     "ActuatorBiasFault",
     "ActuatorStuckFault",
     "AdditiveFault",
+    "actuator_profile",
 ]
 
 
@@ -114,7 +122,8 @@ class ActuatorGainFault(_ActuatorFault):
         Onset (seconds); keyword-only like every argument after ``actuator``.
     gain : float or callable
         ``eta``: 1 is healthy, 0.6 a 40 % loss of effectiveness; a vectorised function of
-        time for a progressive loss.
+        time for a progressive loss (under feedback the loop is then stepped sample by
+        sample with the gain frozen over each interval; a constant gain is exact).
     bias : float or callable, default 0
     end : float, optional
 
@@ -144,6 +153,15 @@ class ActuatorGainFault(_ActuatorFault):
 
     def _applied(self, t: np.ndarray, ui: np.ndarray) -> np.ndarray:
         return _evaluate(self.gain, t, "gain") * ui + _evaluate(self.bias, t, "bias")
+
+    @property
+    def time_varying_gain(self) -> bool:
+        """The gain is a function of time (the loop is not piecewise constant)."""
+        return callable(self.gain)
+
+    def gain_bias(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(eta, lambda)`` of ``u^a = eta u + lambda`` on the samples ``t``."""
+        return _evaluate(self.gain, t, "gain"), _evaluate(self.bias, t, "bias")
 
     def label(self) -> str:
         b = "" if (not callable(self.bias) and self.bias == 0) else f", bias {_describe(self.bias)}"
@@ -194,7 +212,8 @@ class ActuatorStuckFault(_ActuatorFault):
     actuator : int
     start : float
     value : float, optional
-        The frozen input; ``None`` (default): the commanded input at ``start`` is held.
+        The frozen input; ``None`` (default): the commanded input at ``start`` is held
+        (under feedback: its value just before the fault, the left limit at ``start``).
     end : float, optional
     """
 
@@ -221,12 +240,102 @@ class ActuatorStuckFault(_ActuatorFault):
         held = ui[0] if self.value is None else float(self.value)
         return np.full(ui.shape, held)
 
+    time_varying_gain = False
+
+    @property
+    def holds_input(self) -> bool:
+        """The held value is the commanded input at the onset."""
+        return self.value is None
+
+    def gain_bias(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(eta, lambda) = (0, value)`` (``lambda = 0`` when the input is held)."""
+        v = 0.0 if self.value is None else float(self.value)
+        return np.zeros(t.shape), np.full(t.shape, v)
+
     def label(self) -> str:
         v = "held input" if self.value is None else f"{self.value:g}"
         return f"stuck at {v} on {self._window()}"
 
     def __repr__(self) -> str:
         return f"ActuatorStuckFault({self.actuator}, start={self.start!r}, value={self.value!r})"
+
+
+def actuator_profile(
+    faults: Any,
+    t: np.ndarray,
+    *,
+    m: int,
+    k0: int,
+    k1: int,
+    u_start: np.ndarray | None,
+    holds: dict[int, np.ndarray],
+    last_left: bool = False,
+) -> FaultProfile:
+    """Composed actuator gains of gain and stuck faults on the samples ``k0 <= k < k1``.
+
+    The applied input is ``u^a = eta * u + lam`` (commanded ``u``); faults on one actuator
+    compose in list order (``eta <- g eta``, ``lam <- g lam + b``), a stuck actuator has
+    ``g = 0`` and ``b`` its value.  As for sensor faults (:class:`FaultProfile`), the
+    ``*_left`` arrays are left limits (faults active at the previous sample).
+
+    Parameters
+    ----------
+    faults : sequence of ActuatorGainFault / ActuatorStuckFault
+    t : ndarray, (N,)
+        The full grid.
+    m : int
+        Number of inputs.
+    k0, k1 : int
+        Window.
+    u_start : ndarray, (R, m) or None
+        Commanded input at sample ``k0`` (its left limit): the value held by a stuck
+        actuator (``value=None``) whose onset is ``k0``.
+    holds : dict
+        Held values of earlier windows, keyed by position in ``faults`` (updated).
+    last_left : bool
+        Only the left limit is wanted at the last sample (a segment end).
+    """
+    L = k1 - k0
+    eta = np.ones((m, L))
+    eta_l = np.ones((m, L))
+    lam = np.zeros((1, m, L))
+    lam_l = np.zeros((1, m, L))
+    tw = t[k0:k1]
+    kk = np.arange(k0, k1)
+    for pos, f in enumerate(faults):
+        span = activity_span(f, t)  # no mask of the whole record
+        if span is None:
+            continue
+        ks, ke = span
+        act = (kk >= ks) & (kk < ke)
+        if last_left and L:
+            act[-1] = False
+        kp = np.maximum(kk - 1, 0)  # the previous sample (sample 0: itself)
+        prev = (kp >= ks) & (kp < ke)
+        if not (act.any() or prev.any()):
+            continue
+        i = f.actuator
+        g, b = f.gain_bias(tw)
+        b = b[None, :]
+        if getattr(f, "holds_input", False):
+            if pos not in holds:
+                if ks != k0 or u_start is None:
+                    raise GeomFDIError(
+                        f"faults[{pos}]: the input held by the stuck actuator at t={t[ks]:g} "
+                        "is not available",
+                        argument="faults",
+                    )
+                holds[pos] = np.array(u_start[:, i], dtype=float)
+            hold = holds[pos]
+            if hold.shape[0] > lam.shape[0]:
+                lam = np.broadcast_to(lam, (hold.shape[0], m, L)).copy()
+                lam_l = np.broadcast_to(lam_l, (hold.shape[0], m, L)).copy()
+            b = b + hold[:, None]
+        for ek, lk, mk in ((eta, lam, act), (eta_l, lam_l, prev)):
+            np.multiply(ek[i], g, out=ek[i], where=mk)
+            np.multiply(lk[:, i], g, out=lk[:, i], where=mk)
+            np.add(lk[:, i], b, out=lk[:, i], where=mk)
+    return FaultProfile(eta, lam, eta_l, lam_l, holds)
 
 
 def _magnitude(value: Any, name: str) -> np.ndarray:

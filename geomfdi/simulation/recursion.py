@@ -7,16 +7,30 @@ recursion over the whole time axis evaluated by one compiled :func:`scipy.signal
 call (over every Monte-Carlo run at once).  When ``Ad`` has a well-conditioned
 eigenvector basis (condition number <= 100) the modal form is used instead and the
 scalar recursions are uncoupled.
+
+:func:`lifted_recursion` runs a state-space system with outputs on blocks of ``M``
+samples in these coordinates: the block-start states by the back-substitution above
+(or, for few blocks, by recursive doubling), the outputs of all blocks by matrix
+products with precomputed :class:`LiftedMaps`, so that the ``lfilter`` calls run over
+``N / M`` samples only.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import scipy.linalg
 
-__all__ = ["schur_form", "triangular_recursion"]
+__all__ = [
+    "LiftedMaps",
+    "lift_factor",
+    "lifted_maps",
+    "lifted_recursion",
+    "schur_form",
+    "triangular_recursion",
+]
 
 
 def schur_form(Ad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -113,3 +127,197 @@ def triangular_recursion(
     G[:, :, 0] = z0
     G[:, :, 1:] = g
     return recursion_inplace(T, G, stops)
+
+
+_LIFT_LFILTER = 150.0  # one lfilter sample, in multiply-adds of a matrix product
+_MAX_LIFT = 32
+_SCAN_BLOCKS = 384  # up to this many blocks the block-start recursion is a doubling scan
+_CHUNK_DOUBLES = 2**16  # output values per product (cache-sized)
+
+
+def lift_factor(n: int, nc: int, nz: int) -> int:
+    """Block length ``M`` of :func:`lifted_recursion` for ``n`` states, ``nc`` outputs and
+    ``nz`` inputs.
+
+    Per sample the lifted recursion costs about ``c n / M`` for the block-start
+    recursion (``c``: one ``lfilter`` sample in multiply-adds), ``nc nz M`` for the
+    block-Toeplitz product and ``n (nc + nz)`` for the state maps; ``M`` minimises it
+    (``sqrt(c n / (nc nz))``, between 1 and 32).
+    """
+    if n == 0:
+        return 1
+    M = round(float(np.sqrt(_LIFT_LFILTER * n / max(nc * max(nz, 1), 1))))
+    return int(min(max(M, 1), _MAX_LIFT))
+
+
+@dataclass(frozen=True)
+class LiftedMaps:
+    """The lifted form of ``x[k+1] = A x[k] + B z[k]``, ``c[k] = C x[k] + D z[k]`` on
+    blocks of ``M`` samples, in Schur coordinates ``x = Z s`` (``A = Z T Z^H``).
+
+    Attributes
+    ----------
+    M : int
+    powers : ndarray, (M + 1, n, n)
+        ``T^0 .. T^M`` (``T`` upper triangular, real or complex).
+    Hz : ndarray, (n, M nz)
+        Columns ``j nz + c``: ``T^(M-1-j) Z^H B[:, c]``, the effect of sample ``j`` of a
+        block on the state at the start of the next block.
+    Gam : ndarray, (M nc, M nz)
+        Rows ``i nc + o``, columns ``j nz + c``: the Markov parameter
+        ``(C A^(i-1-j) B)[o, c]`` for ``j < i``, ``D[o, c]`` for ``j = i``, 0 above.
+    Psi : ndarray, (M nc, n)
+        Rows ``i nc + o``: ``(C Z T^i)[o]``, the effect of the block-start state.
+    stops : ndarray of int (n,) or None
+        Block structure of ``T`` (see :func:`triangular_recursion`).
+    doubling : tuple of ndarray
+        ``T^(M 2^k)`` for the recursive doubling of :func:`_scan_recursion`.
+    """
+
+    M: int
+    powers: np.ndarray
+    Hz: np.ndarray
+    Gam: np.ndarray
+    Psi: np.ndarray
+    stops: np.ndarray | None
+    doubling: tuple[np.ndarray, ...] = ()
+
+    @property
+    def complex_states(self) -> bool:
+        return np.iscomplexobj(self.Hz)
+
+
+def lifted_maps(
+    A: np.ndarray,
+    B: np.ndarray,
+    C: np.ndarray,
+    D: np.ndarray,
+    T: np.ndarray,
+    Z: np.ndarray,
+    M: int,
+    stops: np.ndarray | None = None,
+) -> LiftedMaps:
+    """:class:`LiftedMaps` of ``(A, B, C, D)`` with the Schur form ``A = Z T Z^H``.
+
+    The Markov parameters ``C A^k B`` are formed from the real matrices (no imaginary
+    rounding residue); the state maps use the triangular ``T``.
+    """
+    n, nz = B.shape
+    nc = C.shape[0]
+    powers = np.empty((M + 1, n, n), dtype=T.dtype)
+    powers[0] = np.eye(n)
+    for i in range(M):
+        powers[i + 1] = powers[i] @ T
+    V = Z.conj().T @ B
+    Hz = np.empty((n, M * nz), dtype=np.result_type(T, V))
+    for j in range(M):
+        Hz[:, j * nz : (j + 1) * nz] = powers[M - 1 - j] @ V
+    Gam = np.zeros((M, nc, M, nz))
+    P = B
+    for r in range(M - 1):  # C A^r B links sample i = j + r + 1 of a block to sample j
+        j = np.arange(M - 1 - r)
+        Gam[j + r + 1, :, j, :] = C @ P
+        P = A @ P
+    Gam[np.arange(M), :, np.arange(M), :] = D
+    CZ = C @ Z
+    Psi = np.concatenate([CZ @ powers[i] for i in range(M)], axis=0)
+    doubling = [powers[M]]
+    while 1 << len(doubling) <= _SCAN_BLOCKS:
+        doubling.append(doubling[-1] @ doubling[-1])
+    return LiftedMaps(M, powers, Hz, Gam.reshape(M * nc, M * nz), Psi, stops, tuple(doubling))
+
+
+def _scan_recursion(maps: LiftedMaps, E: np.ndarray) -> np.ndarray:
+    """Solve ``S[b] = T^M S[b-1] + E[b]`` with ``S[0] = E[0]`` (``E``: ``(nb + 1, n)``) by
+    recursive doubling, in place.
+
+    After round ``k`` row ``b`` holds ``sum_{b - 2^(k+1) < j <= b} T^(M (b-j)) E[j]``:
+    ``ceil(log2(nb + 1))`` products with the precomputed ``T^(M 2^k)`` (the scan of
+    Hillis & Steele, CACM 1986), no loop over the blocks.
+    """
+    nb1 = E.shape[0]
+    for k, P in enumerate(maps.doubling):
+        d = 1 << k
+        if d >= nb1:
+            break
+        E[d:] += E[: nb1 - d] @ P.T
+    return E
+
+
+def _real_rows(S: np.ndarray, Psi: np.ndarray) -> np.ndarray:
+    """``Re(S @ Psi^T)`` for sample-major states ``S``."""
+    if np.iscomplexobj(S):
+        return S.real @ Psi.real.T - S.imag @ Psi.imag.T
+    return S @ Psi.T
+
+
+def lifted_recursion(
+    maps: LiftedMaps, Zt: np.ndarray, s0: np.ndarray, out: np.ndarray
+) -> np.ndarray:
+    """Outputs and final state of the system of ``maps`` driven by ``Zt`` from ``s0``.
+
+    Parameters
+    ----------
+    maps : LiftedMaps
+    Zt : ndarray, (L, nz)
+        Input samples, sample-major (C-contiguous).
+    s0 : ndarray, (n,)
+        Schur-coordinate state at the first sample.
+    out : ndarray, (nc, L)
+        Receives ``c[k] = C x[k] + D z[k]``.
+
+    Returns
+    -------
+    ndarray, (n,)
+        The Schur-coordinate state after the last sample, ``s[L]``.
+
+    Notes
+    -----
+    On blocks of ``M`` samples (``zeta_b``: the block's samples, flattened) the
+    block-start states obey ``s[(b+1) M] = T^M s[b M] + Hz zeta_b``: a doubling scan for
+    few blocks (:func:`_scan_recursion`), else :func:`recursion_inplace` (one
+    ``lfilter`` per state over the blocks).  The outputs of a block are
+    ``Gam zeta_b + Re(Psi s[b M])``, one product for many blocks at once.  The last
+    ``L mod M`` samples form a partial block (the leading rows and columns of the same
+    maps).  It is the same recursion regrouped, not an approximation (the lifted system
+    of Khargonekar, Poolla & Tannenbaum, IEEE TAC 1985); the Schur basis is unitary, so
+    rounding stays at the level of the plain update.
+    """
+    M = maps.M
+    L, nz = Zt.shape
+    n = maps.powers.shape[1]
+    nc = out.shape[0]
+    nb, r = divmod(L, M)
+    s = np.asarray(s0, dtype=maps.Hz.dtype)
+    if nb:
+        Zl = Zt[: nb * M].reshape(nb, M * nz)
+        if nb <= _SCAN_BLOCKS:
+            E = np.empty((nb + 1, n), dtype=maps.Hz.dtype)
+            E[0] = s
+            E[1:] = matrix_product(maps.Hz, Zl.T).T
+            S = _scan_recursion(maps, E)
+            states = S[:nb]
+            s = S[nb].copy()
+        else:
+            G = np.empty((n, 1, nb + 1), dtype=maps.Hz.dtype)
+            G[:, 0, 0] = s
+            if np.iscomplexobj(G):
+                G[:, 0, 1:] = matrix_product(maps.Hz, Zl.T)
+            else:
+                np.matmul(maps.Hz, Zl.T, out=G[:, 0, 1:])
+            recursion_inplace(maps.powers[M], G, maps.stops)
+            states = G[:, 0, :nb].T
+            s = G[:, 0, nb].copy()
+        step = max(1, _CHUNK_DOUBLES // (M * nc))  # blocks per product
+        GamT = maps.Gam.T
+        for b0 in range(0, nb, step):
+            b1 = min(nb, b0 + step)
+            Y = Zl[b0:b1] @ GamT
+            Y += _real_rows(states[b0:b1], maps.Psi)
+            out[:, b0 * M : b1 * M] = Y.reshape((b1 - b0) * M, nc).T
+    if r:
+        zt = Zt[nb * M :].reshape(r * nz)
+        Y = maps.Gam[: r * nc, : r * nz] @ zt + _real_rows(s, maps.Psi[: r * nc])
+        out[:, nb * M :] = Y.reshape(r, nc).T
+        s = maps.powers[r] @ s + maps.Hz[:, (M - r) * nz :] @ zt
+    return s

@@ -124,7 +124,7 @@ from geomfdi.evaluation.decision import (
 )
 from geomfdi.evaluation.persistence import as_persistence
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.simulation.closed_loop import FeedbackRuns
+from geomfdi.simulation.closed_loop import FeedbackRuns, split_actuator_faults
 from geomfdi.simulation.context import (
     Context,
     detection_window_of,
@@ -174,14 +174,26 @@ def noise_window(
     return v, w
 
 
-def chunk_width(ctx: Context, *, keep_states: bool = False, stored: int = 0) -> float:
+def in_loop(ctx: Context, schedules: Sequence[FaultSchedule]) -> bool:
+    """The runs are simulated as a closed loop with faults inside it: output feedback,
+    or actuator gain/stuck faults (which act on the commanded input) under state
+    feedback."""
+    if ctx.ctrl.mode == "output":
+        return True
+    return ctx.ctrl.mode != "open" and any(sc.needs_input for sc in schedules)
+
+
+def chunk_width(
+    ctx: Context, *, keep_states: bool = False, stored: int = 0, loop: bool = False
+) -> float:
     """Working bytes per run and sample of one time chunk (an upper estimate).
 
     Doubles: the exogenous samples and noise draws, the plant state and outputs, the
     noisy and faulty readings, the fault profiles and the per-interval drives of the
     sensors, the residual rows and vector components (and generator states); bytes: the
     alarms, decisions and persistence counters; ``stored``: bytes of the caller's own
-    per-sample copies.  Half again as margin for the temporaries of numpy expressions.
+    per-sample copies; ``loop``: the closed-loop engine is used (:func:`in_loop`).
+    Half again as margin for the temporaries of numpy expressions.
     """
     p, view = ctx.plant, ctx.view
     gens = [g for g in view.generators if g is not None]
@@ -197,8 +209,8 @@ def chunk_width(ctx: Context, *, keep_states: bool = False, stored: int = 0) -> 
         + sum(g.n_outputs for g in gens if g.n_outputs > 1)
         + (sum(g.order for g in gens) if keep_states else 0)
     )
-    if ctx.ctrl.mode == "output":  # loop inputs, states and outputs, with the segment copies
-        ne = p.m + p.nd + ctx.nwp + 2 * p.q
+    if loop or ctx.ctrl.mode == "output":  # loop inputs, states, outputs, segment copies
+        ne = 2 * p.m + p.nd + ctx.nwp + 2 * p.q
         nS = p.n + ctx.ctrl.nc + sum(g.order for g in gens)
         nout = 2 * p.q + p.m + sum(g.n_outputs for g in gens)
         doubles += 3 * (ne + nS + nout)
@@ -215,15 +227,19 @@ def make_engine(
     chunk: int,
 ) -> OpenLoopEngine | FeedbackRuns:
     """The engine that advances ``runs`` runs over the record chunk by chunk: open loop
-    and state feedback (:class:`OpenLoopEngine`) or output feedback
-    (:class:`FeedbackRuns`); ``schedules``: one shared, or one per run."""
+    and state feedback (:class:`OpenLoopEngine`), or a closed loop with faults inside it
+    (:class:`FeedbackRuns`: output feedback, and actuator gain or stuck faults under
+    state feedback, which act on the commanded input); ``schedules``: one shared, or one
+    per run."""
     sensor = [sc.sensor for sc in schedules]
-    if ctx.ctrl.mode == "output":
+    if in_loop(ctx, schedules):
+        split = [split_actuator_faults(sc) for sc in (schedules[:1] if shared else schedules)]
+        acts = [inside for _, inside in split]
         if shared:
-            ctx1 = with_input_faults(ctx, schedules[:1])
-            return FeedbackRuns(ctx1, x0, xc0, sensor[:1], True, runs)
-        ctxs = [with_input_faults(ctx, [sc]) for sc in schedules]
-        return FeedbackRuns(ctx, x0, xc0, sensor, False, runs, contexts=ctxs)
+            ctx1 = with_input_faults(ctx, [split[0][0]])
+            return FeedbackRuns(ctx1, x0, xc0, sensor[:1], True, runs, actuator_lists=acts)
+        ctxs = [with_input_faults(ctx, [rest]) for rest, _ in split]
+        return FeedbackRuns(ctx, x0, xc0, sensor, False, runs, contexts=ctxs, actuator_lists=acts)
     ctx1 = with_input_faults(ctx, schedules[:1] if shared else schedules)
     return OpenLoopEngine(ctx1, x0, sensor, shared, runs, chunk)
 
@@ -296,8 +312,8 @@ def simulate(
         memory (always kept under output feedback, where they come for free).
     persistence : None, int, (k, n) or Persistence
         Alarms and isolation decisions only when they hold ``k`` of ``n`` samples
-        (an int ``n``: a minimum duration of ``n`` samples); see
-        :class:`geomfdi.Persistence`.
+        (an int ``n``: a minimum duration of ``n`` samples), isolation from the alarm
+        pattern held over the alarm episode; see :class:`geomfdi.Persistence`.
     detection_window : float, optional
         Seconds after each onset within which an alarm counts as a detection (and a
         decision as an isolation); ``None``: to the end of the run.  An alarm before the
@@ -341,7 +357,9 @@ def simulate(
     cols = structure_columns(sched.faults, view.design_faults, plant)
     out = _stream_one(ctx, to_balanced(ctx, x0a), xc0a, rng, sched, thr, rule)
     res, alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws, xc = out
-    events = detection_events(ctx.t, alarms, isolated, sched.faults, cols, window=window)
+    events = detection_events(
+        ctx.t, alarms, isolated, sched.faults, cols, window=window, suspects=suspects
+    )
     return SimulationResult(
         t=ctx.t,
         x=x,
@@ -387,9 +405,10 @@ def _stream_one(
     p, view, N = ctx.plant, ctx.view, ctx.N
     gens = view.generators
     nres, nf = len(gens), view.structure.shape[1]
-    feedback = ctx.ctrl.mode == "output"  # generator states come for free there
-    keep = ctx.keep_states or feedback
-    _, L = chunk_plan(N, 1, chunk_width(ctx, keep_states=keep))
+    feedback = ctx.ctrl.mode == "output"
+    loop = in_loop(ctx, [sched])  # generator states come for free in the loop engine
+    keep = ctx.keep_states or loop
+    _, L = chunk_plan(N, 1, chunk_width(ctx, keep_states=keep, loop=loop))
     eng = make_engine(ctx, x0, xc0, [sched], True, 1, L)
     streams = noise_streams(ctx, [rng])
     rows = np.zeros((1, nres, N))

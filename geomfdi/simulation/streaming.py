@@ -8,8 +8,9 @@ carried from chunk to chunk:
 * :func:`chunk_plan`: runs and samples per chunk from the memory budget
   ``gf.limits.get_limits().chunk_memory``;
 * :class:`DecisionStream`: alarms and isolation decisions of consecutive chunks, equal
-  to those of the whole record (a persistence rule or a moving-RMS statistic looks
-  back a bounded number of samples: that history is carried);
+  to those of the whole record (a moving-RMS statistic and the k-of-n counts look back
+  a bounded number of samples, the pattern held over an alarm episode depends on the
+  episode's start: that history and the episode state are carried);
 * :class:`RunSummary`: peaks, detection and isolation events and false-alarm counts of
   each run, accumulated chunk by chunk (what ``store="summary"`` keeps), equal to
   :func:`geomfdi.evaluation.decision.detection_events` and
@@ -26,9 +27,16 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.evaluation.decision import FaultEvent, Isolation, Threshold
+from geomfdi.evaluation.decision import MULTIPLE, FaultEvent, Isolation, Threshold, isolate
 from geomfdi.evaluation.metrics import FalseAlarms
-from geomfdi.evaluation.persistence import Persistence, decisions
+from geomfdi.evaluation.persistence import (
+    Persistence,
+    decisions,
+    held_pattern_carry,
+    k_of_n,
+    pattern_decisions,
+    settle,
+)
 from geomfdi.limits import get_limits
 from geomfdi.simulation.signals import first_active
 
@@ -89,11 +97,20 @@ def time_chunks(N: int, L: int) -> list[tuple[int, int, int]]:
 class DecisionStream:
     """Alarms and isolation of consecutive chunks of residuals, as on the whole record.
 
-    An alarm at sample ``j`` depends on the residuals ``j - h .. j`` only, with ``h =
-    (window - 1) + 2 (n - 1)`` for a moving-RMS window and a k-of-n persistence rule
-    (``n - 1`` samples for the persistent alarms, ``n - 1`` more for the persistent
-    isolation decisions): the last ``h`` residual samples are kept and prepended to the
-    next chunk, and the decisions of that extended chunk are cut back to the chunk.
+    The decisions (:func:`geomfdi.evaluation.persistence.decisions`) are computed stage
+    by stage, each stage with what it needs of the past carried from the previous chunk:
+
+    1. raw alarms: a moving-RMS statistic reads the last ``window - 1`` residual samples;
+    2. confirmed alarms (k-of-n): the last ``n - 1`` raw alarms;
+    3. the pattern held over the alarm episode (``latch``): the episode state, i.e. the
+       residuals alarmed in the current episode and how long ago the last alarm was
+       (:func:`~geomfdi.evaluation.persistence.held_pattern_carry`);
+    4. per-sample decisions on the pattern (with ``MULTIPLE``): nothing;
+    5. settled decisions (k-of-n on the decision): the last ``n - 1`` per-sample
+       decisions.
+
+    Memory is the chunk plus ``O(window + n)`` samples of history and the episode state,
+    whatever the record's length.
 
     Parameters
     ----------
@@ -105,30 +122,62 @@ class DecisionStream:
     def __init__(
         self, threshold: Threshold | None, structure: np.ndarray, rule: Persistence | None
     ) -> None:
-        self.threshold, self.structure, self.rule = threshold, structure, rule
-        look = 0
-        if threshold is not None and threshold.statistic == "rms":
-            look += threshold.window - 1
-        if rule is not None and not rule.trivial:
-            look += 2 * (rule.n - 1)
-        self.look = look if threshold is not None else 0
-        self._tail: np.ndarray | None = None
+        self.threshold, self.structure = threshold, np.asarray(structure, dtype=bool)
+        self.rule = None if rule is None or rule.trivial else rule
+        rms = threshold is not None and threshold.statistic == "rms" and threshold.window > 1
+        self._res_look = threshold.window - 1 if rms else 0  # type: ignore[union-attr]
+        self._res: np.ndarray | None = None  # last residuals (RMS window)
+        self._raw: np.ndarray | None = None  # last raw alarms (k-of-n confirmation)
+        self._held: tuple[np.ndarray, ...] | None = None  # episode state
+        self._dec: np.ndarray | None = None  # last per-sample decisions (settling)
 
     def step(self, res: np.ndarray) -> tuple[np.ndarray, Isolation]:
         """Decisions of the next chunk ``res`` (R, n_rows, L): alarms (R, n_rows, L) and
         the isolation of its samples."""
-        if self.look == 0:
-            return decisions(res, self.threshold, self.structure, self.rule)
-        tail = self._tail
-        ext = res if tail is None else np.concatenate([tail, res], axis=-1)
-        h = 0 if tail is None else tail.shape[-1]
-        self._tail = np.array(ext[..., -self.look :])
-        al, iso = decisions(ext, self.threshold, self.structure, self.rule)
-        if h == 0:
+        thr, rule, S = self.threshold, self.rule, self.structure
+        if thr is None:
+            return decisions(res, None, S, None)
+        # 1. raw alarms
+        if self._res_look:
+            ext, h = _with_tail(self._res, res)
+            self._res = _tail(ext, self._res_look)
+            al = thr.alarms(ext)[..., h:]
+        else:
+            al = thr.alarms(res)
+        if rule is None:
+            return al, isolate(al, S)
+        # 2. confirmation
+        k, n = rule.k, rule.n
+        if n > 1:
+            ext, h = _with_tail(self._raw, al)
+            self._raw = _tail(ext, n - 1)
+            al = k_of_n(ext, k, n)[..., h:]
+        # 3. held pattern
+        if rule.latch:
+            pattern, self._held = held_pattern_carry(al, rule.reset, self._held)
+        else:
+            pattern = al
+        # 4. per-sample decisions, 5. settling
+        iso = pattern_decisions(pattern, S)
+        if k == 1 and n == 1:
             return al, iso
-        return al[..., h:], Isolation(
-            iso.isolated[..., h:], iso.candidates[..., h:], iso.suspects[..., h:]
-        )
+        ext, h = _with_tail(self._dec, iso.isolated)
+        self._dec = _tail(ext, n - 1)
+        settled = settle(ext, k, n, S.shape[1])[..., h:]
+        return al, Isolation(settled, iso.candidates, iso.suspects)
+
+
+def _with_tail(tail: np.ndarray | None, x: np.ndarray) -> tuple[np.ndarray, int]:
+    """``x`` with the carried samples ``tail`` before it (time on the last axis), and
+    how many they are."""
+    if tail is None or tail.shape[-1] == 0:
+        return x, 0
+    return np.concatenate([tail, x], axis=-1), tail.shape[-1]
+
+
+def _tail(x: np.ndarray, h: int) -> np.ndarray:
+    """The last ``h`` samples of ``x`` (a copy: the chunk is not kept alive)."""
+    return np.array(x[..., max(x.shape[-1] - h, 0) :])
 
 
 class RunSummary:
@@ -195,13 +244,22 @@ class RunSummary:
         self._det = [[None] * len(sp) for sp in self.spans]
         self._iso = [[None] * len(sp) for sp in self.spans]
         self._dec = [[None] * len(sp) for sp in self.spans]
+        self._hyp: list[list[tuple[int, ...]]] = [[()] * len(sp) for sp in self.spans]
         self._rows = [[np.zeros(n_rows, dtype=bool) for _ in sp] for sp in self.spans]
 
     def update(
-        self, s: int, res: np.ndarray, alarms: np.ndarray, isolated: np.ndarray, r0: int = 0
+        self,
+        s: int,
+        res: np.ndarray,
+        alarms: np.ndarray,
+        isolated: np.ndarray,
+        r0: int = 0,
+        suspects: np.ndarray | None = None,
     ) -> None:
         """Add the chunk of samples ``s .. s+L-1`` of the runs ``r0 .. r0+R-1``:
-        residuals and alarms (R, n_rows, L), isolation decisions (R, L)."""
+        residuals and alarms (R, n_rows, L), isolation decisions (R, L) and their
+        suspects (R, n_faults, L), which give the hypothesis of a ``MULTIPLE``
+        decision."""
         R, L = res.shape[0], res.shape[-1]
         e = s + L
         pk = self.peak[r0 : r0 + R]
@@ -234,9 +292,12 @@ class RunSummary:
                     if ih.size:
                         self._iso[r][i] = lo + int(ih[0])
                 if self._dec[r][i] is None:
-                    dh = np.flatnonzero(iso >= 0)
+                    dh = np.flatnonzero((iso >= 0) | (iso == MULTIPLE))
                     if dh.size:
                         self._dec[r][i] = int(iso[dh[0]])
+                        if self._dec[r][i] == MULTIPLE and suspects is not None:
+                            sus = suspects[r_local, :, lo - s + int(dh[0])]
+                            self._hyp[r][i] = tuple(int(f) for f in np.flatnonzero(sus))
                 self._rows[r][i] |= alarms[r_local, :, sl].any(axis=-1)
 
     def events(self, r: int) -> list[FaultEvent]:
@@ -260,6 +321,7 @@ class RunSummary:
                     tuple(int(x) for x in np.flatnonzero(self._rows[r][i])),
                     self._dec[r][i],
                     wend,
+                    self._hyp[r][i],
                 )
             )
         return out

@@ -9,12 +9,24 @@ Steps for a row that must see ``target`` and ignore ``decouple`` (and every dist
    only and needs no change (``info["P"]`` is mapped back).
 2. **Quotient** by S* of the model with decoupled feedthrough made states
    (:func:`geomfdi.synthesis.least_order.quotient_model`).
-3. **Least-order row** and its functional-observer realisation
-   (:func:`geomfdi.synthesis.least_order.least_order_row`), with the certificate in
-   ``info["least_order"]``.
-4. **Checks** on the physical (unbalanced) plant: relative gain from every fault
-   (:mod:`geomfdi.synthesis.gains`); a decoupled signal above ``LEAK_TOL`` or a
-   construction identity above ``IDENTITY_TOL`` makes the row a numerical failure.
+3. **Least-order row** (:func:`geomfdi.synthesis.least_order.least_order_row`), with
+   the certificate in ``info["least_order"]``.
+4. **Realisation**, tried in turn until one passes the checks: the partial-fraction
+   functional observer (default poles scaled by ``RETRY_SCALES``) and the quotient
+   observer with a Riccati stability-degree injection
+   (:mod:`geomfdi.synthesis.quotient_observer`, degrees relaxed by
+   :data:`geomfdi.synthesis.injection.RELAX`); a row of least order k > ``INJECT_FIRST``
+   (the whole quotient) tries the quotient observer first.  ``info["realisation"]`` names
+   the one delivered; a delivered order above the least order is stated in
+   ``info["least_order"]["statement"]``.
+5. **Checks** on the physical (unbalanced) plant: relative gain from every fault
+   (:mod:`geomfdi.synthesis.gains`); a decoupled signal above the leakage angle
+   ``ANGLE_TOL`` or a construction identity above ``IDENTITY_TOL`` makes the attempt a
+   numerical failure.
+6. **Strong detectability**: a least-order row that sees a target with a DC gain below
+   ``FD_GAIN_TOL`` of its largest fault gain (:func:`weak_targets`) is redesigned at up
+   to ``MAX_RAISE`` higher degrees; the first row that is not weak is delivered, with
+   ``raised_from`` and the reason in its certificate.
 """
 
 from __future__ import annotations
@@ -28,20 +40,58 @@ from geomfdi.geometry.balancing import state_scaling
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.construction import IDENTITY_TOL, _NumericalDesignError
-from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, _gains
+from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, _gains, frequency_gains
 from geomfdi.synthesis.generator import ResidualGenerator
+from geomfdi.synthesis.injection import RELAX
 from geomfdi.synthesis.least_order import (
+    NU_PF_MAX,
+    LeastOrderRow,
+    Quotient,
     _Infeasible,
     least_order_row,
     quotient_model,
     realise_on_plant,
 )
+from geomfdi.synthesis.quotient_observer import quotient_observer_row
 from geomfdi.tolerance import get_rtol
 
-__all__ = ["build_least_order", "ANGLE_TOL", "check_angles"]
+__all__ = ["build_least_order", "ANGLE_TOL", "check_angles", "weak_targets", "FD_GAIN_TOL"]
 
 ANGLE_TOL = 1e-9
 """Largest leakage angle (the measure of :func:`geomfdi.verify`) a delivered row may have."""
+
+FD_GAIN_TOL = 0.01
+"""Strong detectability: least DC gain from a target, relative to the residual's largest
+gain from any fault over frequency (Varga's ``FDGainTol``)."""
+
+MAX_RAISE = 3
+"""Degrees above the least order tried for a row whose least-order targets are weak."""
+
+
+def weak_targets(
+    g: ResidualGenerator,
+    plant: Plant,
+    sigs: list,
+    factor: PlantFactor | None,
+    omega: float,
+    target: tuple[int, ...] | list[int],
+    comp: Composite | None = None,
+) -> list[int]:
+    """Targets whose DC gain is below ``FD_GAIN_TOL`` × the largest gain over frequency.
+
+    The largest gain is taken over the faults' gains on 31 frequencies spread over
+    ``ω·[1e-3, 1e3]`` (continuous) or ``π·[1e-3, 1]`` (discrete) and the DC gains;
+    ``g.info["dc_gain"]`` must hold the DC gains; ``comp``: the factored interconnection
+    of g and the plant if already at hand.
+    """
+    comp = comp if comp is not None else Composite(g, plant, factor)
+    dc = np.asarray(g.info["dc_gain"], dtype=float)
+    base = np.pi if plant.dt > 0 else omega
+    ws = base * np.logspace(-3, 0 if plant.dt > 0 else 3, 31)
+    peak = frequency_gains(comp, sigs, ws)
+    top = np.max(np.where(np.isfinite(peak), peak, 0.0), initial=0.0)
+    top = max(top, float(np.max(np.where(np.isfinite(dc), dc, 0.0), initial=0.0)))
+    return [j for j in target if np.isfinite(dc[j]) and dc[j] < FD_GAIN_TOL * top]
 
 
 def check_angles(
@@ -91,31 +141,15 @@ def _unread_sensors(
     return sorted(set(out))
 
 
-def _build_once(
+def _quotient(
     plant: Plant,
-    faults: list[Any],
     sigs: list[tuple[np.ndarray, np.ndarray]],
     target: tuple[int, ...],
     decouple: tuple[int, ...],
-    *,
-    poles: Any,
-    omega: float,
     row: str,
-    factor: PlantFactor | None = None,
-    balance: bool = True,
-    prefix: bool = False,
-) -> ResidualGenerator:
-    """Design, realise and check one least-order scalar row (module Notes).
-
-    Raises
-    ------
-    NotIsolableError
-        No residual seeing every target while decoupling the rest exists (reason: the
-        certificate).
-    DesignError
-        Bad poles; or (as the private numerical-failure subclass) a realisation whose
-        identities or decouplings fail numerically.
-    """
+    balance: bool,
+) -> tuple[Quotient, np.ndarray]:
+    """Steps 1–2: balance the state and form the decoupled quotient (module Notes)."""
     n = plant.n
     A, B, C, Du = plant.A, plant.B, plant.C, plant.D
     Ball = _stack([B, plant.Bd, *[Bf for Bf, _ in sigs]], n)
@@ -133,8 +167,23 @@ def _build_once(
             "ill-conditioned",
             argument="plant",
         )
+    return Qm, d
+
+
+def _search(
+    Qm: Quotient,
+    plant: Plant,
+    target: tuple[int, ...],
+    decouple: tuple[int, ...],
+    *,
+    poles: Any,
+    omega: float,
+    row: str,
+    prefix: bool,
+) -> LeastOrderRow:
+    """Step 3: the least-order row, or the not-isolable error with its certificate."""
     try:
-        lo = least_order_row(Qm, poles=poles, omega=omega, dt=plant.dt, prefix=prefix)
+        return least_order_row(Qm, poles=poles, omega=omega, dt=plant.dt, prefix=prefix)
     except _Infeasible as exc:
         unseen = exc.data.get("unseen", list(range(len(target))))
         names = [target[i] for i in unseen] if unseen else list(target)
@@ -144,6 +193,34 @@ def _build_once(
             + f": {exc.reason}"
         )
         raise NotIsolableError(f"{row}: no residual exists: {reason}", reason=reason) from None
+
+
+def _finish(
+    plant: Plant,
+    faults: list[Any],
+    sigs: list[tuple[np.ndarray, np.ndarray]],
+    target: tuple[int, ...],
+    decouple: tuple[int, ...],
+    Qm: Quotient,
+    d: np.ndarray,
+    lo: LeastOrderRow,
+    *,
+    omega: float,
+    row: str,
+    factor: PlantFactor | None,
+) -> tuple[ResidualGenerator, Composite]:
+    """Step 4: the realised row on the plant, normalised and checked (module Notes).
+
+    Returns the generator and its factored interconnection with the plant.
+
+    Raises
+    ------
+    NotIsolableError
+        A target's transfer is identically zero on the physical model.
+    DesignError
+        (the private numerical-failure subclass) identities or decouplings fail.
+    """
+    n, C, Du = plant.n, plant.C, plant.D
     mats = realise_on_plant(Qm, lo, Du)
     bad = {k: v for k, v in mats["identities"].items() if v > IDENTITY_TOL}
     if bad:
@@ -169,8 +246,19 @@ def _build_once(
             Hm[:, i] = 0.0
     cert = dict(lo.certificate)
     cert["poles"] = lo.poles
+    cert["delivered_order"] = lo.order
+    least = cert.get("order")
+    if least is None or least != lo.order:
+        low, high = cert.get("bounds", (least, least))
+        how = cert.get("realisation", "partial fractions")
+        cert["statement"] = (
+            f"delivered order {lo.order} ({how}) is above the least order "
+            + (f"{least}" if least is not None else f"(between {low} and {high})")
+            + f": {cert.get('reason', 'the least-order realisation failed numerically')}"
+        )
     info = {
         "synthesis": "least_order",
+        "realisation": cert.get("realisation", "partial fractions"),
         "least_order": cert,
         "S_dim": Qm.S.dim,
         "S_history": Qm.S.history,
@@ -229,7 +317,7 @@ def _build_once(
             "physical model"
         )
         raise NotIsolableError(f"{row}: no residual exists: {reason}", reason=reason)
-    return g
+    return g, comp
 
 
 def _first_markov(g: ResidualGenerator, plant: Plant, Bf: np.ndarray, Df: np.ndarray) -> float:
@@ -257,7 +345,25 @@ def _first_markov(g: ResidualGenerator, plant: Plant, Bf: np.ndarray, Df: np.nda
 
 
 RETRY_SCALES = (1.0, 0.25, 4.0)
-"""Default-pole scales tried in turn when a least-order realisation fails its checks."""
+"""Default-pole scales tried in turn when a partial-fraction realisation fails its checks."""
+
+INJECT_FIRST = 4
+"""A row whose least order is the quotient's dimension k (always when it reads one output
+combination) is realised first as the quotient observer when ``k > INJECT_FIRST``: the
+partial-fraction basis of ``k`` poles is then the ill-conditioned choice."""
+
+
+def _attempts(lo: LeastOrderRow, k: int, poles: Any, prefix: bool) -> list[tuple[str, float]]:
+    """Realisations tried in turn: ``("pf", pole scale)`` or ``("inj", relaxation)``."""
+    pf = [("pf", sc) for sc in RETRY_SCALES]
+    inj = [("inj", r) for r in RELAX]
+    if poles is not None:
+        return [("pf", 1.0)]
+    if not lo.realised:
+        return inj
+    if lo.order == k and k > INJECT_FIRST and not prefix:
+        return inj + pf
+    return pf + inj
 
 
 def build_least_order(
@@ -276,9 +382,13 @@ def build_least_order(
 ) -> ResidualGenerator:
     """Design, realise and check one least-order scalar row (module Notes).
 
-    With default poles, a realisation that fails its numerical checks is retried with
-    the default pole set scaled by ``RETRY_SCALES`` (the parity space and the order do
-    not depend on the poles; the conditioning of the partial-fraction basis does).
+    The realisations are tried in the order of :func:`_attempts`: the partial-fraction
+    functional observer with the default poles scaled by ``RETRY_SCALES`` (the parity
+    space and the order do not depend on the poles; the conditioning of the basis
+    does), and the quotient observer with the Riccati injection at the stability degrees
+    relaxed by :data:`geomfdi.synthesis.injection.RELAX`.  The first that passes the
+    checks on the physical plant is delivered; ``info["realisation"]`` names it and
+    ``info["least_order"]`` states the least order and the delivered one.
 
     Raises
     ------
@@ -287,27 +397,117 @@ def build_least_order(
     DesignError
         Bad poles; or (the private numerical-failure subclass) every attempt failed.
     """
-    scales = RETRY_SCALES if poles is None else (1.0,)
+    Qm, d = _quotient(plant, sigs, target, decouple, row, balance)
+    kw = {"poles": poles, "row": row, "prefix": prefix}
+    lo = _search(Qm, plant, target, decouple, omega=omega, **kw)
     first: _NumericalDesignError | None = None
-    for sc in scales:
+    for kind, val in _attempts(lo, Qm.k, poles, prefix):
         try:
-            g = _build_once(
+            if kind == "pf":
+                cur = (
+                    lo
+                    if val == 1.0
+                    else _search(Qm, plant, target, decouple, omega=omega * val, **kw)
+                )
+            else:
+                cert = dict(lo.certificate)
+                if first is not None:
+                    cert["reason"] = f"the partial-fraction realisation failed ({first})"
+                cur = quotient_observer_row(
+                    Qm, omega=omega, dt=plant.dt, relax=val, certificate=cert
+                )
+            g, comp = _finish(
                 plant,
                 faults,
                 sigs,
                 target,
                 decouple,
-                poles=poles,
-                omega=omega * sc,
+                Qm,
+                d,
+                cur,
+                omega=omega,
                 row=row,
                 factor=factor,
-                balance=balance,
-                prefix=prefix,
             )
         except _NumericalDesignError as exc:
             first = first or exc
             continue
-        g.info["pole_scale"] = sc
+        except np.linalg.LinAlgError as exc:
+            first = first or _NumericalDesignError(f"{row}: {exc}", argument="plant")
+            continue
+        if kind == "pf":
+            g.info["pole_scale"] = val
+            if poles is None and not prefix:
+                g = _strengthen(
+                    g, comp, cur, Qm, d, plant, faults, sigs, target, decouple, omega, row, factor
+                )
+        else:
+            g.info["relax"] = val
         return g
     assert first is not None
     raise first
+
+
+def _strengthen(
+    g: ResidualGenerator,
+    comp: Composite,
+    lo: LeastOrderRow,
+    Qm: Quotient,
+    d: np.ndarray,
+    plant: Plant,
+    faults: list[Any],
+    sigs: list[tuple[np.ndarray, np.ndarray]],
+    target: tuple[int, ...],
+    decouple: tuple[int, ...],
+    omega: float,
+    row: str,
+    factor: PlantFactor | None,
+) -> ResidualGenerator:
+    """Raise the order of a weak least-order row until every target is strongly seen.
+
+    A row whose DC gain from some target is below ``FD_GAIN_TOL`` of its largest fault
+    gain (:func:`weak_targets`) is redesigned at degrees ``ν + 1 … ν + MAX_RAISE`` (not
+    above the largest observability index), with the direction chosen by the DC gains;
+    the first row that is not weak is delivered, its certificate states the least order
+    and why the order was raised.  Otherwise the least-order row is kept (reported weak).
+    """
+    weak = weak_targets(g, plant, sigs, factor, omega, target, comp)
+    g.info["weak_targets"] = weak
+    if not weak:
+        return g
+    nu = lo.order
+    top = len(lo.certificate.get("staircase", {}).get("blocks", []))
+    for nu2 in range(nu + 1, min(top, nu + MAX_RAISE, NU_PF_MAX) + 1):
+        try:
+            cur = least_order_row(Qm, omega=omega, dt=plant.dt, min_order=nu2, dc=True)
+            if not cur.realised:
+                break
+            cert = cur.certificate
+            cert.update(
+                order=nu,
+                unseen_below=lo.certificate["unseen_below"],
+                reason=f"the least-order row sees targets {weak} only weakly (DC gain "
+                f"below {FD_GAIN_TOL:g} of its largest fault gain)",
+                raised_from=nu,
+            )
+            g2, comp2 = _finish(
+                plant,
+                faults,
+                sigs,
+                target,
+                decouple,
+                Qm,
+                d,
+                cur,
+                omega=omega,
+                row=row,
+                factor=factor,
+            )
+        except (_NumericalDesignError, np.linalg.LinAlgError, NotIsolableError):
+            continue
+        weak2 = weak_targets(g2, plant, sigs, factor, omega, target, comp2)
+        if not weak2:
+            g2.info["weak_targets"] = []
+            g2.info["pole_scale"] = 1.0
+            return g2
+    return g

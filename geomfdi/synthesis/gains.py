@@ -154,7 +154,11 @@ class Composite:
         at the scale of the spectrum of plant and generator.
         """
         best = np.zeros(len(channels))
-        UBs = [self.UAh @ c[0] for c in channels]
+        if not channels:
+            return best
+        widths = [c[0].shape[1] for c in channels]
+        edges = np.cumsum([0, *widths])
+        UB = np.hstack([self.UAh @ c[0] for c in channels])
         # at the scale of the spectrum, never pushed outwards: far from the poles every
         # transfer decays and a real leak would look like rounding
         for s in self.raw_points:
@@ -163,13 +167,19 @@ class Composite:
             nQ = _norm2(Qs)
             if nQ == 0:
                 continue
+            Yall = self.CUA @ self._solve_A(s, UB) if UB.size else np.zeros((self.g.q, 0))
             for c, ch in enumerate(channels):
-                Y = self.CUA @ self._solve_A(s, UBs[c]) + ch[1]
+                Y = Yall[:, edges[c] : edges[c + 1]] + ch[1]
                 U = np.eye(self.g.m) if ch[2] else np.zeros((self.g.m, Y.shape[1]))
                 V = np.vstack([Y, U])
-                nV = _norm2(V)
+                QV = Qs @ V
+                if V.shape[1] == 1 or Qs.shape[0] == 1:  # a vector: 2-norm without an SVD
+                    nV = _norm2(V) if V.shape[1] > 1 else float(np.linalg.norm(V))
+                    nQV = float(np.linalg.norm(QV))
+                else:
+                    nV, nQV = _norm2(V), float(np.linalg.norm(QV, 2))
                 if nV > 0:
-                    best[c] = max(best[c], float(np.linalg.norm(Qs @ V, 2) / (nQ * nV)))
+                    best[c] = max(best[c], nQV / (nQ * nV))
         return best
 
     def _clear_of_rounding(self, points: np.ndarray) -> np.ndarray:

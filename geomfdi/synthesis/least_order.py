@@ -41,6 +41,16 @@ The least order is the smallest ν whose parity space holds a vector seeing ever
 target is seen by some basis vector); the certificate lists, for ν − 1, a target that the
 whole degree-(ν − 1) space does not see.  Within the least-order space the direction
 maximising the smallest normalised target gain is chosen.
+
+**Dimensions from the observer staircase.**  The dimension of every degree-ν space,
+``(ν + 1) ρ − Σ_{j ≤ ν+1} ρ_j``, comes from the block sizes ``ρ_j`` of the orthogonal
+observer staircase of ``(A0, M)`` (:func:`geomfdi.geometry.staircase.observer_staircase`,
+one rank decision per small block); the null space of the stacked resolvent blocks is
+taken with that dimension, degrees with an empty space are skipped, and the search stops
+at the largest observability index.  Above ``NU_PF_MAX`` the partial-fraction basis is
+not used: only the top degree is decided, on the quotient's own target transfers
+(:func:`quotient_target_gains`), and the row is returned unrealised (``F is None``) for
+the quotient-observer realisation of :mod:`geomfdi.synthesis.quotient_observer`.
 """
 
 from __future__ import annotations
@@ -51,6 +61,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import DesignError
+from geomfdi.geometry.staircase import Staircase, observer_staircase
 from geomfdi.geometry.subspace import Subspace, _norm2, pinv
 from geomfdi.geometry.unobservability import min_unobservability_subspace
 from geomfdi.tolerance import get_rtol, rank_decision
@@ -62,10 +73,18 @@ __all__ = [
     "plant_scale",
     "least_order_row",
     "LeastOrderRow",
+    "quotient_target_gains",
+    "NU_PF_MAX",
 ]
 
 SEE_TOL = 1e-8
 """Relative gain above which a target counts as seen by a parity space."""
+
+NU_PF_MAX = 12
+"""Largest degree whose parity space is computed in the partial-fraction basis; above it
+the basis is too ill-conditioned (distinct poles over two decades) and only the top
+degree (the largest observability index, where the space holds every residual) is
+decided, on the quotient's own transfer."""
 
 _GOLD = 0.6180339887498949
 
@@ -276,10 +295,13 @@ def validate_poles(poles: Any, dt: float) -> np.ndarray:
     return arr
 
 
-def _null_rows(blocks: list[np.ndarray]) -> tuple[np.ndarray, int, float]:
+def _null_rows(blocks: list[np.ndarray], dim: int | None = None) -> tuple[np.ndarray, int, float]:
     """Real left null space of the stacked normalised blocks.
 
-    Returns (basis with orthonormal columns in the *normalised* coordinates, rank, gap).
+    ``dim``: its dimension, known from the observer staircase (no rank decision on the
+    stacked matrix); ``None``: decided by the tolerance policy.  Returns (basis with
+    orthonormal columns in the *normalised* coordinates, rank, singular-value gap at
+    the rank).
     """
     norms = [_bnorm(b) for b in blocks]
     R = np.vstack([b / s for b, s in zip(blocks, norms, strict=True)])
@@ -287,8 +309,13 @@ def _null_rows(blocks: list[np.ndarray]) -> tuple[np.ndarray, int, float]:
     if k == 0:
         return np.eye(rows), 0, np.inf
     U, s, _ = np.linalg.svd(R, full_matrices=True)
-    dec = rank_decision(s, 1.0, max(rows, k), what="degree-ν parity space", warn=False)
-    return U[:, dec.rank :], dec.rank, dec.gap
+    if dim is None:
+        dec = rank_decision(s, 1.0, max(rows, k), what="degree-ν parity space", warn=False)
+        return U[:, dec.rank :], dec.rank, dec.gap
+    rank = rows - dim
+    kept = float(s[rank - 1]) if rank > 0 else 1.0
+    dropped = float(s[rank]) if rank < s.size else 0.0
+    return U[:, rank:], rank, kept / max(dropped, np.finfo(float).eps)
 
 
 def _bnorm(b: np.ndarray) -> float:
@@ -424,18 +451,52 @@ def _maxmin_direction(grams: list[np.ndarray]) -> tuple[np.ndarray, float]:
     return best / np.linalg.norm(best), bval
 
 
+def quotient_target_gains(Qm: Quotient, points: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+    """Gram matrices of the quotient's target transfers and each target's relative size.
+
+    ``G_j(s) = M (sI − A0)⁻¹ B_fj + H D_fj`` (ρ × m_j): every residual of the row is
+    ``v(s) G_j(s)`` on target j, so target j is seen by some residual iff ``G_j ≢ 0``.
+    Returns ``grams[j] = Re Σ_s G_j G_jᴴ`` normalised to norm 1 and
+    ``size[j] = ‖[G_j(s_1) …]‖ / ((1 + max_s ‖M (sI − A0)⁻¹‖) max(‖B_fj‖, ‖H D_fj‖))``,
+    the target's size relative to the quotient's own transfer (rounding counts as 0).
+    """
+    k, rho = Qm.k, Qm.rho
+    nt = len(Qm.Bf)
+    cols: list[list[np.ndarray]] = [[] for _ in range(nt)]
+    ref = 1.0
+    for s in points:
+        R = np.linalg.solve((s * np.eye(k) - Qm.A0).T, Qm.M.T).T if k else Qm.M[:, :0]
+        ref = max(ref, _norm2(R) + 1.0)
+        for j in range(nt):
+            cols[j].append(R @ Qm.Bf[j] + Qm.Df[j])
+    grams, size = [], np.zeros(nt)
+    for j in range(nt):
+        Gj = np.hstack(cols[j]) if cols[j] else np.zeros((rho, 0))
+        scale = max(_norm2(Qm.Bf[j]), _norm2(Qm.Df[j]), 1e-300)
+        nG = _norm2(Gj)
+        size[j] = nG / (ref * scale)
+        grams.append((Gj @ Gj.conj().T).real / max(nG**2, 1e-300))
+    return grams, size
+
+
 @dataclass
 class LeastOrderRow:
     """One scalar least-order row: realisation on the quotient and its certificate."""
 
     order: int
-    F: np.ndarray
-    Gs: np.ndarray
-    T: np.ndarray
-    c: np.ndarray
-    h: np.ndarray
+    F: np.ndarray | None
+    Gs: np.ndarray | None
+    T: np.ndarray | None
+    c: np.ndarray | None
+    h: np.ndarray | None
     poles: np.ndarray
     certificate: dict[str, Any]
+
+    @property
+    def realised(self) -> bool:
+        """False when the degree search ended above ``NU_PF_MAX``: the row is to be
+        realised as the quotient observer (:mod:`geomfdi.synthesis.quotient_observer`)."""
+        return self.F is not None
 
 
 def _realise(
@@ -485,6 +546,7 @@ def least_order_row(
     dt: float = 0.0,
     min_order: int = 0,
     prefix: bool = False,
+    dc: bool = False,
 ) -> LeastOrderRow:
     """Least-order scalar row of the quotient that sees every target.
 
@@ -501,6 +563,10 @@ def least_order_row(
     prefix : bool
         Accept more poles than the order and use the first ν (a bank with common poles);
         otherwise exactly ν poles are required.
+    dc : bool
+        Choose the direction by the targets' gains at DC (s = 0, or z = 1) when every
+        target has a non-zero DC gain on the space (strong detectability); otherwise,
+        and by default, by the gains at the random points.
 
     Raises
     ------
@@ -523,10 +589,11 @@ def least_order_row(
             why = f"{dims} and {why}"
         raise _Infeasible(why, {})
     user = None if poles is None else validate_poles(poles, dt)
+    st = observer_staircase(Qm.A0, Qm.M) if k else Staircase(Qm.A0, Qm.M, np.eye(0), [])
+    top = st.max_index
     dims, ranks, history = [], [], []
-    last_rank = -1
     nu = max(0, min_order)
-    pool = default_pole_sequence(k + 2, omega, dt)
+    pool = default_pole_sequence(min(k, NU_PF_MAX) + 2, omega, dt)
     if Qm.k:
         eig = np.linalg.eigvals(Qm.A0)
         for t in range(pool.size):  # keep default poles clear of the quotient's spectrum
@@ -535,31 +602,68 @@ def least_order_row(
                     break
                 pool[t] *= 1.0 + 1e-3
     unseen_at: dict[int, list[int]] = {}
+    undecided: list[int] = []
+    staircase = {"blocks": st.blocks, "gaps": st.gaps, "indices": st.indices}
+
+    def infeasible(unseen: list[int]) -> _Infeasible:
+        return _Infeasible(
+            "the targets "
+            + str(unseen)
+            + " are not seen by any residual that decouples the other signals "
+            f"(their transfer vanishes on the whole parity space of degree {nu})",
+            {"unseen": unseen, "history": history},
+        )
+
     while True:
+        dim = st.parity_dim(nu)
+        dims.append(dim)
+        ranks.append((nu + 1) * rho - dim)
+        if dim == 0:  # the staircase says: no residual of this degree
+            history.append({"order": nu, "dim": 0, "rank": ranks[-1], "gap": np.inf})
+            unseen_at[nu] = list(range(nt))
+            nu += 1
+            continue
+        if nu > NU_PF_MAX and user is None:
+            if nu < top:  # the partial-fraction basis is too ill-conditioned to decide
+                history.append({"order": nu, "dim": dim, "rank": ranks[-1], "gap": None})
+                undecided.append(nu)
+                nu += 1
+                continue
+            _, size = quotient_target_gains(Qm, _points(Qm, np.zeros(0), omega, count=4))
+            history.append({"order": nu, "dim": dim, "rank": ranks[-1], "gap": None})
+            if not np.all(size > SEE_TOL) or not nt:
+                raise infeasible([int(j) for j in np.flatnonzero(~(size > SEE_TOL))])
+            low = undecided[0] if undecided else nu
+            cert = {
+                "order": nu if not undecided else None,
+                "bounds": (low, nu),
+                "parity_dims": dims,
+                "ranks": ranks,
+                "history": history,
+                "staircase": staircase,
+                "unseen_below": {int(a): b for a, b in unseen_at.items()},
+                "target_gain_on_space": size.tolist(),
+                "statement": (
+                    f"order {nu} is least: the degree-{nu - 1} parity space does not see "
+                    f"targets {unseen_at.get(nu - 1, [])}"
+                    if not undecided
+                    else f"least order between {low} (no residual of degree < {low}, by "
+                    f"the observer staircase) and {nu} (the largest observability index)"
+                ),
+            }
+            return LeastOrderRow(nu, None, None, None, None, None, np.zeros(0), cert)
         cand = _check_poles(pool[:nu].astype(complex), Qm.A0, dt)
         blocks, kinds = _blocks(Qm, cand)
-        X, rank, gap = _null_rows(blocks)
-        dims.append(X.shape[1])
-        ranks.append(rank)
-        if X.shape[1]:
-            pts = _points(Qm, cand, omega)
-            grams, rel = _target_grams(Qm, cand, kinds, X, pts, blocks)
-            seen = rel > SEE_TOL
-        else:
-            grams, rel, seen = [], np.zeros(nt), np.zeros(nt, bool)
+        X, rank, gap = _null_rows(blocks, dim)
+        pts = _points(Qm, cand, omega)
+        grams, rel = _target_grams(Qm, cand, kinds, X, pts, blocks)
+        seen = rel > SEE_TOL
         history.append({"order": nu, "dim": X.shape[1], "rank": rank, "gap": gap})
-        if np.all(seen) and nt and X.shape[1]:
+        if np.all(seen) and nt:
             break
         unseen_at[nu] = [int(j) for j in np.flatnonzero(~seen)]
-        if rank == last_rank or nu > k + 1:
-            raise _Infeasible(
-                "the targets "
-                + str(unseen_at[nu])
-                + " are not seen by any residual that decouples the other signals "
-                f"(their transfer vanishes on the whole parity space of degree {nu})",
-                {"unseen": unseen_at[nu], "history": history},
-            )
-        last_rank = rank
+        if nu >= top:
+            raise infeasible(unseen_at[nu])
         nu += 1
     if user is not None:  # the space does not depend on the poles: redo it at the user's
         if user.size != nu and not (prefix and user.size > nu):
@@ -574,13 +678,18 @@ def least_order_row(
             )
         cand = _check_poles(cand, Qm.A0, dt)
         blocks, kinds = _blocks(Qm, cand)
-        X, rank, gap = _null_rows(blocks)
+        X, rank, gap = _null_rows(blocks, st.parity_dim(nu))
         grams, rel = _target_grams(Qm, cand, kinds, X, _points(Qm, cand, omega), blocks)
         if X.shape[1] == 0 or not np.all(rel > SEE_TOL):
             raise DesignError(
                 "poles: the requested poles make the parity space ill-conditioned; choose others",
                 argument="poles",
             )
+    if dc:
+        s0 = np.array([1.0 if dt > 0 else 0.0], dtype=complex)
+        grams_dc, rel_dc = _target_grams(Qm, cand, kinds, X, s0, blocks)
+        if np.all(rel_dc > SEE_TOL):
+            grams = grams_dc
     alpha, val = _maxmin_direction(grams)
     x = _unnormalise(X, blocks) @ alpha
     sizes = [b.shape[0] for b in blocks]
@@ -593,6 +702,8 @@ def least_order_row(
         "parity_dims": dims,
         "ranks": ranks,
         "history": history,
+        "staircase": staircase,
+        "realisation": "partial fractions",
         "unseen_below": {int(a): b for a, b in unseen_at.items()},
         "min_target_gain": float(np.sqrt(max(val, 0.0))),
         "target_gain_on_space": rel.tolist(),
