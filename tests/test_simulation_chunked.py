@@ -15,6 +15,7 @@ import pytest
 
 import geomfdi as gf
 from geomfdi.errors import GeomFDIError
+from geomfdi.evaluation.decision import MULTIPLE
 from geomfdi.simulation.noise import NoiseStream
 from geomfdi.simulation.streaming import MIN_CHUNK, chunk_plan, time_chunks
 
@@ -86,6 +87,7 @@ def same_events(ea, eb):
         assert a.fault is b.fault and a.index == b.index and a.onset == b.onset
         assert a.detection_time == b.detection_time and a.isolation_time == b.isolation_time
         assert a.decided == b.decided and a.residuals == b.residuals
+        assert a.hypothesis == b.hypothesis
 
 
 def assert_same_result(a, b):
@@ -137,11 +139,21 @@ def test_noise_stream_is_independent_of_the_ranges_asked():
         st.take(0, 10)  # the past is gone
 
 
+RULES = [  # (latch, reset): held pattern to the end / with episodes / memoryless
+    (True, None),
+    (True, 4),
+    (False, None),
+]
+
+
 @pytest.mark.parametrize("seed", range(4))
-def test_decision_stream_and_run_summary_equal_the_whole_record(seed):
-    """Random residuals cut at random points: the chunked decisions (moving RMS and a
-    k-of-n rule both looking back across the cuts) and the accumulated events, peaks and
-    false alarms equal those of the whole record."""
+@pytest.mark.parametrize(("latch", "reset"), RULES)
+def test_decision_stream_and_run_summary_equal_the_whole_record(seed, latch, reset):
+    """Random residuals cut at random points: the chunked decisions (moving RMS, the
+    k-of-n confirmation, the pattern held over alarm episodes and the settling of the
+    decisions all looking back across the cuts) and the accumulated events (with the
+    hypothesis of a MULTIPLE decision), peaks and false alarms equal those of the whole
+    record (:func:`decisions` and :func:`detection_events`)."""
     from geomfdi.evaluation.decision import detection_events
     from geomfdi.evaluation.metrics import false_alarms
     from geomfdi.evaluation.persistence import Persistence, decisions
@@ -153,7 +165,7 @@ def test_decision_stream_and_run_summary_equal_the_whole_record(seed):
     res = rng.standard_normal((R, 3, N)) * np.linspace(0.5, 2.0, N)
     S = np.array([[1, 0, 1], [0, 1, 1], [1, 1, 0]], dtype=bool)
     thr = gf.Threshold(np.array([1.2, 1.5, 1.0]), statistic="rms", window=1 + seed)
-    rule = Persistence(2, 3 + seed)
+    rule = Persistence(2, 3 + seed, latch=latch, reset=reset)
     faults = [
         [gf.BiasFault(0, start=1.0 + r, bias=1.0), gf.BiasFault(1, start=2.5, bias=1.0)]
         for r in range(R)
@@ -169,14 +181,89 @@ def test_decision_stream_and_run_summary_equal_the_whole_record(seed):
         np.testing.assert_array_equal(a, al[..., s:e])
         np.testing.assert_array_equal(i.isolated, iso.isolated[..., s:e])
         np.testing.assert_array_equal(i.candidates, iso.candidates[..., s:e])
-        summ.update(int(s), res[..., s:e], a, i.isolated)
+        np.testing.assert_array_equal(i.suspects, iso.suspects[..., s:e])
+        summ.update(int(s), res[..., s:e], a, i.isolated, 0, i.suspects)
     np.testing.assert_array_equal(summ.peak, np.max(np.abs(res), axis=-1))
     for r in range(R):
-        ref = detection_events(t, al[r], iso.isolated[r], faults[r], cols[r], window=window)
+        ref = detection_events(
+            t, al[r], iso.isolated[r], faults[r], cols[r], window=window, suspects=iso.suspects[r]
+        )
         same_events(summ.events(r), ref)
         first = min(1.0 + r, 2.5)  # the healthy part ends at the first onset
         assert summ.false_alarms(r) == false_alarms(al[r], int(np.searchsorted(t, first - 1e-12)))
     assert al.any() and not al.all()
+    # the rule is not trivial here: the held pattern gives MULTIPLE decisions, and the
+    # memory changes the decisions
+    assert np.any(iso.isolated == MULTIPLE) or not latch
+    other = Persistence(2, 3 + seed, latch=not latch, reset=reset)
+    assert not np.array_equal(decisions(res, thr, S, other)[1].isolated, iso.isolated)
+
+
+def test_held_pattern_episode_across_every_chunk_boundary():
+    """An alarm episode whose pattern grows, pauses (fewer quiet samples than ``reset``),
+    ends and restarts: for every single cut point, and for cuts at every sample, the
+    chunked decisions equal the whole record's; the held residual of the first part
+    makes the second part MULTIPLE, where the memoryless rule decides a single fault."""
+    from geomfdi.evaluation.persistence import Persistence, decisions
+    from geomfdi.simulation.streaming import DecisionStream
+
+    S = np.array([[1, 0], [0, 1]], dtype=bool)
+    N = 40
+    r = np.zeros((1, 2, N))
+    r[0, 0, 3:9] = 1.0  # fault 0's residual ...
+    r[0, 1, 11:20] = 1.0  # ... then fault 1's after 2 quiet samples (same episode)
+    r[0, 1, 30:37] = 1.0  # a new episode after 10 quiet samples: fault 1 alone
+    thr = gf.Threshold(np.array([0.5, 0.5]))
+    for rule in (Persistence(2, 3, reset=5), Persistence(2, 3), Persistence(2, 3, latch=False)):
+        al, iso = decisions(r, thr, S, rule)
+        cut_sets = [[c] for c in range(1, N)] + [list(range(1, N))]
+        for cuts in cut_sets:
+            ds = DecisionStream(thr, S, rule)
+            got = [ds.step(r[..., s:e]) for s, e in zip([0, *cuts], [*cuts, N], strict=True)]
+            np.testing.assert_array_equal(np.concatenate([a for a, _ in got], -1), al)
+            for name in ("isolated", "candidates", "suspects"):
+                np.testing.assert_array_equal(
+                    np.concatenate([getattr(i, name) for _, i in got], -1), getattr(iso, name)
+                )
+        dec = iso.isolated[0]
+        if not rule.latch:
+            assert dec[16] == 1 and dec[34] == 1
+        elif rule.reset is None:  # the first episode never ends
+            assert dec[16] == MULTIPLE and dec[34] == MULTIPLE
+        else:  # it ends 5 quiet samples after sample 20: fault 1 alone in the next one
+            assert dec[16] == MULTIPLE and dec[34] == 1
+
+
+def test_seed001_three_faults_multiple_chunked():
+    """The seed-001 scenario of three simultaneous sensor-gain faults (Hou, Wen & Chen
+    2011, sec. 4) under the held-pattern rule: in chunks of a few dozen samples the
+    decisions are MULTIPLE with the hypothesis (0, 1, 2), as on the whole record, in
+    simulate and in a summary-only batch."""
+    from pathlib import Path
+
+    from geomfdi.io.modelfile import load_model
+
+    spec = load_model(Path(__file__).parents[1] / "examples" / "seed001.toml")
+    (sc,) = [s for s in spec.scenarios if s.name.startswith("gain steps on all three")]
+    bank = gf.design_bank(spec.plant, spec.faults, spec.structure, method="full")
+    kw = dict(
+        faults=sc.faults,
+        x0=spec.x0,
+        controller=spec.K,
+        threshold=spec.threshold,
+        persistence=25,
+    )
+    ref = gf.simulate(spec.plant, bank, spec.t, spec.u, **kw)
+    with gf.limits.limits(chunk_memory=TINY):
+        chunked = gf.simulate(spec.plant, bank, spec.t, spec.u, **kw)
+        summ = gf.simulate_batch(
+            spec.plant, bank, spec.t, spec.u, store="summary", progress=False, **kw
+        )
+    assert_same_result(chunked, ref)
+    assert [ev.outcome for ev in chunked.events] == ["multiple"] * 3
+    assert all(ev.hypothesis == (0, 1, 2) for ev in chunked.events)
+    assert not np.any(chunked.isolated >= 0)
+    same_events(summ.events[0], ref.events)
 
 
 @pytest.mark.parametrize("vector", [False, True])
