@@ -476,3 +476,65 @@ def test_memory_is_proportional_to_the_chunk_not_the_record():
     arrays += (res.candidates, res.suspects)
     returned = sum(a.nbytes for a in arrays)
     assert peak < returned + 4 * budget, (peak / 2**20, returned / 2**20)
+
+
+ACTUATOR_FAULTS = [
+    gf.ActuatorGainFault(0, start=1.0, gain=0.6),  # onsets at chunk starts (L = 50) ...
+    gf.ActuatorStuckFault(1, start=2.0),  # ... the held input is the carried left limit
+    gf.ActuatorStuckFault(2, start=2.517, value=0.3, end=3.2),
+    gf.ActuatorGainFault(2, start=3.61, gain=lambda s: 1.0 - 0.3 * (s - 3.61)),  # stepped
+    gf.BiasFault(1, start=1.234, bias=0.02),
+]
+
+
+@pytest.mark.parametrize("feedback", ["state", "output"])
+def test_closed_loop_actuator_faults_chunked_equals_unchunked(feedback, monkeypatch):
+    """Actuator gain and stuck faults inside the loop: the piecewise-LTI segments are cut
+    at the chunk boundaries too, the loop state, the commanded input at the boundary (a
+    stuck actuator starting there holds it) and the stepped time-varying gain carried
+    over; simulate and a batch of per-run fault lists give the unchunked results."""
+    import importlib
+
+    import control
+
+    sim = importlib.import_module("geomfdi.simulation.simulate")  # the module, not the function
+    plant, bank = setup()
+    t = np.arange(0, 4.5, 0.01)
+    ctrl = (
+        K_FB
+        if feedback == "state"
+        else control.ss(-np.eye(3), np.eye(3), -0.5 * np.eye(3), np.zeros((3, 3)))
+    )
+    kw = dict(
+        faults=ACTUATOR_FAULTS,
+        x0=X0,
+        controller=ctrl,
+        noise=gf.Noise(measurement=1e-3, process=[0.0, 1e-2, 0.0], seed=2),
+        threshold=0.02,
+        persistence=gf.Persistence(2, 4, reset=20),
+    )
+    ref = gf.simulate(plant, bank, t, v_ext, **kw)
+    with gf.limits.limits(chunk_memory=TINY):
+        chunked = gf.simulate(plant, bank, t, v_ext, **kw)
+    with monkeypatch.context() as mp:  # chunks of exactly 50 samples: onsets at their starts
+        mp.setattr(sim, "chunk_plan", lambda N, runs, width, **_: (1, 50))
+        fixed = gf.simulate(plant, bank, t, v_ext, **kw)
+    for other in (chunked, fixed):
+        assert_same_result(other, ref)
+        assert other.info["stepped_samples"] == ref.info["stepped_samples"] > 0
+    # the faults act inside the loop: the commanded input leaves the healthy loop's
+    healthy = gf.simulate(plant, bank, t, v_ext, **{**kw, "faults": []})
+    after = t >= 1.0
+    assert np.max(np.abs(ref.u[:, after] - healthy.u[:, after])) > 1e-3
+    close(ref.u[:, ~after], healthy.u[:, ~after], 1e-9)  # the open-loop engine, rounding
+    assert ref.alarms.any()
+    # a batch of per-run lists (the loop differs per run), in chunks
+    lists = [ACTUATOR_FAULTS[:2], ACTUATOR_FAULTS[2:]]
+    bkw = {**kw, "faults": lists, "store": "residuals", "progress": False}
+    bref = gf.simulate_batch(plant, bank, t, v_ext, **bkw)
+    with gf.limits.limits(chunk_memory=TINY):
+        bch = gf.simulate_batch(plant, bank, t, v_ext, **bkw)
+    close(bch.residuals, bref.residuals)
+    np.testing.assert_array_equal(bch.isolated, bref.isolated)
+    for ea, eb in zip(bch.events, bref.events, strict=True):
+        same_events(ea, eb)
