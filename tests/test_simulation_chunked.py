@@ -538,3 +538,24 @@ def test_closed_loop_actuator_faults_chunked_equals_unchunked(feedback, monkeypa
     np.testing.assert_array_equal(bch.isolated, bref.isolated)
     for ea, eb in zip(bch.events, bref.events, strict=True):
         same_events(ea, eb)
+
+
+def test_actuator_gain_faults_are_not_exogenous_channels_under_feedback():
+    """Under feedback the engines take actuator gain/stuck faults into the loop; building
+    them as exogenous input channels (computed from ``u_ext``) is refused."""
+    from geomfdi.simulation.closed_loop import split_actuator_faults
+    from geomfdi.simulation.context import prepare, with_input_faults
+    from geomfdi.simulation.schedule import fault_schedule
+
+    plant, bank = setup()
+    t = np.arange(0, 1.0, 0.01)
+    sched = fault_schedule(ACTUATOR_FAULTS, plant)
+    ctx = prepare(plant, bank, t, v_ext, None, None, K_FB, "foh", True, False)
+    with pytest.raises(GeomFDIError, match="inside the loop") as err:
+        with_input_faults(ctx, [sched])
+    assert err.value.argument == "faults"
+    rest, inside = split_actuator_faults(sched)
+    assert inside == ACTUATOR_FAULTS[:4] and not rest.needs_input
+    assert with_input_faults(ctx, [rest]) is ctx  # no additive input fault left
+    open_ctx = prepare(plant, bank, t, v_ext, None, None, None, "foh", True, False)
+    assert with_input_faults(open_ctx, [sched]).plant.nd == plant.nd + 3  # open loop: channels

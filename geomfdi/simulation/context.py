@@ -408,18 +408,22 @@ def with_input_faults(ctx: Context, schedules: Sequence[FaultSchedule]) -> Conte
     """``ctx`` with the additive faults of ``schedules`` as extra disturbance channels.
 
     The plant gets ``Bd' = [Bd, Bphi]``, ``Dd' = [Dd, Dphi]`` and the disturbance samples
-    ``d' = [d; phi]`` (per run, ``(R, nd', N)``, when the runs' signals differ).
+    ``d' = [d; phi]`` (per run, ``(R, nd', N)``, when the runs' signals differ).  An
+    actuator gain or stuck fault becomes such a channel only in open loop, where the
+    commanded input is ``u_ext``; under feedback it acts inside the loop and the caller
+    passes the schedules without it
+    (:func:`geomfdi.simulation.closed_loop.split_actuator_faults`).
     """
+    if ctx.ctrl.mode != "open" and any(s.needs_input for s in schedules):
+        raise GeomFDIError(
+            "faults: under feedback actuator gain and stuck faults act on the commanded "
+            "input inside the loop, not as exogenous input channels; split them off the "
+            "schedule first (split_actuator_faults)",
+            argument="faults",
+        )
     ch = input_channels(schedules, ctx.original or ctx.plant, ctx.t, ctx.u_ext)
     if ch is None:
         return ctx
-    if ctx.ctrl.mode != "open" and any(s.needs_input for s in schedules):
-        raise GeomFDIError(
-            "faults: actuator gain and stuck faults act on the commanded input, known in "
-            "advance only in open loop; under feedback simulate an ActuatorBiasFault or an "
-            "AdditiveFault instead",
-            argument="faults",
-        )
     Bphi, Dphi, phi = ch
     if ctx.x_scale is not None:
         Bphi = Bphi / ctx.x_scale[:, None]
