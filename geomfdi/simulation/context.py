@@ -111,11 +111,17 @@ def bank_view(bank: Any, plant: Plant) -> BankView:
 
 
 def unbalance_states(view: BankView, info: dict, ws: list[np.ndarray | None]) -> list:
-    """Generator states (and ``info["w0"]``) back in the bank's own coordinates."""
+    """Generator states (and ``info["w0"]``) back in the bank's own coordinates.
+
+    The arrays of ``ws`` (the simulator's own, full-record) are scaled in place: no
+    second copy of the states.
+    """
     out: list[np.ndarray | None] = []
     for k, w in enumerate(ws):
         e = view.scales[k] if k < len(view.scales) else None
-        out.append(w if w is None or e is None else w * e[:, None])
+        if w is not None and e is not None:
+            np.multiply(w, e[:, None], out=w)
+        out.append(w)
     for k, w0 in info.get("w0", {}).items():
         e = view.scales[k]
         if e is not None:
