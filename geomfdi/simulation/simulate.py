@@ -5,8 +5,10 @@
 recursion of :mod:`geomfdi.simulation.lifting`.  Faults: sensor gain, bias and stuck
 faults on the readings; actuator gain (loss of effectiveness), bias and stuck faults and
 general additive faults ``Fault(Bf, Df)`` driven by a signal enter the plant as extra
-input channels (:mod:`geomfdi.simulation.input_faults`).  Decisions: thresholds, an
-optional k-of-n persistence rule and a detection window
+input channels (:mod:`geomfdi.simulation.input_faults`), except actuator gain and stuck
+faults under feedback, which act on the commanded input inside the loop.  Decisions:
+thresholds, an optional persistence rule (k-of-n confirmation, isolation from the alarm
+pattern held over the episode, ``MULTIPLE`` for several faults) and a detection window
 (:mod:`geomfdi.evaluation.persistence`, :mod:`geomfdi.evaluation.metrics`).
 
 Model::
@@ -43,7 +45,8 @@ system of blocks of ``M`` samples for large banks, time processed in chunks), se
 :func:`geomfdi.simulation.lifting.block_recursion`.  A discrete plant drives its generators with the
 measured samples directly, which is exact.
 
-*Output feedback.*  The loop sees the faulty readings, so a gain fault changes the loop
+*Output feedback, and actuator gain/stuck faults under feedback.*  The loop sees the
+faulty readings (or applies the faulty input), so a gain fault changes the loop
 dynamics.  For abrupt faults the closed loop is piecewise LTI: the horizon is cut at
 every fault switching instant and each segment (plant + controller + all generators) is
 simulated exactly with the fast recursion, the state carried over.  A time-varying gain
@@ -83,8 +86,10 @@ state of a chunk (plant, controller and generator states, and the held readings 
 stuck sensors) is the initial state of the next, so a chunked run equals the
 unchunked one to rounding (about 1e-15 relative; the same noise, decisions and events).
 Residuals, alarms and decisions are written into the result arrays, allocated once; the
-decisions of a chunk see the residual history that a persistence rule or a moving-RMS
-statistic needs (:class:`geomfdi.simulation.streaming.DecisionStream`).  Peak memory is
+decisions of a chunk see the history that a moving-RMS statistic and the k-of-n counts
+need, and the state of the current alarm episode (the residuals held in its pattern, the
+quiet samples since its last alarm), so that they equal the whole record's
+(:class:`geomfdi.simulation.streaming.DecisionStream`).  Peak memory is
 the returned arrays plus about the budget, whatever the record's length; with
 ``simulate_batch(store="summary")`` it does not grow with the record.  (Additive input
 faults' signals and the exogenous ``u`` and ``d`` are still formed over the whole
