@@ -26,9 +26,14 @@ measured twice, once with BLAS limited to one thread (``threadpoolctl``) and onc
 the default threads, and the ratios of both runs are printed side by side.
 
 ``--memory`` measures peak memory in a fresh subprocess per case (``tracemalloc``, which
-sees numpy's allocations, and the process's ``ru_maxrss``): ``gf.simulate`` of one long
-record with measurement noise and a bank of 10 residuals (peak against the returned
-arrays), and ``gf.simulate_batch(store="summary")`` (peak against 0.5 GB).
+sees numpy's allocations, and the increase of the process's ``ru_maxrss`` after imports
+and a warm-up call): ``gf.simulate`` of one long record with measurement noise and a
+bank of 10 residuals (peak against the returned arrays), and
+``gf.simulate_batch(store="summary")`` (peak against 0.5 GB); then the same calls
+untraced, timed with one BLAS thread and with the default threads.  ``--baseline DIR``
+runs every case also with the geomfdi of another checkout (e.g. the version before the
+chunked simulation) and prints the ratio of its time to this checkout's.  Both calls
+process their time axis in chunks sized from ``gf.limits`` ``chunk_memory``.
 
 Run ``python benchmarks/bench_simulation.py`` (``--quick`` for a smoke run, ``--full`` to
 time ``forced_response`` at every size instead of extrapolating, ``--memory`` for the
@@ -287,69 +292,146 @@ def bench(
 
 
 _MEMORY_CASE = """
-import resource, sys, time, tracemalloc
+import contextlib, resource, sys, time, tracemalloc
+root, bench = {root!r}, {bench!r}
+kind, N, runs, trace, threads = {kind!r}, {samples}, {runs}, {trace}, {threads!r}
+sys.path.insert(0, root)
 import numpy as np
-sys.path.insert(0, {bench!r}); sys.path.insert(0, {root!r})
-import geomfdi as gf
+import geomfdi as gf  # the checkout under test (root), imported before the benchmark module
+sys.path.insert(0, bench)
 from bench_simulation import A, B, C, K, inputs, make_bank
-kind, N, runs = {kind!r}, {samples}, {runs}
+from threadpoolctl import threadpool_limits
 bank, plant = make_bank(10), gf.Plant(A, B, C)
 t = np.arange(N) * 1e-3
 tf = float(t[int(0.4 * N)])
 v, _ = inputs(t, tf)
 fl = [gf.BiasFault(0, start=tf, bias=0.02)]
 noise = gf.Noise(measurement=2e-4, seed=1)
-gf.simulate(plant, bank, t[:1000], v[:, :1000], faults=fl, controller=K, noise=noise)
-tracemalloc.start()
-t0 = time.perf_counter()
-if kind == "single":
-    res = gf.simulate(plant, bank, t, v, faults=fl, controller=K, noise=noise, threshold=0.01)
-    arrays = (res.x, res.y, res.y_healthy, res.u, res.residuals, res.alarms, res.isolated,
-              res.candidates, res.suspects)
-    out = sum(a.nbytes for a in arrays)
-else:
-    res = gf.simulate_batch(plant, bank, t, v, runs=runs, faults=fl, controller=K,
-                            noise=noise, threshold=0.01, store="summary", progress=False)
-    out = res.peak.nbytes + res.healthy_samples.nbytes * 3
-el = time.perf_counter() - t0
-peak = tracemalloc.get_traced_memory()[1]
-rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+gf.simulate(plant, bank, t[:1000], v[:, :1000], faults=fl, controller=K, noise=noise,
+            threshold=0.01)
+gf.simulate_batch(plant, bank, t[:1000], v[:, :1000], runs=2, faults=fl, controller=K,
+                  noise=noise, threshold=0.01, store="summary", progress=False)
+base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+limit = threadpool_limits(limits=1) if threads == "1" else contextlib.nullcontext()
+with limit:
+    if trace:
+        tracemalloc.start()
+    t0 = time.perf_counter()
+    if kind == "single":
+        res = gf.simulate(plant, bank, t, v, faults=fl, controller=K, noise=noise,
+                          threshold=0.01)
+        arrays = (res.x, res.y, res.y_healthy, res.u, res.residuals, res.alarms,
+                  res.isolated, res.candidates, res.suspects)
+        out = sum(a.nbytes for a in arrays)
+    else:
+        res = gf.simulate_batch(plant, bank, t, v, runs=runs, faults=fl, controller=K,
+                                noise=noise, threshold=0.01, store="summary",
+                                progress=False)
+        out = res.peak.nbytes + res.healthy_samples.nbytes * 3
+    el = time.perf_counter() - t0
+    peak = tracemalloc.get_traced_memory()[1] if trace else -1
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 - base
 print(peak, out, rss, el)
 """
 
 
-def memory(samples: int = 10**7, batch_samples: int = 10**6, runs: int = 100) -> list[dict]:
-    """Peak memory of one long record and of a summary batch, each in a subprocess."""
+def _memory_case(
+    root: str, kind: str, N: int, runs: int, *, trace: bool, threads: str = "1"
+) -> dict:
+    """One case in a fresh interpreter: tracemalloc peak (``trace``), the increase of the
+    peak RSS over the process after imports and a warm-up call, and the time."""
     import subprocess
 
     here = str(Path(__file__).resolve().parent)
-    root = str(Path(__file__).resolve().parents[1])
+    code = _MEMORY_CASE.format(
+        bench=here, root=root, kind=kind, samples=N, runs=runs, trace=trace, threads=threads
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.split()
+    return {
+        "case": kind,
+        "samples": N,
+        "runs": runs,
+        "traced_peak": int(out[0]),
+        "returned": int(out[1]),
+        "rss_increase": int(out[2]),
+        "seconds": float(out[3]),
+    }
+
+
+def memory(
+    samples: int = 10**7,
+    batch_samples: int = 10**6,
+    runs: int = 100,
+    trace_runs: int = 10,
+    baseline: str | None = None,
+) -> list[dict]:
+    """Peak memory and time of one long record and of a summary batch.
+
+    Each case runs in a fresh subprocess (this checkout, and ``baseline``: another
+    checkout of geomfdi, e.g. the version before chunking, when given):
+
+    * memory: ``tracemalloc`` peak of the call (numpy's allocations) and the increase
+      of ``ru_maxrss`` over the process after imports and a warm-up call; the summary
+      batch is traced with ``trace_runs`` runs (its memory does not grow with the
+      runs: they are simulated a chunk at a time) and its RSS is also taken from the
+      untimed full run below;
+    * speed: the same calls untraced, once with BLAS limited to one thread and once
+      with the default threads; ratio of the baseline's time to this checkout's.
+    """
+    here = str(Path(__file__).resolve().parents[1])
+    roots = [("this checkout", here)] + ([("baseline", baseline)] if baseline else [])
+    cases = [("single", samples, 1), ("batch", batch_samples, runs)]
+    MB = 1e6
     rows = []
-    print(f"{'case':<40} {'peak MB':>9} {'returned MB':>12} {'peak/returned':>14} {'s':>7}")
-    for kind, N, R in (("single", samples, 1), ("batch", batch_samples, runs)):
-        code = _MEMORY_CASE.format(bench=here, root=root, kind=kind, samples=N, runs=R)
-        out = subprocess.run(
-            [sys.executable, "-c", code], capture_output=True, text=True, check=True
-        ).stdout.split()
-        peak, ret, rss, el = int(out[0]), int(out[1]), int(out[2]), float(out[3])
+    print(f"chunk_memory budget: {gf.limits.get_limits().chunk_memory / 2**20:.0f} MiB")
+    print(
+        f"{'case':<34} {'code':<14} {'traced MB':>10} {'RSS+ MB':>9} {'returned MB':>12} "
+        f"{'traced/ret':>10} {'RSS+/ret':>9}"
+    )
+    for kind, N, R in cases:
         name = (
-            f"simulate, {N:.0e} samples x 10 residuals"
+            f"simulate {N:.0e} x 10 residuals"
             if kind == "single"
-            else f"simulate_batch summary, {R} x {N:.0e}"
+            else f"batch summary {min(R, trace_runs)} x {N:.0e}"
         )
-        print(f"{name:<40} {peak / 1e6:>9.0f} {ret / 1e6:>12.1f} {peak / ret:>14.2f} {el:>7.1f}")
-        rows.append(
-            {
-                "case": kind,
-                "samples": N,
-                "runs": R,
-                "peak": peak,
-                "returned": ret,
-                "maxrss": rss,
-                "seconds": el,
-            }
-        )
-    print("(peak: tracemalloc over the call; the process's ru_maxrss is in the rows)")
+        for label, root in roots:
+            row = _memory_case(
+                root, kind, N, min(R, trace_runs) if kind == "batch" else R, trace=True
+            )
+            row["code"] = label
+            rows.append(row)
+            ret = row["returned"]
+            ratio = f"{row['traced_peak'] / ret:>10.2f}" if kind == "single" else f"{'-':>10}"
+            rr = f"{row['rss_increase'] / ret:>9.2f}" if kind == "single" else f"{'-':>9}"
+            print(
+                f"{name:<34} {label:<14} {row['traced_peak'] / MB:>10.0f} "
+                f"{row['rss_increase'] / MB:>9.0f} {ret / MB:>12.1f} {ratio} {rr}"
+            )
+    print()
+    print(
+        f"{'case (untraced)':<34} {'threads':<8} {'code':<14} {'s':>8} {'RSS+ MB':>9} "
+        f"{'baseline/this':>14}"
+    )
+    for kind, N, R in cases:
+        name = f"simulate {N:.0e}" if kind == "single" else f"batch summary {R} x {N:.0e}"
+        for mode in ("1", "default"):
+            times = {}
+            for label, root in roots:
+                row = _memory_case(root, kind, N, R, trace=False, threads=mode)
+                row.update(code=label, threads=mode)
+                rows.append(row)
+                times[label] = row["seconds"]
+                ratio = (
+                    f"{times['baseline'] / times['this checkout']:>14.2f}"
+                    if label == "baseline"
+                    else f"{'':>14}"
+                )
+                print(
+                    f"{name:<34} {mode:<8} {label:<14} {row['seconds']:>8.1f} "
+                    f"{row['rss_increase'] / MB:>9.0f} {ratio}"
+                )
     return rows
 
 
@@ -363,9 +445,15 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--samples", type=float, default=1e7, help="memory: one record's length")
     ap.add_argument("--batch-samples", type=float, default=1e6, help="memory: run length")
     ap.add_argument("--runs", type=int, default=100, help="memory: batch runs")
+    ap.add_argument("--trace-runs", type=int, default=10, help="memory: traced batch runs")
+    ap.add_argument(
+        "--baseline", default=None, help="memory: another geomfdi checkout to compare with"
+    )
     args = ap.parse_args(argv)
     if args.memory:
-        return memory(int(args.samples), int(args.batch_samples), args.runs)
+        return memory(
+            int(args.samples), int(args.batch_samples), args.runs, args.trace_runs, args.baseline
+        )
     if args.quick:
         kw = dict(
             sizes=(10**3, 10**4),
@@ -392,4 +480,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
 if __name__ == "__main__":
     from _threads import run_thread_modes
 
-    run_thread_modes(main)
+    if "--memory" in sys.argv:  # each case sets its own thread mode in its subprocess
+        main(sys.argv[1:])
+    else:
+        run_thread_modes(main)

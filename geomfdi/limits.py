@@ -17,6 +17,17 @@ memory it would take, not after filling the machine's memory.  The caps are:
     states plus the generator states of one exact transfer; symbolic work grows roughly
     like the fourth power of this size.
 
+One setting is a budget rather than a cap:
+
+``chunk_memory`` (default 64 MiB)
+    Working memory of one chunk of a simulation.  :func:`geomfdi.simulate` and
+    :func:`geomfdi.simulate_batch` cut the time axis (and the runs) into chunks whose
+    temporary arrays (signals, noise draws, decisions) fit in it, the state carried
+    from one chunk to the next, so their memory is the returned arrays plus about this
+    budget, whatever the record's length.  A smaller budget means more chunks (more
+    per-chunk overhead); results do not depend on it (to rounding, about 1e-15
+    relative).
+
 Change them for the whole process with :func:`set_limits` or locally with the
 :func:`limits` context manager; like the tolerance of :mod:`geomfdi.tolerance`, the local
 setting is a :class:`contextvars.ContextVar`, private to the thread or asyncio task.
@@ -69,6 +80,7 @@ class Limits:
     max_samples: int = 1_000_000_000
     max_memory: float | None = 8 * 2**30
     max_symbolic_size: int = 16
+    chunk_memory: float = 64 * 2**20
 
     def replace(self, **caps: Any) -> Limits:
         """A copy with the given caps changed, each validated."""
@@ -77,13 +89,15 @@ class Limits:
             name = sorted(unknown)[0]
             raise GeomFDIError(
                 f"{name}: unknown limit; known: max_runs, max_samples, max_memory, "
-                "max_symbolic_size",
+                "max_symbolic_size, chunk_memory",
                 argument=name,
             )
         checked: dict[str, Any] = {}
         for name, value in caps.items():
             if name == "max_memory":
                 checked[name] = as_float(value, name, minimum=1.0, allow_none=True)
+            elif name == "chunk_memory":
+                checked[name] = as_float(value, name, minimum=1.0)
             else:
                 checked[name] = as_int(value, name, minimum=1)
         return dataclasses.replace(self, **checked)

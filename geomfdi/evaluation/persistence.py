@@ -45,7 +45,16 @@ from geomfdi.evaluation.decision import (
     isolate,
 )
 
-__all__ = ["Persistence", "as_persistence", "decisions", "held_pattern", "k_of_n"]
+__all__ = [
+    "Persistence",
+    "as_persistence",
+    "decisions",
+    "held_pattern",
+    "held_pattern_carry",
+    "k_of_n",
+    "pattern_decisions",
+    "settle",
+]
 
 
 def k_of_n(flags: Any, k: int, n: int) -> np.ndarray:
@@ -86,26 +95,99 @@ def held_pattern(alarms: Any, reset: int | None = None) -> np.ndarray:
     >>> held_pattern(a, reset=2).astype(int).tolist()
     [[1, 1, 1, 1, 0, 0], [0, 0, 1, 1, 0, 1]]
     """
+    return held_pattern_carry(alarms, reset)[0]
+
+
+#: "No such sample yet" in the episode state of :func:`held_pattern_carry`.
+_NEVER = np.iinfo(np.int64).min // 4
+
+
+def held_pattern_carry(
+    alarms: Any, reset: int | None = None, state: tuple[np.ndarray, ...] | None = None
+) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+    """:func:`held_pattern` of a record given in consecutive pieces.
+
+    ``state`` (``None`` at the start of the record) is what the pattern after the
+    previous piece depends on, returned for the next piece: with ``reset=None`` the
+    residuals held so far ``(..., n_residuals)``; otherwise the last sample with an
+    alarm on any residual ``(...)``, the last one of each residual ``(..., n_residuals)``
+    and the start of the current episode ``(...)``, as indices relative to the start of
+    the next piece.  The pieces' patterns, concatenated, equal the pattern of the
+    whole record.
+    """
     a = np.asarray(alarms, dtype=bool)
     if a.ndim < 2:
         raise GeomFDIError(
             f"alarms: expected (..., n_residuals, N), got shape {a.shape}", argument="alarms"
         )
+    lead, N = a.shape[:-1], a.shape[-1]
     if reset is None:
-        return np.logical_or.accumulate(a, axis=-1)
+        out = np.logical_or.accumulate(a, axis=-1)
+        if state is not None:
+            out |= state[0][..., None]
+        held = out[..., -1].copy() if N else (np.zeros(lead, bool) if state is None else state[0])
+        return out, (held,)
     reset = as_int(reset, "reset", minimum=1)
-    N = a.shape[-1]
     idx = np.arange(N)
-    # last sample with an alarm (any residual / each residual), -1 before the first
+    if state is None:
+        state = (
+            np.full(lead[:-1], _NEVER, dtype=np.int64),
+            np.full(lead, _NEVER, dtype=np.int64),
+            np.full(lead[:-1], _NEVER, dtype=np.int64),
+        )
+    last0, res0, ep0 = state
+    # last sample with an alarm (any residual / each residual), carried from the past
     anyal = a.any(axis=-2)
-    last_any = np.maximum.accumulate(np.where(anyal, idx, -1), axis=-1)
-    last_res = np.maximum.accumulate(np.where(a, idx, -1), axis=-1)
+    last_any = np.maximum.accumulate(np.where(anyal, idx, last0[..., None]), axis=-1)
+    last_res = np.maximum.accumulate(np.where(a, idx, res0[..., None]), axis=-1)
     # an episode starts at an alarm sample preceded by >= reset quiet samples (or none)
-    prev_last = np.concatenate([np.full((*anyal.shape[:-1], 1), -1), last_any[..., :-1]], axis=-1)
-    start = anyal & ((prev_last < 0) | (idx - prev_last - 1 >= reset))
-    ep_start = np.maximum.accumulate(np.where(start, idx, -1), axis=-1)
-    active = (ep_start >= 0) & (idx - last_any < reset)
-    return active[..., None, :] & (last_res >= ep_start[..., None, :])
+    prev_last = np.concatenate([last0[..., None], last_any[..., :-1]], axis=-1)
+    start = anyal & ((prev_last == _NEVER) | (idx - prev_last - 1 >= reset))
+    ep_start = np.maximum.accumulate(np.where(start, idx, ep0[..., None]), axis=-1)
+    active = (ep_start > _NEVER) & (idx - last_any < reset)
+    out = active[..., None, :] & (last_res >= ep_start[..., None, :])
+    if N == 0:
+        return out, state
+    shift = lambda x: np.where(x == _NEVER, _NEVER, x - N)  # noqa: E731
+    return out, (shift(last_any[..., -1]), shift(last_res[..., -1]), shift(ep_start[..., -1]))
+
+
+def pattern_decisions(pattern: Any, structure: Any) -> Isolation:
+    """Per-sample decisions on an alarm pattern, with :data:`MULTIPLE`.
+
+    As :func:`geomfdi.isolate`, except that an ``UNEXPLAINED`` pattern that is the union
+    of the columns of its suspects is decided ``MULTIPLE`` (the suspects' columns are
+    inside the pattern by definition).
+    """
+    pattern = np.asarray(pattern, dtype=bool)
+    iso = isolate(pattern, structure)
+    S = np.asarray(structure, dtype=bool)
+    raw = iso.isolated.copy()
+    unexplained = raw == UNEXPLAINED
+    if unexplained.any():
+        # residuals covered by the columns of the suspects; MULTIPLE when they cover
+        # the whole pattern
+        covered = np.zeros(pattern.shape, dtype=bool)
+        for j in range(S.shape[1]):
+            col = S[:, j]
+            if col.any():
+                covered |= iso.suspects[..., j : j + 1, :] & col[:, None]
+        whole = ~np.any(pattern & ~covered, axis=-2)
+        raw[unexplained & whole] = MULTIPLE
+    return Isolation(raw, iso.candidates, iso.suspects)
+
+
+def settle(raw: np.ndarray, k: int, n: int, n_faults: int) -> np.ndarray:
+    """Settled decisions: a fault index or ``MULTIPLE`` is kept at sample ``j`` when it
+    was the per-sample decision ``raw`` for ``k`` of the last ``n`` samples and is it at
+    ``j`` (otherwise ``UNEXPLAINED``); ``NO_ALARM`` and ``AMBIGUOUS`` are kept."""
+    out = np.where(raw == NO_ALARM, NO_ALARM, UNEXPLAINED)
+    out[raw == AMBIGUOUS] = AMBIGUOUS
+    for code in (*range(n_faults), MULTIPLE):
+        hit = raw == code
+        if hit.any():
+            out[hit & k_of_n(hit, k, n)] = code
+    return out
 
 
 @dataclass(frozen=True)
@@ -187,29 +269,13 @@ class Persistence:
         """
         a = np.asarray(alarms, dtype=bool)
         pattern = held_pattern(a, self.reset) if self.latch else a
-        iso = isolate(pattern, structure)
-        S = np.asarray(structure, dtype=bool)
-        raw = iso.isolated.copy()
-        unexplained = raw == UNEXPLAINED
-        if unexplained.any():
-            # residuals covered by the columns of the suspects; MULTIPLE when they cover
-            # the whole pattern (the suspects' columns are inside it by definition)
-            covered = np.zeros(pattern.shape, dtype=bool)
-            for j in range(S.shape[1]):
-                col = S[:, j]
-                if col.any():
-                    covered |= iso.suspects[..., j : j + 1, :] & col[:, None]
-            whole = ~np.any(pattern & ~covered, axis=-2)
-            raw[unexplained & whole] = MULTIPLE
+        iso = pattern_decisions(pattern, structure)
         if self.k == 1 and self.n == 1:
-            return Isolation(raw, iso.candidates, iso.suspects)
-        out = np.where(raw == NO_ALARM, NO_ALARM, UNEXPLAINED)
-        out[raw == AMBIGUOUS] = AMBIGUOUS
-        for code in (*range(S.shape[1]), MULTIPLE):
-            hit = raw == code
-            if hit.any():
-                out[hit & k_of_n(hit, self.k, self.n)] = code
-        return Isolation(out, iso.candidates, iso.suspects)
+            return iso
+        n_faults = np.shape(structure)[1]
+        return Isolation(
+            settle(iso.isolated, self.k, self.n, n_faults), iso.candidates, iso.suspects
+        )
 
 
 def as_persistence(value: Any) -> Persistence | None:

@@ -7,7 +7,9 @@
   :mod:`~geomfdi.simulation.lifting`, :mod:`~geomfdi.simulation.lti` -- the loop-free LTI core.
 * :mod:`~geomfdi.simulation.noise`, :mod:`~geomfdi.simulation.initial_state`,
   :mod:`~geomfdi.simulation.context` -- the inputs of a simulation.
-* :mod:`~geomfdi.simulation.open_loop`, :mod:`~geomfdi.simulation.closed_loop` -- the engines.
+* :mod:`~geomfdi.simulation.open_loop`, :mod:`~geomfdi.simulation.closed_loop` -- the engines,
+  advanced in time chunks; :mod:`~geomfdi.simulation.streaming` -- chunk sizes, decisions
+  and summaries accumulated chunk by chunk.
 * :mod:`~geomfdi.simulation.simulate`, :mod:`~geomfdi.simulation.batch`,
   :mod:`~geomfdi.simulation.results` -- ``simulate``, ``simulate_batch`` and their results.
 * :mod:`~geomfdi.simulation.calibration` -- thresholds from noise-only simulations.

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -11,12 +11,9 @@ from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_choice, as_int
 from geomfdi.errors import ShapeError
 from geomfdi.evaluation.decision import (
-    FaultEvent,
     as_threshold,
-    detection_events,
 )
-from geomfdi.evaluation.metrics import false_alarms
-from geomfdi.evaluation.persistence import as_persistence, decisions
+from geomfdi.evaluation.persistence import as_persistence
 from geomfdi.limits import check_allocation, check_runs
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.context import (
@@ -25,17 +22,24 @@ from geomfdi.simulation.context import (
     prepare,
     progress_bar,
     residual_labels_of,
-    residual_rows,
     state_vector,
     to_balanced,
 )
 from geomfdi.simulation.noise import Noise, run_seeds
+from geomfdi.simulation.open_loop import OpenLoopEngine
 from geomfdi.simulation.results import (
     BatchResult,
 )
 from geomfdi.simulation.schedule import fault_schedule, structure_columns
 from geomfdi.simulation.signals import FaultSignal
-from geomfdi.simulation.simulate import run_chunk
+from geomfdi.simulation.simulate import (
+    chunk_width,
+    in_loop,
+    make_engine,
+    noise_streams,
+    noise_window,
+)
+from geomfdi.simulation.streaming import DecisionStream, RunSummary, chunk_plan, time_chunks
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
 
@@ -87,7 +91,12 @@ def simulate_batch(
         What to keep per run: residuals, alarms and decisions (default); also ``x, y,
         u`` (``"all"``, enables :meth:`BatchResult.run`); or only peaks and events.
     chunk_size : int, optional
-        Runs simulated together (default: as many as fit ~2e7 array elements).
+        Runs simulated together.  By default the chunks (runs, and samples of the time
+        axis) are sized from the memory budget ``gf.limits.get_limits().chunk_memory``
+        (see :mod:`geomfdi.limits`): whole records of several runs when they fit, else
+        one run at a time with its time axis cut into chunks, the states carried across
+        chunk boundaries.  Memory is then the stored results plus about the budget;
+        with ``store="summary"`` it does not grow with the record's length.
     progress : bool, optional
         tqdm progress bar over the chunks (default: when stderr is a terminal).
 
@@ -134,16 +143,8 @@ def simulate_batch(
     view = ctx.view
     nres = len(view.generators)
     N = ctx.N
-    width = (
-        plant.n
-        + 3 * q
-        + plant.m
-        + ctx.ctrl.nc
-        + 2 * sum(g.order + g.n_outputs for g in view.generators if g is not None)
-    )
-    if chunk_size is None:
-        chunk_size = max(1, int(2e7 // max(width * N, 1)))
-    chunk_size = as_int(chunk_size, "chunk_size", minimum=1)
+    if chunk_size is not None:
+        chunk_size = as_int(chunk_size, "chunk_size", minimum=1)
     stored = 2 * nres + 1 if store != "summary" else nres
     stored += plant.n + 3 * q + plant.m if store == "all" else 0
     check_allocation(N, runs, stored, argument="runs", what="simulate_batch")
@@ -156,59 +157,49 @@ def simulate_batch(
     R_y = np.zeros((runs, q, N)) if store == "all" else None
     R_yh = np.zeros((runs, q, N)) if store == "all" else None
     R_u = np.zeros((runs, plant.m, N)) if store == "all" else None
-    peak = np.zeros((runs, nres))
-    events: list[list[FaultEvent]] = []
-    fa_counts = np.zeros(runs)
-    healthy = np.zeros(runs, dtype=int)
-    columns: dict[int, list[int | None]] = {}
-    fa_events = np.zeros(runs, dtype=int)
+    cache: dict[int, list[int | None]] = {}
+    columns = []
+    for sched in schedules:
+        if id(sched) not in cache:
+            cache[id(sched)] = structure_columns(sched.faults, view.design_faults, plant)
+        columns.append(cache[id(sched)])
+    summary = RunSummary(ctx.t, [sc.faults for sc in schedules], columns, nres, window)
+    loop = in_loop(ctx, schedules)
+    width = chunk_width(ctx, keep_states=loop, loop=loop)
+    Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size)
     bar = progress_bar(ctx.progress, runs, "runs")
-    for a in range(0, runs, chunk_size):
-        b = min(a + chunk_size, runs)
-        rngs = [None if s is None else np.random.default_rng(s) for s in seeds[a:b]]
-        x0c = x0a[a:b] if x0a.shape[0] > 1 else x0a
+    engines: dict[str, Any] = {}  # an open-loop engine kept for the next chunk of runs
+    for a in range(0, runs, Rc):
+        b = min(a + Rc, runs)
+        rngs = [None if sd is None else np.random.default_rng(sd) for sd in seeds[a:b]]
+        x0c = to_balanced(ctx, x0a[a:b] if x0a.shape[0] > 1 else x0a)
         chunk = schedules[a:b]
-        raw = run_chunk(ctx, to_balanced(ctx, x0c), xc0a, rngs, chunk, not per_run)
-        Rc = b - a
-        res = np.broadcast_to(residual_rows(ctx, raw), (Rc, nres, N))
-        al, iso = decisions(res, thr, view.structure, rule)
-        peak[a:b] = np.max(np.abs(res), axis=-1)
-        for r in range(Rc):
-            sched = chunk[r]
-            cols = columns.get(id(sched))
-            if cols is None:
-                cols = columns[id(sched)] = structure_columns(
-                    sched.faults, view.design_faults, plant
-                )
-            evs = detection_events(
-                ctx.t,
-                al[r],
-                iso.isolated[r],
-                sched.faults,
-                cols,
-                window=window,
-                suspects=iso.suspects[r],
-            )
-            events.append(evs)
-            onset = min((ev.onset for ev in evs), default=None)
-            k = N if onset is None else int(np.searchsorted(ctx.t, onset - 1e-12))
-            fa = false_alarms(al[r], k)
-            healthy[a + r] = fa.samples
-            fa_counts[a + r] = fa.alarm_samples
-            fa_events[a + r] = fa.events
-        if keep_r:
-            R_res[a:b] = res
-            R_al[a:b] = al
-            R_iso[a:b] = iso.isolated
-        if store == "all":
-            R_x[a:b] = from_balanced(ctx, raw.x)
-            R_y[a:b] = raw.y
-            R_yh[a:b] = raw.y_healthy
-            R_u[a:b] = raw.u
+        ds = DecisionStream(thr, view.structure, rule)
+        pieces = _pieces(ctx, x0c, xc0a, rngs, chunk, not per_run, L, R_res, a, engines)
+        for s, e, pc, res, written in pieces:
+            al, iso = ds.step(res)
+            summary.update(s, res, al, iso.isolated, a, iso.suspects)
+            if keep_r:
+                if not written:
+                    R_res[a:b, :, s:e] = res
+                R_al[a:b, :, s:e] = al
+                R_iso[a:b, s:e] = iso.isolated
+            if store == "all":
+                L_s = e - s
+                R_x[a:b, :, s:e] = from_balanced(ctx, pc.X[:, :, :L_s].transpose(1, 0, 2))
+                R_y[a:b, :, s:e] = pc.y[:, :, :L_s].transpose(1, 0, 2)
+                R_yh[a:b, :, s:e] = pc.y0n[:, :, :L_s].transpose(1, 0, 2)
+                R_u[a:b, :, s:e] = pc.u[:, :, :L_s].transpose(1, 0, 2)
         if bar is not None:
-            bar.update(Rc)
+            bar.update(b - a)
     if bar is not None:
         bar.close()
+    events = [summary.events(r) for r in range(runs)]
+    fa = [summary.false_alarms(r) for r in range(runs)]
+    peak = summary.peak
+    fa_counts = np.array([f.alarm_samples for f in fa], dtype=float)
+    healthy = np.array([f.samples for f in fa], dtype=int)
+    fa_events = np.array([f.events for f in fa], dtype=int)
     return BatchResult(
         t=ctx.t,
         runs=runs,
@@ -235,3 +226,43 @@ def simulate_batch(
         persistence=rule,
         false_alarm_events=fa_events,
     )
+
+
+def _pieces(
+    ctx: Any,
+    x0: np.ndarray,
+    xc0: np.ndarray,
+    rngs: list[Any],
+    schedules: list[Any],
+    shared: bool,
+    L: int,
+    R_res: np.ndarray | None,
+    a: int,
+    engines: dict[str, Any],
+) -> Iterator[tuple[int, int, Any, np.ndarray, bool]]:
+    """The time chunks of a chunk of runs: ``(s, e, signals, residuals (Rc, n, e-s),
+    written)`` (``written``: the residuals are already in ``R_res``).
+
+    The engine advances chunk by chunk; the residual rows are written straight into
+    ``R_res`` when it is kept and every run differs.  With one fault list shared by
+    every run, the open-loop engine of the first chunk of runs is restarted for the
+    next (``engines``).
+    """
+    view, N = ctx.view, ctx.N
+    nres, Rc = len(view.generators), len(rngs)
+    eng = engines.get("open")
+    if eng is not None:  # shared fault list in open loop: same matrices, new runs
+        eng.restart(x0, Rc)
+    else:
+        eng = make_engine(ctx, x0, xc0, schedules, shared, Rc, L)
+        if shared and isinstance(eng, OpenLoopEngine):
+            engines["open"] = eng
+    streams = noise_streams(ctx, rngs)
+    direct = R_res is not None and eng.R == Rc
+    chunks = time_chunks(N, L)
+    buf = None if direct else np.zeros((eng.R, nres, max(e1 - s for s, _, e1 in chunks)))
+    for s, e, e1 in chunks:
+        dest = R_res[a : a + Rc, :, s:e1] if direct else buf[:, :, : e1 - s]
+        v, wp = noise_window(ctx, streams, s, e1)
+        pc = eng.advance(s, e1, v, wp, dest)
+        yield s, e, pc, np.broadcast_to(dest[:, :, : e - s], (Rc, nres, e - s)), direct

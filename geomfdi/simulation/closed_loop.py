@@ -9,7 +9,9 @@ events, the loop is a switched linear system: the horizon is cut at every switch
 instant and each segment (plant, controller, every generator) is one LTI system for the
 segment's gains, simulated exactly with the loop-free recursion, the state carried over
 from segment to segment.  Segments with a time-varying gain are stepped sample by sample
-(gain frozen over the interval, ``O(dt^2)``).
+(gain frozen over the interval, ``O(dt^2)``).  The record is also cut at the
+boundaries of the time chunks of the simulation (:class:`OutputFeedbackEngine`), the
+loop state carried over: memory is proportional to the chunk.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import numpy as np
 from geomfdi.errors import GeomFDIError
 from geomfdi.simulation.context import (
     Context,
+    Piece,
     RawRuns,
     batched_matmul,
     progress_bar,
@@ -30,7 +33,12 @@ from geomfdi.simulation.discretization import Discretization
 from geomfdi.simulation.initial_state import consistent_start
 from geomfdi.simulation.input_faults import InputFaultSignal, actuator_profile
 from geomfdi.simulation.lifting import linear_recursion
-from geomfdi.simulation.signals import FaultProfile, SensorFaultSignal, fault_profile
+from geomfdi.simulation.signals import (
+    FaultProfile,
+    SensorFaultSignal,
+    activity_span,
+    fault_profile,
+)
 
 
 # =========================================================== output feedback
@@ -170,153 +178,204 @@ def _key(delta: np.ndarray, gamma: np.ndarray | None) -> bytes:
 
 
 def _breakpoints(faults: Sequence[Any], t: np.ndarray) -> list[int]:
+    """Sample indices where some fault switches on or off, with 0 and ``N``."""
     N = t.shape[0]
     idx = {0, N}
     for f in faults:
-        m = f.mask(t)
-        change = np.flatnonzero(np.diff(m.astype(np.int8))) + 1
-        idx.update(int(k) for k in change)
+        span = activity_span(f, t)
+        if span is not None:
+            idx.update(k for k in span if 0 < k < N)
     return sorted(idx)
 
 
-def run_output_feedback(
-    ctx: Context,
-    x0: np.ndarray,
-    xc0: np.ndarray,
-    v: np.ndarray | None,
-    wp: np.ndarray | None,
-    faults: list[SensorFaultSignal],
-    actuators: Sequence[InputFaultSignal] = (),
-) -> RawRuns:
-    """A closed loop with faults inside it: piecewise-LTI segments between switches.
+class OutputFeedbackEngine:
+    """Output feedback over a record, advanced one time chunk at a time.
 
-    Each segment simulates the composite (plant, controller, all generators) for the
-    segment's sensor gains and actuator gains with the loop-free recursion, starting from
-    the state at the end of the previous segment; segments where a time-varying gain is
-    active are stepped (:func:`_step_segment`).  Held readings of stuck sensors and held
-    inputs of stuck actuators are taken from the previous segment's end (the value just
-    before the switch).
+    The horizon is cut at every fault switching instant and at the chunk boundaries;
+    each piece (plant, controller, every generator) is one LTI system for its sensor
+    gains, simulated exactly with the loop-free recursion (pieces with a time-varying
+    gain are stepped sample by sample, :func:`_step_segment`).  The loop state, the held
+    readings of stuck sensors, the held inputs of stuck actuators, the healthy reading
+    and the commanded input at the chunk's last sample (a held reading or input starting
+    there needs it) are carried from one chunk to the next.
 
     Parameters
     ----------
+    ctx : Context
+    x0 : ndarray, (R0, n)
+    xc0 : ndarray, (1, nc)
+    runs : int
+        Runs (1 broadcasts when no run differs).
     faults : list of SensorFaultSignal
     actuators : sequence of ActuatorGainFault / ActuatorStuckFault
         Faults between the commanded and the applied input (state or output feedback).
     """
-    model = LoopModel(ctx)
-    p = ctx.plant
-    n, nc, m, q, nX, nS = p.n, model.nc, p.m, p.q, model.nX, model.nS
-    t, N = ctx.t, ctx.N
-    R = max(x0.shape[0], 1 if v is None else v.shape[0], 1 if wp is None else wp.shape[0])
-    X0 = np.hstack([np.broadcast_to(x0, (R, n)), np.broadcast_to(xc0, (R, nc))])
-    # consistent generator states for the healthy loop (Delta = I, Gamma = I)
-    L0 = model.loop(np.ones(q))
-    S0 = np.zeros((R, nS))
-    S0[:, :nX] = X0
-    i = nX
-    for k, g in model.gens:
-        nw = g.order
-        if ctx.consistent:
-            Sig = -g.E @ L0["Ymx"] + g.G @ L0["Ux"]
-            Nout = -g.H @ L0["Ymx"] + g.K @ L0["Ux"]
-            Pi = consistent_start(k, g.F, L0["AX"], Sig, g.M, Nout, ctx.info)
-            if Pi is not None:
-                S0[:, i : i + nw] = X0 @ Pi.T
-        ctx.info.setdefault("w0", {})[k] = np.array(S0[0, i : i + nw])
-        i += nw
-    # exogenous samples (lambda and lambda^a filled per segment)
-    ne = model.ne
-    e = np.zeros((R, ne, N))
-    e[:, :m] = ctx.u_ext
-    e[:, m : m + p.nd] = ctx.d
-    o = m + p.nd
-    if wp is not None:
-        e[:, o : o + ctx.nwp] = wp
-    o += ctx.nwp
-    if v is not None:
-        e[:, o : o + q] = v
-    lam_slot = slice(o + q, o + 2 * q)
-    act_slot = slice(o + 2 * q, o + 2 * q + m)
-    nout = 2 * q + m + sum(model.nr)
-    states = np.zeros((R, nS, N))
-    outs = np.zeros((R, nout, N))
-    y0n = np.zeros((R, q, N))  # noisy healthy readings (filled progressively, for holds)
-    _, _, C1, D1 = model.composite(np.ones(q))
-    first = C1 @ S0[..., None] + D1 @ e[:, :, :1]
-    y0n[:, :, 0] = first[:, q + m : 2 * q + m, 0] + (v[:, :, 0] if v is not None else 0.0)
-    u_start = first[:, q : q + m, 0]  # commanded input at a segment start (left limit)
-    holds: dict[int, np.ndarray] = {}
-    act_holds: dict[int, np.ndarray] = {}
-    actuators = list(actuators)
-    bps = _breakpoints([*faults, *actuators], t)
-    S = S0
-    stepping = 0
-    varying = any(f.time_varying_gain for f in [*faults, *actuators])
-    bar = progress_bar(ctx.progress and varying, N, "stepping")
-    for a, b in zip(bps[:-1], bps[1:], strict=True):
-        kend = min(b, N - 1)
-        Lseg = kend - a + 1
-        prof = fault_profile(faults, t, y0n, q=q, k0=a, k1=kend + 1, holds=holds, last_left=b < N)
-        aprof = actuator_profile(
-            actuators,
-            t,
-            m=m,
-            k0=a,
-            k1=kend + 1,
-            u_start=u_start,
-            holds=act_holds,
-            last_left=b < N,
+
+    def __init__(
+        self,
+        ctx: Context,
+        x0: np.ndarray,
+        xc0: np.ndarray,
+        runs: int,
+        faults: list[SensorFaultSignal],
+        actuators: Sequence[InputFaultSignal] = (),
+    ) -> None:
+        self.ctx, self.faults, self.actuators = ctx, faults, list(actuators)
+        self.model = model = LoopModel(ctx)
+        p = ctx.plant
+        n, nc, q, nX, nS = p.n, model.nc, p.q, model.nX, model.nS
+        R = max(x0.shape[0], runs)
+        X0 = np.hstack([np.broadcast_to(x0, (R, n)), np.broadcast_to(xc0, (R, nc))])
+        # consistent generator states for the healthy loop (Delta = I, Gamma = I)
+        L0 = model.loop(np.ones(q))
+        S0 = np.zeros((R, nS))
+        S0[:, :nX] = X0
+        i = nX
+        for k, g in model.gens:
+            nw = g.order
+            if ctx.consistent:
+                Sig = -g.E @ L0["Ymx"] + g.G @ L0["Ux"]
+                Nout = -g.H @ L0["Ymx"] + g.K @ L0["Ux"]
+                Pi = consistent_start(k, g.F, L0["AX"], Sig, g.M, Nout, ctx.info)
+                if Pi is not None:
+                    S0[:, i : i + nw] = X0 @ Pi.T
+            ctx.info.setdefault("w0", {})[k] = np.array(S0[0, i : i + nw])
+            i += nw
+        self.R, self.S = R, S0
+        self.holds: dict[int, np.ndarray] = {}
+        self.act_holds: dict[int, np.ndarray] = {}
+        self.y0_last: np.ndarray | None = None  # healthy reading at the carried sample
+        self.u_last: np.ndarray | None = None  # commanded input there (left limit)
+        every = [*faults, *self.actuators]
+        self.bps = _breakpoints(every, ctx.t)
+        self.spans = [activity_span(f, ctx.t) for f in every]
+        self.bar = progress_bar(
+            ctx.progress and any(f.time_varying_gain for f in every), ctx.N, "stepping"
         )
-        for slot, pr in ((lam_slot, prof), (act_slot, aprof)):
-            lam = np.broadcast_to(pr.lam, (R, pr.lam.shape[1], Lseg)).copy()
-            if b < N:  # right end of the segment: left limit (faults of this segment)
-                lam[..., -1] = pr.lam_left[..., -1]
-            e[:, slot, a : kend + 1] = lam
-        eseg = e[:, :, a : kend + 1]
-        active = [f for f in [*faults, *actuators] if f.mask(t)[a]]
-        if any(f.time_varying_gain for f in active):
-            stepping += Lseg - 1
-            seg_states, seg_out = _step_segment(ctx, model, S, eseg, prof, aprof, b < N, bar)
-        else:
-            delta, gamma = prof.eta[:, 0], aprof.eta[:, 0]
-            dis = model.discretized(delta, gamma)
-            _, _, C, D = model.composite(delta, gamma)
-            seg_states = linear_recursion(dis.Ad, dis.forcing(eseg), S)
-            seg_out = batched_matmul(C, seg_states) + batched_matmul(D, eseg)
-            if bar is not None:
-                bar.update(Lseg - 1)
-        stop = Lseg if b >= N else Lseg - 1
-        states[:, :, a : a + stop] = seg_states[:, :, :stop]
-        outs[:, :, a : a + stop] = seg_out[:, :, :stop]
-        y0h = seg_out[:, q + m : 2 * q + m]
+        ctx.info["segments"] = 0
+        ctx.info["stepped_samples"] = 0
+
+    def advance(self, s: int, e1: int, v: np.ndarray | None, wp: np.ndarray | None) -> RawRuns:
+        """Simulate samples ``s .. e1-1`` (``v``, ``wp``: (R, q|k, L) noise samples).
+
+        Returns the chunk's arrays ``(R, k, L)``; when ``e1 < N`` the last sample is the
+        first of the next chunk, computed (and returned) there.
+        """
+        ctx, model = self.ctx, self.model
+        p = ctx.plant
+        n, m, q, nX = p.n, p.m, p.q, model.nX
+        t, N, R = ctx.t, ctx.N, self.R
+        L = e1 - s
+        # exogenous samples (lambda and lambda^a filled per segment)
+        e = np.zeros((R, model.ne, L))
+        e[:, :m] = ctx.u_ext[:, s:e1]
+        e[:, m : m + p.nd] = ctx.d[..., s:e1]
+        o = m + p.nd
+        if wp is not None:
+            e[:, o : o + ctx.nwp] = wp
+        o += ctx.nwp
         if v is not None:
-            y0h = y0h + v[:, :, a : kend + 1]
-        y0n[:, :, a : kend + 1] = y0h
-        u_start = seg_out[:, q : q + m, -1]
-        S = seg_states[:, :, -1]
-    if bar is not None:
-        bar.close()
-    ctx.info["segments"] = len(bps) - 1
-    ctx.info["stepped_samples"] = stepping
-    # recompute the healthy readings recorded at segment ends with the final config
-    y0n = outs[:, q + m : 2 * q + m] + (v if v is not None else 0.0)
-    r_vectors: list[np.ndarray | None] = [None] * len(ctx.view.generators)
-    ws: list[np.ndarray | None] = [None] * len(ctx.view.generators)
-    i, o = nX, 2 * q + m
-    for k, g in model.gens:
-        ws[k] = states[:, i : i + g.order]
-        r_vectors[k] = outs[:, o : o + g.n_outputs]
-        i += g.order
-        o += g.n_outputs
-    return RawRuns(
-        states[:, :n],
-        states[:, n:nX] if nc or ctx.ctrl.mode == "output" else None,
-        outs[:, :q],
-        y0n,
-        outs[:, q : q + m],
-        r_vectors,
-        ws,
-    )
+            e[:, o : o + q] = v
+        lam_slot = slice(o + q, o + 2 * q)
+        act_slot = slice(o + 2 * q, o + 2 * q + m)
+        nout = 2 * q + m + sum(model.nr)
+        states = np.zeros((R, model.nS, L))
+        outs = np.zeros((R, nout, L))
+        y0n = np.zeros((R, q, L))  # noisy healthy readings (filled progressively, for holds)
+        if self.y0_last is None:
+            _, _, C1, D1 = model.composite(np.ones(q))
+            first = C1 @ self.S[..., None] + D1 @ e[:, :, :1]
+            y0n[:, :, 0] = first[:, q + m : 2 * q + m, 0] + (v[:, :, 0] if v is not None else 0.0)
+            u_start = first[:, q : q + m, 0]
+        else:
+            y0n[:, :, 0] = self.y0_last
+            u_start = self.u_last
+        end = N if e1 >= N else e1 - 1
+        cuts = [s] + [k for k in self.bps if s < k < end] + [end]
+        S = self.S
+        for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+            kend = min(b, N - 1)
+            Lseg = kend - a + 1
+            prof = fault_profile(
+                self.faults,
+                t,
+                y0n,
+                q=q,
+                k0=a,
+                k1=kend + 1,
+                holds=self.holds,
+                last_left=b < N,
+                y0_start=s,
+            )
+            aprof = actuator_profile(
+                self.actuators,
+                t,
+                m=m,
+                k0=a,
+                k1=kend + 1,
+                u_start=u_start,
+                holds=self.act_holds,
+                last_left=b < N,
+            )
+            for slot, pr in ((lam_slot, prof), (act_slot, aprof)):
+                lam = np.broadcast_to(pr.lam, (R, pr.lam.shape[1], Lseg)).copy()
+                if b < N:  # right end of the segment: left limit (faults of this segment)
+                    lam[..., -1] = pr.lam_left[..., -1]
+                e[:, slot, a - s : kend + 1 - s] = lam
+            eseg = e[:, :, a - s : kend + 1 - s]
+            active = [
+                f
+                for f, sp in zip([*self.faults, *self.actuators], self.spans, strict=True)
+                if sp is not None and sp[0] <= a < sp[1]
+            ]
+            if any(f.time_varying_gain for f in active):
+                ctx.info["stepped_samples"] += Lseg - 1
+                seg_states, seg_out = _step_segment(
+                    ctx, model, S, eseg, prof, aprof, b < N, self.bar
+                )
+            else:
+                delta, gamma = prof.eta[:, 0], aprof.eta[:, 0]
+                dis = model.discretized(delta, gamma)
+                _, _, C, D = model.composite(delta, gamma)
+                seg_states = linear_recursion(dis.Ad, dis.forcing(eseg), S)
+                seg_out = batched_matmul(C, seg_states) + batched_matmul(D, eseg)
+                if self.bar is not None:
+                    self.bar.update(Lseg - 1)
+            stop = Lseg if b >= N else Lseg - 1
+            states[:, :, a - s : a - s + stop] = seg_states[:, :, :stop]
+            outs[:, :, a - s : a - s + stop] = seg_out[:, :, :stop]
+            y0h = seg_out[:, q + m : 2 * q + m]
+            if v is not None:
+                y0h = y0h + v[:, :, a - s : kend + 1 - s]
+            y0n[:, :, a - s : kend + 1 - s] = y0h
+            u_start = seg_out[:, q : q + m, -1]
+            S = seg_states[:, :, -1]
+            if b in self.bps:
+                ctx.info["segments"] += 1
+        self.S = S
+        self.y0_last = np.array(y0n[:, :, -1])
+        self.u_last = np.array(u_start)
+        if e1 >= N and self.bar is not None:
+            self.bar.close()
+        # the healthy readings recorded at segment ends, recomputed with the final config
+        y0n = outs[:, q + m : 2 * q + m] + (v if v is not None else 0.0)
+        r_vectors: list[np.ndarray | None] = [None] * len(ctx.view.generators)
+        ws: list[np.ndarray | None] = [None] * len(ctx.view.generators)
+        i, o = nX, 2 * q + m
+        for k, g in model.gens:
+            ws[k] = states[:, i : i + g.order]
+            r_vectors[k] = outs[:, o : o + g.n_outputs]
+            i += g.order
+            o += g.n_outputs
+        return RawRuns(
+            states[:, :n],
+            states[:, n:nX],
+            outs[:, :q],
+            y0n,
+            outs[:, q : q + m],
+            r_vectors,
+            ws,
+        )
 
 
 def _step_segment(
@@ -359,10 +418,86 @@ def _step_segment(
     return states, out
 
 
+class FeedbackRuns:
+    """The runs of a chunk in a closed loop with faults inside it (output feedback, or
+    actuator gain/stuck faults under state feedback), with the interface of
+    :class:`~geomfdi.simulation.open_loop.OpenLoopEngine` (``R``, :meth:`advance`).
+
+    Runs sharing one fault list are simulated together (one
+    :class:`OutputFeedbackEngine`); with one list per run the loop differs between runs,
+    which are then simulated one at a time.  ``actuator_lists``: the actuator gain and
+    stuck faults of each list (:func:`split_actuator_faults`).
+    """
+
+    def __init__(
+        self,
+        ctx: Context,
+        x0: np.ndarray,
+        xc0: np.ndarray,
+        fault_lists: list[list[SensorFaultSignal]],
+        shared: bool,
+        runs: int,
+        contexts: list[Context] | None = None,
+        actuator_lists: list[list[InputFaultSignal]] | None = None,
+    ) -> None:
+        noisy = ctx.Lv is not None or ctx.Lw is not None
+        acts = actuator_lists or [[] for _ in fault_lists]
+        if shared:
+            R = runs if noisy or x0.shape[0] > 1 else 1
+            self.engines = [OutputFeedbackEngine(ctx, x0, xc0, R, fault_lists[0], acts[0])]
+        else:
+            ctxs = contexts or [ctx] * len(fault_lists)
+            self.engines = [
+                OutputFeedbackEngine(c, x0[r : r + 1] if x0.shape[0] > 1 else x0, xc0, 1, fl, ac)
+                for r, (c, fl, ac) in enumerate(zip(ctxs, fault_lists, acts, strict=True))
+            ]
+        self.ctx = ctx
+        self.R = sum(eng.R for eng in self.engines)
+
+    def advance(
+        self, s: int, e1: int, v: np.ndarray | None, wp: np.ndarray | None, rows: np.ndarray
+    ) -> Piece:
+        """Samples ``s .. e1-1``; ``v``, ``wp`` (q|k, R, L); the residual rows written into
+        ``rows`` (R, n_rows, L)."""
+        parts = []
+        r0 = 0
+        for eng in self.engines:
+            sl = slice(r0, r0 + eng.R) if len(self.engines) > 1 else slice(None)
+            vv = None if v is None else v[:, sl].transpose(1, 0, 2)
+            ww = None if wp is None else wp[:, sl].transpose(1, 0, 2)
+            parts.append(eng.advance(s, e1, vv, ww))
+            r0 += eng.R
+        cat = (lambda xs: xs[0]) if len(parts) == 1 else (lambda xs: np.concatenate(xs))
+        sm = lambda a: a.transpose(1, 0, 2)  # noqa: E731  state-major views
+        nres = len(self.ctx.view.generators)
+        vectors: list[np.ndarray | None] = [None] * nres
+        ws: list[np.ndarray | None] = [None] * nres
+        for k in range(nres):
+            if parts[0].r_vectors[k] is None:
+                continue
+            rv = cat([pt.r_vectors[k] for pt in parts])
+            if rv.shape[1] == 1:
+                rows[:, k] = rv[:, 0]
+            else:
+                rows[:, k] = np.sqrt(np.sum(rv * rv, axis=1))
+                vectors[k] = sm(rv)
+            ws[k] = sm(cat([pt.w[k] for pt in parts]))
+        return Piece(
+            s,
+            sm(cat([pt.x for pt in parts])),
+            sm(cat([pt.y for pt in parts])),
+            sm(cat([pt.y_healthy for pt in parts])),
+            sm(cat([pt.u for pt in parts])),
+            vectors,
+            ws,
+            sm(cat([pt.xc for pt in parts])),
+        )
+
+
 def split_actuator_faults(schedule: Any) -> tuple[Any, list[InputFaultSignal]]:
     """``(schedule without them, the gain/stuck actuator faults)`` of a fault schedule.
 
-    Under feedback these faults sit inside the loop (:func:`run_output_feedback`); the
+    Under feedback these faults sit inside the loop (:class:`OutputFeedbackEngine`); the
     other additive faults stay exogenous input channels.
     """
     from dataclasses import replace

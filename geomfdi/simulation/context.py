@@ -1,7 +1,8 @@
 """Checked inputs of a simulation: the bank, the controller, the exogenous signals, the context.
 
 :func:`prepare` validates everything once and returns a :class:`Context` that the
-open-loop and closed-loop engines read; :class:`RawRuns` holds the arrays they return.
+open-loop and closed-loop engines read; :class:`Piece` holds the arrays of one time
+chunk that they return (:class:`RawRuns`: the closed loop's own layout).
 """
 
 from __future__ import annotations
@@ -110,11 +111,17 @@ def bank_view(bank: Any, plant: Plant) -> BankView:
 
 
 def unbalance_states(view: BankView, info: dict, ws: list[np.ndarray | None]) -> list:
-    """Generator states (and ``info["w0"]``) back in the bank's own coordinates."""
+    """Generator states (and ``info["w0"]``) back in the bank's own coordinates.
+
+    The arrays of ``ws`` (the simulator's own, full-record) are scaled in place: no
+    second copy of the states.
+    """
     out: list[np.ndarray | None] = []
     for k, w in enumerate(ws):
         e = view.scales[k] if k < len(view.scales) else None
-        out.append(w if w is None or e is None else w * e[:, None])
+        if w is not None and e is not None:
+            np.multiply(w, e[:, None], out=w)
+        out.append(w)
     for k, w0 in info.get("w0", {}).items():
         e = view.scales[k]
         if e is not None:
@@ -253,7 +260,7 @@ class Context:
 
 @dataclass
 class RawRuns:
-    """Arrays of one chunk of runs (leading axis: runs, possibly 1 = broadcast)."""
+    """Arrays of the output-feedback engine for one time chunk (leading axis: runs)."""
 
     x: np.ndarray
     xc: np.ndarray | None
@@ -262,7 +269,25 @@ class RawRuns:
     u: np.ndarray
     r_vectors: list[np.ndarray | None]
     w: list[np.ndarray | None]
-    rows: np.ndarray | None = None  # residual rows (R, n_rows, N), when already formed
+
+
+@dataclass
+class Piece:
+    """The signals of one time chunk, samples ``s .. s + L - 1``, state-major ``(k, R, L)``.
+
+    ``vectors[k]`` holds the components of a vector residual (bank row ``k``), ``ws[k]``
+    the generator states (with ``keep_states``); the residual rows were written into the
+    caller's array.
+    """
+
+    s: int
+    X: np.ndarray
+    y: np.ndarray
+    y0n: np.ndarray
+    u: np.ndarray
+    vectors: list[np.ndarray | None]
+    ws: list[np.ndarray | None]
+    xc: np.ndarray | None = None
 
 
 def progress_bar(enabled: bool, total: int, desc: str) -> Any:
@@ -367,15 +392,6 @@ def from_balanced(ctx: Context, x: np.ndarray) -> np.ndarray:
     return x if ctx.x_scale is None else x * ctx.x_scale[:, None]
 
 
-def draw_noise(
-    ctx: Context, rng: np.random.Generator
-) -> tuple[np.ndarray | None, np.ndarray | None]:
-    N = ctx.N
-    v = ctx.Lv @ rng.standard_normal((ctx.plant.q, N)) if ctx.Lv is not None else None
-    w = ctx.Lw @ rng.standard_normal((ctx.Lw.shape[1], N)) if ctx.Lw is not None else None
-    return v, w
-
-
 def state_vector(value: Any, n: int, name: str, runs: int | None = None) -> np.ndarray:
     if value is None:
         return np.zeros((1, n))
@@ -390,21 +406,6 @@ def state_vector(value: Any, n: int, name: str, runs: int | None = None) -> np.n
     raise ShapeError(f"{name}: expected shape {expect}, got {arr.shape}", argument=name)
 
 
-def residual_rows(ctx: Context, raw: RawRuns) -> np.ndarray:
-    """Residual rows (R, n_rows, N): one per bank row, norms for vector residuals."""
-    if raw.rows is not None:
-        return raw.rows
-    r_vectors = raw.r_vectors
-    R = max(r.shape[0] for r in r_vectors if r is not None)
-    N = ctx.N
-    out = np.zeros((R, len(r_vectors), N))
-    for k, rv in enumerate(r_vectors):
-        if rv is None:
-            continue
-        out[:, k] = rv[:, 0] if rv.shape[1] == 1 else np.sqrt(np.sum(rv * rv, axis=1))
-    return out
-
-
 def residual_labels_of(view: BankView) -> list[str]:
     return [f"r[{k}]" for k in range(len(view.generators))]
 
@@ -413,18 +414,22 @@ def with_input_faults(ctx: Context, schedules: Sequence[FaultSchedule]) -> Conte
     """``ctx`` with the additive faults of ``schedules`` as extra disturbance channels.
 
     The plant gets ``Bd' = [Bd, Bphi]``, ``Dd' = [Dd, Dphi]`` and the disturbance samples
-    ``d' = [d; phi]`` (per run, ``(R, nd', N)``, when the runs' signals differ).
+    ``d' = [d; phi]`` (per run, ``(R, nd', N)``, when the runs' signals differ).  An
+    actuator gain or stuck fault becomes such a channel only in open loop, where the
+    commanded input is ``u_ext``; under feedback it acts inside the loop and the caller
+    passes the schedules without it
+    (:func:`geomfdi.simulation.closed_loop.split_actuator_faults`).
     """
+    if ctx.ctrl.mode != "open" and any(s.needs_input for s in schedules):
+        raise GeomFDIError(
+            "faults: under feedback actuator gain and stuck faults act on the commanded "
+            "input inside the loop, not as exogenous input channels; split them off the "
+            "schedule first (split_actuator_faults)",
+            argument="faults",
+        )
     ch = input_channels(schedules, ctx.original or ctx.plant, ctx.t, ctx.u_ext)
     if ch is None:
         return ctx
-    if ctx.ctrl.mode != "open" and any(s.needs_input for s in schedules):
-        raise GeomFDIError(
-            "faults: actuator gain and stuck faults act on the commanded input, known in "
-            "advance only in open loop; under feedback simulate an ActuatorBiasFault or an "
-            "AdditiveFault instead",
-            argument="faults",
-        )
     Bphi, Dphi, phi = ch
     if ctx.x_scale is not None:
         Bphi = Bphi / ctx.x_scale[:, None]

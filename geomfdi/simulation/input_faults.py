@@ -43,6 +43,7 @@ from geomfdi.simulation.signals import (
     _check_value,
     _describe,
     _evaluate,
+    activity_span,
 )
 
 __all__ = [
@@ -300,12 +301,17 @@ def actuator_profile(
     lam = np.zeros((1, m, L))
     lam_l = np.zeros((1, m, L))
     tw = t[k0:k1]
+    kk = np.arange(k0, k1)
     for pos, f in enumerate(faults):
-        full = f.mask(t)
-        act = full[k0:k1].copy()
+        span = activity_span(f, t)  # no mask of the whole record
+        if span is None:
+            continue
+        ks, ke = span
+        act = (kk >= ks) & (kk < ke)
         if last_left and L:
             act[-1] = False
-        prev = np.concatenate([full[:1], full[:-1]])[k0:k1]
+        kp = np.maximum(kk - 1, 0)  # the previous sample (sample 0: itself)
+        prev = (kp >= ks) & (kp < ke)
         if not (act.any() or prev.any()):
             continue
         i = f.actuator
@@ -313,7 +319,6 @@ def actuator_profile(
         b = b[None, :]
         if getattr(f, "holds_input", False):
             if pos not in holds:
-                ks = int(np.argmax(full))
                 if ks != k0 or u_start is None:
                     raise GeomFDIError(
                         f"faults[{pos}]: the input held by the stuck actuator at t={t[ks]:g} "

@@ -9,6 +9,7 @@ and :func:`driven_recursion` are its one-system forms.
 
 from __future__ import annotations
 
+import hashlib
 import threading
 from dataclasses import dataclass
 from typing import Any
@@ -184,84 +185,37 @@ def _real_product(Mat: np.ndarray, arr: np.ndarray) -> np.ndarray:
     return Mat.real @ arr
 
 
-def block_recursion(
-    blocks: list[np.ndarray],
-    W: np.ndarray,
-    drives: list[Drive],
-    x0: np.ndarray,
-    outputs: list[list[np.ndarray]],
-    N: int,
-    *,
-    chunk: int | None = None,
-    direct: tuple[list[np.ndarray], list[list[np.ndarray | None]]] | None = None,
-    out: list[list[np.ndarray | None]] | None = None,
-    lift: int | None = None,
-) -> list[list[np.ndarray]]:
-    """Independent subsystems ``x_b[k+1] = A_b x_b[k] + W_b d[k]``, chunked over time.
+_CACHE_ENTRIES = 64
+_MODAL: dict[Any, Any] = {}
+_LIFTED: dict[Any, Any] = {}
 
-    Parameters
-    ----------
-    blocks : list of ndarray
-        Transition matrices ``A_b`` (n_b, n_b) of independent subsystems.
-    W : ndarray, (sum n_b, nz)
-        Input matrix of the stacked drive blocks (columns in the order of ``drives``).
-    drives : list of Drive
-        The drive signals (see :class:`Drive`); ``nz`` rows in all.
-    x0 : ndarray, (sum n_b, R0)
-        Initial states.
-    outputs : list of list of ndarray
-        Per block, output matrices ``C`` (p, n_b); ``C x_b`` is returned for each.
-    N : int
-        Number of samples.
-    chunk : int, optional
-        Samples per time chunk (default: ``M`` times about 2**19 / (states x runs),
-        between 1024 and 65536, with ``M`` the lifting factor).
-    direct : (signals, matrices), optional
-        Direct feedthrough: ``signals`` is a list of sampled arrays (k_i, R_i, N), and
-        ``matrices[b][j]`` (p, sum k_i) or None is added to output ``j`` of block ``b``
-        times the stacked signals, sample by sample.
-    out : list of list of ndarray or None, optional
-        Preallocated (possibly strided) arrays (p, R, N) to write the outputs into.
-    lift : int, optional
-        Lifting factor ``M`` (see Notes); by default chosen by :func:`_lift_factor`
-        from the sizes; 1 runs the plain recursion.
 
-    Returns
-    -------
-    list of list of ndarray, each (p, R, N)
+def _digest(arrays: list[np.ndarray]) -> bytes:
+    """A fingerprint of the shapes and values of ``arrays``."""
+    h = hashlib.blake2b(digest_size=16)
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(repr((a.shape, a.dtype.str)).encode())
+        h.update(a.tobytes())
+    return h.digest()
 
-    Notes
-    -----
-    The modal (or Schur) form of the block-diagonal transition matrix is block diagonal
-    (:func:`modal_form` per block), so all subsystems share one forcing product per
-    chunk and one ``lfilter`` call per state; back-substitution couplings (Schur blocks
-    only) stay inside each block.  Time is processed in chunks
-    whose arrays stay cache-sized; the state at the end of a chunk starts the next one
-    (exactly: the recursion is the same, only split).
 
-    *Lifting* (the lifted system of Khargonekar, Poolla & Tannenbaum, IEEE TAC 1985):
-    with time blocks of ``M`` samples the block-start states obey
+def _cached(cache: dict[Any, Any], key: Any, make: Any) -> Any:
+    """``cache[key]``, made by ``make()`` when missing.  The set-up of
+    :func:`block_recursion` depends on the matrices only, so a long record simulated
+    chunk by chunk (the same matrices each time) computes it once; the cached arrays
+    are never written to."""
+    hit = cache.get(key)
+    if hit is None:
+        hit = make()
+        if len(cache) >= _CACHE_ENTRIES:
+            cache.clear()
+        cache[key] = hit
+    return hit
 
-        x[(b+1) M] = A^M x[b M] + sum_{j<M} A^(M-1-j) W d[b M + j]
 
-    (one matrix product forms the forcing of every block, then the scalar ``lfilter``
-    recursions run on ``N / M`` samples), and the outputs inside a block follow from the
-    block-start state and the block's drive samples,
-
-        C x[b M + i] = C A^i x[b M] + sum_{j<i} C A^(i-1-j) W d[b M + j],
-
-    one product with the lower block-Toeplitz matrix of Markov parameters.  It is the
-    same recursion regrouped, not an approximation: it trades ``lfilter`` samples, whose
-    cost is mostly per-sample overhead, for matrix-product flops.  Two savings: drives
-    that read one array at shifts 0 and 1 (a first-order hold) share their lifted rows,
-    ``M + 1`` samples per block instead of ``2 M``; and the Toeplitz product is done in
-    row blocks of output samples ``i``, each with only the drive samples ``j <= i`` it
-    can see (about 60 % of the full product).
-    """
-    sizes = [b.shape[0] for b in blocks]
-    nS = int(sum(sizes))
-    Rd = max([d.runs for d in drives] + [1])
-    R = max(Rd, x0.shape[1])
+def _modal_setup(blocks: list[np.ndarray], W: np.ndarray) -> tuple[Any, ...]:
+    """Modal (or Schur) forms of the blocks: ``(Ts, Zs, Zis, stops, Z^-1, complex, Z^-1 W)``."""
     Ts, Zs, Zis, stops = [], [], [], []
     i = 0
     for A in blocks:
@@ -275,45 +229,27 @@ def block_recursion(
         i += n_b
     Zinv = scipy.linalg.block_diag(*Zis) if Zis else np.zeros((0, 0))
     cplx = any(np.iscomplexobj(T) for T in Ts)
+    return Ts, Zs, Zis, stops, Zinv, cplx, Zinv @ W
+
+
+def _lifted_setup(
+    blocks: list[np.ndarray],
+    W: np.ndarray,
+    outputs: list[list[np.ndarray]],
+    flat: list[Any],
+    srcs: list[_Source],
+    modal: tuple[Any, ...],
+    M: int,
+    nL: int,
+    nzc: int,
+    nz: int,
+    p_tot: int,
+) -> tuple[Any, ...]:
+    """The lifted system of :func:`block_recursion` (see its Notes):
+    ``(Tb, Tb^M, Hz, Gam, splits, CZ, state_maps)``."""
+    Ts, Zs, _, _, _, cplx, V = modal
+    nS = V.shape[0]
     dtype = complex if cplx else float
-    V = Zinv @ W
-    col = np.cumsum([0] + [d.arr.shape[0] for d in drives])
-    spans = list(zip(col[:-1], col[1:], strict=True))
-    nz = int(col[-1])
-    srcs = _sources(drives, spans)
-    nzc = sum(src.k for src in srcs)  # drive channels per sample
-    dsig, dmats = direct if direct is not None else ([], [[None] * len(o) for o in outputs])
-    dmats = [[m if m is not None and np.any(m) else None for m in ms] for ms in dmats]
-    if all(m is None for ms in dmats for m in ms):
-        dsig = []
-    nd = int(sum(a.shape[0] for a in dsig))
-    # every output: (block, state slice, C, destination, first row in the output stack)
-    flat = []
-    i = o = 0
-    for b, (n_b, outs) in enumerate(zip(sizes, outputs, strict=True)):
-        for j, C in enumerate(outs):
-            dest = out[b][j] if out is not None and out[b][j] is not None else None
-            if dest is None:
-                dest = np.empty((C.shape[0], R, N))
-            flat.append((b, slice(i, i + n_b), C, dest, o))
-            o += C.shape[0]
-        i += n_b
-    p_tot = o
-    Dms = [m for ms in dmats for m in ms]  # feedthrough of every output, in flat's order
-    if lift is None:
-        M = _lift_factor(nS, p_tot, nzc, cplx) if nz and N >= 64 * _MAX_LIFT else 1
-    else:
-        M = int(lift)
-        if M < 1:
-            raise GeomFDIError(f"lift: must be a positive integer, got {lift!r}", argument="lift")
-    # lifted drive rows: sample j < M of every channel, j-major (row j nzc + channel),
-    # then the samples past the block of sources read at two shifts (forcing only)
-    r0 = t0 = 0
-    for src in srcs:
-        src.row0, src.tail0 = r0, M * nzc + t0
-        r0 += src.k
-        t0 += (src.smax - src.smin) * src.k
-    nL = M * nzc + t0
     Tb = scipy.linalg.block_diag(*Ts) if Ts else np.zeros((0, 0), dtype=dtype)
     TbM = np.linalg.matrix_power(Tb, M)  # A^M in modal coordinates: the lifted transition
     # Hp[:, c, j] = Z^-1 A^(M-1-j) W[:, c] = T^(M-1-j) V[:, c]: forcing of step j of a block
@@ -351,6 +287,163 @@ def block_recursion(
         nspl = min(_TOEPLITZ_SPLITS, M - 1)
         edges = [1 + round(q * (M - 1) / nspl) for q in range(nspl + 1)]
         splits = [(i0, i1) for i0, i1 in zip(edges[:-1], edges[1:], strict=True) if i1 > i0]
+    # C A^i Z = C Z T^i on the block-start state, rows (i, o), grouped by output and block
+    # sizes so that each group is one stacked product (slices when the group is contiguous)
+    groups: dict[tuple[int, int], list[tuple[slice, int, np.ndarray]]] = {}
+    CZ = []
+    for b, sl, C, _, o0 in flat:
+        P = [C @ Zs[b]]
+        CZ.append(P[0])
+        for _ in range(M - 1):
+            P.append(P[-1] @ Ts[b])
+        groups.setdefault((C.shape[0], sl.stop - sl.start), []).append(
+            (sl, o0, np.stack(P).reshape(M * C.shape[0], -1))
+        )
+    state_maps = []
+    for (p, _), members in groups.items():
+        sidx = np.concatenate([np.arange(sl.start, sl.stop) for sl, _, _ in members])
+        oidx = np.concatenate([np.arange(o0, o0 + p) for _, o0, _ in members])
+        Psi = np.stack([P for _, _, P in members])
+        state_maps.append((_as_slice(sidx), _as_slice(oidx), p, Psi))
+    return Tb, TbM, Hz, Gam, splits, CZ, state_maps
+
+
+def block_recursion(
+    blocks: list[np.ndarray],
+    W: np.ndarray,
+    drives: list[Drive],
+    x0: np.ndarray,
+    outputs: list[list[np.ndarray]],
+    N: int,
+    *,
+    chunk: int | None = None,
+    direct: tuple[list[np.ndarray], list[list[np.ndarray | None]]] | None = None,
+    out: list[list[np.ndarray | None]] | None = None,
+    lift: int | None = None,
+    final: bool = False,
+) -> Any:
+    """Independent subsystems ``x_b[k+1] = A_b x_b[k] + W_b d[k]``, chunked over time.
+
+    Parameters
+    ----------
+    blocks : list of ndarray
+        Transition matrices ``A_b`` (n_b, n_b) of independent subsystems.
+    W : ndarray, (sum n_b, nz)
+        Input matrix of the stacked drive blocks (columns in the order of ``drives``).
+    drives : list of Drive
+        The drive signals (see :class:`Drive`); ``nz`` rows in all.
+    x0 : ndarray, (sum n_b, R0)
+        Initial states.
+    outputs : list of list of ndarray
+        Per block, output matrices ``C`` (p, n_b); ``C x_b`` is returned for each.
+    N : int
+        Number of samples.
+    chunk : int, optional
+        Samples per time chunk (default: ``M`` times about 2**19 / (states x runs),
+        between 1024 and 65536, with ``M`` the lifting factor).
+    direct : (signals, matrices), optional
+        Direct feedthrough: ``signals`` is a list of sampled arrays (k_i, R_i, N), and
+        ``matrices[b][j]`` (p, sum k_i) or None is added to output ``j`` of block ``b``
+        times the stacked signals, sample by sample.
+    out : list of list of ndarray or None, optional
+        Preallocated (possibly strided) arrays (p, R, N) to write the outputs into.
+    lift : int, optional
+        Lifting factor ``M`` (see Notes); by default chosen by :func:`_lift_factor`
+        from the sizes; 1 runs the plain recursion.
+    final : bool
+        Also return the state at the last sample ``N - 1`` (sum n_b, R), in the
+        coordinates of ``x0``: a long record simulated in consecutive calls (each call's
+        window ending on the sample where the next one starts) carries it over as the
+        next call's ``x0``.
+
+    Returns
+    -------
+    list of list of ndarray, each (p, R, N)
+        With ``final=True``, the pair ``(outputs, state at sample N - 1)``.
+
+    Notes
+    -----
+    The modal (or Schur) form of the block-diagonal transition matrix is block diagonal
+    (:func:`modal_form` per block), so all subsystems share one forcing product per
+    chunk and one ``lfilter`` call per state; back-substitution couplings (Schur blocks
+    only) stay inside each block.  Time is processed in chunks
+    whose arrays stay cache-sized; the state at the end of a chunk starts the next one
+    (exactly: the recursion is the same, only split).
+
+    *Lifting* (the lifted system of Khargonekar, Poolla & Tannenbaum, IEEE TAC 1985):
+    with time blocks of ``M`` samples the block-start states obey
+
+        x[(b+1) M] = A^M x[b M] + sum_{j<M} A^(M-1-j) W d[b M + j]
+
+    (one matrix product forms the forcing of every block, then the scalar ``lfilter``
+    recursions run on ``N / M`` samples), and the outputs inside a block follow from the
+    block-start state and the block's drive samples,
+
+        C x[b M + i] = C A^i x[b M] + sum_{j<i} C A^(i-1-j) W d[b M + j],
+
+    one product with the lower block-Toeplitz matrix of Markov parameters.  It is the
+    same recursion regrouped, not an approximation: it trades ``lfilter`` samples, whose
+    cost is mostly per-sample overhead, for matrix-product flops.  Two savings: drives
+    that read one array at shifts 0 and 1 (a first-order hold) share their lifted rows,
+    ``M + 1`` samples per block instead of ``2 M``; and the Toeplitz product is done in
+    row blocks of output samples ``i``, each with only the drive samples ``j <= i`` it
+    can see (about 60 % of the full product).
+    """
+    sizes = [b.shape[0] for b in blocks]
+    nS = int(sum(sizes))
+    Rd = max([d.runs for d in drives] + [1])
+    R = max(Rd, x0.shape[1])
+    mkey = _digest(blocks + [W])
+    modal = _cached(_MODAL, mkey, lambda: _modal_setup(blocks, W))
+    Ts, Zs, Zis, stops, Zinv, cplx, V = modal
+    dtype = complex if cplx else float
+    col = np.cumsum([0] + [d.arr.shape[0] for d in drives])
+    spans = list(zip(col[:-1], col[1:], strict=True))
+    nz = int(col[-1])
+    srcs = _sources(drives, spans)
+    nzc = sum(src.k for src in srcs)  # drive channels per sample
+    dsig, dmats = direct if direct is not None else ([], [[None] * len(o) for o in outputs])
+    dmats = [[m if m is not None and np.any(m) else None for m in ms] for ms in dmats]
+    if all(m is None for ms in dmats for m in ms):
+        dsig = []
+    nd = int(sum(a.shape[0] for a in dsig))
+    # every output: (block, state slice, C, destination, first row in the output stack)
+    flat = []
+    i = o = 0
+    for b, (n_b, outs) in enumerate(zip(sizes, outputs, strict=True)):
+        for j, C in enumerate(outs):
+            dest = out[b][j] if out is not None and out[b][j] is not None else None
+            if dest is None:
+                dest = np.empty((C.shape[0], R, N))
+            flat.append((b, slice(i, i + n_b), C, dest, o))
+            o += C.shape[0]
+        i += n_b
+    p_tot = o
+    Dms = [m for ms in dmats for m in ms]  # feedthrough of every output, in flat's order
+    if lift is None:
+        M = _lift_factor(nS, p_tot, nzc, cplx) if nz and N >= 64 * _MAX_LIFT else 1
+    else:
+        M = int(lift)
+        if M < 1:
+            raise GeomFDIError(f"lift: must be a positive integer, got {lift!r}", argument="lift")
+    # lifted drive rows: sample j < M of every channel, j-major (row j nzc + channel),
+    # then the samples past the block of sources read at two shifts (forcing only)
+    r0 = t0 = 0
+    for src in srcs:
+        src.row0, src.tail0 = r0, M * nzc + t0
+        r0 += src.k
+        t0 += (src.smax - src.smin) * src.k
+    nL = M * nzc + t0
+    layout = tuple(
+        (src.k, src.smin, src.smax, tuple(src.parts), src.drive.scale is None) for src in srcs
+    )
+    lkey = (mkey, _digest([C for outs in outputs for C in outs]), layout, M)
+    hit = _LIFTED.get(lkey)
+    if hit is not None:
+        Tb, TbM, Hz, Gam, splits, CZ, state_maps = hit
+    else:
+        lifted = _lifted_setup(blocks, W, outputs, flat, srcs, modal, M, nL, nzc, nz, p_tot)
+        Tb, TbM, Hz, Gam, splits, CZ, state_maps = _cached(_LIFTED, lkey, lambda: lifted)
     # feedthrough: signals of every run, then the signals shared by all runs (their
     # product computed once and added to every run)
     Rdd = max([a.shape[1] for a in dsig] + [1])
@@ -371,26 +464,9 @@ def block_recursion(
             if sel:
                 cols = np.concatenate([np.arange(cstart[i], cstart[i + 1]) for i in sel])
                 feeds.append(([dsig[i] for i in sel], np.ascontiguousarray(Dall[:, cols])))
-    # C A^i Z = C Z T^i on the block-start state, rows (i, o), grouped by output and block
-    # sizes so that each group is one stacked product (slices when the group is contiguous)
-    groups: dict[tuple[int, int], list[tuple[slice, int, np.ndarray]]] = {}
-    CZ = []
-    for b, sl, C, _, o0 in flat:
-        P = [C @ Zs[b]]
-        CZ.append(P[0])
-        for _ in range(M - 1):
-            P.append(P[-1] @ Ts[b])
-        groups.setdefault((C.shape[0], sl.stop - sl.start), []).append(
-            (sl, o0, np.stack(P).reshape(M * C.shape[0], -1))
-        )
-    state_maps = []
-    for (p, _), members in groups.items():
-        sidx = np.concatenate([np.arange(sl.start, sl.stop) for sl, _, _ in members])
-        oidx = np.concatenate([np.arange(o0, o0 + p) for _, o0, _ in members])
-        Psi = np.stack([P for _, _, P in members])
-        state_maps.append((_as_slice(sidx), _as_slice(oidx), p, Psi))
     z = (Zinv @ np.broadcast_to(x0, (nS, x0.shape[1]))).astype(dtype)
     z = np.broadcast_to(z, (nS, R))
+
     # real states, no lifting: every output is one product (per run) written straight
     # into its destination, then the feedthrough added in place
     straight = M == 1 and not cplx
@@ -447,6 +523,8 @@ def block_recursion(
         else:
             G[:, :, 1:] = 0.0
         zc = recursion_inplace(TbM, G, stops)
+        if final and s <= N - 1 < s + Lp:
+            last = _state_at(N - 1, s, M, zc, Tb, V, drives, spans)
         if nd:
             F = work("F", (p_tot, Rdd, L))
             for fi, (sigs, Dq) in enumerate(feeds):
@@ -513,7 +591,35 @@ def block_recursion(
     res: list[list[np.ndarray]] = [[] for _ in outputs]
     for b, _, _, dest, _ in flat:
         res[b].append(dest)
-    return res
+    if not final:
+        return res
+    if N == 0:
+        return res, np.array(np.broadcast_to(x0, (nS, R)), dtype=float)
+    Zb = scipy.linalg.block_diag(*Zs) if Zs else np.zeros((0, 0))
+    return res, np.ascontiguousarray(_real_product(Zb, last))
+
+
+def _state_at(
+    k: int,
+    s: int,
+    M: int,
+    zc: np.ndarray,
+    Tb: np.ndarray,
+    V: np.ndarray,
+    drives: list[Drive],
+    spans: list[tuple[int, int]],
+) -> np.ndarray:
+    """Modal state at sample ``k`` of a chunk starting at ``s``: the block-start state
+    before it (``zc[:, :, b]`` is the state at ``s + b M``), then the remaining steps
+    (fewer than ``M``) one by one."""
+    b0 = (k - s) // M
+    z = np.array(zc[:, :, b0])
+    for j in range(s + b0 * M, k):  # step j -> j + 1
+        f = np.zeros(z.shape, dtype=z.dtype)
+        for d, (c0, c1) in zip(drives, spans, strict=True):
+            f = f + V[:, c0:c1] @ d.window(j, 1)[..., 0]
+        z = Tb @ z + f
+    return z
 
 
 def driven_recursion(

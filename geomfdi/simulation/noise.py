@@ -75,7 +75,10 @@ class Noise:
         ``Bw``; the identity (noise on every state) by default.
     seed : int, numpy SeedSequence or None
         Seed of :func:`numpy.random.default_rng`.  In :func:`simulate_batch` run ``i``
-        uses the ``i``-th child of ``SeedSequence(seed)`` unless seeds are given.
+        uses the ``i``-th child of ``SeedSequence(seed)`` unless seeds are given.  The
+        draws are made in blocks of :data:`NOISE_BLOCK` samples (:class:`NoiseStream`):
+        the noise of a sample depends on the seed and its index only, not on how the
+        simulation cuts its time axis into chunks.
 
     Examples
     --------
@@ -105,6 +108,78 @@ class Noise:
             )
         Lw = _factor(self.process, Bw.shape[1], "noise.process")
         return Lv, (Bw if Lw is not None else None), Lw
+
+
+#: Samples per block of noise draws (see :class:`NoiseStream`); part of what a seed means.
+NOISE_BLOCK = 2**16
+
+
+class NoiseStream:
+    """The standard-normal draws of one run, served by time range, in fixed blocks.
+
+    The record is cut into blocks of :data:`NOISE_BLOCK` samples (the last one shorter);
+    block ``b`` draws ``rng.standard_normal((rows_v, L_b))`` for the measurement noise,
+    then ``rng.standard_normal((rows_w, L_b))`` for the process noise.  The draws of a
+    sample therefore depend only on the seed and on the sample's index, never on how a
+    simulation cuts its time axis into chunks: a chunked run equals the unchunked one for
+    the same seed.  A record of at most one block draws exactly what
+    ``rng.standard_normal((rows, N))`` would.
+
+    Ranges must be asked for in increasing order (a range may start in the last block
+    of the previous one); only the blocks of the last range are kept.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+    rows_v, rows_w : int
+        Rows of the measurement and process draws (0: none drawn).
+    N : int
+        Samples in the record.
+    block : int
+        Samples per block (tests only; the default defines the stream).
+    """
+
+    def __init__(
+        self, rng: np.random.Generator, rows_v: int, rows_w: int, N: int, block: int = NOISE_BLOCK
+    ) -> None:
+        self.rng = rng
+        self.rows = (int(rows_v), int(rows_w))
+        self.N = int(N)
+        self.block = int(block)
+        self._blocks: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._next = 0  # next block to draw
+
+    def _draw(self) -> None:
+        b = self._next
+        L = min(self.block, self.N - b * self.block)
+        rv, rw = self.rows
+        zv = self.rng.standard_normal((rv, L)) if rv else np.zeros((0, L))
+        zw = self.rng.standard_normal((rw, L)) if rw else np.zeros((0, L))
+        self._blocks[b] = (zv, zw)
+        self._next += 1
+
+    def take(self, s: int, e: int) -> tuple[np.ndarray, np.ndarray]:
+        """Draws of samples ``s .. e-1``: ``(zv (rows_v, e-s), zw (rows_w, e-s))``."""
+        if not 0 <= s <= e <= self.N:
+            raise GeomFDIError(f"noise: range {s}..{e} outside 0..{self.N}", argument="noise")
+        B = self.block
+        b0, b1 = s // B, max(s, e - 1) // B
+        if b0 < self._next - len(self._blocks) or (b0 not in self._blocks and b0 < self._next):
+            raise GeomFDIError("noise: draws are served in increasing time order", argument="noise")
+        while self._next <= b1:
+            self._draw()
+        for b in [b for b in self._blocks if b < b0]:
+            del self._blocks[b]
+        if b0 == b1:
+            zv, zw = self._blocks[b0]
+            return zv[:, s - b0 * B : e - b0 * B], zw[:, s - b0 * B : e - b0 * B]
+        parts_v, parts_w = [], []
+        for b in range(b0, b1 + 1):
+            zv, zw = self._blocks[b]
+            lo, hi = max(s - b * B, 0), min(e - b * B, zv.shape[1])
+            parts_v.append(zv[:, lo:hi])
+            parts_w.append(zw[:, lo:hi])
+        return np.concatenate(parts_v, axis=1), np.concatenate(parts_w, axis=1)
 
 
 def check_seed(seed: Any, name: str, argument: str | None = None) -> Any:

@@ -4,6 +4,12 @@ The plant does not see the sensor faults, so its state is simulated once; each b
 generator is driven over each sampling interval by the exact discretisation of the
 composite ``[plant; generator]`` (or, when the generators decouple, in the coordinates
 ``w~ = w - Pi x``).  See :mod:`geomfdi.simulation.simulate` for the model.
+
+:class:`OpenLoopEngine` sets the matrices up once and then advances over the record one
+time chunk at a time (:meth:`OpenLoopEngine.advance`): the plant state, the generator
+states and the held readings of stuck sensors are carried from one chunk to the next
+(the recursion is linear and time-invariant: the final state of a chunk is the initial
+state of the next), so the memory is proportional to the chunk, not to the record.
 """
 
 from __future__ import annotations
@@ -11,10 +17,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from geomfdi.simulation.context import (
-    Context,
-    RawRuns,
-)
+from geomfdi.simulation.context import Context, Piece
 from geomfdi.simulation.initial_state import (
     EXACT_TOL,
     consistent_start,
@@ -22,218 +25,381 @@ from geomfdi.simulation.initial_state import (
     start_error,
 )
 from geomfdi.simulation.lifting import Drive, block_recursion
-from geomfdi.simulation.signals import SensorFaultSignal, fault_profile
+from geomfdi.simulation.signals import (
+    BiasFault,
+    SensorFaultSignal,
+    fault_profile,
+    first_active,
+)
 
 
 # ===================================================== open loop / state fb
-def run_open_loop(
-    ctx: Context,
-    x0: np.ndarray,
-    v: np.ndarray | None,
-    wp: np.ndarray | None,
-    fault_lists: list[list[SensorFaultSignal]],
-    shared: bool,
-) -> RawRuns:
-    """Open loop / state feedback.  Internally state-major arrays (k, runs, N)."""
-    p = ctx.plant
-    n, m, q, nd = p.n, p.m, p.q, p.nd
-    N = ctx.N
-    K = ctx.ctrl.K if ctx.ctrl.mode == "state" else np.zeros((m, n))
-    A_X = p.A - p.B @ K
-    nwp = ctx.nwp
-    B_X = np.hstack([p.B, p.Bd] + ([ctx.Bw] if nwp else []))
-    Cy0 = p.C - p.D @ K
-    Dy0 = np.hstack([p.D, p.Dd, np.zeros((q, nwp))])
-    Cu = -K
-    Du = np.hstack([np.eye(m), np.zeros((m, nd + nwp))])
-    if ctx.d.ndim == 3:  # per-run disturbance samples (additive faults differ per run)
-        es = np.empty((m + nd, ctx.d.shape[0], N))
-        es[:m] = ctx.u_ext[:, None, :]
-        es[m:] = ctx.d.transpose(1, 0, 2)
-    else:
-        es = (np.vstack([ctx.u_ext, ctx.d]) if ctx.d.shape[0] else ctx.u_ext)[:, None, :]
-    if wp is not None:
-        Re = max(es.shape[1], wp.shape[0])
-        e = np.empty((es.shape[0] + nwp, Re, N))
-        e[: es.shape[0]] = es
-        e[es.shape[0] :] = wp.transpose(1, 0, 2)
-    else:
-        e = es
-    ne = e.shape[0]
-    foh = ctx.hold == "foh" and not ctx.discrete
-    x0T = np.ascontiguousarray(x0.T)
-    # ---- plant (closed with the state feedback): once for all runs
-    dis = ctx.discretize(A_X, B_X)
-    if foh:
-        WX, dX = np.hstack([dis.B0, dis.B1]), [Drive(e), Drive(e, 1)]
-    else:
-        WX, dX = dis.B0, [Drive(e)]
-    X, y0c, u = block_recursion(
-        [dis.Ad],
-        WX,
-        dX,
-        x0T,
-        [[np.eye(n), Cy0, Cu]],
-        N,
-        direct=([e], [[None, Dy0, Du]]),
-    )[0]
-    y0n = y0c + v.transpose(1, 0, 2) if v is not None else y0c
-    # ---- sensor faults on the readings, vectorised (only the sensors they touch)
-    t = ctx.t
-    touched = sorted({f.sensor for fl in fault_lists for f in fl if f.mask(t).any()})
-    # profile rows: the sensors with faults, or every sensor when noise enters them all
-    # (row[i]: the row of sensor i)
-    need = sorted({f.sensor for fl in fault_lists for f in fl})
-    if v is not None and not ctx.discrete:
-        need = list(range(q))
-    row = {i: j for j, i in enumerate(need)}
-    if shared:
-        prof = fault_profile(fault_lists[0], t, y0n.transpose(1, 0, 2), q=q, sensors=need)
-        eta, eta_l = prof.eta[:, None, :], prof.eta_left[:, None, :]
-        lam, lam_l = prof.lam.transpose(1, 0, 2), prof.lam_left.transpose(1, 0, 2)
-    else:
+class OpenLoopEngine:
+    """Open loop / state feedback over a record, advanced one time chunk at a time.
+
+    Parameters
+    ----------
+    ctx : Context
+    x0 : ndarray, (R0, n)
+        Initial plant states (balanced units).
+    fault_lists : list of list of SensorFaultSignal
+        One list shared by every run (``shared``), or one per run.
+    shared : bool
+    runs : int
+        Runs simulated together (the noise of each run differs).
+    chunk : int
+        Samples per window of the pass that finds the gain-faulty sensors.
+
+    Attributes
+    ----------
+    R : int
+        Runs of the generator arrays: ``runs``, or 1 when every run has the same data
+        (no noise, one fault list, one initial state): then the rows broadcast.
+    """
+
+    def __init__(
+        self,
+        ctx: Context,
+        x0: np.ndarray,
+        fault_lists: list[list[SensorFaultSignal]],
+        shared: bool,
+        runs: int,
+        chunk: int,
+    ) -> None:
+        self.ctx = ctx
+        p = ctx.plant
+        n, m, q, nd = p.n, p.m, p.q, p.nd
+        self.fault_lists, self.shared = fault_lists, shared
+        K = ctx.ctrl.K if ctx.ctrl.mode == "state" else np.zeros((m, n))
+        A_X = p.A - p.B @ K
+        nwp = ctx.nwp
+        B_X = np.hstack([p.B, p.Bd] + ([ctx.Bw] if nwp else []))
+        Cy0 = p.C - p.D @ K
+        Dy0 = np.hstack([p.D, p.Dd, np.zeros((q, nwp))])
+        Cu = -K
+        Du = np.hstack([np.eye(m), np.zeros((m, nd + nwp))])
+        self.ne = ne = m + nd + nwp
+        self.foh = foh = ctx.hold == "foh" and not ctx.discrete
+        noisy = ctx.Lv is not None
+        self.Cy0, self.Dy0, self.Cu, self.Du = Cy0, Dy0, Cu, Du
+        # ---- plant (closed with the state feedback): once for all runs
+        dis = ctx.discretize(A_X, B_X)
+        self.dis = dis
+        self.WX = np.hstack([dis.B0, dis.B1]) if foh else dis.B0
+        # ---- sensors: those with faults on the grid (touched), the profile rows (need:
+        # the faulty sensors, or every sensor when noise enters them all)
+        t = ctx.t
+        self.touched = sorted(
+            {f.sensor for fl in fault_lists for f in fl if first_active(f, t) is not None}
+        )
+        need = sorted({f.sensor for fl in fault_lists for f in fl})
+        if noisy and not ctx.discrete:
+            need = list(range(q))
+        self.need = need
+        self.row = {i: j for j, i in enumerate(need)}
+        self.holds: list[dict[int, np.ndarray]] = [{} for _ in fault_lists]
+        gens = [(k, g) for k, g in enumerate(ctx.view.generators) if g is not None]
+        self.gens = gens
+        offs = np.cumsum([0] + [g.order for _, g in gens])
+        Sig_all = np.vstack([-g.E @ Cy0 + g.G @ Cu for _, g in gens])
+        E_all = np.vstack([g.E for _, g in gens])
+        x0T = np.ascontiguousarray(x0.T)
+        # ---- Pi with F Pi - Pi A_X = -Sigma per generator: the consistent start w = Pi x,
+        # and (when every generator has one) the change of state w~ = w - Pi x that removes
+        # the coupling to the plant state from the generators' equations
+        Pis = joint_sylvester([g.F for _, g in gens], A_X, Sig_all)
+        w0s = {}
+        for j, ((k, g), o0, o1) in enumerate(zip(gens, offs[:-1], offs[1:], strict=True)):
+            w0s[k] = np.zeros((g.order, 1))
+            if ctx.consistent:
+                N_out = -g.H @ Cy0 + g.K @ Cu
+                Pis[j] = consistent_start(k, g.F, A_X, Sig_all[o0:o1], g.M, N_out, ctx.info, Pis[j])
+                if Pis[j] is not None:
+                    w0s[k] = Pis[j] @ x0T
+            ctx.info.setdefault("w0", {})[k] = np.array(w0s[k][:, 0])
+        known = ctx.info.get("init_residual", {}) if ctx.consistent else {}
+        decoupled = not ctx.discrete and all(
+            Pi is not None
+            and (
+                known[k]
+                if k in known
+                else start_error(g.F, A_X, Sig_all[o0:o1], g.M, -g.H @ Cy0 + g.K @ Cu, Pi)
+            )
+            <= EXACT_TOL
+            for Pi, (k, g), o0, o1 in zip(Pis, gens, offs[:-1], offs[1:], strict=True)
+        )
+        self.decoupled = decoupled
+        # ---- the drive matrix of the bank (the drive signals are formed chunk by chunk,
+        # in the same order, in advance())
+        chan: list[int] = []
+        self.sens: list[int] = []
+        if ctx.discrete:
+            # exact: w[k+1] = F w[k] - E y[k] + G u[k] with the measured samples
+            W_all = np.hstack([-E_all, np.vstack([g.G for _, g in gens])])
+            Fd = {k: g.F for k, g in gens}
+            self.chan_mats: list[tuple[int, np.ndarray, np.ndarray, np.ndarray | None]] = []
+        else:
+            # y_i = delta_i y0c_i + rho_i over each interval (module docstring)
+            sens = list(range(q)) if noisy else self.touched
+            self.sens = sens
+            chan = self._gain_channels(chunk) if sens else []
+            Gam_all = np.vstack([-g.E @ Dy0 + g.G @ Du for _, g in gens])
+            nwt = int(offs[-1])
+            F_all = scipy.linalg.block_diag(*[g.F for _, g in gens])
+            Ac = np.zeros((n + nwt, n + nwt))
+            Ac[:n, :n] = A_X
+            Ac[n:, :n] = Sig_all
+            Ac[n:, n:] = F_all
+            if decoupled:
+                # w~' = F w~ + (Gamma - Pi B_X) e - E rho: the plant state drops out (exact)
+                Pi_all = np.vstack(Pis)
+                dc = ctx.discretize(F_all, np.hstack([Gam_all - Pi_all @ B_X, -E_all]))
+                r0, cols = 0, []
+            else:  # one matrix exponential of the plant and the whole bank
+                dc = ctx.discretize(Ac, np.block([[B_X, np.zeros((n, q))], [Gam_all, -E_all]]))
+                r0, cols = n, [dc.Ad[n:, :n]]
+            cols.append(dc.B0[r0:, :ne])
+            if foh:
+                cols.append(dc.B1[r0:, :ne])
+            if sens:
+                cols.append(dc.B0[r0:, [ne + i for i in sens]])
+                if foh:
+                    cols.append(dc.B1[r0:, [ne + i for i in sens]])
+            for i in chan:  # exact coupling of a gain-faulty sensor: one more exponential each
+                Aci = Ac.copy()
+                Aci[n:, :n] = -E_all[:, i : i + 1] @ Cy0[i : i + 1]
+                Bci = np.vstack([B_X, -E_all[:, i : i + 1] @ Dy0[i : i + 1]])
+                di = ctx.discretize(Aci, Bci)
+                cols += [di.Ad[n:, :n], di.B0[n:]] + ([di.B1[n:]] if foh else [])
+            W_all = np.hstack(cols)
+            Fd = {
+                k: dc.Ad[r0 + o0 : r0 + o1, r0 + o0 : r0 + o1]
+                for (k, _), o0, o1 in zip(gens, offs[:-1], offs[1:], strict=True)
+            }
+        self.chan = chan
+        self.W_all = W_all
+        self.Fd = [Fd[k] for k, _ in gens]
+        ctx.info["channels"] = chan
+        ctx.info["plant_state_decoupled"] = decoupled
+        # residual rows are written in place, with the direct feedthrough -H y + K u (and
+        # M Pi x, w = w~ + Pi x, for decoupled states) added chunk by chunk
+        self.outs, self.dmats = [], []
+        for (_, g), Pi in zip(gens, Pis, strict=True):
+            Dm = np.hstack([-g.H, g.K] + ([g.M @ Pi] if decoupled else []))
+            if ctx.keep_states:
+                Dw = np.hstack([np.zeros((g.order, q + m)), Pi]) if decoupled else None
+                self.outs.append([g.M, np.eye(g.order)])
+                self.dmats.append([Dm, Dw])
+            else:
+                self.outs.append([g.M])
+                self.dmats.append([Dm])
+        self.Pis = Pis
+        self.use_pi = [ctx.consistent and Pi is not None for Pi in Pis]
+        self.restart(x0, runs)
+
+    def restart(self, x0: np.ndarray, runs: int) -> None:
+        """Start a new chunk of ``runs`` runs from the initial plant states ``x0``
+        (R0, n) at the first sample (the matrices are kept: the same fault lists)."""
+        ctx = self.ctx
+        x0T = np.ascontiguousarray(x0.T)
+        per_run = (
+            ctx.Lv is not None
+            or ctx.Lw is not None
+            or not self.shared
+            or x0.shape[0] > 1
+            or (ctx.d.ndim == 3 and ctx.d.shape[0] > 1)
+        )
+        self.R = R = int(runs) if per_run else 1
+        ws = []
+        for (_, g), Pi, use in zip(self.gens, self.Pis, self.use_pi, strict=True):
+            w = Pi @ x0T if use else np.zeros((g.order, 1))
+            if self.decoupled:  # the state w~ = w - Pi x
+                w = w - Pi @ x0T
+            ws.append(np.broadcast_to(w, (g.order, R)))
+        # the carried states: plant (n, R0) and bank (sum of orders, R)
+        self.x = x0T
+        self.w = np.vstack(ws)
+        self.holds = [{} for _ in self.fault_lists]
+
+    # ------------------------------------------------------------------ helpers
+    def _gain_channels(self, chunk: int) -> list[int]:
+        """Sensors whose interval gain ``delta`` differs from 1 somewhere on the grid
+        (each gets an exact drive channel), found window by window."""
+        ctx, N, q = self.ctx, self.ctx.N, self.ctx.plant.q
+        out: set[int] = set()
+        for fl in self.fault_lists:
+            cand = sorted({f.sensor for f in fl if not isinstance(f, BiasFault)} & set(self.sens))
+            if not cand:
+                continue
+            rows = [self.row[i] for i in cand]
+            step = max(int(chunk), 2)
+            holds: dict[int, np.ndarray] = {}
+            for s in range(0, max(N - 1, 1), step):
+                e1 = min(s + step + 1, N)
+                zero = np.zeros((1, q, e1 - s))
+                prof = fault_profile(
+                    fl, ctx.t, zero, q=q, k0=s, k1=e1, holds=holds, sensors=self.need, y0_start=s
+                )
+                eta, eta_l = prof.eta[rows], prof.eta_left[rows]
+                delta = 0.5 * (eta[:, :-1] + eta_l[:, 1:]) if self.foh else eta[:, :-1]
+                out.update(i for j, i in enumerate(cand) if np.any(delta[j] != 1))
+        return sorted(out)
+
+    def _profile(self, s: int, e1: int, y0n: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``eta, eta_left`` (rows, R|1, L) and ``lam, lam_left`` (rows, R|1, L) of the
+        window ``s .. e1-1``, the held readings carried over."""
+        t, q = self.ctx.t, self.ctx.plant.q
+        if self.shared:
+            prof = fault_profile(
+                self.fault_lists[0],
+                t,
+                y0n.transpose(1, 0, 2),
+                q=q,
+                k0=s,
+                k1=e1,
+                holds=self.holds[0],
+                sensors=self.need,
+                y0_start=s,
+            )
+            return (
+                prof.eta[:, None, :],
+                prof.eta_left[:, None, :],
+                prof.lam.transpose(1, 0, 2),
+                prof.lam_left.transpose(1, 0, 2),
+            )
         y0r = y0n.transpose(1, 0, 2)
         profs = [
-            fault_profile(fl, t, y0r[r : r + 1] if y0r.shape[0] > 1 else y0r, q=q, sensors=need)
-            for r, fl in enumerate(fault_lists)
+            fault_profile(
+                fl,
+                t,
+                y0r[r : r + 1] if y0r.shape[0] > 1 else y0r,
+                q=q,
+                k0=s,
+                k1=e1,
+                holds=self.holds[r],
+                sensors=self.need,
+                y0_start=s,
+            )
+            for r, fl in enumerate(self.fault_lists)
         ]
-        eta = np.stack([pr.eta for pr in profs], axis=1)
-        eta_l = np.stack([pr.eta_left for pr in profs], axis=1)
-        lam = np.concatenate([pr.lam[-1:].transpose(1, 0, 2) for pr in profs], axis=1)
-        lam_l = np.concatenate([pr.lam_left[-1:].transpose(1, 0, 2) for pr in profs], axis=1)
-    R = max(y0n.shape[1], eta.shape[1], lam.shape[1])
-    if touched:
-        y = np.empty((q, R, N))
-        y[:] = y0n
-        for i in touched:
-            y[i] = eta[row[i]] * y0n[i] + lam[row[i]]
-    else:
-        y = y0n
-    gens = [(k, g) for k, g in enumerate(ctx.view.generators) if g is not None]
-    offs = np.cumsum([0] + [g.order for _, g in gens])
-    Sig_all = np.vstack([-g.E @ Cy0 + g.G @ Cu for _, g in gens])
-    E_all = np.vstack([g.E for _, g in gens])
-    # ---- Pi with F Pi - Pi A_X = -Sigma per generator: the consistent start w = Pi x,
-    # and (when every generator has one) the change of state w~ = w - Pi x that removes
-    # the coupling to the plant state from the generators' equations
-    Pis = joint_sylvester([g.F for _, g in gens], A_X, Sig_all)
-    w0s = {}
-    for j, ((k, g), o0, o1) in enumerate(zip(gens, offs[:-1], offs[1:], strict=True)):
-        w0s[k] = np.zeros((g.order, 1))
-        if ctx.consistent:
-            N_out = -g.H @ Cy0 + g.K @ Cu
-            Pis[j] = consistent_start(k, g.F, A_X, Sig_all[o0:o1], g.M, N_out, ctx.info, Pis[j])
-            if Pis[j] is not None:
-                w0s[k] = Pis[j] @ x0T
-        ctx.info.setdefault("w0", {})[k] = np.array(w0s[k][:, 0])
-    known = ctx.info.get("init_residual", {}) if ctx.consistent else {}
-    decoupled = not ctx.discrete and all(
-        Pi is not None
-        and (
-            known[k]
-            if k in known
-            else start_error(g.F, A_X, Sig_all[o0:o1], g.M, -g.H @ Cy0 + g.K @ Cu, Pi)
+        return (
+            np.stack([pr.eta for pr in profs], axis=1),
+            np.stack([pr.eta_left for pr in profs], axis=1),
+            np.concatenate([pr.lam[-1:].transpose(1, 0, 2) for pr in profs], axis=1),
+            np.concatenate([pr.lam_left[-1:].transpose(1, 0, 2) for pr in profs], axis=1),
         )
-        <= EXACT_TOL
-        for Pi, (k, g), o0, o1 in zip(Pis, gens, offs[:-1], offs[1:], strict=True)
-    )
-    # ---- drive signals of the generators, stacked once for the whole bank
-    chan: list[int] = []
-    if ctx.discrete:
-        # exact: w[k+1] = F w[k] - E y[k] + G u[k] with the measured samples
-        drives = [Drive(y), Drive(u)]
-        W_all = np.hstack([-E_all, np.vstack([g.G for _, g in gens])])
-        Fd = {k: g.F for k, g in gens}
-    else:
-        # y_i = delta_i y0c_i + rho_i over each interval (module docstring)
-        sens = list(range(q)) if v is not None else touched
-        if sens:
-            prow = [row[i] for i in sens]
-            delta = 0.5 * (eta[prow, :, :-1] + eta_l[prow, :, 1:]) if foh else eta[prow, :, :-1]
-            rhoL = y[sens, :, :-1] - delta * y0c[sens, :, :-1]
-            rhoR = eta_l[prow, :, 1:] * y0n[sens, :, 1:] + lam_l[prow, :, 1:]
-            rhoR -= delta * y0c[sens, :, 1:]
-            chan = [i for j, i in enumerate(sens) if np.any(delta[j] != 1)]
-        Gam_all = np.vstack([-g.E @ Dy0 + g.G @ Du for _, g in gens])
-        nwt = int(offs[-1])
-        F_all = scipy.linalg.block_diag(*[g.F for _, g in gens])
-        Ac = np.zeros((n + nwt, n + nwt))
-        Ac[:n, :n] = A_X
-        Ac[n:, :n] = Sig_all
-        Ac[n:, n:] = F_all
-        if decoupled:
-            # w~' = F w~ + (Gamma - Pi B_X) e - E rho: the plant state drops out (exact)
-            Pi_all = np.vstack(Pis)
-            dc = ctx.discretize(F_all, np.hstack([Gam_all - Pi_all @ B_X, -E_all]))
-            r0, drives, cols = 0, [], []
-            for (k, _), Pi in zip(gens, Pis, strict=True):
-                w0s[k] = w0s[k] - Pi @ x0T
-        else:  # one matrix exponential of the plant and the whole bank
-            dc = ctx.discretize(Ac, np.block([[B_X, np.zeros((n, q))], [Gam_all, -E_all]]))
-            r0, drives, cols = n, [Drive(X)], [dc.Ad[n:, :n]]
-        drives.append(Drive(e))
-        cols.append(dc.B0[r0:, :ne])
-        if foh:
-            drives.append(Drive(e, 1))
-            cols.append(dc.B1[r0:, :ne])
-        if sens:
-            drives.append(Drive(rhoL))
-            cols.append(dc.B0[r0:, [ne + i for i in sens]])
-            if foh:
-                drives.append(Drive(rhoR))
-                cols.append(dc.B1[r0:, [ne + i for i in sens]])
-        for i in chan:  # exact coupling of a gain-faulty sensor: one more exponential each
-            Aci = Ac.copy()
-            Aci[n:, :n] = -E_all[:, i : i + 1] @ Cy0[i : i + 1]
-            Bci = np.vstack([B_X, -E_all[:, i : i + 1] @ Dy0[i : i + 1]])
-            di = ctx.discretize(Aci, Bci)
-            scale = delta[sens.index(i)][None] - 1.0
-            drives += [Drive(X, 0, scale), Drive(e, 0, scale)]
-            cols += [di.Ad[n:, :n], di.B0[n:]]
-            if foh:
-                drives.append(Drive(e, 1, scale))
-                cols.append(di.B1[n:])
-        W_all = np.hstack(cols)
-        Fd = {
-            k: dc.Ad[r0 + o0 : r0 + o1, r0 + o0 : r0 + o1]
-            for (k, _), o0, o1 in zip(gens, offs[:-1], offs[1:], strict=True)
-        }
-    ctx.info["channels"] = chan
-    ctx.info["plant_state_decoupled"] = decoupled
-    # residual rows are written in place, with the direct feedthrough -H y + K u (and
-    # M Pi x, w = w~ + Pi x, for decoupled states) added chunk by chunk
-    R = max([d.runs for d in drives] + [x0T.shape[1]])
-    rows = np.zeros((R, len(ctx.view.generators), N))
-    outs, dests, dmats = [], [], []
-    for (k, g), Pi in zip(gens, Pis, strict=True):
-        view = rows[:, k : k + 1].transpose(1, 0, 2) if g.n_outputs == 1 else None
-        Dm = np.hstack([-g.H, g.K] + ([g.M @ Pi] if decoupled else []))
-        if ctx.keep_states:
-            Dw = np.hstack([np.zeros((g.order, q + m)), Pi]) if decoupled else None
-            outs.append([g.M, np.eye(g.order)])
-            dests.append([view, None])
-            dmats.append([Dm, Dw])
+
+    # ------------------------------------------------------------------ advance
+    def advance(
+        self,
+        s: int,
+        e1: int,
+        v: np.ndarray | None,
+        wp: np.ndarray | None,
+        rows: np.ndarray,
+    ) -> Piece:
+        """Simulate the samples ``s .. e1-1`` from the carried states.
+
+        Parameters
+        ----------
+        s, e1 : int
+            Window; the next call starts at ``e1 - 1`` (the last sample of a window is
+            the first of the next: a first-order hold needs the right end of the last
+            interval), or ``e1 = N`` ends the record.
+        v, wp : ndarray or None
+            Measurement ``(q, R, L)`` and process ``(k, R, L)`` noise of the window.
+        rows : ndarray, (R, n_rows, L)
+            Receives the residual rows (vector residuals: the norm of the components).
+        """
+        ctx = self.ctx
+        p = ctx.plant
+        n, m, q = p.n, p.m, p.q
+        L = e1 - s
+        es = ctx.u_ext[:, s:e1]
+        if ctx.d.ndim == 3:  # per-run disturbance samples (additive faults differ per run)
+            e = np.empty((self.ne, max(ctx.d.shape[0], 1 if wp is None else wp.shape[1]), L))
+            e[:m] = es[:, None, :]
+            e[m : m + p.nd] = ctx.d[:, :, s:e1].transpose(1, 0, 2)
+        elif wp is not None:
+            e = np.empty((self.ne, wp.shape[1], L))
+            e[:m] = es[:, None, :]
+            e[m : m + p.nd] = ctx.d[:, None, s:e1]
         else:
-            outs.append([g.M])
-            dests.append([view])
-            dmats.append([Dm])
-    res = block_recursion(
-        [Fd[k] for k, _ in gens],
-        W_all,
-        drives,
-        np.vstack([np.broadcast_to(w0s[k], (g.order, x0T.shape[1])) for k, g in gens]),
-        outs,
-        N,
-        direct=([y, u, X] if decoupled else [y, u], dmats),
-        out=dests,
-    )
-    r_vectors: list[np.ndarray | None] = [None] * len(ctx.view.generators)
-    ws: list[np.ndarray | None] = [None] * len(ctx.view.generators)
-    for (k, g), rk in zip(gens, res, strict=True):
-        r_vectors[k] = rk[0].transpose(1, 0, 2)
-        if g.n_outputs > 1:
-            rows[:, k] = np.sqrt(np.sum(r_vectors[k] ** 2, axis=1))
-        if ctx.keep_states:
-            ws[k] = rk[1].transpose(1, 0, 2)
-    tr = lambda a: a.transpose(1, 0, 2)  # noqa: E731
-    return RawRuns(tr(X), None, tr(y), tr(y0n), tr(u), r_vectors, ws, rows)
+            e = (np.vstack([es, ctx.d[:, s:e1]]) if p.nd else es)[:, None, :]
+        if wp is not None:
+            e[m + p.nd :] = wp
+        foh = self.foh
+        dX = [Drive(e), Drive(e, 1)] if foh else [Drive(e)]
+        ((X, y0c, u),) = block_recursion(
+            [self.dis.Ad],
+            self.WX,
+            dX,
+            self.x,
+            [[np.eye(n), self.Cy0, self.Cu]],
+            L,
+            direct=([e], [[None, self.Dy0, self.Du]]),
+        )
+        self.x = np.ascontiguousarray(X[:, :, -1])
+        y0n = y0c + v if v is not None else y0c
+        # ---- sensor faults on the readings, vectorised (only the sensors they touch)
+        eta, eta_l, lam, lam_l = self._profile(s, e1, y0n)
+        row, touched = self.row, self.touched
+        R = max(y0n.shape[1], eta.shape[1], lam.shape[1])
+        if touched:
+            y = np.empty((q, R, L))
+            y[:] = y0n
+            for i in touched:
+                y[i] = eta[row[i]] * y0n[i] + lam[row[i]]
+        else:
+            y = y0n
+        # ---- drive signals of the generators, in the columns' order of W_all
+        if ctx.discrete:
+            drives = [Drive(y), Drive(u)]
+        else:
+            drives = [] if self.decoupled else [Drive(X)]
+            drives.append(Drive(e))
+            if foh:
+                drives.append(Drive(e, 1))
+            sens = self.sens
+            if sens:
+                prow = [row[i] for i in sens]
+                if foh:
+                    delta = 0.5 * (eta[prow, :, :-1] + eta_l[prow, :, 1:])
+                else:
+                    delta = eta[prow, :, :-1]
+                rhoL = y[sens, :, :-1] - delta * y0c[sens, :, :-1]
+                drives.append(Drive(rhoL))
+                if foh:
+                    rhoR = eta_l[prow, :, 1:] * y0n[sens, :, 1:] + lam_l[prow, :, 1:]
+                    rhoR -= delta * y0c[sens, :, 1:]
+                    drives.append(Drive(rhoR))
+            for i in self.chan:
+                scale = delta[sens.index(i)][None] - 1.0
+                drives += [Drive(X, 0, scale), Drive(e, 0, scale)]
+                if foh:
+                    drives.append(Drive(e, 1, scale))
+        gens = self.gens
+        dests = []
+        for k, g in gens:
+            view = rows[:, k : k + 1].transpose(1, 0, 2) if g.n_outputs == 1 else None
+            dests.append([view, None] if ctx.keep_states else [view])
+        res, self.w = block_recursion(
+            self.Fd,
+            self.W_all,
+            drives,
+            self.w,
+            self.outs,
+            L,
+            direct=([y, u, X] if self.decoupled else [y, u], self.dmats),
+            out=dests,
+            final=True,
+        )
+        vectors: list[np.ndarray | None] = [None] * len(ctx.view.generators)
+        ws: list[np.ndarray | None] = [None] * len(ctx.view.generators)
+        for (k, g), rk in zip(gens, res, strict=True):
+            if g.n_outputs > 1:
+                vectors[k] = rk[0]
+                rows[:, k] = np.sqrt(np.sum(rk[0] * rk[0], axis=0))
+            if ctx.keep_states:
+                ws[k] = rk[1]
+        return Piece(s, X, y, y0n, u, vectors, ws)

@@ -46,6 +46,8 @@ __all__ = [
     "StuckFault",
     "apply_faults",
     "fault_profile",
+    "first_active",
+    "activity_span",
     "FaultProfile",
 ]
 
@@ -418,6 +420,40 @@ def validate_faults(faults: Any, q: int, *, argument: str = "faults") -> list[Se
     return out
 
 
+def first_active(fault: FaultSignal, t: np.ndarray) -> int | None:
+    """Index of the first sample of the increasing grid ``t`` where ``fault`` is active.
+
+    The activity window ``start <= t < end`` (with the tolerance of :meth:`FaultSignal.mask`)
+    is an interval of an increasing grid, so two binary searches find it without a mask of
+    the whole record.  ``None``: the fault is never active on the grid.
+    """
+    t = np.asarray(t, dtype=float)
+    if type(fault).mask is not FaultSignal.mask:  # a custom activity rule: ask it
+        hit = np.flatnonzero(fault.mask(t))
+        return int(hit[0]) if hit.size else None
+    k = int(np.searchsorted(t, fault.start - _time_tol(fault.start), side="left"))
+    if k >= t.shape[0]:
+        return None
+    if fault.end is not None and not t[k] < fault.end - _time_tol(fault.end):
+        return None
+    return k
+
+
+def activity_span(fault: FaultSignal, t: np.ndarray) -> tuple[int, int] | None:
+    """``(ks, ke)``: the fault is active on the samples ``ks .. ke-1`` of the increasing
+    grid ``t`` (``None``: never).  The activity window is one interval of the grid."""
+    ks = first_active(fault, t)
+    if ks is None:
+        return None
+    t = np.asarray(t, dtype=float)
+    if type(fault).mask is not FaultSignal.mask:
+        off = np.flatnonzero(~fault.mask(t[ks:]))
+        return ks, ks + int(off[0]) if off.size else t.shape[0]
+    if fault.end is None:
+        return ks, t.shape[0]
+    return ks, int(np.searchsorted(t, fault.end - _time_tol(fault.end), side="left"))
+
+
 def fault_profile(
     faults: Sequence[SensorFaultSignal],
     t: np.ndarray,
@@ -429,6 +465,7 @@ def fault_profile(
     holds: dict[int, np.ndarray] | None = None,
     last_left: bool = False,
     sensors: Sequence[int] | None = None,
+    y0_start: int = 0,
 ) -> FaultProfile:
     """Compose ``faults`` on the samples ``k0 <= k < k1`` of the grid ``t``.
 
@@ -439,9 +476,10 @@ def fault_profile(
     t : ndarray, (N,)
         The full time grid (activity masks are computed on it, so that the left limit at
         ``k0`` sees sample ``k0 - 1``).
-    y0 : ndarray, (R, q, N) or None
-        Healthy readings; needed only at the first active sample of stuck faults that
-        hold the reading (a simulator that fills ``y0`` progressively provides it there).
+    y0 : ndarray, (R, q, L0) or None
+        Healthy readings from sample ``y0_start`` on; needed only at the first active
+        sample of stuck faults that hold the reading (a simulator that fills ``y0``
+        progressively, or passes one time chunk, provides it there).
     q : int
         Number of sensors.
     k0, k1 : int
@@ -455,6 +493,13 @@ def fault_profile(
     sensors : sequence of int, optional
         Compute the rows of these sensors only (in this order; every fault must be on one
         of them): the other rows are ``eta = 1, lam = 0`` and need no memory.
+    y0_start : int
+        Grid index of ``y0[..., 0]`` (0: ``y0`` covers the grid from its start).
+
+    Only the samples ``k0 - 1 .. k1 - 1`` of the grid are read (the activity masks of
+    the window and the left limit at ``k0``), so a long record can be composed window by
+    window (with ``holds`` carried from one window to the next) in memory proportional
+    to the window.
 
     Returns
     -------
@@ -475,12 +520,13 @@ def fault_profile(
     lam = np.zeros((1, nq, L))
     lam_l = np.zeros((1, nq, L))
     tw = t[k0:k1]
+    lo = max(k0 - 1, 0)
     for pos, f in enumerate(faults):
-        full = f.mask(t)
-        m = full[k0:k1].copy()
+        mw = f.mask(t[lo:k1])  # the window and the sample before it (left limit at k0)
+        m = mw[k0 - lo :].copy()
         if last_left and L:
             m[-1] = False
-        prev = np.concatenate([full[:1], full[:-1]])[k0:k1]
+        prev = mw[:-1] if k0 > 0 else np.concatenate([mw[:1], mw[:-1]])
         on = m | prev
         if not on.any():
             continue
@@ -501,15 +547,16 @@ def fault_profile(
         g = np.broadcast_to(g, (b - a,))
         if f.holds_reading:
             if pos not in holds:
-                ks = int(np.argmax(full))
-                if not k0 <= ks < k1 or y0 is None:
+                ks = first_active(f, t)
+                ks = k0 if ks is None else ks
+                if not k0 <= ks < k1 or y0 is None or not 0 <= ks - y0_start < y0.shape[-1]:
                     raise GeomFDIError(
                         f"faults[{pos}]: the reading held by the stuck fault at t={t[ks]:g} "
                         "is not available",
                         argument="faults",
                     )
                 j = ks - k0
-                holds[pos] = eta[i, j] * y0[:, f.sensor, ks] + lam[:, i, j]
+                holds[pos] = eta[i, j] * y0[:, f.sensor, ks - y0_start] + lam[:, i, j]
             hold = holds[pos]
             if hold.shape[0] > lam.shape[0]:
                 lam = np.broadcast_to(lam, (hold.shape[0], nq, L)).copy()

@@ -5,8 +5,10 @@
 recursion of :mod:`geomfdi.simulation.lifting`.  Faults: sensor gain, bias and stuck
 faults on the readings; actuator gain (loss of effectiveness), bias and stuck faults and
 general additive faults ``Fault(Bf, Df)`` driven by a signal enter the plant as extra
-input channels (:mod:`geomfdi.simulation.input_faults`).  Decisions: thresholds, an
-optional k-of-n persistence rule and a detection window
+input channels (:mod:`geomfdi.simulation.input_faults`), except actuator gain and stuck
+faults under feedback, which act on the commanded input inside the loop.  Decisions:
+thresholds, an optional persistence rule (k-of-n confirmation, isolation from the alarm
+pattern held over the episode, ``MULTIPLE`` for several faults) and a detection window
 (:mod:`geomfdi.evaluation.persistence`, :mod:`geomfdi.evaluation.metrics`).
 
 Model::
@@ -43,7 +45,8 @@ system of blocks of ``M`` samples for large banks, time processed in chunks), se
 :func:`geomfdi.simulation.lifting.block_recursion`.  A discrete plant drives its generators with the
 measured samples directly, which is exact.
 
-*Output feedback.*  The loop sees the faulty readings, so a gain fault changes the loop
+*Output feedback, and actuator gain/stuck faults under feedback.*  The loop sees the
+faulty readings (or applies the faulty input), so a gain fault changes the loop
 dynamics.  For abrupt faults the closed loop is piecewise LTI: the horizon is cut at
 every fault switching instant and each segment (plant + controller + all generators) is
 simulated exactly with the fast recursion, the state carried over.  A time-varying gain
@@ -72,6 +75,25 @@ gain is then exact (stepping uses ``eta(t_k)``).
 *Noise.*  :class:`Noise`: measurement noise ``v`` (i.i.d. per sample) and process noise
 ``w`` (i.i.d. samples entering through ``Bw``, interpolated with the same hold as ``u``
 for continuous plants: for a white-noise intensity ``Q`` use covariance ``Q / dt``).
+The standard-normal draws are made in blocks of 65 536 samples
+(:class:`~geomfdi.simulation.noise.NoiseStream`), so a sample's noise depends only on
+the seed and its index.
+
+*Time chunks.*  The time axis is processed in chunks sized from the memory budget
+``gf.limits.get_limits().chunk_memory`` (:mod:`geomfdi.limits`, default 64 MiB;
+:func:`geomfdi.simulation.streaming.chunk_plan`).  The recursion is linear: the final
+state of a chunk (plant, controller and generator states, and the held readings of
+stuck sensors) is the initial state of the next, so a chunked run equals the
+unchunked one to rounding (about 1e-15 relative; the same noise, decisions and events).
+Residuals, alarms and decisions are written into the result arrays, allocated once; the
+decisions of a chunk see the history that a moving-RMS statistic and the k-of-n counts
+need, and the state of the current alarm episode (the residuals held in its pattern, the
+quiet samples since its last alarm), so that they equal the whole record's
+(:class:`geomfdi.simulation.streaming.DecisionStream`).  Peak memory is
+the returned arrays plus about the budget, whatever the record's length; with
+``simulate_batch(store="summary")`` it does not grow with the record.  (Additive input
+faults' signals and the exogenous ``u`` and ``d`` are still formed over the whole
+record.)
 
 *Multiple outputs per generator.*  ``residuals`` has one row per bank row; a generator
 with several residual components contributes their Euclidean norm (the components are in
@@ -80,7 +102,8 @@ are zero and never alarm.
 
 Modules: :mod:`~geomfdi.simulation.context` (checked inputs),
 :mod:`~geomfdi.simulation.open_loop` and :mod:`~geomfdi.simulation.closed_loop` (the two
-engines), :mod:`~geomfdi.simulation.initial_state`, :mod:`~geomfdi.simulation.results`,
+engines), :mod:`~geomfdi.simulation.streaming` (chunks, decisions and summaries chunk by
+chunk), :mod:`~geomfdi.simulation.initial_state`, :mod:`~geomfdi.simulation.results`,
 :mod:`~geomfdi.simulation.batch` (Monte-Carlo runs).
 
 References
@@ -104,90 +127,126 @@ from geomfdi.evaluation.decision import (
     as_threshold,
     detection_events,
 )
-from geomfdi.evaluation.persistence import as_persistence, decisions
+from geomfdi.evaluation.persistence import as_persistence
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.simulation.closed_loop import run_output_feedback, split_actuator_faults
+from geomfdi.simulation.closed_loop import FeedbackRuns, split_actuator_faults
 from geomfdi.simulation.context import (
     Context,
-    RawRuns,
     detection_window_of,
-    draw_noise,
     from_balanced,
     prepare,
     residual_labels_of,
-    residual_rows,
     state_vector,
     to_balanced,
     unbalance_states,
     with_input_faults,
 )
-from geomfdi.simulation.noise import Noise
-from geomfdi.simulation.open_loop import run_open_loop
+from geomfdi.simulation.noise import Noise, NoiseStream
+from geomfdi.simulation.open_loop import OpenLoopEngine
 from geomfdi.simulation.results import (
     SimulationResult,
 )
 from geomfdi.simulation.schedule import FaultSchedule, fault_schedule, structure_columns
 from geomfdi.simulation.signals import FaultSignal
+from geomfdi.simulation.streaming import DecisionStream, chunk_plan, time_chunks
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
 
-def run_chunk(
+def noise_streams(ctx: Context, rngs: list[np.random.Generator | None]) -> list[NoiseStream] | None:
+    """One :class:`NoiseStream` per run (``None`` without noise)."""
+    if ctx.Lv is None and ctx.Lw is None:
+        return None
+    rv = ctx.plant.q if ctx.Lv is not None else 0
+    rw = ctx.Lw.shape[1] if ctx.Lw is not None else 0
+    return [NoiseStream(rng, rv, rw, ctx.N) for rng in rngs]  # type: ignore[arg-type]
+
+
+def noise_window(
+    ctx: Context, streams: list[NoiseStream] | None, s: int, e1: int
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Measurement ``(q, R, L)`` and process ``(k, R, L)`` noise of samples ``s .. e1-1``."""
+    if streams is None:
+        return None, None
+    L, R = e1 - s, len(streams)
+    v = np.empty((ctx.plant.q, R, L)) if ctx.Lv is not None else None
+    w = np.empty((ctx.Lw.shape[0], R, L)) if ctx.Lw is not None else None
+    for r, st in enumerate(streams):
+        zv, zw = st.take(s, e1)
+        if v is not None:
+            np.matmul(ctx.Lv, zv, out=v[:, r])
+        if w is not None:
+            np.matmul(ctx.Lw, zw, out=w[:, r])
+    return v, w
+
+
+def in_loop(ctx: Context, schedules: Sequence[FaultSchedule]) -> bool:
+    """The runs are simulated as a closed loop with faults inside it: output feedback,
+    or actuator gain/stuck faults (which act on the commanded input) under state
+    feedback."""
+    if ctx.ctrl.mode == "output":
+        return True
+    return ctx.ctrl.mode != "open" and any(sc.needs_input for sc in schedules)
+
+
+def chunk_width(
+    ctx: Context, *, keep_states: bool = False, stored: int = 0, loop: bool = False
+) -> float:
+    """Working bytes per run and sample of one time chunk (an upper estimate).
+
+    Doubles: the exogenous samples and noise draws, the plant state and outputs, the
+    noisy and faulty readings, the fault profiles and the per-interval drives of the
+    sensors, the residual rows and vector components (and generator states); bytes: the
+    alarms, decisions and persistence counters; ``stored``: bytes of the caller's own
+    per-sample copies; ``loop``: the closed-loop engine is used (:func:`in_loop`).
+    Half again as margin for the temporaries of numpy expressions.
+    """
+    p, view = ctx.plant, ctx.view
+    gens = [g for g in view.generators if g is not None]
+    nres, nf = len(view.generators), view.structure.shape[1]
+    doubles = (
+        p.m
+        + p.nd
+        + 2 * ctx.nwp
+        + p.n
+        + 16 * p.q
+        + nres
+        + 2
+        + sum(g.n_outputs for g in gens if g.n_outputs > 1)
+        + (sum(g.order for g in gens) if keep_states else 0)
+    )
+    if loop or ctx.ctrl.mode == "output":  # loop inputs, states, outputs, segment copies
+        ne = 2 * p.m + p.nd + ctx.nwp + 2 * p.q
+        nS = p.n + ctx.ctrl.nc + sum(g.order for g in gens)
+        nout = 2 * p.q + p.m + sum(g.n_outputs for g in gens)
+        doubles += 3 * (ne + nS + nout)
+    return 1.5 * (8.0 * doubles + 10.0 * nres + 3.0 * nf + 16.0 + stored)
+
+
+def make_engine(
     ctx: Context,
     x0: np.ndarray,
     xc0: np.ndarray,
-    rngs: list[np.random.Generator | None],
     schedules: list[FaultSchedule],
     shared: bool,
-) -> RawRuns:
-    """Simulate one chunk of runs (``schedules``: one per run, or one shared)."""
-    draws = [draw_noise(ctx, rng) if rng is not None else (None, None) for rng in rngs]
-    v = np.stack([dv for dv, _ in draws]) if ctx.Lv is not None else None
-    wp = np.stack([dw for _, dw in draws]) if ctx.Lw is not None else None
-    # gain/stuck actuator faults under feedback sit inside the loop (closed_loop.py)
-    in_loop = ctx.ctrl.mode != "open" and any(s.needs_input for s in schedules)
-    if ctx.ctrl.mode != "output" and not in_loop:
-        return run_open_loop(
-            with_input_faults(ctx, schedules[:1] if shared else schedules),
-            x0,
-            v,
-            wp,
-            [s.sensor for s in schedules],
-            shared,
-        )
-    if shared:
-        rest, inside = split_actuator_faults(schedules[0])
-        ctx1 = with_input_faults(ctx, [rest])
-        return run_output_feedback(ctx1, x0, xc0, v, wp, schedules[0].sensor, inside)
-    parts = []
-    for r, sched in enumerate(schedules):  # the loop differs per run: one at a time
-        rest, inside = split_actuator_faults(sched)
-        parts.append(
-            run_output_feedback(
-                with_input_faults(ctx, [rest]),
-                x0[r : r + 1] if x0.shape[0] > 1 else x0,
-                xc0,
-                None if v is None else v[r : r + 1],
-                None if wp is None else wp[r : r + 1],
-                sched.sensor,
-                inside,
-            )
-        )
-    cat = lambda xs: np.concatenate(xs)  # noqa: E731
-    return RawRuns(
-        cat([p.x for p in parts]),
-        None if parts[0].xc is None else cat([p.xc for p in parts]),
-        cat([p.y for p in parts]),
-        cat([p.y_healthy for p in parts]),
-        cat([p.u for p in parts]),
-        [
-            None if parts[0].r_vectors[k] is None else cat([p.r_vectors[k] for p in parts])
-            for k in range(len(parts[0].r_vectors))
-        ],
-        [
-            None if parts[0].w[k] is None else cat([p.w[k] for p in parts])
-            for k in range(len(parts[0].w))
-        ],
-    )
+    runs: int,
+    chunk: int,
+) -> OpenLoopEngine | FeedbackRuns:
+    """The engine that advances ``runs`` runs over the record chunk by chunk: open loop
+    and state feedback (:class:`OpenLoopEngine`), or a closed loop with faults inside it
+    (:class:`FeedbackRuns`: output feedback, and actuator gain or stuck faults under
+    state feedback, which act on the commanded input); ``schedules``: one shared, or one
+    per run."""
+    sensor = [sc.sensor for sc in schedules]
+    if in_loop(ctx, schedules):
+        split = [split_actuator_faults(sc) for sc in (schedules[:1] if shared else schedules)]
+        acts = [inside for _, inside in split]
+        if shared:
+            ctx1 = with_input_faults(ctx, [split[0][0]])
+            return FeedbackRuns(ctx1, x0, xc0, sensor[:1], True, runs, actuator_lists=acts)
+        ctxs = [with_input_faults(ctx, [rest]) for rest, _ in split]
+        return FeedbackRuns(ctx, x0, xc0, sensor, False, runs, contexts=ctxs, actuator_lists=acts)
+    ctx1 = with_input_faults(ctx, schedules[:1] if shared else schedules)
+    return OpenLoopEngine(ctx1, x0, sensor, shared, runs, chunk)
 
 
 @limit_blas_threads
@@ -300,26 +359,24 @@ def simulate(
     rule = as_persistence(persistence)
     window = detection_window_of(detection_window)
     rng = np.random.default_rng(noise.seed) if noise is not None else None
-    raw = run_chunk(ctx, to_balanced(ctx, x0a), xc0a, [rng], [sched], True)
-    res = residual_rows(ctx, raw)[0]
-    alarms, iso = decisions(res, thr, view.structure, rule)
     cols = structure_columns(sched.faults, view.design_faults, plant)
+    out = _stream_one(ctx, to_balanced(ctx, x0a), xc0a, rng, sched, thr, rule)
+    res, alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws, xc = out
     events = detection_events(
-        ctx.t, alarms, iso.isolated, sched.faults, cols, window=window, suspects=iso.suspects
+        ctx.t, alarms, isolated, sched.faults, cols, window=window, suspects=suspects
     )
-    first = lambda a: None if a is None else a[0]  # noqa: E731
     return SimulationResult(
         t=ctx.t,
-        x=from_balanced(ctx, raw.x[0]),
-        y=raw.y[0],
-        y_healthy=np.ascontiguousarray(raw.y_healthy[0]),
-        u=np.ascontiguousarray(raw.u[0]),
+        x=x,
+        y=y,
+        y_healthy=np.ascontiguousarray(yh),
+        u=np.ascontiguousarray(u),
         residuals=res,
-        residual_vectors=[first(r) for r in raw.r_vectors],
+        residual_vectors=vectors,
         alarms=alarms,
-        isolated=iso.isolated,
-        candidates=iso.candidates,
-        suspects=iso.suspects,
+        isolated=isolated,
+        candidates=candidates,
+        suspects=suspects,
         threshold=thr,
         events=events,
         faults=list(sched.faults),
@@ -328,8 +385,67 @@ def simulate(
         requested=view.requested,
         fault_labels=view.fault_labels,
         residual_labels=residual_labels_of(view),
-        xc=first(raw.xc),
-        w=unbalance_states(view, ctx.info, [first(w) for w in raw.w]),
+        xc=xc,
+        w=unbalance_states(view, ctx.info, ws),
         info=ctx.info,
         vector_rows=[g is not None and g.n_outputs > 1 for g in view.generators],
     )
+
+
+def _stream_one(
+    ctx: Context,
+    x0: np.ndarray,
+    xc0: np.ndarray,
+    rng: np.random.Generator | None,
+    sched: FaultSchedule,
+    thr: Any,
+    rule: Any,
+) -> tuple[Any, ...]:
+    """One run in time chunks written into the result.
+
+    Every returned array is allocated once at its full size; the chunk's signals,
+    noise draws and decisions are temporaries of the chunk's size (module
+    :mod:`geomfdi.simulation.streaming`).
+    """
+    p, view, N = ctx.plant, ctx.view, ctx.N
+    gens = view.generators
+    nres, nf = len(gens), view.structure.shape[1]
+    feedback = ctx.ctrl.mode == "output"
+    loop = in_loop(ctx, [sched])  # generator states come for free in the loop engine
+    keep = ctx.keep_states or loop
+    _, L = chunk_plan(N, 1, chunk_width(ctx, keep_states=keep, loop=loop))
+    eng = make_engine(ctx, x0, xc0, [sched], True, 1, L)
+    streams = noise_streams(ctx, [rng])
+    rows = np.zeros((1, nres, N))
+    x, y = np.empty((p.n, N)), np.empty((p.q, N))
+    yh, u = np.empty((p.q, N)), np.empty((p.m, N))
+    vectors = [None if g is None or g.n_outputs == 1 else np.empty((g.n_outputs, N)) for g in gens]
+    ws = [None if g is None or not keep else np.empty((g.order, N)) for g in gens]
+    xc = np.empty((ctx.ctrl.nc, N)) if feedback else None
+    alarms = np.empty((nres, N), dtype=bool)
+    isolated = np.empty(N, dtype=int)
+    candidates = np.empty((nf, N), dtype=bool)
+    suspects = np.empty((nf, N), dtype=bool)
+    ds = DecisionStream(thr, view.structure, rule)
+    for s, e, e1 in time_chunks(N, L):
+        v, wp = noise_window(ctx, streams, s, e1)
+        pc = eng.advance(s, e1, v, wp, rows[:, :, s:e1])
+        x[:, s:e1], y[:, s:e1] = from_balanced(ctx, pc.X[:, 0]), pc.y[:, 0]
+        yh[:, s:e1], u[:, s:e1] = pc.y0n[:, 0], pc.u[:, 0]
+        for k, a in enumerate(pc.vectors):
+            if a is not None:
+                vectors[k][:, s:e1] = a[:, 0]
+        for k, a in enumerate(pc.ws):
+            if a is not None:
+                ws[k][:, s:e1] = a[:, 0]
+        if xc is not None:
+            xc[:, s:e1] = pc.xc[:, 0]
+        al, iso = ds.step(rows[:, :, s:e])
+        alarms[:, s:e] = al[0]
+        isolated[s:e] = iso.isolated[0]
+        candidates[:, s:e] = iso.candidates[0]
+        suspects[:, s:e] = iso.suspects[0]
+    for k, g in enumerate(gens):  # a scalar residual's component is its row
+        if g is not None and g.n_outputs == 1:
+            vectors[k] = rows[0, k : k + 1]
+    return rows[0], alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws, xc

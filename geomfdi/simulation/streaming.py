@@ -1,0 +1,331 @@
+"""Chunked decisions and summaries of a long record: memory proportional to the chunk.
+
+:func:`~geomfdi.simulate` and :func:`~geomfdi.simulate_batch` advance the time axis in
+chunks (:mod:`geomfdi.simulation.open_loop`); the decisions on each chunk and the
+per-run summaries are computed here, incrementally, with what they need of the past
+carried from chunk to chunk:
+
+* :func:`chunk_plan`: runs and samples per chunk from the memory budget
+  ``gf.limits.get_limits().chunk_memory``;
+* :class:`DecisionStream`: alarms and isolation decisions of consecutive chunks, equal
+  to those of the whole record (a moving-RMS statistic and the k-of-n counts look back
+  a bounded number of samples, the pattern held over an alarm episode depends on the
+  episode's start: that history and the episode state are carried);
+* :class:`RunSummary`: peaks, detection and isolation events and false-alarm counts of
+  each run, accumulated chunk by chunk (what ``store="summary"`` keeps), equal to
+  :func:`geomfdi.evaluation.decision.detection_events` and
+  :func:`geomfdi.evaluation.metrics.false_alarms` on the whole record.
+
+See the user guide, *Theory: evaluation* (``docs/theory/evaluation.md``), for the
+decision rules themselves.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from geomfdi.evaluation.decision import MULTIPLE, FaultEvent, Isolation, Threshold, isolate
+from geomfdi.evaluation.metrics import FalseAlarms
+from geomfdi.evaluation.persistence import (
+    Persistence,
+    decisions,
+    held_pattern_carry,
+    k_of_n,
+    pattern_decisions,
+    settle,
+)
+from geomfdi.limits import get_limits
+from geomfdi.simulation.signals import first_active
+
+__all__ = ["DecisionStream", "RunSummary", "chunk_plan", "time_chunks"]
+
+#: The fewest samples of a time chunk (each chunk costs a fixed Python overhead).
+MIN_CHUNK = 16
+
+
+def chunk_plan(
+    N: int, runs: int, width: float, *, runs_per_chunk: int | None = None
+) -> tuple[int, int]:
+    """Runs and samples per chunk so that one chunk's arrays fit the memory budget.
+
+    Parameters
+    ----------
+    N : int
+        Samples of the record.
+    runs : int
+        Runs to simulate.
+    width : float
+        Bytes of working memory per run and sample (every signal, noise draw and
+        decision array that lives while a chunk is processed).
+    runs_per_chunk : int, optional
+        Runs per chunk fixed by the caller (``simulate_batch(chunk_size=...)``).
+
+    Returns
+    -------
+    (runs_per_chunk, samples_per_chunk)
+        With ``budget = gf.limits.get_limits().chunk_memory``, ``runs_per_chunk *
+        samples_per_chunk * width <= budget`` (at least one run and
+        :data:`MIN_CHUNK` samples): whole records of several runs when they fit,
+        otherwise one run (or the given number) and the time axis cut.
+    """
+    budget = float(get_limits().chunk_memory)
+    cells = max(int(budget // max(width, 1.0)), 1)  # run-samples per chunk
+    if runs_per_chunk is None:
+        runs_per_chunk = max(1, min(runs, cells // max(N, 1)))
+    L = max(MIN_CHUNK, cells // runs_per_chunk)
+    return int(runs_per_chunk), int(min(L, N))
+
+
+def time_chunks(N: int, L: int) -> list[tuple[int, int, int]]:
+    """Chunks ``(s, e, e1)`` of a record of ``N`` samples: the chunk decides the samples
+    ``s .. e-1`` and is simulated on ``s .. e1-1`` (``e1 = e + 1`` except at the end:
+    the right end of the last interval, which is the first sample of the next chunk)."""
+    out = []
+    s = 0
+    while s < N:
+        e = min(s + L, N)
+        if N - e < MIN_CHUNK // 2:  # no sliver of a chunk at the end
+            e = N
+        out.append((s, e, min(e + 1, N)))
+        s = e
+    return out
+
+
+class DecisionStream:
+    """Alarms and isolation of consecutive chunks of residuals, as on the whole record.
+
+    The decisions (:func:`geomfdi.evaluation.persistence.decisions`) are computed stage
+    by stage, each stage with what it needs of the past carried from the previous chunk:
+
+    1. raw alarms: a moving-RMS statistic reads the last ``window - 1`` residual samples;
+    2. confirmed alarms (k-of-n): the last ``n - 1`` raw alarms;
+    3. the pattern held over the alarm episode (``latch``): the episode state, i.e. the
+       residuals alarmed in the current episode and how long ago the last alarm was
+       (:func:`~geomfdi.evaluation.persistence.held_pattern_carry`);
+    4. per-sample decisions on the pattern (with ``MULTIPLE``): nothing;
+    5. settled decisions (k-of-n on the decision): the last ``n - 1`` per-sample
+       decisions.
+
+    Memory is the chunk plus ``O(window + n)`` samples of history and the episode state,
+    whatever the record's length.
+
+    Parameters
+    ----------
+    threshold : Threshold or None
+    structure : ndarray of bool
+    rule : Persistence or None
+    """
+
+    def __init__(
+        self, threshold: Threshold | None, structure: np.ndarray, rule: Persistence | None
+    ) -> None:
+        self.threshold, self.structure = threshold, np.asarray(structure, dtype=bool)
+        self.rule = None if rule is None or rule.trivial else rule
+        rms = threshold is not None and threshold.statistic == "rms" and threshold.window > 1
+        self._res_look = threshold.window - 1 if rms else 0  # type: ignore[union-attr]
+        self._res: np.ndarray | None = None  # last residuals (RMS window)
+        self._raw: np.ndarray | None = None  # last raw alarms (k-of-n confirmation)
+        self._held: tuple[np.ndarray, ...] | None = None  # episode state
+        self._dec: np.ndarray | None = None  # last per-sample decisions (settling)
+
+    def step(self, res: np.ndarray) -> tuple[np.ndarray, Isolation]:
+        """Decisions of the next chunk ``res`` (R, n_rows, L): alarms (R, n_rows, L) and
+        the isolation of its samples."""
+        thr, rule, S = self.threshold, self.rule, self.structure
+        if thr is None:
+            return decisions(res, None, S, None)
+        # 1. raw alarms
+        if self._res_look:
+            ext, h = _with_tail(self._res, res)
+            self._res = _tail(ext, self._res_look)
+            al = thr.alarms(ext)[..., h:]
+        else:
+            al = thr.alarms(res)
+        if rule is None:
+            return al, isolate(al, S)
+        # 2. confirmation
+        k, n = rule.k, rule.n
+        if n > 1:
+            ext, h = _with_tail(self._raw, al)
+            self._raw = _tail(ext, n - 1)
+            al = k_of_n(ext, k, n)[..., h:]
+        # 3. held pattern
+        if rule.latch:
+            pattern, self._held = held_pattern_carry(al, rule.reset, self._held)
+        else:
+            pattern = al
+        # 4. per-sample decisions, 5. settling
+        iso = pattern_decisions(pattern, S)
+        if k == 1 and n == 1:
+            return al, iso
+        ext, h = _with_tail(self._dec, iso.isolated)
+        self._dec = _tail(ext, n - 1)
+        settled = settle(ext, k, n, S.shape[1])[..., h:]
+        return al, Isolation(settled, iso.candidates, iso.suspects)
+
+
+def _with_tail(tail: np.ndarray | None, x: np.ndarray) -> tuple[np.ndarray, int]:
+    """``x`` with the carried samples ``tail`` before it (time on the last axis), and
+    how many they are."""
+    if tail is None or tail.shape[-1] == 0:
+        return x, 0
+    return np.concatenate([tail, x], axis=-1), tail.shape[-1]
+
+
+def _tail(x: np.ndarray, h: int) -> np.ndarray:
+    """The last ``h`` samples of ``x`` (a copy: the chunk is not kept alive)."""
+    return np.array(x[..., max(x.shape[-1] - h, 0) :])
+
+
+class RunSummary:
+    """Peaks, fault events and false alarms of runs, accumulated chunk by chunk.
+
+    Parameters
+    ----------
+    t : ndarray, (N,)
+    faults : list of list
+        The fault signals of each run (in the user's order).
+    columns : list of list of int or None
+        Structure column of each fault (see
+        :func:`geomfdi.simulation.schedule.structure_columns`).
+    n_rows : int
+        Residual rows.
+    window : float or None
+        Detection window (seconds); ``None``: to the end of the run.
+
+    Notes
+    -----
+    Per fault, the samples that count are ``ks .. ke-1`` (first active sample to the
+    end of the detection window); per chunk only their overlap with the chunk is read.
+    The healthy part of a run is the samples before its first onset; a false-alarm event
+    is a rising edge of "some residual alarms" there (the value at the end of the
+    previous chunk is carried).
+    """
+
+    def __init__(
+        self,
+        t: np.ndarray,
+        faults: Sequence[Sequence[Any]],
+        columns: Sequence[Sequence[int | None]],
+        n_rows: int,
+        window: float | None,
+    ) -> None:
+        N = t.shape[0]
+        self.t = t
+        self.runs = len(faults)
+        self.peak = np.zeros((self.runs, n_rows))
+        # per run: [(fault, column, ks, ke, window_end)], onset-sorted by the user's order
+        self.spans: list[list[tuple[Any, int | None, int, int, float | None]]] = []
+        for fl, cols in zip(faults, columns, strict=True):
+            spans = []
+            for f, j in zip(fl, cols, strict=True):
+                ks = first_active(f, t)
+                if ks is None:
+                    continue
+                if window is None:
+                    ke, wend = N, None
+                else:
+                    wend = float(t[ks]) + float(window)
+                    tol = 1e-9 * max(1.0, abs(wend))
+                    ke = int(np.searchsorted(t, wend + tol, side="right"))
+                spans.append((f, j, ks, ke, wend))
+            self.spans.append(spans)
+        self.healthy = np.array(
+            [min((sp[2] for sp in spans), default=N) for spans in self.spans], dtype=int
+        )
+        self.fa_samples = np.zeros(self.runs, dtype=int)
+        self.fa_alarms = np.zeros(self.runs, dtype=int)
+        self.fa_edges = np.zeros(self.runs, dtype=int)
+        self._prev = np.zeros(self.runs, dtype=bool)
+        # event state per run and fault: detection, isolation, first decision, rows
+        self._det = [[None] * len(sp) for sp in self.spans]
+        self._iso = [[None] * len(sp) for sp in self.spans]
+        self._dec = [[None] * len(sp) for sp in self.spans]
+        self._hyp: list[list[tuple[int, ...]]] = [[()] * len(sp) for sp in self.spans]
+        self._rows = [[np.zeros(n_rows, dtype=bool) for _ in sp] for sp in self.spans]
+
+    def update(
+        self,
+        s: int,
+        res: np.ndarray,
+        alarms: np.ndarray,
+        isolated: np.ndarray,
+        r0: int = 0,
+        suspects: np.ndarray | None = None,
+    ) -> None:
+        """Add the chunk of samples ``s .. s+L-1`` of the runs ``r0 .. r0+R-1``:
+        residuals and alarms (R, n_rows, L), isolation decisions (R, L) and their
+        suspects (R, n_faults, L), which give the hypothesis of a ``MULTIPLE``
+        decision."""
+        R, L = res.shape[0], res.shape[-1]
+        e = s + L
+        pk = self.peak[r0 : r0 + R]
+        np.maximum(pk, np.max(np.abs(res), axis=-1), out=pk)
+        any_alarm = alarms.any(axis=-2)
+        for r_local, r in enumerate(range(r0, r0 + R)):
+            a = any_alarm[r_local]
+            # false alarms before the first onset
+            k = min(int(self.healthy[r]), e)
+            if k > s:
+                h = a[: k - s]
+                self.fa_samples[r] += h.size
+                self.fa_alarms[r] += int(np.count_nonzero(h))
+                self.fa_edges[r] += int(h[0] and not self._prev[r]) + int(
+                    np.count_nonzero(h[1:] & ~h[:-1])
+                )
+                self._prev[r] = bool(h[-1])
+            for i, (_, j, ks, ke, _) in enumerate(self.spans[r]):
+                lo, hi = max(ks, s), min(ke, e)
+                if lo >= hi:
+                    continue
+                sl = slice(lo - s, hi - s)
+                if self._det[r][i] is None:
+                    hit = np.flatnonzero(a[sl])
+                    if hit.size:
+                        self._det[r][i] = lo + int(hit[0])
+                iso = isolated[r_local, sl]
+                if j is not None and self._iso[r][i] is None:
+                    ih = np.flatnonzero(iso == j)
+                    if ih.size:
+                        self._iso[r][i] = lo + int(ih[0])
+                if self._dec[r][i] is None:
+                    dh = np.flatnonzero((iso >= 0) | (iso == MULTIPLE))
+                    if dh.size:
+                        self._dec[r][i] = int(iso[dh[0]])
+                        if self._dec[r][i] == MULTIPLE and suspects is not None:
+                            sus = suspects[r_local, :, lo - s + int(dh[0])]
+                            self._hyp[r][i] = tuple(int(f) for f in np.flatnonzero(sus))
+                self._rows[r][i] |= alarms[r_local, :, sl].any(axis=-1)
+
+    def events(self, r: int) -> list[FaultEvent]:
+        """The fault events of run ``r`` (as :func:`detection_events` gives them)."""
+        out = []
+        t = self.t
+        for i, (f, j, ks, _, wend) in enumerate(self.spans[r]):
+            onset = float(t[ks])
+            kd, ki = self._det[r][i], self._iso[r][i]
+            det = None if kd is None else float(t[kd])
+            iso_t = None if ki is None else float(t[ki])
+            out.append(
+                FaultEvent(
+                    f,
+                    j,
+                    onset,
+                    det,
+                    None if det is None else det - onset,
+                    iso_t,
+                    None if iso_t is None else iso_t - onset,
+                    tuple(int(x) for x in np.flatnonzero(self._rows[r][i])),
+                    self._dec[r][i],
+                    wend,
+                    self._hyp[r][i],
+                )
+            )
+        return out
+
+    def false_alarms(self, r: int) -> FalseAlarms:
+        """False alarms of run ``r`` before its first onset."""
+        return FalseAlarms(int(self.fa_samples[r]), int(self.fa_alarms[r]), int(self.fa_edges[r]))
