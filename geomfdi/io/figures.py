@@ -126,14 +126,16 @@ class _Figures:
 
     One worker per core but one (the main process keeps a core for the design, the
     simulations and the proofs); the first starts at once and loads matplotlib while the
-    main process designs, the others start when figures are waiting.  Falls back to running in this
-    process when no process pool can be started.
+    main process designs, the others start when figures are waiting; once done, the main
+    process draws too.  Falls back to drawing in this process when no process pool can be
+    started.
     """
 
     def __init__(self, enabled: bool) -> None:
         self.enabled = enabled
         self.pool: Any = None
         self.jobs: list[tuple[Any, Any]] = []
+        self.calls: dict[Any, tuple[Callable[..., str], tuple[Any, ...]]] = {}
         if enabled:
             import multiprocessing
             from concurrent.futures import ProcessPoolExecutor
@@ -155,14 +157,24 @@ class _Figures:
         if self.pool is not None:
             try:
                 self.jobs.append((key, self.pool.submit(fn, *args)))
+                self.calls[key] = (fn, args)
                 return
             except RuntimeError:  # the pool broke: draw here
                 self.pool = None
         self.jobs.append((key, _Done(fn(*args))))
 
     def results(self) -> dict[Any, str]:
-        """Wait for every figure; ``{key: file name}``."""
+        """Wait for every figure; ``{key: file name}``.
+
+        The main process, done with its own work, draws the figures no worker has
+        started yet (from the last one back, while the workers go on from the front).
+        """
         try:
+            for k in range(len(self.jobs) - 1, -1, -1):
+                key, job = self.jobs[k]
+                if not isinstance(job, _Done) and job.cancel():
+                    fn, args = self.calls[key]
+                    self.jobs[k] = (key, _Done(fn(*args)))
             return {key: job.result() for key, job in self.jobs}
         finally:
             self.close()
