@@ -405,3 +405,19 @@ def test_detection_window_excludes_late_alarms():
     # the metrics of one fault position only
     with pytest.raises(GeomFDIError, match="which"):
         detection_metrics(evs, fas, 0.5, 2, which=3)
+
+
+def test_pattern_decisions_decide_each_distinct_pattern_once_like_sample_by_sample():
+    from geomfdi.evaluation.persistence import _decide_patterns, pattern_decisions
+
+    rng = np.random.default_rng(7)
+    for trial in range(24):
+        nres, nf = int(rng.integers(1, 8)), int(rng.integers(1, 8))
+        S = rng.random((nres, nf)) < 0.5
+        lead = [(), (3,), (2, 2)][trial % 3]
+        pat = rng.random((*lead, nres, int(rng.integers(300, 900)))) < rng.uniform(0.05, 0.6)
+        fast, ref = pattern_decisions(pat, S), _decide_patterns(pat, S)
+        assert fast.isolated.shape == ref.isolated.shape
+        assert np.array_equal(fast.isolated, ref.isolated)
+        assert np.array_equal(fast.candidates, ref.candidates)
+        assert np.array_equal(fast.suspects, ref.suspects)

@@ -157,9 +157,34 @@ def pattern_decisions(pattern: Any, structure: Any) -> Isolation:
 
     As :func:`geomfdi.isolate`, except that an ``UNEXPLAINED`` pattern that is the union
     of the columns of its suspects is decided ``MULTIPLE`` (the suspects' columns are
-    inside the pattern by definition).
+    inside the pattern by definition).  A long record holds few distinct patterns: each
+    is decided once (patterns of up to 62 residuals, coded as integers) and the
+    decisions are gathered back per sample.
     """
     pattern = np.asarray(pattern, dtype=bool)
+    nres = pattern.shape[-2] if pattern.ndim >= 2 else 0
+    if pattern.ndim >= 2 and 0 < nres <= 62 and pattern[..., 0, :].size > 256:
+        lead, N = pattern.shape[:-2], pattern.shape[-1]
+        codes = np.zeros(lead + (N,), dtype=np.int64)
+        for r in range(nres):
+            codes |= pattern[..., r, :].astype(np.int64) << r
+        uniq, inv = np.unique(codes.ravel(), return_inverse=True)
+        few = ((uniq[None, :] >> np.arange(nres)[:, None]) & 1).astype(bool)
+        small = _decide_patterns(few, structure)
+
+        def back(x: np.ndarray) -> np.ndarray:  # (n_faults, U) -> (..., n_faults, N)
+            return np.moveaxis(x[:, inv].reshape((x.shape[0], *lead, N)), 0, -2)
+
+        return Isolation(
+            small.isolated[inv].reshape(lead + (N,)),
+            back(small.candidates),
+            back(small.suspects),
+        )
+    return _decide_patterns(pattern, structure)
+
+
+def _decide_patterns(pattern: np.ndarray, structure: Any) -> Isolation:
+    """:func:`pattern_decisions` sample by sample."""
     iso = isolate(pattern, structure)
     S = np.asarray(structure, dtype=bool)
     raw = iso.isolated.copy()
