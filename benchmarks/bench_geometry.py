@@ -17,7 +17,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 import warnings
@@ -145,7 +144,11 @@ def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
     args = parser.parse_args(argv)
     sizes = args.sizes or (QUICK_SIZES if args.quick else FULL_SIZES)
     rows = run(sizes, repeat=args.repeat, seed=args.seed, columns=args.columns)
-    threads = os.environ.get("OPENBLAS_NUM_THREADS", "default")
+    from threadpoolctl import threadpool_info
+
+    threads = max(  # the BLAS threads in force for this run
+        (lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"), default=1
+    )
     print(
         f"W* / S* on random systems, q = n/3, L with {args.columns} column(s); "
         f"best of {args.repeat}; BLAS threads: {threads}"
