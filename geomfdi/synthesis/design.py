@@ -33,7 +33,7 @@ from geomfdi._validation import as_bool, as_float, as_indices, as_real_array
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant
-from geomfdi.synthesis.build import build_least_order, check_angles
+from geomfdi.synthesis.build import FD_GAIN_TOL, build_least_order, check_angles, weak_targets
 from geomfdi.synthesis.construction import (
     _coerce_faults,
     _coerce_plant,
@@ -43,7 +43,7 @@ from geomfdi.synthesis.construction import (
     checked_poles,
 )
 from geomfdi.synthesis.decisions import attach, close_note, record_design, summarise
-from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, frequency_gains
+from geomfdi.synthesis.gains import LEAK_TOL, PlantFactor
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 from geomfdi.synthesis.least_order import plant_scale
 from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
@@ -59,10 +59,6 @@ __all__ = [
 ]
 
 METHODS = ("exact", "full", "paper", "mvw")
-
-FD_GAIN_TOL = 0.01
-"""Strong detectability: least DC gain from a target, relative to the residual's largest
-gain from any fault over frequency (Varga's ``FDGainTol``)."""
 
 
 def _check_method(method: Any) -> str:
@@ -165,25 +161,6 @@ def _design_row(
     g.info["synthesis"] = "full"
     g.info["fallback"] = f"least-order realisation failed numerically ({first}); full quotient"
     return g
-
-
-def _weak_targets(
-    g: ResidualGenerator,
-    plant: Plant,
-    sigs: list,
-    factor: PlantFactor,
-    omega: float,
-    target: Sequence[int],
-) -> list[int]:
-    """Targets whose DC gain is below ``FD_GAIN_TOL`` × the largest gain over frequency."""
-    comp = Composite(g, plant, factor)
-    dc = np.asarray(g.info["dc_gain"], dtype=float)
-    base = np.pi if plant.dt > 0 else omega
-    ws = base * np.logspace(-3, 0 if plant.dt > 0 else 3, 31)
-    peak = frequency_gains(comp, sigs, ws)
-    top = np.max(np.where(np.isfinite(peak), peak, 0.0), initial=0.0)
-    top = max(top, float(np.max(np.where(np.isfinite(dc), dc, 0.0), initial=0.0)))
-    return [j for j in target if np.isfinite(dc[j]) and dc[j] < FD_GAIN_TOL * top]
 
 
 @limit_blas_threads
@@ -581,7 +558,9 @@ def design_bank(
         close = attach(g, rec, f"row {r}")
         achieved[r] = g.info["fault_gain"] > LEAK_TOL
         gain = g.info["fault_gain"]
-        weak = _weak_targets(g, plant, sigs, factor, omega, tgt)
+        weak = g.info.get("weak_targets")
+        if weak is None:
+            weak = weak_targets(g, plant, sigs, factor, omega, tgt)
         leaks = [j for j in dec if achieved[r, j]]
         notes = []
         if weak:
