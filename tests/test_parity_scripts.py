@@ -34,6 +34,7 @@ def test_benchmark_quick_mode(capsys):
     assert res["faulty (20 sigma on sensor 2)"]["detected"] == 1.0
 
 
+@pytest.mark.slow
 def test_example_reproduces_the_seed_004_experiment(tmp_path, capsys):
     ex = _load(ROOT / "examples" / "parity_dodecahedron.py", "parity_dodecahedron")
     out = ex.main(["--out", str(tmp_path), "--runs", "300", "--sigma", "0.0005", "--seed", "1"])
