@@ -89,11 +89,23 @@ def _draw_residuals(kwargs: dict[str, Any], path: Path) -> str:
 
 
 def _warm_up() -> None:
-    """Worker: import the plotting stack before the first figure arrives."""
+    """Worker: load the plotting stack before the first figure arrives.
+
+    Besides the imports, one small figure with text is drawn to memory: the fonts, the
+    renderer and the PNG encoder are set up on a first drawing, which would otherwise
+    fall on the first real figure.
+    """
+    import io
+
     import matplotlib.backends.backend_agg  # noqa: F401
 
     import geomfdi.evaluation.decision  # noqa: F401
-    import geomfdi.plotting.residuals  # noqa: F401
+    from geomfdi.plotting.residuals import plot_residuals
+
+    t = np.linspace(0.0, 1.0, 8)
+    fig = plot_residuals(t, np.vstack([t, -t]), threshold=0.5, onsets=[0.5], title="warm-up")
+    fig.set_layout_engine(None)
+    fig.savefig(io.BytesIO(), dpi=FIGURE_DPI, format="png")
 
 
 def _residual_figure_args(res: Any, title: str) -> dict[str, Any]:
