@@ -54,6 +54,7 @@ from geomfdi.model.faults import Fault
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.synthesis.gains import LEAK_TOL, PlantFactor, fault_gains
 from geomfdi.synthesis.generator import ResidualGenerator
+from geomfdi.synthesis.least_order import validate_poles
 from geomfdi.synthesis.realization import minimal_realization, reachable_subspace
 from geomfdi.synthesis.transforms import DesignModel, pseudo_actuator_model
 from geomfdi.tolerance import rank_decision
@@ -156,21 +157,7 @@ def _check_spectrum(poles: Any, k: int, dt: float, row: str) -> np.ndarray:
             f"{arr.size}",
             argument="poles",
         )
-    try:
-        arr = arr.astype(complex)
-    except (TypeError, ValueError, OverflowError) as exc:
-        raise DesignError(f"poles: must be numbers, got {poles!r:.60}", argument="poles") from exc
-    if not np.all(np.isfinite(arr)):
-        raise DesignError("poles: must be finite", argument="poles")
-    stable = np.abs(arr) < 1 if dt > 0 else arr.real < 0
-    if not np.all(stable):
-        where = "inside the unit circle" if dt > 0 else "in the open left half-plane"
-        raise DesignError(
-            f"poles: every pole must lie {where}; got {arr[~stable].tolist()}", argument="poles"
-        )
-    if not np.allclose(np.sort_complex(arr), np.sort_complex(arr.conj()), rtol=1e-12, atol=0):
-        raise DesignError("poles: complex poles must come in conjugate pairs", argument="poles")
-    return arr
+    return validate_poles(arr, dt)
 
 
 class _NumericalDesignError(DesignError):

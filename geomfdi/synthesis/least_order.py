@@ -278,8 +278,8 @@ def validate_poles(poles: Any, dt: float) -> np.ndarray:
     """User poles as a complex array: numbers, finite, stable, closed under conjugation."""
     try:
         arr = np.atleast_1d(np.asarray(poles, dtype=complex))
-    except (TypeError, ValueError) as exc:
-        raise DesignError(f"poles: must be numbers, got {poles!r}", argument="poles") from exc
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise DesignError(f"poles: must be numbers, got {poles!r:.60}", argument="poles") from exc
     if arr.ndim != 1:
         raise DesignError("poles: must be a flat list of numbers", argument="poles")
     if not np.all(np.isfinite(arr)):
