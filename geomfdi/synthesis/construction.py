@@ -55,6 +55,7 @@ from geomfdi.model.plant import Plant, as_plant
 from geomfdi.synthesis.gains import LEAK_TOL, PlantFactor, fault_gains
 from geomfdi.synthesis.generator import ResidualGenerator
 from geomfdi.synthesis.least_order import validate_poles
+from geomfdi.synthesis.placement import place_poles
 from geomfdi.synthesis.realization import minimal_realization, reachable_subspace
 from geomfdi.synthesis.transforms import DesignModel, pseudo_actuator_model
 from geomfdi.tolerance import rank_decision
@@ -203,10 +204,11 @@ def _place(
     with the eigenvalues meeting the margin in T11; feedback acting on the T22
     coordinates only moves eig(T22) and keeps eig(T11).  Default: T22's eigenvalues are
     mirrored across the margin (:func:`_mirror_gain`, the minimum-norm choice; far
-    better conditioned than pushing them onto the margin line).  Requested poles:
-    ``scipy.signal.place_poles`` on the whole quotient.  The computed spectrum is
-    checked afterwards; a placement that misses it (a high-order quotient observed
-    through few outputs is intrinsically ill-conditioned) raises.
+    better conditioned than pushing them onto the margin line).  Requested poles: the
+    Schur method of :func:`geomfdi.synthesis.placement.place_poles` on the whole
+    quotient.  The computed spectrum is checked afterwards; a placement that misses it
+    (a high-order quotient observed through few outputs is intrinsically
+    ill-conditioned) raises.
     """
     k = A0.shape[0]
     if k == 0:
@@ -228,7 +230,7 @@ def _place(
         info["computed_poles"] = np.linalg.eigvals(A0)
         return np.zeros((k, M.shape[0])), info
     B2 = (U.T @ Bt)[k1:]
-    # act through an orthonormal basis of Im B2ᵀ: place_poles needs full column rank
+    # act through an orthonormal basis of Im B2ᵀ (full column rank)
     _, sv, Vt = np.linalg.svd(B2, full_matrices=False)
     rb = rank_decision(sv, _norm2(Bt), max(B2.shape), what="placement input", warn=False).rank
     Vr = Vt[:rb].T
@@ -251,9 +253,7 @@ def _place(
             targets = (margin**2 / bad_eigs.conj()) if dt > 0 else (-bad_eigs.conj() - 2 * margin)
         else:
             targets = poles
-            import scipy.signal
-
-            K2 = scipy.signal.place_poles(T22, B2 @ Vr, targets).gain_matrix
+            K2 = place_poles(T22, B2 @ Vr, targets)
     except (ValueError, np.linalg.LinAlgError) as exc:
         raise DesignError(
             f"poles: cannot place {np.asarray(targets if poles is not None else bad_eigs).tolist()}"
