@@ -126,3 +126,21 @@ def test_dense_float_plant_is_proven_with_progress(capsys):
     assert rep.ok and rep.rounding_level < 1e-12
     assert "exact proof" in capsys.readouterr().err  # progress on stderr
     assert rep.seconds < 30
+
+
+def test_float_tf_equals_scipy_ss2tf():
+    """The numerator/denominator of the readable transfer are those of ``ss2tf`` (bitwise)."""
+    import scipy.signal
+
+    from geomfdi.verification.symbolic import _float_tf
+
+    rng = np.random.default_rng(0)
+    for n in range(1, 7):
+        A = rng.standard_normal((n, n))
+        b, c, d = rng.standard_normal(n), rng.standard_normal(n), float(rng.standard_normal())
+        num, den = _float_tf(A, b, c, d)
+        ref_num, ref_den = scipy.signal.ss2tf(A, b[:, None], c[None, :], np.array([[d]]))
+        np.testing.assert_array_equal(num, np.trim_zeros(ref_num[0], "f"))
+        np.testing.assert_array_equal(den, ref_den)
+    num, den = _float_tf(np.zeros((0, 0)), np.zeros(0), np.zeros(0), 2.0)
+    assert num.tolist() == [2.0] and den.tolist() == [1.0]

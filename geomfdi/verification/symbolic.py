@@ -270,12 +270,18 @@ def _readable(num: np.ndarray, den: np.ndarray, scale: float, var: Any) -> Any:
 def _float_tf(
     Ac: np.ndarray, b: np.ndarray, c: np.ndarray, d: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    import scipy.signal
+    """Numerator and denominator of ``c (sI − Ac)⁻¹ b + d`` (descending powers).
 
+    ``den = det(sI − Ac)`` and ``num = det(sI − Ac + b c) + (d − 1) den`` (the matrix
+    determinant lemma), both from eigenvalues (:func:`numpy.poly`).
+    """
     if Ac.shape[0] == 0:
         return np.array([d]), np.array([1.0])
-    num, den = scipy.signal.ss2tf(Ac, b.reshape(-1, 1), c.reshape(1, -1), np.array([[d]]))
-    num = np.trim_zeros(num[0], "f")
+    Ac = np.asarray(Ac, dtype=float)
+    b, c = np.asarray(b, dtype=float).reshape(-1), np.asarray(c, dtype=float).reshape(-1)
+    den = np.poly(Ac)
+    num = np.poly(Ac - np.outer(b, c)) + (float(d) - 1.0) * den
+    num = np.trim_zeros(num, "f")
     return (num if num.size else np.array([0.0])), den
 
 
