@@ -54,8 +54,12 @@ def reference_least_order(A, C, Bw, Dw, targets, nu_max=None):
     return None
 
 
-def leak_angle(g, A, B, C, D, Bx, Dx, is_input, dt, count=6, seed=0):
-    """Largest ‖Q(s)[G_x; I_x]‖ / (‖Q(s)‖ ‖[G_x; I_x]‖) over random points (numpy only)."""
+def leak_angle(g, A, B, C, D, Bx, Dx, is_input, dt, count=6, seed=0, boundary=False):
+    """Largest ‖Q(s)[G_x; I_x]‖ / (‖Q(s)‖ ‖[G_x; I_x]‖) over random points (numpy only).
+
+    ``boundary``: the points are frequencies (``s = iω``, ``z = e^{iθ}``), i.e. the
+    measure is that of the frequency response; otherwise points of the upper half-plane.
+    """
     rng = np.random.default_rng(seed)
     n, m = A.shape[0], B.shape[1]
     k = g.F.shape[0]
@@ -64,7 +68,9 @@ def leak_angle(g, A, B, C, D, Bx, Dx, is_input, dt, count=6, seed=0):
     for _ in range(count):
         s = rad * rng.uniform(0.5, 1.5) * np.exp(1j * rng.uniform(0.3, np.pi - 0.3))
         if dt:
-            s = 1.0 + 0.5 * s / rad
+            s = np.exp(1j * np.angle(s)) if boundary else 1.0 + 0.5 * s / rad
+        elif boundary:
+            s = 1j * abs(s)
         Rf = (
             np.linalg.solve(s * np.eye(k) - g.F, np.hstack([-g.E, g.G]))
             if k

@@ -52,6 +52,7 @@ from geomfdi.synthesis.least_order import (
     quotient_model,
     realise_on_plant,
 )
+from geomfdi.synthesis.orthonormal import orthonormal_row
 from geomfdi.synthesis.quotient_observer import quotient_observer_row
 from geomfdi.tolerance import get_rtol
 
@@ -353,10 +354,15 @@ combination) is realised first as the quotient observer when ``k > INJECT_FIRST`
 partial-fraction basis of ``k`` poles is then the ill-conditioned choice."""
 
 
-def _attempts(lo: LeastOrderRow, k: int, poles: Any, prefix: bool) -> list[tuple[str, float]]:
-    """Realisations tried in turn: ``("pf", pole scale)`` or ``("inj", relaxation)``."""
+def _attempts(
+    lo: LeastOrderRow, k: int, rho: int, poles: Any, prefix: bool
+) -> list[tuple[str, float]]:
+    """Realisations tried in turn: ``("pf", pole scale)``, ``("onb", relaxation)`` (a
+    single-output row in the orthonormal basis) or ``("inj", relaxation)``."""
     pf = [("pf", sc) for sc in RETRY_SCALES]
     inj = [("inj", r) for r in RELAX]
+    if rho == 1:
+        inj = [("onb", r) for r in RELAX] + inj
     if poles is not None:
         return [("pf", 1.0)]
     if not lo.realised:
@@ -401,7 +407,7 @@ def build_least_order(
     kw = {"poles": poles, "row": row, "prefix": prefix}
     lo = _search(Qm, plant, target, decouple, omega=omega, **kw)
     first: _NumericalDesignError | None = None
-    for kind, val in _attempts(lo, Qm.k, poles, prefix):
+    for kind, val in _attempts(lo, Qm.k, Qm.rho, poles, prefix):
         try:
             if kind == "pf":
                 cur = (
@@ -413,9 +419,14 @@ def build_least_order(
                 cert = dict(lo.certificate)
                 if first is not None:
                     cert["reason"] = f"the partial-fraction realisation failed ({first})"
-                cur = quotient_observer_row(
-                    Qm, omega=omega, dt=plant.dt, relax=val, certificate=cert
-                )
+                if kind == "onb":
+                    cur = orthonormal_row(
+                        Qm, plant.D, omega=omega, dt=plant.dt, relax=val, certificate=cert
+                    )
+                else:
+                    cur = quotient_observer_row(
+                        Qm, omega=omega, dt=plant.dt, relax=val, certificate=cert
+                    )
             g, comp = _finish(
                 plant,
                 faults,

@@ -33,6 +33,7 @@ and keeps the first whose realisation passes the checks on the physical plant.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -40,7 +41,14 @@ import scipy.linalg as sla
 
 from geomfdi.geometry.subspace import _norm2
 
-__all__ = ["stabilising_injection", "SDEG_REL", "SDEG_DISCRETE", "RELAX"]
+__all__ = [
+    "stabilising_injection",
+    "mirror_rule",
+    "MirrorRule",
+    "SDEG_REL",
+    "SDEG_DISCRETE",
+    "RELAX",
+]
 
 SDEG_REL = 0.05
 """Continuous stability degree relative to the plant scale: move ``Re λ > −0.05 ω``."""
@@ -136,30 +144,58 @@ def stabilising_injection(
     Cs = C / cn
     eig = np.linalg.eigvals(A)
     try:
+        rule = mirror_rule(eig, dt=dt, omega=omega, relax=relax)
+        shift, moved = rule.shift, int(np.count_nonzero(rule.moved))
         if dt > 0:
-            beta = _gap(np.abs(eig), 1.0 - (1.0 - SDEG_DISCRETE) / relax, -1.0)
-            moved = int(np.count_nonzero(np.abs(eig) > beta))
-            L = _mirror_gain(A, Cs, dt, beta) / cn
+            L = _mirror_gain(A, Cs, dt, shift) / cn
             ok = np.max(np.abs(np.linalg.eigvals(A - L @ C))) < 1.0
-            shift = beta
-            rule = (
-                f"Riccati injection: eigenvalues with |z| > {beta:.4g} mirrored to "
-                f"{beta:.4g}²/z̄, the others kept"
-            )
         else:
             w = max(float(omega), 1e-300)
-            alpha = -_gap(eig.real, -SDEG_REL * w / relax, -1.0)
-            moved = int(np.count_nonzero(eig.real > -alpha))
-            L = w * _mirror_gain(A / w, Cs, 0.0, alpha / w) / cn
+            L = w * _mirror_gain(A / w, Cs, 0.0, shift / w) / cn
             ok = np.max(np.linalg.eigvals(A - L @ C).real) < 0.0
-            shift = alpha
-            rule = (
-                f"Riccati injection: eigenvalues with Re λ > −{alpha:.3g} "
-                f"(= −{SDEG_REL / relax:.3g} ω, ω = {w:.3g}) mirrored about that line, "
-                "the others kept"
-            )
     except (np.linalg.LinAlgError, ValueError) as exc:
         raise np.linalg.LinAlgError(f"no stabilising output injection: {exc}") from None
     if not (ok and np.all(np.isfinite(L))):
         raise np.linalg.LinAlgError("no stabilising output injection: unstable result")
-    return L, {"rule": rule, "shift": float(shift), "moved": moved, "gain": float(_norm2(L))}
+    how = {"rule": "Riccati injection: " + rule.text, "shift": float(shift), "moved": moved}
+    return L, {**how, "gain": float(_norm2(L))}
+
+
+@dataclass(frozen=True)
+class MirrorRule:
+    """Which eigenvalues move and where to (the stability degree of the module Notes)."""
+
+    moved: np.ndarray
+    """Boolean mask over the eigenvalues: outside the stability degree."""
+    targets: np.ndarray
+    """The spectrum after the move: kept eigenvalues, moved ones mirrored."""
+    shift: float
+    """α (continuous: the boundary is ``Re λ = −α``) or β (discrete: ``|z| = β``)."""
+    text: str
+
+
+def mirror_rule(eig: np.ndarray, *, dt: float, omega: float, relax: float = 1.0) -> MirrorRule:
+    """The eigenvalues outside the stability degree and their mirror images (module Notes).
+
+    Continuous: ``α = SDEG_REL · ω / relax`` (nudged clear of every eigenvalue), the
+    eigenvalues with ``Re λ > −α`` move to ``−2α − λ̄``.  Discrete: ``β = 1 − 0.05 / relax``,
+    those with ``|z| > β`` move to ``β² / z̄``.  These are the closed-loop eigenvalues of
+    the minimum-energy injection; for a single output they fix the observer uniquely.
+    """
+    eig = np.asarray(eig, dtype=complex)
+    out = eig.copy()
+    if dt > 0:
+        beta = _gap(np.abs(eig), 1.0 - (1.0 - SDEG_DISCRETE) / relax, -1.0)
+        moved = np.abs(eig) > beta
+        out[moved] = beta**2 / eig[moved].conj()
+        text = f"eigenvalues with |z| > {beta:.4g} mirrored to {beta:.4g}²/z̄, the others kept"
+        return MirrorRule(moved, out, float(beta), text)
+    w = max(float(omega), 1e-300)
+    alpha = -_gap(eig.real, -SDEG_REL * w / relax, -1.0)
+    moved = eig.real > -alpha
+    out[moved] = -2.0 * alpha - eig[moved].conj()
+    text = (
+        f"eigenvalues with Re λ > −{alpha:.3g} (= −{SDEG_REL / relax:.3g} ω, ω = {w:.3g}) "
+        "mirrored about that line, the others kept"
+    )
+    return MirrorRule(moved, out, float(alpha), text)

@@ -491,6 +491,9 @@ class LeastOrderRow:
     h: np.ndarray | None
     poles: np.ndarray
     certificate: dict[str, Any]
+    direct: dict[str, Any] | None = None
+    """A realisation reading y and u directly (no ``(G_s, T)``): ``E``, ``G`` and its
+    ``identities`` (:mod:`geomfdi.synthesis.orthonormal`)."""
 
     @property
     def realised(self) -> bool:
@@ -734,6 +737,16 @@ def realise_on_plant(Qm: Quotient, row: LeastOrderRow, Du: np.ndarray) -> dict[s
     """
     F, Gs, T, c, h = row.F, row.Gs, row.T, row.c, row.h
     H = Qm.H
+    if row.direct is not None:
+        return {
+            "F": F,
+            "E": row.direct["E"],
+            "G": row.direct["G"],
+            "M": c.reshape(1, -1),
+            "H": -(h @ H).reshape(1, -1),
+            "K": -(h @ H @ Du).reshape(1, -1),
+            "identities": dict(row.direct["identities"]),
+        }
     E = -(Gs @ H + T @ Qm.Bqy)
     G = T @ Qm.Bqu - Gs @ H @ Du
     Mg = c.reshape(1, -1)

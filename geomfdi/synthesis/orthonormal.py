@@ -1,0 +1,212 @@
+"""A single-output row realised in an orthonormal rational basis (no injection gain).
+
+See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.md``,
+section "Rows that read one output").
+
+A row that reads one measurement combination (``ρ = 1``: e.g. a residual of a
+sensor-fault bank that may use one sensor only) needs the whole decoupled quotient
+``(A0, M)``: its least order is ``k``.  The minimum-energy observer moves the
+eigenvalues outside the stability degree to their mirror images
+(:func:`geomfdi.synthesis.injection.mirror_rule`) and, for one output, that fixes the
+residual's transfer from ``[y; u]`` up to scale::
+
+    Q(s) = f(s) [H − M (sI − A0)⁻¹ B_qy,  −H D_u − M (sI − A0)⁻¹ B_qu],
+    f(s) = Π_moved (s − λ_i) / (s − μ_i)
+
+(``f = det(sI − A0) / det(sI − A0 + L M)``; ``μ_i`` the mirror images).  Through one
+output, moving many weakly observable eigenvalues needs an injection gain ``L`` that
+grows exponentially with their number (``‖L‖ ≈ 1e9`` for 30 eigenvalues of a dense
+random 60-state plant): a realisation ``(A0 − L M, L, …)`` then carries rounding of
+``ε ‖L‖`` and leaks.  Yet ``Q`` itself is harmless: on the imaginary axis ``|f| ≈ 1``,
+and ``Q(jω)`` is computed pointwise to working accuracy from the eigenvalues and the
+resolvent of ``A0``.
+
+So the row is realised without ``L``:
+
+1. **Basis.**  ``(Λ, h)`` real, output normal (``Λ + Λᵀ = −hᵀ h``; discrete
+   ``ΛᵀΛ + hᵀh = I``) with ``spec Λ`` = the kept and mirrored eigenvalues::
+
+       Λ = blockdiag(Λ_i) − (block strictly upper part of hᵀ h)
+
+   with ``Λ_i = p``, ``h_i = √(−2 Re p)`` for a real pole and
+   ``Λ_i = [[2σ, |p|], [−|p|, 0]]``, ``h_i = [2√(−σ), 0]`` for a pair ``σ ± iω``; the
+   discrete basis is its bilinear image ``((I + Λ)(I − Λ)⁻¹, √2 h (I − Λ)⁻¹)`` for the
+   poles ``(z − 1)/(z + 1)``.  The functions ``h (sI − Λ)⁻¹ e_j`` are orthonormal on the
+   imaginary axis (Takenaka–Malmquist; Ninness & Gustafsson 1997), so every entry of
+   ``Λ`` and ``h`` is of the size of the poles, whatever their number.
+2. **Coefficients.**  ``Q(s) = Q(∞) + h (sI − Λ)⁻¹ B_r`` with ``Q(∞) = [H, −H D_u]``; the
+   real ``B_r`` solves the weighted least-squares problem at frequencies drawn around
+   every pole (Cauchy quantiles of width ``|Re p|``, weights ``density^{-1/2}``: a
+   discretised inner product of the orthonormal basis, so the problem is well
+   conditioned).  The data lie in the span exactly, so the relative misfit measures the
+   accuracy (reported as the identity ``"orthonormal-basis fit"``; above
+   ``IDENTITY_TOL`` the attempt fails).
+
+The generator is ``F = Λ``, ``[−E, G] = B_r``, ``M_g = h``, ``[−H_g, K] = Q(∞)``; it is
+checked on the physical plant like every other realisation.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.linalg as sla
+
+from geomfdi.synthesis.injection import mirror_rule
+from geomfdi.synthesis.least_order import LeastOrderRow, Quotient
+
+__all__ = ["output_normal_basis", "orthonormal_row", "POINTS_PER_POLE"]
+
+POINTS_PER_POLE = 6
+"""Frequencies drawn around each pole for the least-squares coefficients."""
+
+
+def _pairs_first(poles: np.ndarray) -> np.ndarray:
+    """Real poles, then conjugate pairs as ``(p, p̄)`` with ``Im p > 0``."""
+    p = np.asarray(poles, dtype=complex)
+    tol = 1e-12 * np.maximum(1.0, np.abs(p))
+    real = np.sort(p[np.abs(p.imag) <= tol].real).astype(complex)
+    upper = p[p.imag > tol]
+    upper = upper[np.argsort(upper.real)]
+    return np.concatenate([real, np.column_stack([upper, upper.conj()]).ravel()])
+
+
+def output_normal_basis(poles: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Real output-normal pair ``(Λ, h)`` with ``spec Λ = poles`` (module Notes, step 1).
+
+    Parameters
+    ----------
+    poles : ndarray
+        Stable poles, closed under conjugation (the pairs are matched here).
+    dt : float
+        0: continuous (``Λ + Λᵀ = −hᵀ h``); > 0: discrete (``ΛᵀΛ + hᵀh = I``).
+
+    Returns
+    -------
+    Lam : ndarray, shape (k, k)
+        Block upper triangular: real poles first, then 2 × 2 blocks of the pairs.
+    h : ndarray, shape (k,)
+    """
+    p = _pairs_first(poles)
+    if dt > 0:
+        p = (p - 1.0) / (p + 1.0)
+    k = p.size
+    h = np.zeros(k)
+    blocks: list[tuple[int, np.ndarray]] = []
+    i = 0
+    while i < k:
+        if p[i].imag > 0:
+            sig = p[i].real
+            h[i] = 2.0 * np.sqrt(-sig)
+            blocks.append((i, np.array([[2.0 * sig, abs(p[i])], [-abs(p[i]), 0.0]])))
+            i += 2
+        else:
+            h[i] = np.sqrt(-2.0 * p[i].real)
+            blocks.append((i, np.array([[p[i].real]])))
+            i += 1
+    Lam = -np.triu(np.outer(h, h), 1)
+    for j, b in blocks:
+        m = b.shape[0]
+        Lam[j : j + m, j : j + m] = b
+    if dt > 0 and k:
+        X = np.linalg.inv(np.eye(k) - Lam)
+        return (np.eye(k) + Lam) @ X, np.sqrt(2.0) * (h @ X)
+    return Lam, h
+
+
+def _frequencies(poles: np.ndarray, dt: float, per: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sample points on the stability boundary around every pole and their LS weights.
+
+    Continuous: ``ω = Im p + |Re p| tan(π (j + ½)/per − π/2)`` (Cauchy quantiles; the
+    density of ``|h (jω − Λ)⁻¹|²``), folded to ``ω ≥ 0``; weights ``density(ω)^{-1/2}``.
+    Discrete: the same on the bilinear images, mapped to ``z = e^{2i atan ω}``.
+    """
+    p = np.asarray(poles, dtype=complex)
+    c = (p - 1.0) / (p + 1.0) if dt > 0 else p
+    c = c[c.imag >= 0]
+    q = (np.arange(per) + 0.5) / per
+    om = np.abs((c.imag[:, None] + np.abs(c.real)[:, None] * np.tan(np.pi * (q - 0.5))).ravel())
+    om = np.unique(om)
+    dens = np.zeros_like(om)
+    for cc in c:
+        w = abs(cc.real)
+        dens += w / ((om - cc.imag) ** 2 + w * w) + w / ((om + cc.imag) ** 2 + w * w)
+    wts = 1.0 / np.sqrt(np.maximum(dens, 1e-300))
+    pts = np.exp(2j * np.arctan(om)) if dt > 0 else 1j * om
+    return pts, wts
+
+
+def _resolvent_rows(T: np.ndarray, left: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """``left (s I − T)⁻¹`` for an upper triangular complex T at every point (rows)."""
+    k = T.shape[0]
+    out = np.empty((pts.size, left.shape[0], k), dtype=complex)
+    for i, s in enumerate(pts):
+        out[i] = sla.solve_triangular(s * np.eye(k) - T, left.T, trans="T").T
+    return out
+
+
+def orthonormal_row(
+    Qm: Quotient,
+    Du: np.ndarray,
+    *,
+    omega: float,
+    dt: float,
+    relax: float,
+    certificate: dict[str, Any],
+) -> LeastOrderRow:
+    """The single-output quotient row realised in the orthonormal basis (module Notes).
+
+    Returns a :class:`~geomfdi.synthesis.least_order.LeastOrderRow` whose ``direct``
+    holds the generator's ``(E, G)`` reading ``y`` and ``u``, and ``identities`` the
+    relative least-squares misfit.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        The quotient reads more than one output combination, or the fit fails.
+    """
+    k = Qm.k
+    if Qm.rho != 1 or k == 0:
+        raise np.linalg.LinAlgError("the orthonormal-basis realisation needs ρ = 1, k > 0")
+    eig = np.linalg.eigvals(Qm.A0)
+    rule = mirror_rule(eig, dt=dt, omega=omega, relax=relax)
+    poles = rule.targets
+    Lam, h = output_normal_basis(poles, dt)
+    pts, wts = _frequencies(poles, dt, POINTS_PER_POLE)
+    # data: Q(s) − Q(∞) at the points, through the complex Schur form of A0
+    TA, UA = sla.schur(Qm.A0.astype(complex), output="complex")
+    Bq = np.hstack([Qm.Bqy, Qm.Bqu])
+    MR = _resolvent_rows(TA, Qm.M @ UA, pts)[:, 0, :]  # M U (sI − T)⁻¹
+    UhB = UA.conj().T @ Bq
+    lam_m, mu_m = eig[rule.moved], poles[rule.moved]
+    f = np.prod((pts[:, None] - lam_m[None, :]) / (pts[:, None] - mu_m[None, :]), axis=1)
+    Hrow = Qm.H[0]
+    q = Hrow.size
+    Qinf = np.concatenate([Hrow, -Hrow @ Du])
+    data = f[:, None] * (Qinf[None, :] - MR @ UhB) - Qinf[None, :]
+    # basis: h (sI − Λ)⁻¹ through the complex Schur form of Λ
+    TL, UL = sla.schur(Lam.astype(complex), output="complex")
+    Phi = _resolvent_rows(TL, (h @ UL)[None, :], pts)[:, 0, :] @ UL.conj().T
+    Ar = np.vstack([(Phi * wts[:, None]).real, (Phi * wts[:, None]).imag])
+    Yr = np.vstack([(data * wts[:, None]).real, (data * wts[:, None]).imag])
+    Br, *_ = np.linalg.lstsq(Ar, Yr, rcond=None)
+    ny = max(float(np.linalg.norm(Yr)), 1e-300)
+    misfit = float(np.linalg.norm(Ar @ Br - Yr)) / ny
+    if not np.isfinite(misfit):
+        raise np.linalg.LinAlgError("orthonormal-basis fit: non-finite coefficients")
+    sv = np.linalg.svd(Ar, compute_uv=False)
+    cert = dict(certificate)
+    cert["realisation"] = "orthonormal basis"
+    cert["injection"] = {
+        "rule": "orthonormal basis (no injection gain): " + rule.text,
+        "shift": rule.shift,
+        "moved": int(np.count_nonzero(rule.moved)),
+    }
+    cert["basis_condition"] = float(sv[0] / max(sv[-1], 1e-300))
+    direct = {
+        "E": -Br[:, :q],
+        "G": Br[:, q:],
+        "identities": {"orthonormal-basis fit": misfit},
+    }
+    return LeastOrderRow(k, Lam, None, None, h, np.ones(1), poles, cert, direct)
