@@ -221,7 +221,13 @@ def closest_decision(decisions: Iterable[RankDecision]) -> RankDecision | None:
 
 
 def rank_decision(
-    s: np.ndarray, scale: float, n: int, *, what: str = "rank decision", warn: bool = True
+    s: np.ndarray,
+    scale: float,
+    n: int,
+    *,
+    what: str = "rank decision",
+    warn: bool = True,
+    noise: float = 0.0,
 ) -> RankDecision:
     """Decide the rank from singular values ``s`` (descending).
 
@@ -237,10 +243,14 @@ def rank_decision(
         Description used in the warning.
     warn : bool
         Issue a :class:`CloseRankWarning` when the gap is small.
+    noise : float
+        Relative rounding level of the data beyond ``eps`` (e.g. the error of directions
+        extracted from a strong cancellation in an earlier step of a recursion): the
+        tolerance is ``max(rtol, noise) · scale``.
     """
     s = np.asarray(s, dtype=float)
     scale = float(scale) if scale > 0 else 1.0
-    tol = get_rtol(n) * scale
+    tol = max(get_rtol(n), float(noise)) * scale
     rank = int(np.count_nonzero(s > tol))
     floor = _EPS * scale
     kept = float(s[rank - 1]) if rank > 0 else scale

@@ -165,3 +165,28 @@ def test_sstar_of_a_long_lightly_damped_chain_matches_exact_arithmetic():
     S = gf.min_unobservability_subspace(A, np.array(Cs.tolist(), dtype=float), Ls.tolist())
     assert S.dim == exact and S.min_gap > 1e6
     assert S.steps > 20
+
+
+def test_weakly_reached_direction_does_not_open_an_unobserved_block():
+    # two decoupled 4-state blocks, each read by one sensor, hidden by a rotation; block 0
+    # has a weakly observable mode (Krylov residual 2.7e-5 of ||A||).  The row that reads
+    # sensor 0 must not see block 1: S* = block 1 + the augmented sensor state (dim 5),
+    # quotient and least order 4.  Without the extraction-noise floor the rounding of the
+    # weak direction (2.6e-12 relative, above rtol) opened block 1: order 8.
+    rng = np.random.default_rng(8002)
+    n, b, m = 8, 4, 2
+    A = np.zeros((n, n))
+    for k in range(2):
+        sl = slice(k * b, (k + 1) * b)
+        A[sl, sl] = rng.standard_normal((b, b)) / np.sqrt(b) - 2.0 * np.eye(b)
+    C = np.zeros((2, n))
+    for i in range(2):
+        C[i, i * b : (i + 1) * b] = rng.standard_normal(b)
+    B = rng.standard_normal((n, m))
+    V, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    p = gf.Plant(V @ A @ V.T, V @ B, C @ V.T)
+    faults = [gf.SensorFault(0), gf.SensorFault(1)]
+    for r in range(2):
+        g = gf.design_residual_generator(p, faults, [r])
+        assert g.order == g.info["quotient_order"] == 4
+        assert g.info["S_dim"] == 5

@@ -264,25 +264,50 @@ def preimage_in_kernel(A: np.ndarray, S: Subspace, C: np.ndarray) -> Subspace:
     return Subspace.from_orthonormal(_null_basis(stacked, 1.0, "A⁻¹(S) ∩ Ker C").reshape(n, -1))
 
 
-def extend_basis(B: np.ndarray, X: np.ndarray, scale: float, what: str) -> np.ndarray:
+def extend_basis(
+    B: np.ndarray, X: np.ndarray, scale: float, what: str, *, noise: float = 0.0
+) -> np.ndarray:
     """Orthonormal columns completing ``Im B`` to ``Im B + Im X`` (B orthonormal).
 
     ``X`` is projected on ``(Im B)^⊥`` twice (classical Gram–Schmidt with
     reorthogonalisation); the rank of the projection is decided against
-    ``rtol * scale`` (``scale``: the norm of the data that produced X, e.g. ``‖A‖`` for
-    ``X = A Q``), on the un-normalised product.  Cost ``O(n · (dim B + cols X) · cols X)``:
-    an increasing sequence of subspaces is built without re-orthogonalising its basis.
+    ``max(rtol, noise) * scale`` (``scale``: the norm of the data that produced X, e.g.
+    ``‖A‖`` for ``X = A Q``; ``noise``: see :func:`extraction_noise`), on the
+    un-normalised product.  Cost ``O(n · (dim B + cols X) · cols X)``: an increasing
+    sequence of subspaces is built without re-orthogonalising its basis.
     """
+    return _extend(B, X, scale, what, noise)[0]
+
+
+def _extend(
+    B: np.ndarray, X: np.ndarray, scale: float, what: str, noise: float
+) -> tuple[np.ndarray, float]:
+    """:func:`extend_basis` and the relative noise of the new directions (below)."""
     n = X.shape[0]
     if X.shape[1] == 0:
-        return np.zeros((n, 0))
+        return np.zeros((n, 0)), 0.0
     P = X
     if B.shape[1]:
         P = P - B @ (B.T @ P)
         P = P - B @ (B.T @ P)
     U, s, _ = np.linalg.svd(P, full_matrices=False)
-    r = rank_decision(s, scale, n, what=what).rank
-    return U[:, :r]
+    r = rank_decision(s, scale, n, what=what, noise=noise).rank
+    return U[:, :r], extraction_noise(s[r - 1] if r else 0.0, scale)
+
+
+def extraction_noise(kept: float, scale: float) -> float:
+    """Relative error of unit directions extracted from a projection of norm ``kept``.
+
+    A projection ``P = (I − B Bᵀ) X`` carries an absolute error ``≈ 4 ε scale`` (two
+    projections of data of size ``scale``); normalising a column of size ``kept`` turns it
+    into a relative error ``4 ε scale / kept``.  Mapped by the next step (``Aᵀ u``) this
+    error reappears at ``4 ε scale / kept`` relative to ``‖A‖``: a weakly reached direction
+    (``kept ≪ scale``) raises the rounding floor of the step after it.  0 when nothing was
+    kept.
+    """
+    if kept <= 0:
+        return 0.0
+    return 4.0 * float(np.finfo(float).eps) * float(scale) / float(kept)
 
 
 def split_kernel(

@@ -30,7 +30,14 @@ from geomfdi.geometry.conditioned_invariant import (
     is_conditioned_invariant,
     min_conditioned_invariant,
 )
-from geomfdi.geometry.subspace import Subspace, _norm2, extend_basis, kernel, split_kernel
+from geomfdi.geometry.subspace import (
+    Subspace,
+    _extend,
+    _norm2,
+    extend_basis,
+    kernel,
+    split_kernel,
+)
 from geomfdi.tolerance import CloseRankWarning, decision_stage, record_decisions
 
 __all__ = [
@@ -82,7 +89,11 @@ def min_unobservability_subspace(
     directions of Y by Aᵀ, projects them twice on ``V^⊥`` (rank decided on the
     un-normalised product against ``||A||``; ``Im Cᵀ`` against ``||C||``), and splits the
     part R of V outside ``W*^⊥`` (at most ``dim W*`` directions) plus the new ones against
-    ``W*^⊥``.  With ``||A||`` computed once and one complement at the end the cost is
+    ``W*^⊥``.  A direction extracted from a strong cancellation (a weakly reached one, of
+    norm ``σ ≪ ||A||``) carries a relative error ``4 ε ||A|| / σ``, which ``Aᵀ`` maps into
+    a spurious new direction of that size: the next step's rank decision uses
+    ``max(rtol, 4 ε ||A|| / σ)`` (:func:`geomfdi.geometry.subspace.extraction_noise`), so
+    rounding cannot open a block that no output reaches.  With ``||A||`` computed once and one complement at the end the cost is
     ``O(n³)`` flops whatever the number of steps (the recursion on Z itself costs
     ``O(n³)`` per step).
 
@@ -117,7 +128,7 @@ def min_unobservability_subspace(
         V = np.zeros((n, 0))
         Y = np.zeros((n, 0))
         R = np.zeros((n, 0))
-        new = extend_basis(V, C.T, nC, "Im Cᵀ (Ker C)")
+        new, noise = _extend(V, C.T, nC, "Im Cᵀ (Ker C)", 0.0)
         history = [n]
         for _ in range(n + 1):
             Y_new, R = split_kernel(np.hstack([R, new]), Wb.T, 1.0, "V ∩ W*^⊥")
@@ -125,7 +136,11 @@ def min_unobservability_subspace(
             history.append(n - Y.shape[1])
             if not Y_new.shape[1]:
                 break
-            new = extend_basis(V, A.T @ Y_new, nA, "Im Cᵀ + Aᵀ Z^⊥ (A⁻¹(Z) ∩ Ker C)")
+            # directions extracted from a strong cancellation carry more rounding than ε:
+            # the next step's floor rises accordingly (extraction_noise)
+            new, noise = _extend(
+                V, A.T @ Y_new, nA, "Im Cᵀ + Aᵀ Z^⊥ (A⁻¹(Z) ∩ Ker C)", noise
+            )
     Z = Subspace.from_orthonormal(Y).complement()
     S = InvariantSubspace._wrap(Z, history, [*W.decisions, *rec], "min_unobservability_subspace")
     S.W = W

@@ -7,8 +7,12 @@ coordinate-free angle measure
 
     ‖Q(s) V_x(s)‖ / (‖Q(s)‖ ‖V_x(s)‖),   Q(s) = [G_y(s), G_u(s)],   V_x = [G_x(s); I_x]
 
-at random points s (``I_x = I`` for u, 0 otherwise): the cosine between the residual's
-row space and the channel's response in ``[y; u]``.  It does not change under any change
+at random frequencies (``s = iω`` with ω at the scale of the spectra of plant and
+generator; ``z = e^{iθ}`` in discrete time; ``I_x = I`` for u, 0 otherwise): the cosine
+between the residual's row space and the channel's response in ``[y; u]``, i.e. the
+leakage of the frequency response a residual shows in time.  (Off the stability
+boundary a row that moves many unstable eigenvalues through one output is exponentially
+small, so rounding of any realisation would read as leakage there.)  It does not change under any change
 of the plant's or the generator's state coordinates or a scaling of the residual, so a
 badly scaled realisation cannot hide a leak; a design fails above ``tol`` (1e-9).
 **Stability**: the generator's poles are stable and the plant's unstable invariant
