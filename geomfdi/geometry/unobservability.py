@@ -34,7 +34,6 @@ from geomfdi.geometry.subspace import (
     Subspace,
     _extend,
     _norm2,
-    extend_basis,
     kernel,
     split_kernel,
 )
@@ -93,7 +92,8 @@ def min_unobservability_subspace(
     norm ``σ ≪ ||A||``) carries a relative error ``4 ε ||A|| / σ``, which ``Aᵀ`` maps into
     a spurious new direction of that size: the next step's rank decision uses
     ``max(rtol, 4 ε ||A|| / σ)`` (:func:`geomfdi.geometry.subspace.extraction_noise`), so
-    rounding cannot open a block that no output reaches.  With ``||A||`` computed once and one complement at the end the cost is
+    rounding cannot open a block that no output reaches.  With ``||A||`` computed once
+    and one complement at the end the cost is
     ``O(n³)`` flops whatever the number of steps (the recursion on Z itself costs
     ``O(n³)`` per step).
 

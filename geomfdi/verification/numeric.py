@@ -12,9 +12,9 @@ generator; ``z = e^{iθ}`` in discrete time; ``I_x = I`` for u, 0 otherwise): th
 between the residual's row space and the channel's response in ``[y; u]``, i.e. the
 leakage of the frequency response a residual shows in time.  (Off the stability
 boundary a row that moves many unstable eigenvalues through one output is exponentially
-small, so rounding of any realisation would read as leakage there.)  It does not change under any change
-of the plant's or the generator's state coordinates or a scaling of the residual, so a
-badly scaled realisation cannot hide a leak; a design fails above ``tol`` (1e-9).
+small, so rounding of any realisation would read as leakage there.)  It does not change
+under any change of the plant's or the generator's state coordinates or a scaling of
+the residual, so a badly scaled realisation cannot hide a leak; a design fails above ``tol`` (1e-9).
 **Stability**: the generator's poles are stable and the plant's unstable invariant
 eigenvalues are unobservable from r (``‖G_y(μ) C v‖ / (‖G_y(μ)‖ ‖C v‖)`` = 0 for every
 unstable eigenpair (μ, v), i.e. the residue of the pole μ vanishes).
