@@ -138,9 +138,7 @@ def min_unobservability_subspace(
                 break
             # directions extracted from a strong cancellation carry more rounding than ε:
             # the next step's floor rises accordingly (extraction_noise)
-            new, noise = _extend(
-                V, A.T @ Y_new, nA, "Im Cᵀ + Aᵀ Z^⊥ (A⁻¹(Z) ∩ Ker C)", noise
-            )
+            new, noise = _extend(V, A.T @ Y_new, nA, "Im Cᵀ + Aᵀ Z^⊥ (A⁻¹(Z) ∩ Ker C)", noise)
     Z = Subspace.from_orthonormal(Y).complement()
     S = InvariantSubspace._wrap(Z, history, [*W.decisions, *rec], "min_unobservability_subspace")
     S.W = W
