@@ -3,8 +3,10 @@
 With the Schur form ``Ad = Z T Z^H`` (T upper triangular) the transformed state
 ``z = Z^H x`` obeys ``z_i[k+1] = T_ii z_i[k] + g_i[k] + sum_{j>i} T_ij z_j[k]``, so the
 states follow by back-substitution from ``i = n-1`` down to ``0``, each one a first-order
-recursion over the whole time axis evaluated by one compiled :func:`scipy.signal.lfilter`
-call (over every Monte-Carlo run at once).  When ``Ad`` has a well-conditioned
+recursion over the whole time axis (over every Monte-Carlo run at once), evaluated by
+:func:`first_order_filter` (blocks of samples: one matrix product with the Toeplitz
+matrix of powers, block ends by a doubling scan) or, for long records, by one compiled
+:func:`scipy.signal.lfilter` call.  When ``Ad`` has a well-conditioned
 eigenvector basis (condition number <= 100) the modal form is used instead and the
 scalar recursions are uncoupled.
 
@@ -17,6 +19,7 @@ products with precomputed :class:`LiftedMaps`, so that the ``lfilter`` calls run
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,6 +28,7 @@ import scipy.linalg
 
 __all__ = [
     "LiftedMaps",
+    "first_order_filter",
     "lift_factor",
     "lifted_maps",
     "lifted_recursion",
@@ -74,17 +78,174 @@ def matrix_product(Mat: np.ndarray, flat: np.ndarray) -> np.ndarray:
     return Mat @ flat
 
 
+_FILTER_BLOCK = {"f": 16, "c": 16}  # block length of first_order_filter (real, complex)
+_NUMPY_FILTER_MAX = {"f": 2**16, "c": 2**15}
+"""Largest ``R N`` per state filtered by :func:`first_order_filter` in
+:func:`recursion_inplace` (real, complex); longer records go to ``lfilter``, faster
+there.  Up to these sizes the numpy filter of all the states of a diagonal ``T`` at once
+is about as fast as one ``lfilter`` call per state, and a simulation does not import
+:mod:`scipy.signal` (about 0.6 s)."""
+_NUMPY_FILTER_MIN = 2**14
+"""Smallest ``R N`` filtered by :func:`first_order_filter` for one state alone (the
+back-substitution of a coupled ``T``): below, the per-call cost of ``lfilter`` is
+lower (records of at most ``_NUMPY_FILTER_TINY`` samples excepted)."""
+_NUMPY_FILTER_TINY = 16
+_TEMP_DOUBLES = 2**13  # largest temporary of the block carries (larger ones are slow)
+_NEGLIGIBLE = 1e-150
+"""Powers of a pole below this are set to zero in :func:`first_order_filter`: their terms
+are negligible (relative 1e-150), and subnormal numbers would make the products slow."""
+_OVERFLOW_LOG = 600.0  # |lambda|^N beyond e^600: the doubling powers could overflow
+
+
+_TOEPLITZ_INDEX: dict[int, np.ndarray] = {}
+
+
+def _toeplitz_index(L: int) -> np.ndarray:
+    """``idx[i, j] = i - j`` for ``i >= j``, else ``L + 1`` (the index of a zero)."""
+    idx = _TOEPLITZ_INDEX.get(L)
+    if idx is None:
+        d = np.subtract.outer(np.arange(L), np.arange(L))
+        idx = _TOEPLITZ_INDEX.setdefault(L, np.where(d >= 0, d, L + 1))
+    return idx
+
+
+def first_order_filter(lam: Any, x: np.ndarray, block: int | None = None) -> np.ndarray:
+    """``y[..., k] = lam y[..., k-1] + x[..., k]`` from rest (``y[..., -1] = 0``), along the
+    last axis, with numpy only (the result of ``lfilter([1], [1, -lam], x)``).
+
+    Parameters
+    ----------
+    lam : float or complex, or ndarray (n,)
+        One pole, or one per index of the first axis of ``x`` (independent recursions
+        filtered together).
+    x : ndarray, (..., N), or (n, ..., N) with ``n`` poles
+    block : int, optional
+        Block length ``L`` (default 32 for real, 16 for complex data).
+
+    Returns
+    -------
+    ndarray, shape of ``x``
+        Complex when ``lam`` or ``x`` is.
+
+    Notes
+    -----
+    On blocks of ``L`` samples, ``y_b = W x_b + lam^(i+1) s_(b-1)`` (``i = 0 .. L-1``)
+    with the lower triangular Toeplitz matrix ``W[i, j] = lam^(i-j)`` (``i >= j``) and
+    ``s_b`` the last sample of block ``b``.  One matrix product gives ``W x_b`` for every
+    block, hence the zero-start block ends ``c_b``; the true ends obey
+    ``s_b = lam^L s_(b-1) + c_b``, the same recursion on ``N / L`` samples with ``lam^L``,
+    solved by the same method (``log_L N`` levels); then each block gets its carry.  The
+    sums of the sequential recursion regrouped: rounding stays at its level (a few
+    ``L eps`` relative).  ``|lam|^N`` must stay finite (the caller's concern).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> first_order_filter(0.5, np.array([1.0, 0.0, 0.0, 1.0])).tolist()
+    [1.0, 0.5, 0.25, 1.125]
+    """
+    x = np.asarray(x)
+    lam = np.asarray(lam)
+    dtype = np.result_type(lam, x, 1.0)
+    shape = x.shape
+    n = 1 if lam.ndim == 0 else lam.size
+    N = shape[-1]
+    X = x.reshape(n, -1, N) if x.size else x.reshape(n, 0, N)
+    out = _filter_rows(lam.reshape(n).astype(dtype), X, block or _FILTER_BLOCK[dtype.kind])
+    return out.reshape(shape)
+
+
+def _filter_rows(lam: np.ndarray, X: np.ndarray, block: int) -> np.ndarray:
+    """:func:`first_order_filter` of ``X`` (n, R, N) with the poles ``lam`` (n,)."""
+    n, R, N = X.shape
+    dtype = lam.dtype
+    out = np.empty((n, R, N), dtype=np.result_type(dtype, X))
+    if N == 0 or R == 0:
+        return out
+    L = min(max(block, 2), N)  # (blocks of one sample would not shorten the record)
+    nb, r = divmod(N, L)
+    pw = np.zeros((n, L + 2), dtype=dtype)  # lam^0 .. lam^L, then a zero
+    pw[:, : L + 1] = lam[:, None] ** np.arange(L + 1)
+    pw[np.abs(pw) < _NEGLIGIBLE] = 0.0  # no subnormal numbers (slow arithmetic)
+    W = pw[:, _toeplitz_index(L)]  # (n, L, L)
+    body = out[:, :, : nb * L].reshape(n, R, nb, L)
+    np.matmul(X[:, :, : nb * L].reshape(n, R, nb, L), W[:, None].transpose(0, 1, 3, 2), out=body)
+    if nb > 1:  # the block ends: the same recursion with lam^L
+        S = _filter_rows(pw[:, L], body[..., -1], block)
+        step = max(1, _TEMP_DOUBLES // (R * nb * L))  # rows at a time: small temporaries
+        for i in range(0, n, step):
+            j = min(n, i + step)
+            body[i:j, :, 1:, :] += S[i:j, :, :-1, None] * pw[i:j, None, None, 1 : L + 1]
+        last = S[:, :, -1:]
+    else:
+        last = body[:, :, 0, -1:]
+    if r:
+        tail = X[:, :, nb * L :] @ W[:, :r, :r].transpose(0, 2, 1)
+        tail += last * pw[:, None, 1 : r + 1]
+        out[:, :, nb * L :] = tail
+    return out
+
+
+def _grows(lam: Any, N: int) -> bool:
+    """``|lam|^N`` too large for the powers of :func:`first_order_filter`."""
+    big = float(np.max(np.abs(lam)))
+    return big > 1.0 and N * math.log(big) > _OVERFLOW_LOG
+
+
+def _lfilter(lam: Any, x: np.ndarray) -> np.ndarray:
+    """``lfilter`` (``sosfilt`` with one first-order section for complex data) of ``x``
+    (R, N) along its last axis: the compiled filter for long records."""
+    import scipy.signal  # heavy: loaded for long records only, not with geomfdi
+
+    if np.iscomplexobj(x) or np.iscomplexobj(lam):  # sosfilt: twice as fast as lfilter
+        sos = np.array([[1.0, 0.0, 0.0, 1.0, -lam, 0.0]], dtype=complex)
+        return scipy.signal.sosfilt(sos, x, axis=-1)
+    return scipy.signal.lfilter([1.0], [1.0, -lam], x, axis=-1)
+
+
+def _filter_state(lam: Any, x: np.ndarray) -> np.ndarray:
+    """One state's record ``x`` (R, N): :func:`first_order_filter` for records of
+    ``_NUMPY_FILTER_MIN`` to ``_NUMPY_FILTER_MAX`` values or of at most
+    ``_NUMPY_FILTER_TINY`` samples, else :func:`_lfilter`."""
+    N = x.shape[-1]
+    kind = "c" if np.iscomplexobj(x) or np.iscomplexobj(lam) else "f"
+    size = x.size
+    if (
+        (size >= _NUMPY_FILTER_MIN or N <= _NUMPY_FILTER_TINY)
+        and size <= _NUMPY_FILTER_MAX[kind]
+        and not _grows(lam, N)
+    ):
+        return first_order_filter(lam, x)
+    return _lfilter(lam, x)
+
+
+def _filter_states(lam: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Every state of a diagonal ``T`` (``x``: (n, R, N), ``lam``: (n,)) at once by
+    :func:`first_order_filter` up to ``_NUMPY_FILTER_MAX`` values per state, else state
+    by state."""
+    kind = "c" if np.iscomplexobj(x) or np.iscomplexobj(lam) else "f"
+    if x[0].size <= _NUMPY_FILTER_MAX[kind] and not _grows(lam, x.shape[-1]):
+        return first_order_filter(lam, x)
+    out = np.empty(x.shape, dtype=np.result_type(x, lam))
+    for i in range(x.shape[0]):
+        out[i] = _filter_state(lam[i], x[i])
+    return out
+
+
 def recursion_inplace(T: np.ndarray, G: np.ndarray, stops: Any = None) -> np.ndarray:
     """Back-substitution on ``G`` (n, R, N) in place: ``G[:, :, 0]`` holds ``z0`` and
     ``G[:, :, k]`` the forcing of the step ``k-1 -> k``; on return ``G`` holds ``z``.
 
     With ``z0`` prepended to the forcing, ``s[k] = lambda s[k-1] + G[i, :, k]`` started
-    from rest reproduces ``z_i`` exactly, so each state is a single ``lfilter`` call
-    (``sosfilt`` with one first-order section for complex states).
+    from rest reproduces ``z_i`` exactly, so each state is one first-order filter over
+    the whole ``(R, N)`` array: for a diagonal ``T`` (``stops`` ``1 .. n``) all states at
+    once by :func:`first_order_filter`, else state by state (:func:`_filter_state`);
+    long records by ``lfilter``.
     """
-    import scipy.signal  # heavy: loaded on the first simulation, not with geomfdi
-
     n, R, N = G.shape
+    if n > 1 and stops is not None and np.array_equal(stops, np.arange(1, n + 1)):
+        G[:] = _filter_states(np.diag(T), G)  # diagonal: every state at once
+        return G
     for i in range(n - 1, -1, -1):
         stop = n if stops is None else int(stops[i])
         if i == stop - 2:  # one coupling: no temporary product
@@ -93,12 +254,7 @@ def recursion_inplace(T: np.ndarray, G: np.ndarray, stops: Any = None) -> np.nda
             k = stop - 1 - i
             coup = (T[i, i + 1 : stop] @ G[i + 1 : stop].reshape(k, R * N)).reshape(R, N)
             G[i, :, 1:] += coup[:, :-1]
-        lam = T[i, i]
-        if np.iscomplexobj(G):  # sosfilt's complex path is about twice as fast as lfilter's
-            sos = np.array([[1.0, 0.0, 0.0, 1.0, -lam, 0.0]], dtype=complex)
-            G[i] = scipy.signal.sosfilt(sos, G[i], axis=-1)
-        else:
-            G[i] = scipy.signal.lfilter([1.0], [1.0, -lam], G[i], axis=-1)
+        G[i] = _filter_state(T[i, i], G[i])
     return G
 
 
@@ -120,7 +276,8 @@ def triangular_recursion(
     Returns
     -------
     ndarray, (n, R, N)
-        One :func:`scipy.signal.lfilter` call per state over the whole (R, N) array.
+        One first-order filter per state over the whole (R, N) array
+        (:func:`recursion_inplace`).
     """
     n, R = z0.shape
     G = np.empty((n, R, g.shape[-1] + 1), dtype=np.result_type(T, g, z0))
