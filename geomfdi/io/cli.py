@@ -31,7 +31,7 @@ import sys
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -44,17 +44,15 @@ from geomfdi.io.figures import (
     _structure_figure_args,
     decimate_minmax,
 )
-from geomfdi.io.modelfile import ModelSpec, load_model
-from geomfdi.io.report import (
-    _bank_json,
-    _design_table,
-    _events,
-    _json_default,
-    _sim_table,
-    _threshold_values,
-)
-from geomfdi.model.plant import Plant
-from geomfdi.synthesis.generator import ResidualBank
+
+if TYPE_CHECKING:
+    from geomfdi.io.modelfile import ModelSpec
+    from geomfdi.model.plant import Plant
+    from geomfdi.synthesis.generator import ResidualBank
+
+# The model file reader, the report and the design stack are imported where they are
+# used: ``geomfdi run`` starts its figure worker first, which then loads matplotlib
+# while this process loads them (see :func:`main`).
 
 __all__ = ["main", "design_all", "run_model", "check_outputs", "decimate_minmax"]
 
@@ -222,6 +220,7 @@ def _simulate(
     thresholds: dict[str, Any],
     figures: _Figures | None = None,
 ) -> list[dict[str, Any]]:
+    from geomfdi.io.report import _events, _threshold_values
     from geomfdi.simulation.noise import Noise
     from geomfdi.simulation.simulate import simulate
 
@@ -291,16 +290,26 @@ def run_model(
     plots: bool = True,
     symbolic: bool = True,
     progress: bool = False,
+    figures: _Figures | None = None,
 ) -> dict[str, Any]:
     """Design, verify and simulate ``spec``; write the report into ``out``.
 
     ``progress`` prints ``geomfdi: ...`` lines on stderr; with ``out`` and ``plots`` the
-    figures are drawn by worker processes while the verification and the simulations run.
+    figures are drawn by worker processes while the verification and the simulations run
+    (``figures``: a pool already started, as :func:`main` does; closed on return).
     """
+    from geomfdi.io.report import _bank_json, _json_default
+
     say = _say(progress)
-    if out is not None:
-        check_outputs(spec, out, [o.method for o in spec.methods], plots=plots)
-    figs = _Figures(plots and out is not None)  # workers load matplotlib during the design
+    try:
+        if out is not None:
+            check_outputs(spec, out, [o.method for o in spec.methods], plots=plots)
+    except BaseException:
+        if figures is not None:
+            figures.close()
+        raise
+    # workers load matplotlib during the design
+    figs = figures if figures is not None else _Figures(plots and out is not None)
     try:
         say(f"designing {len(spec.methods)} bank(s): {', '.join(o.method for o in spec.methods)}")
         banks = design_all(spec)
@@ -345,6 +354,8 @@ def _run_steps(
     figs: _Figures,
 ) -> None:
     """The report's text (``summary["report"]``) and the figures of :func:`run_model`."""
+    from geomfdi.io.report import _design_table, _sim_table, _threshold_values
+
     say = _say(progress)
     lines = [
         f"# geomfdi report: {spec.name}",
@@ -482,6 +493,8 @@ def _add_deployment_parsers(sub: Any) -> None:
 
 
 def _deployment_bank(args: Any) -> tuple[ModelSpec, str, ResidualBank, Any]:
+    from geomfdi.io.modelfile import load_model
+
     spec = load_model(args.model)
     banks = design_all(spec)
     method = args.method or next(iter(banks))
@@ -634,6 +647,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     a message.  After a successful run, warnings are printed as
     ``geomfdi: warning: ...`` lines unless ``--quiet``.
     """
+    if argv is None:  # the command line: the process ends after this call
+        import atexit
+        import gc
+
+        # the interpreter's last collection would walk every object of sympy, scipy and
+        # numpy (about 0.1 s); the memory goes back to the system anyway
+        atexit.register(gc.freeze)
     args = _parser().parse_args(argv)
     if args.command in ("evaluate", "codegen"):
         return _run_deployment(args)
@@ -648,7 +668,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     out = args.out
     if out is None and args.command in ("run", "simulate"):
         out = Path.cwd()
+    # the figure worker starts now, before the model file reader and the design stack
+    # are loaded: it loads matplotlib meanwhile (run_model closes it)
+    figs = _Figures(not args.no_plots and out is not None)
     try:
+        from geomfdi.io.modelfile import load_model
+
         spec = load_model(args.model)
         if out is not None:
             out.mkdir(parents=True, exist_ok=True)
@@ -661,6 +686,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 plots=not args.no_plots,
                 symbolic=not args.no_symbolic,
                 progress=not args.quiet and (args.progress or sys.stderr.isatty()),
+                figures=figs,
             )
     except GeomFDIError as exc:
         print(f"geomfdi: error: {_one_line(exc)}", file=sys.stderr)
@@ -680,6 +706,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
+    finally:
+        figs.close()
     try:
         _print_results(args, summary, caught, out)
     except BrokenPipeError:
@@ -696,6 +724,8 @@ def _print_results(
     args: argparse.Namespace, summary: dict[str, Any], caught: list, out: Any
 ) -> None:
     """Warnings on stderr, then the report or the JSON on stdout."""
+    from geomfdi.io.report import _json_default
+
     if not args.quiet:
         shown = set()
         for w in caught:

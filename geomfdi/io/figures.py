@@ -7,15 +7,19 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from geomfdi.synthesis.generator import ResidualBank
+if TYPE_CHECKING:  # (not loaded: the figure worker starts before the design stack)
+    from geomfdi.synthesis.generator import ResidualBank
 
 __all__ = ["decimate_minmax", "FIGURE_DPI", "FIGURE_COLUMNS"]
 
 FIGURE_DPI = 100
+PNG_COMPRESS_LEVEL = 1
+"""zlib level of the PNG files (lossless at every level: the same pixels as the default 6,
+files about 15 % larger, encoded several times faster)."""
 FIGURE_COLUMNS = 800
 """Pixel columns of a residual figure: traces keep at most their min and max per column."""
 
@@ -54,11 +58,19 @@ def decimate_minmax(t: Any, r: Any, columns: int = FIGURE_COLUMNS) -> np.ndarray
     return np.unique(np.concatenate(keep))
 
 
+def _save(fig: Any, path: Path) -> str:
+    """``fig`` written to ``path`` (a checked output file) as PNG; returns the file name."""
+    fig.savefig(
+        path, dpi=FIGURE_DPI, format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL}
+    )
+    return path.name
+
+
 def _draw_structure(kwargs: dict[str, Any], path: Path) -> str:
     """Worker: the structure figure of one bank, saved as PNG."""
-    from geomfdi.plotting.residuals import plot_structure, save_png
+    from geomfdi.plotting.residuals import plot_structure
 
-    return save_png(plot_structure(**kwargs), path, dpi=FIGURE_DPI).name
+    return _save(plot_structure(**kwargs), path)
 
 
 def _structure_figure_args(bank: ResidualBank, title: str) -> dict[str, Any]:
@@ -78,14 +90,14 @@ def _draw_residuals(kwargs: dict[str, Any], path: Path) -> str:
     The stacked axes get fixed margins (in inches) and no layout engine: with one (even a
     placeholder), ``savefig`` draws the figure twice.
     """
-    from geomfdi.plotting.residuals import plot_residuals, save_png
+    from geomfdi.plotting.residuals import plot_residuals
 
     fig = plot_residuals(**kwargs)
     w, h = fig.get_size_inches()
     fig.set_layout_engine(None)  # no layout engine: ``savefig`` draws the figure once
     top = 0.55 if kwargs.get("title") else 0.2
     fig.subplots_adjust(left=0.9 / w, right=1 - 0.2 / w, bottom=0.55 / h, top=1 - top / h)
-    return save_png(fig, path, dpi=FIGURE_DPI).name
+    return _save(fig, path)
 
 
 def _warm_up() -> None:
@@ -105,7 +117,12 @@ def _warm_up() -> None:
     t = np.linspace(0.0, 1.0, 8)
     fig = plot_residuals(t, np.vstack([t, -t]), threshold=0.5, onsets=[0.5], title="warm-up")
     fig.set_layout_engine(None)
-    fig.savefig(io.BytesIO(), dpi=FIGURE_DPI, format="png")
+    fig.savefig(
+        io.BytesIO(),
+        dpi=FIGURE_DPI,
+        format="png",
+        pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL},
+    )
 
 
 def _residual_figure_args(res: Any, title: str) -> dict[str, Any]:
@@ -133,75 +150,129 @@ def _residual_figure_args(res: Any, title: str) -> dict[str, Any]:
     }
 
 
-class _Figures:
-    """PNG figures drawn by worker processes while the main process goes on.
+def _worker(todo: Any, done: Any, help_wanted: Any) -> None:
+    """Figure process: warm up, then draw the jobs of ``todo`` until a ``None``.
 
-    One worker per core but one (the main process keeps a core for the design, the
-    simulations and the proofs); the first starts at once and loads matplotlib while the
-    main process designs, the others start when figures are waiting; once done, the main
-    process draws too.  Falls back to drawing in this process when no process pool can be
-    started.
+    Each job ``(key, fn, args)`` gives ``(key, True, fn(*args))`` on ``done``, or
+    ``(key, False, exception)``.  As soon as more than one job waits (or
+    ``help_wanted`` is set: the main process is done with its own work), the process
+    forks once: the copy starts warm (matplotlib loaded, fonts set up) and draws from
+    the same queue, so that figures are drawn two at a time without a second matplotlib
+    start-up; the original waits for it before exiting, and exits non-zero if it failed.
+    """
+    _warm_up()
+    helper = 0
+    is_helper = False
+    while True:
+        job = todo.get()
+        if job is None:
+            break
+        more = help_wanted.is_set() or not todo.empty()  # more than this job to draw
+        if more and not helper and not is_helper and hasattr(os, "fork"):
+            helper = os.fork()
+            if helper == 0:  # the copy: the job in hand is the original's
+                is_helper = True
+                continue
+        key, fn, args = job
+        try:
+            done.put((key, True, fn(*args)))
+        except Exception as exc:  # reported to the main process, which raises it
+            try:
+                done.put((key, False, exc))
+            except Exception:  # an exception that cannot be pickled
+                done.put((key, False, RuntimeError(f"{type(exc).__name__}: {exc}")))
+    if is_helper:
+        os._exit(0)
+    if helper:
+        _, status = os.waitpid(helper, 0)
+        if status:
+            raise SystemExit(1)
+
+
+class _Figures:
+    """PNG figures drawn in a separate process while the main process goes on.
+
+    The process starts at once (``geomfdi run`` starts it before loading the design
+    stack) and loads matplotlib while the main process designs, simulates and verifies;
+    jobs are queued as they come (pickled arguments: plain arrays and labels).  When the
+    main process is done (:meth:`results`), the figure process forks a warm copy of
+    itself, so that both cores draw what is left without a second matplotlib start-up.
+    Jobs a failed process left undrawn are drawn in the main process; so is everything
+    when no process can be started.
     """
 
     def __init__(self, enabled: bool) -> None:
         self.enabled = enabled
-        self.pool: Any = None
-        self.jobs: list[tuple[Any, Any]] = []
+        self.jobs: list[Any] = []  # the keys, in order
         self.calls: dict[Any, tuple[Callable[..., str], tuple[Any, ...]]] = {}
+        self.drawn: dict[Any, str] = {}
+        self.proc: Any = None
         if enabled:
             import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor
 
             methods = multiprocessing.get_all_start_methods()
             ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
-            # the main process keeps one core for the design, simulations and proofs
-            workers = max(1, min(4, (os.cpu_count() or 1) - 1))
             try:
-                self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
-                self.pool.submit(_warm_up)
+                # jobs through a queue with a feeder thread (a put never waits for the
+                # process), results (file names) through a plain pipe
+                self.todo = ctx.Queue()
+                self.todo.cancel_join_thread()  # never wait for it at exit
+                self.done = ctx.SimpleQueue()
+                self.help = ctx.Event()
+                self.proc = ctx.Process(
+                    target=_worker, args=(self.todo, self.done, self.help), daemon=True
+                )
+                self.proc.start()
             except (OSError, NotImplementedError, ValueError, RuntimeError):
-                self.pool = None
+                self.proc = None
 
     def submit(self, key: Any, fn: Callable[..., str], *args: Any) -> None:
         """Draw a figure (``fn(*args)`` returns its file name), when figures are on."""
         if not self.enabled:
             return
-        if self.pool is not None:
+        self.jobs.append(key)
+        self.calls[key] = (fn, args)
+        if self.proc is not None:
             try:
-                self.jobs.append((key, self.pool.submit(fn, *args)))
-                self.calls[key] = (fn, args)
+                self.todo.put((key, fn, args))
                 return
-            except RuntimeError:  # the pool broke: draw here
-                self.pool = None
-        self.jobs.append((key, _Done(fn(*args))))
+            except (OSError, ValueError):  # the process is gone: draw here
+                self.close()
+        self.drawn[key] = fn(*args)
 
     def results(self) -> dict[Any, str]:
-        """Wait for every figure; ``{key: file name}``.
+        """Wait for every figure; ``{key: file name}``."""
+        from multiprocessing.connection import wait
 
-        The main process, done with its own work, draws the figures no worker has
-        started yet (from the last one back, while the workers go on from the front).
-        """
+        ok = False
         try:
-            for k in range(len(self.jobs) - 1, -1, -1):
-                key, job = self.jobs[k]
-                if not isinstance(job, _Done) and job.cancel():
+            if self.proc is not None:
+                self.help.set()
+                for _ in range(2):  # one stop for each drawing process
+                    self.todo.put(None)
+                reader = self.done._reader
+                while len(self.drawn) < len(self.jobs):
+                    ready = wait([reader, self.proc.sentinel])
+                    if reader in ready:
+                        key, ok, value = self.done.get()
+                        if not ok:
+                            raise value
+                        self.drawn[key] = value
+                    elif not reader.poll():  # the process ended, nothing left to read
+                        break
+            for key in self.jobs:  # left undrawn by a failed process
+                if key not in self.drawn:
                     fn, args = self.calls[key]
-                    self.jobs[k] = (key, _Done(fn(*args)))
-            return {key: job.result() for key, job in self.jobs}
+                    self.drawn[key] = fn(*args)
+            ok = True
+            return {key: self.drawn[key] for key in self.jobs}
         finally:
-            self.close()
+            self.close(stop=not ok)
 
-    def close(self) -> None:
-        if self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
-            self.pool = None
-
-
-class _Done:
-    """The value of a job run in this process (the ``result()`` of a future)."""
-
-    def __init__(self, value: Any) -> None:
-        self.value = value
-
-    def result(self) -> Any:
-        return self.value
+    def close(self, stop: bool = True) -> None:
+        """End the figure process: at once (``stop``, an early end), or when it is done."""
+        if self.proc is not None:
+            proc, self.proc = self.proc, None
+            if stop and proc.is_alive():
+                proc.terminate()  # (a helper, if any, ends at its stop mark)
+            proc.join()
