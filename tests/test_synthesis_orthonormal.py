@@ -152,3 +152,22 @@ def test_dense_sensor_bank_hundred_states():
     p = _dense(100, 20, 100)
     bank = gf.design_sensor_bank(p)
     _check_bank(p, bank)
+
+
+@pytest.mark.parametrize("dt", [0.0, 0.1])
+def test_phase_equispaced_frequencies_make_the_fit_orthogonal(dt):
+    # 80 poles clustered as a lightly damped chain's (dense near the top frequency): the
+    # weighted sampled basis is orthogonal up to scale (condition ~1), so the coefficients
+    # of the fit are as accurate as the data
+    from geomfdi.synthesis.orthonormal import POINTS_PER_POLE, _frequencies
+
+    om = 2 * np.sin(np.arange(1, 41) * np.pi / 81)
+    poles = np.concatenate([-0.05 + 1j * om, -0.05 - 1j * om])
+    if dt:
+        poles = np.exp(0.1 * poles)
+    Lam, h = output_normal_basis(poles, dt)
+    pts, wts = _frequencies(poles, dt, POINTS_PER_POLE)
+    Phi = np.array([np.linalg.solve((s * np.eye(h.size) - Lam).T, h) for s in pts])
+    Ar = np.vstack([(Phi * wts[:, None]).real, (Phi * wts[:, None]).imag])
+    sv = np.linalg.svd(Ar, compute_uv=False)
+    assert sv[0] / sv[-1] < 1.5

@@ -35,10 +35,9 @@ So the row is realised without ``L``:
    imaginary axis (Takenaka–Malmquist; Ninness & Gustafsson 1997), so every entry of
    ``Λ`` and ``h`` is of the size of the poles, whatever their number.
 2. **Coefficients.**  ``Q(s) = Q(∞) + h (sI − Λ)⁻¹ B_r`` with ``Q(∞) = [H, −H D_u]``; the
-   real ``B_r`` solves the weighted least-squares problem at frequencies drawn around
-   every pole (Cauchy quantiles of width ``|Re p|``, weights ``density^{-1/2}``: a
-   discretised inner product of the orthonormal basis, so the problem is well
-   conditioned).  The data lie in the span exactly, so the relative misfit measures the
+   real ``B_r`` solves the weighted least-squares problem at frequencies equispaced in
+   the phase of the basis (weights ``density^{-1/2}``: a discretised inner product of the
+   orthonormal basis, so the problem is well conditioned; :func:`_frequencies`).  The data lie in the span exactly, so the relative misfit measures the
    accuracy (reported as the identity ``"orthonormal-basis fit"``; above
    ``IDENTITY_TOL`` the attempt fails).
 
@@ -56,10 +55,14 @@ import scipy.linalg as sla
 from geomfdi.synthesis.injection import mirror_rule
 from geomfdi.synthesis.least_order import LeastOrderRow, Quotient
 
-__all__ = ["output_normal_basis", "orthonormal_row", "POINTS_PER_POLE"]
+__all__ = ["output_normal_basis", "orthonormal_row", "POINTS_PER_POLE", "SPREAD_MAX"]
+
+SPREAD_MAX = 1e6
+"""Largest ratio of the row's largest to smallest response over the sample frequencies:
+beyond it the pointwise accuracy of the smallest responses is below the leakage check."""
 
 POINTS_PER_POLE = 6
-"""Frequencies drawn around each pole for the least-squares coefficients."""
+"""Real equations per basis function in the least-squares fit (``k · 6 / 2`` frequencies)."""
 
 
 def _pairs_first(poles: np.ndarray) -> np.ndarray:
@@ -116,22 +119,38 @@ def output_normal_basis(poles: np.ndarray, dt: float) -> tuple[np.ndarray, np.nd
 
 
 def _frequencies(poles: np.ndarray, dt: float, per: int) -> tuple[np.ndarray, np.ndarray]:
-    """Sample points on the stability boundary around every pole and their LS weights.
+    """Sample points on the stability boundary, equispaced in the basis' phase, and weights.
 
-    Continuous: ``ω = Im p + |Re p| tan(π (j + ½)/per − π/2)`` (Cauchy quantiles; the
-    density of ``|h (jω − Λ)⁻¹|²``), folded to ``ω ≥ 0``; weights ``density(ω)^{-1/2}``.
-    Discrete: the same on the bilinear images, mapped to ``z = e^{2i atan ω}``.
+    Continuous: with ``w_j = |Re p_j|``, ``b_j = Im p_j ≥ 0`` (each pair once), the phase
+    ``Θ(ω) = Σ_j atan((ω − b_j)/w_j) + atan((ω + b_j)/w_j)`` increases from 0 to
+    ``π · #poles`` on ``ω ≥ 0``; its derivative ``ρ(ω)`` is the density of
+    ``|h (iω − Λ)⁻¹|²`` (the orthonormal functions behave like ``e^{ikΘ}``).  The points
+    solve ``Θ(ω_i) = π #poles (i + ½)/N`` (bisection in ``atan ω``), ``N = per · k / 2``
+    complex points for k real basis functions; weights ``ρ(ω_i)^{-1/2}`` make the
+    least-squares problem a discretised inner product.  Clustered poles thus get as many
+    points as their share of the phase, not copies of one another's.  Discrete: the
+    same on the bilinear images, mapped to ``z = e^{2i atan ω}``.
     """
     p = np.asarray(poles, dtype=complex)
     c = (p - 1.0) / (p + 1.0) if dt > 0 else p
+    k = c.size
     c = c[c.imag >= 0]
-    q = (np.arange(per) + 0.5) / per
-    om = np.abs((c.imag[:, None] + np.abs(c.real)[:, None] * np.tan(np.pi * (q - 0.5))).ravel())
-    om = np.unique(om)
-    dens = np.zeros_like(om)
-    for cc in c:
-        w = abs(cc.real)
-        dens += w / ((om - cc.imag) ** 2 + w * w) + w / ((om + cc.imag) ** 2 + w * w)
+    w, b = np.abs(c.real), c.imag
+
+    def theta(om: np.ndarray) -> np.ndarray:
+        x = om[:, None]
+        return np.sum(np.arctan((x - b) / w) + np.arctan((x + b) / w), axis=1)
+
+    npts = max(1, int(np.ceil(per * k / 2)))
+    target = np.pi * c.size * (np.arange(npts) + 0.5) / npts
+    lo, hi = np.zeros(npts), np.full(npts, np.pi / 2)
+    for _ in range(60):  # bisection on φ = atan ω
+        mid = 0.5 * (lo + hi)
+        up = theta(np.tan(mid)) < target
+        lo, hi = np.where(up, mid, lo), np.where(up, hi, mid)
+    om = np.tan(0.5 * (lo + hi))
+    x = om[:, None]
+    dens = np.sum(w / ((x - b) ** 2 + w * w) + w / ((x + b) ** 2 + w * w), axis=1)
     wts = 1.0 / np.sqrt(np.maximum(dens, 1e-300))
     pts = np.exp(2j * np.arctan(om)) if dt > 0 else 1j * om
     return pts, wts
@@ -164,7 +183,8 @@ def orthonormal_row(
     Raises
     ------
     numpy.linalg.LinAlgError
-        The quotient reads more than one output combination, or the fit fails.
+        The quotient reads more than one output combination; the row's response over the
+        sample frequencies spans more than ``SPREAD_MAX``; or the fit fails.
     """
     k = Qm.k
     if Qm.rho != 1 or k == 0:
@@ -184,7 +204,18 @@ def orthonormal_row(
     Hrow = Qm.H[0]
     q = Hrow.size
     Qinf = np.concatenate([Hrow, -Hrow @ Du])
-    data = f[:, None] * (Qinf[None, :] - MR @ UhB) - Qinf[None, :]
+    Qpts = f[:, None] * (Qinf[None, :] - MR @ UhB)
+    size = np.linalg.norm(Qpts, axis=1)
+    spread = float(np.max(size) / max(float(np.min(size)), 1e-300))
+    if not spread <= SPREAD_MAX:
+        # mirroring far from the axis makes |f(iω)| exponentially small where many
+        # lightly damped eigenvalues cluster: the response is not resolved in floating
+        # point there (a larger relaxation mirrors closer to the axis)
+        raise np.linalg.LinAlgError(
+            f"orthonormal-basis realisation: the row's frequency response spans "
+            f"{np.log10(spread):.0f} decades at this stability degree"
+        )
+    data = Qpts - Qinf[None, :]
     # basis: h (sI − Λ)⁻¹ through the complex Schur form of Λ
     TL, UL = sla.schur(Lam.astype(complex), output="complex")
     Phi = _resolvent_rows(TL, (h @ UL)[None, :], pts)[:, 0, :] @ UL.conj().T
