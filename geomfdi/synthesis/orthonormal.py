@@ -37,9 +37,14 @@ So the row is realised without ``L``:
 2. **Coefficients.**  ``Q(s) = Q(∞) + h (sI − Λ)⁻¹ B_r`` with ``Q(∞) = [H, −H D_u]``; the
    real ``B_r`` solves the weighted least-squares problem at frequencies equispaced in
    the phase of the basis (weights ``density^{-1/2}``: a discretised inner product of the
-   orthonormal basis, so the problem is well conditioned; :func:`_frequencies`).  The data lie in the span exactly, so the relative misfit measures the
-   accuracy (reported as the identity ``"orthonormal-basis fit"``; above
-   ``IDENTITY_TOL`` the attempt fails).
+   orthonormal basis, so the problem is well conditioned; :func:`_frequencies`).  The
+   data lie in the span exactly, so the relative misfit measures the accuracy (reported
+   as the identity ``"orthonormal-basis fit"``; above ``IDENTITY_TOL`` the attempt
+   fails).
+3. **Resolution.**  Mirroring about ``Re λ = −α`` keeps ``|f| = 1`` on that line, not on
+   the axis; where many lightly damped eigenvalues cluster, ``|f(iω)|`` is exponentially
+   small.  A response spanning more than ``SPREAD_MAX`` over the sample frequencies is
+   not resolved: the attempt stops and the caller relaxes the stability degree.
 
 The generator is ``F = Λ``, ``[−E, G] = B_r``, ``M_g = h``, ``[−H_g, K] = Q(∞)``; it is
 checked on the physical plant like every other realisation.
