@@ -11,8 +11,9 @@ from geomfdi.model.faults import fault_matrices
 from geomfdi.synthesis.build import _quotient
 from geomfdi.synthesis.injection import mirror_rule
 from geomfdi.synthesis.least_order import plant_scale
-from geomfdi.synthesis.orthonormal import orthonormal_row, output_normal_basis
+from geomfdi.synthesis.orthonormal import orthonormal_row
 from geomfdi.synthesis.quotient_observer import quotient_observer_row
+from geomfdi.synthesis.rational_basis import output_normal_basis
 
 
 def _match(a, b):
@@ -159,7 +160,8 @@ def test_phase_equispaced_frequencies_make_the_fit_orthogonal(dt):
     # 80 poles clustered as a lightly damped chain's (dense near the top frequency): the
     # weighted sampled basis is orthogonal up to scale (condition ~1), so the coefficients
     # of the fit are as accurate as the data
-    from geomfdi.synthesis.orthonormal import POINTS_PER_POLE, _frequencies
+    from geomfdi.synthesis.orthonormal import POINTS_PER_POLE
+    from geomfdi.synthesis.rational_basis import phase_frequencies as _frequencies
 
     om = 2 * np.sin(np.arange(1, 41) * np.pi / 81)
     poles = np.concatenate([-0.05 + 1j * om, -0.05 - 1j * om])
@@ -171,3 +173,46 @@ def test_phase_equispaced_frequencies_make_the_fit_orthogonal(dt):
     Ar = np.vstack([(Phi * wts[:, None]).real, (Phi * wts[:, None]).imag])
     sv = np.linalg.svd(Ar, compute_uv=False)
     assert sv[0] / sv[-1] < 1.5
+
+
+def test_high_degree_parity_basis_matches_the_brute_force_least_order(monkeypatch):
+    # every degree ≥ 1 through the orthonormal parity basis (as above NU_PF_MAX): on
+    # random problems the delivered order is the independent brute-force least order,
+    # decoupling holds and every target is seen (check_row's independent checks)
+    from test_synthesis_least_order import check_row, random_problem
+
+    import geomfdi.synthesis.least_order as lo
+
+    monkeypatch.setattr(lo, "NU_PF_MAX", 0)
+    orders, onb = [], 0
+    for seed in range(60):
+        plant, faults, row = random_problem(seed)
+        got = check_row(plant, faults, row)
+        if got is not None:
+            orders.append(got)
+            tgt = [j for j in range(len(faults)) if row[j]]
+            g = gf.design_residual_generator(
+                plant, faults, tgt, decouple=[j for j in range(len(faults)) if not row[j]]
+            )
+            onb += g.info["realisation"] == "orthonormal parity basis"
+    assert max(orders) >= 2 and onb >= 5
+
+
+def test_chain_rows_of_high_least_order_are_delivered_at_it():
+    # 40-state lightly damped chain, 4 position sensors; a row reading three of them has
+    # least order 14 (largest observability index), far above the partial-fraction range
+    # and far below the quotient's 40 states
+    from test_synthesis_realsize import chain
+
+    p = chain(20, 4)
+    faults = [gf.SensorFault(i) for i in range(4)]
+    g = gf.design_residual_generator(p, faults, [1, 2, 3], decouple=[0])
+    cert = g.info["least_order"]
+    assert g.info["realisation"] == "orthonormal parity basis"
+    assert g.order == cert["order"] == 14 < g.info["quotient_order"] == 40
+    assert cert["unseen_below"][13]
+    sigs = fault_matrices(faults, p.n, p.q)
+    assert leak_angle(g, p.A, p.B, p.C, p.D, *sigs[0], False, 0.0, boundary=True) < 1e-9
+    assert leak_angle(g, p.A, p.B, p.C, p.D, p.B, p.D, True, 0.0, boundary=True) < 1e-9
+    for j in (1, 2, 3):
+        assert leak_angle(g, p.A, p.B, p.C, p.D, *sigs[j], False, 0.0, boundary=True) > 1e-6

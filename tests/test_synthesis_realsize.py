@@ -107,12 +107,13 @@ def test_chain_banks_every_row(N, q):
     high = [g for g in bank.generators if g.order > 12]
     assert high  # rows of high least order (indices ~ n / 3) are delivered
     for g in high:
-        # delivered as the quotient observer: order above the least order, stated
+        # at their least order (above the partial-fraction range), proven by the
+        # certificate: the degree-(ν − 1) parity space misses a target
         cert = g.info["least_order"]
-        assert g.info["realisation"] == "quotient observer"
-        low, top = cert["bounds"]
-        assert low <= top < g.order == g.info["quotient_order"]
-        assert "above the least order" in cert["statement"]
+        assert g.info["realisation"] == "orthonormal parity basis"
+        assert g.order == cert["order"] < g.info["quotient_order"]
+        assert cert["unseen_below"][g.order - 1]
+        assert "is least" in cert["statement"]
 
 
 @pytest.mark.slow

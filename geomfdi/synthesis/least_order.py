@@ -2,25 +2,9 @@
 
 See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.md``).
 
-**Decoupled signals with feedthrough.**  A signal ``w`` to be decoupled (a disturbance, a
-decoupled fault) enters as ``x' = … + B_w w``, ``y = … + D_w w``.  Columns with
-``D_w ≠ 0`` are made states of an augmented model (``v' = free``)::
-
-    A_a = [[A, B_w'], [0, 0]],   C_a = [C, D_w'],   L_a = [[B_w'', 0], [0, I]]
-
-(``'``: columns with an output part, ``''``: the others).  The transfer from the new free
-input is ``(C (sI − A)⁻¹ B_w' + D_w') / s``, so the left annihilators — hence every
-residual and its least order — are those of the original model; no output filter is
-needed and rows with ``H C = 0`` come out as static (order-0) parity relations.
-
-**Quotient.**  With ``S = S*(A_a, C_a, L_a)``, Q an orthonormal basis of S^⊥, P = Qᵀ,
-``D0 = −Q Qᵀ A_a S (C_a S)⁺`` and H an orthonormal basis of the left null space of
-``C_a S`` (so ``H [C S, D_w'] = 0``), ``ξ = P x_a`` obeys::
-
-    ξ' = A0 ξ − P D0 y + (P B + P D0 D_u) u + (P B_f + P D0 D_f) f,
-    z  = H (y − D_u u) = M ξ + H D_f f
-
-with ``A0 = P (A_a + D0 C_a) Q`` and ``M = H C_a Q``; decoupled signals are gone.
+**Quotient.**  The decoupled quotient ``(A0, M)`` of the row, with its inputs
+``B_qy, B_qu`` and targets, comes from :mod:`geomfdi.synthesis.quotient` (S*, decoupled
+feedthrough made states, so that static rows come out of order 0).
 
 **Degree-ν parity space by resolvents.**  For distinct stable poles λ_1 … λ_ν not in
 spec(A0), the rows ``x = (x_0, x_1, …, x_ν)`` with::
@@ -55,16 +39,17 @@ the quotient-observer realisation of :mod:`geomfdi.synthesis.quotient_observer`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from geomfdi.errors import DesignError
 from geomfdi.geometry.staircase import Staircase, observer_staircase
-from geomfdi.geometry.subspace import Subspace, _norm2, pinv
-from geomfdi.geometry.unobservability import min_unobservability_subspace
-from geomfdi.tolerance import get_rtol, rank_decision
+from geomfdi.geometry.subspace import _norm2
+from geomfdi.synthesis.parity_onb import onb_parity_space, realise_onb
+from geomfdi.synthesis.quotient import Quotient, quotient_model
+from geomfdi.tolerance import rank_decision
 
 __all__ = [
     "Quotient",
@@ -85,6 +70,10 @@ NU_PF_MAX = 12
 the basis is too ill-conditioned (distinct poles over two decades) and only the top
 degree (the largest observability index, where the space holds every residual) is
 decided, on the quotient's own transfer."""
+
+ONB_GAP_MIN = 1e6
+"""Singular-value gap of a high-degree parity space (orthonormal basis) above which a
+target it misses counts as unseen at that degree (for the least-order certificate)."""
 
 _GOLD = 0.6180339887498949
 
@@ -121,95 +110,6 @@ def default_pole_sequence(count: int, omega: float, dt: float) -> np.ndarray:
     if dt > 0:
         return np.exp(-0.7 * omega * spread)
     return -omega * spread
-
-
-@dataclass
-class Quotient:
-    """The decoupled quotient system of one row (module Notes)."""
-
-    A0: np.ndarray
-    M: np.ndarray
-    H: np.ndarray
-    Bqy: np.ndarray
-    Bqu: np.ndarray
-    Bf: list[np.ndarray]
-    Df: list[np.ndarray]
-    P: np.ndarray
-    S: Any
-    n_aug: int
-    identities: dict[str, float] = field(default_factory=dict)
-
-    @property
-    def k(self) -> int:
-        return self.A0.shape[0]
-
-    @property
-    def rho(self) -> int:
-        return self.M.shape[0]
-
-
-def quotient_model(
-    A: np.ndarray,
-    B: np.ndarray,
-    C: np.ndarray,
-    Du: np.ndarray,
-    Bw: np.ndarray,
-    Dw: np.ndarray,
-    targets: list[tuple[np.ndarray, np.ndarray]],
-) -> Quotient:
-    """Augment decoupled feedthrough, compute S* and the quotient (module Notes)."""
-    n, q = A.shape[0], C.shape[0]
-    sc = max(_norm2(np.vstack([Bw, Dw])) if Bw.size else 0.0, 1e-300)
-    direct = np.linalg.norm(Dw, axis=0) > get_rtol(n + q) * sc if Dw.size else np.zeros(0, bool)
-    Wf_B, Wf_D = Bw[:, direct], Dw[:, direct]
-    Ws = Bw[:, ~direct] if Bw.size else np.zeros((n, 0))
-    na = int(np.count_nonzero(direct))
-    Aa = np.zeros((n + na, n + na))
-    Aa[:n, :n] = A
-    Aa[:n, n:] = Wf_B
-    Ca = np.hstack([C, Wf_D])
-    La = np.zeros((n + na, Ws.shape[1] + na))
-    La[:n, : Ws.shape[1]] = Ws
-    La[n:, Ws.shape[1] :] = np.eye(na)
-    Ba = np.vstack([B, np.zeros((na, B.shape[1]))])
-    S = min_unobservability_subspace(Aa, Ca, La)
-    nC, nA = max(_norm2(Ca), 1e-300), _norm2(Aa)
-    if S.dim:
-        Sb = S.basis
-        CS = Ca @ Sb
-        Q = S.complement().basis
-        D0 = -Q @ (Q.T @ Aa @ Sb @ pinv(CS, nC, what="(C S)⁺"))
-        H = Subspace(CS, scale=nC).complement().basis.T
-    else:
-        Sb = np.zeros((n + na, 0))
-        Q = np.eye(n + na)
-        D0 = np.zeros((n + na, q))
-        H = np.eye(q)
-    P = Q.T
-    A0 = P @ (Aa + D0 @ Ca) @ Q
-    M = H @ Ca @ Q
-    ident = {
-        "P (A + D0 C) S = 0": float(
-            _norm2(P @ (Aa + D0 @ Ca) @ Sb) / max(nA, _norm2(D0) * nC, 1e-300)
-        )
-        if Sb.size
-        else 0.0,
-        "H C S = 0": float(_norm2(H @ Ca @ Sb) / nC) if Sb.size and H.size else 0.0,
-    }
-    Bqy = -P @ D0
-    Bqu = P @ Ba + P @ D0 @ Du
-    Bf, Df = [], []
-    rt = 1e3 * get_rtol(n + na + q)
-    for Bt, Dt in targets:  # a target that reaches the quotient only through rounding is 0
-        b = P @ np.vstack([Bt, np.zeros((na, Bt.shape[1]))]) + P @ D0 @ Dt
-        dd = H @ Dt
-        if _norm2(b) <= rt * (_norm2(Bt) + _norm2(D0) * _norm2(Dt)):
-            b = np.zeros_like(b)
-        if _norm2(dd) <= rt * _norm2(Dt):
-            dd = np.zeros_like(dd)
-        Bf.append(b)
-        Df.append(dd)
-    return Quotient(A0, M, H, Bqy, Bqu, Bf, Df, P[:, :n], S, n + na, ident)
 
 
 # ------------------------------------------------------------------ parity space
@@ -627,6 +527,28 @@ def least_order_row(
             nu += 1
             continue
         if nu > NU_PF_MAX and user is None:
+            # a row of one output combination at its top degree is the whole quotient:
+            # realised by geomfdi.synthesis.orthonormal, not as a parity vector
+            onb = _onb_degree(Qm, nu, dim, omega, dt) if Qm.rho > 1 or nu < top else None
+            if onb is not None:
+                space, cand = onb
+                seen = space["rel"] > SEE_TOL
+                if np.all(seen) and nt:
+                    history.append(
+                        {"order": nu, "dim": dim, "rank": ranks[-1], "gap": space["gap"]}
+                    )
+                    return _onb_row(
+                        Qm, nu, space, cand, dims, ranks, history, staircase, unseen_at, undecided
+                    )
+                if space["gap"] >= ONB_GAP_MIN:  # a clear space: its unseen targets count
+                    history.append(
+                        {"order": nu, "dim": dim, "rank": ranks[-1], "gap": space["gap"]}
+                    )
+                    unseen_at[nu] = [int(j) for j in np.flatnonzero(~seen)]
+                    if nu < top:
+                        nu += 1
+                        continue
+                    history.pop()  # the top degree is decided below, on the quotient itself
             if nu < top:  # the partial-fraction basis is too ill-conditioned to decide
                 history.append({"order": nu, "dim": dim, "rank": ranks[-1], "gap": None})
                 undecided.append(nu)
@@ -718,6 +640,64 @@ def least_order_row(
                 else f"the degree-{nu - 1} parity space does not see targets "
                 f"{unseen_at.get(nu - 1, [])}"
             )
+        ),
+    }
+    return LeastOrderRow(nu, F, Gs, T, c, h, cand, cert)
+
+
+def _onb_degree(
+    Qm: Quotient, nu: int, dim: int, omega: float, dt: float
+) -> tuple[dict[str, Any], np.ndarray] | None:
+    """The degree-ν space in the orthonormal basis (:mod:`geomfdi.synthesis.parity_onb`);
+    ``None`` when it cannot be computed (then the quotient observer is the fallback)."""
+    poles = default_pole_sequence(nu, omega, dt).astype(complex)
+    if Qm.k:
+        eig = np.linalg.eigvals(Qm.A0)
+        for t in range(poles.size):  # clear of the quotient's spectrum
+            for _ in range(20):
+                if np.min(np.abs(eig - poles[t])) > 1e-6 * max(omega, 1e-300):
+                    break
+                poles[t] *= 1.0 + 1e-3
+    try:
+        return onb_parity_space(Qm, nu, dim, poles, dt, _points(Qm, poles, omega)), poles
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+
+
+def _onb_row(
+    Qm: Quotient,
+    nu: int,
+    space: dict[str, Any],
+    cand: np.ndarray,
+    dims: list[int],
+    ranks: list[int],
+    history: list[dict[str, Any]],
+    staircase: dict[str, Any],
+    unseen_at: dict[int, list[int]],
+    undecided: list[int],
+) -> LeastOrderRow:
+    """The least-order row of a degree above ``NU_PF_MAX`` (orthonormal basis)."""
+    grams = [(W @ W.conj().T).real / max(_norm2(W) ** 2, 1e-300) for W in space["W"]]
+    alpha, val = _maxmin_direction(grams)
+    F, Gs, T, c, h = realise_onb(space, space["X"] @ alpha, Qm.rho)
+    low = undecided[0] if undecided else nu
+    cert = {
+        "order": nu if not undecided else None,
+        "bounds": (low, nu),
+        "parity_dims": dims,
+        "ranks": ranks,
+        "history": history,
+        "staircase": staircase,
+        "realisation": "orthonormal parity basis",
+        "unseen_below": {int(a): b for a, b in unseen_at.items()},
+        "min_target_gain": float(np.sqrt(max(val, 0.0))),
+        "target_gain_on_space": space["rel"].tolist(),
+        "statement": (
+            f"order {nu} is least: the degree-{nu - 1} parity space does not see targets "
+            f"{unseen_at.get(nu - 1, [])}"
+            if not undecided
+            else f"order {nu}: no residual of degree < {low} (observer staircase); degrees "
+            f"{undecided} were not decided"
         ),
     }
     return LeastOrderRow(nu, F, Gs, T, c, h, cand, cert)

@@ -58,9 +58,11 @@ import numpy as np
 import scipy.linalg as sla
 
 from geomfdi.synthesis.injection import mirror_rule
-from geomfdi.synthesis.least_order import LeastOrderRow, Quotient
+from geomfdi.synthesis.least_order import LeastOrderRow
+from geomfdi.synthesis.quotient import Quotient
+from geomfdi.synthesis.rational_basis import output_normal_basis, phase_frequencies
 
-__all__ = ["output_normal_basis", "orthonormal_row", "POINTS_PER_POLE", "SPREAD_MAX"]
+__all__ = ["orthonormal_row", "POINTS_PER_POLE", "SPREAD_MAX"]
 
 SPREAD_MAX = 1e6
 """Largest ratio of the row's largest to smallest response over the sample frequencies:
@@ -68,97 +70,6 @@ beyond it the pointwise accuracy of the smallest responses is below the leakage 
 
 POINTS_PER_POLE = 6
 """Real equations per basis function in the least-squares fit (``k · 6 / 2`` frequencies)."""
-
-
-def _pairs_first(poles: np.ndarray) -> np.ndarray:
-    """Real poles, then conjugate pairs as ``(p, p̄)`` with ``Im p > 0``."""
-    p = np.asarray(poles, dtype=complex)
-    tol = 1e-12 * np.maximum(1.0, np.abs(p))
-    real = np.sort(p[np.abs(p.imag) <= tol].real).astype(complex)
-    upper = p[p.imag > tol]
-    upper = upper[np.argsort(upper.real)]
-    return np.concatenate([real, np.column_stack([upper, upper.conj()]).ravel()])
-
-
-def output_normal_basis(poles: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Real output-normal pair ``(Λ, h)`` with ``spec Λ = poles`` (module Notes, step 1).
-
-    Parameters
-    ----------
-    poles : ndarray
-        Stable poles, closed under conjugation (the pairs are matched here).
-    dt : float
-        0: continuous (``Λ + Λᵀ = −hᵀ h``); > 0: discrete (``ΛᵀΛ + hᵀh = I``).
-
-    Returns
-    -------
-    Lam : ndarray, shape (k, k)
-        Block upper triangular: real poles first, then 2 × 2 blocks of the pairs.
-    h : ndarray, shape (k,)
-    """
-    p = _pairs_first(poles)
-    if dt > 0:
-        p = (p - 1.0) / (p + 1.0)
-    k = p.size
-    h = np.zeros(k)
-    blocks: list[tuple[int, np.ndarray]] = []
-    i = 0
-    while i < k:
-        if p[i].imag > 0:
-            sig = p[i].real
-            h[i] = 2.0 * np.sqrt(-sig)
-            blocks.append((i, np.array([[2.0 * sig, abs(p[i])], [-abs(p[i]), 0.0]])))
-            i += 2
-        else:
-            h[i] = np.sqrt(-2.0 * p[i].real)
-            blocks.append((i, np.array([[p[i].real]])))
-            i += 1
-    Lam = -np.triu(np.outer(h, h), 1)
-    for j, b in blocks:
-        m = b.shape[0]
-        Lam[j : j + m, j : j + m] = b
-    if dt > 0 and k:
-        X = np.linalg.inv(np.eye(k) - Lam)
-        return (np.eye(k) + Lam) @ X, np.sqrt(2.0) * (h @ X)
-    return Lam, h
-
-
-def _frequencies(poles: np.ndarray, dt: float, per: int) -> tuple[np.ndarray, np.ndarray]:
-    """Sample points on the stability boundary, equispaced in the basis' phase, and weights.
-
-    Continuous: with ``w_j = |Re p_j|``, ``b_j = Im p_j ≥ 0`` (each pair once), the phase
-    ``Θ(ω) = Σ_j atan((ω − b_j)/w_j) + atan((ω + b_j)/w_j)`` increases from 0 to
-    ``π · #poles`` on ``ω ≥ 0``; its derivative ``ρ(ω)`` is the density of
-    ``|h (iω − Λ)⁻¹|²`` (the orthonormal functions behave like ``e^{ikΘ}``).  The points
-    solve ``Θ(ω_i) = π #poles (i + ½)/N`` (bisection in ``atan ω``), ``N = per · k / 2``
-    complex points for k real basis functions; weights ``ρ(ω_i)^{-1/2}`` make the
-    least-squares problem a discretised inner product.  Clustered poles thus get as many
-    points as their share of the phase, not copies of one another's.  Discrete: the
-    same on the bilinear images, mapped to ``z = e^{2i atan ω}``.
-    """
-    p = np.asarray(poles, dtype=complex)
-    c = (p - 1.0) / (p + 1.0) if dt > 0 else p
-    k = c.size
-    c = c[c.imag >= 0]
-    w, b = np.abs(c.real), c.imag
-
-    def theta(om: np.ndarray) -> np.ndarray:
-        x = om[:, None]
-        return np.sum(np.arctan((x - b) / w) + np.arctan((x + b) / w), axis=1)
-
-    npts = max(1, int(np.ceil(per * k / 2)))
-    target = np.pi * c.size * (np.arange(npts) + 0.5) / npts
-    lo, hi = np.zeros(npts), np.full(npts, np.pi / 2)
-    for _ in range(60):  # bisection on φ = atan ω
-        mid = 0.5 * (lo + hi)
-        up = theta(np.tan(mid)) < target
-        lo, hi = np.where(up, mid, lo), np.where(up, hi, mid)
-    om = np.tan(0.5 * (lo + hi))
-    x = om[:, None]
-    dens = np.sum(w / ((x - b) ** 2 + w * w) + w / ((x + b) ** 2 + w * w), axis=1)
-    wts = 1.0 / np.sqrt(np.maximum(dens, 1e-300))
-    pts = np.exp(2j * np.arctan(om)) if dt > 0 else 1j * om
-    return pts, wts
 
 
 def _resolvent_rows(T: np.ndarray, left: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -198,7 +109,7 @@ def orthonormal_row(
     rule = mirror_rule(eig, dt=dt, omega=omega, relax=relax)
     poles = rule.targets
     Lam, h = output_normal_basis(poles, dt)
-    pts, wts = _frequencies(poles, dt, POINTS_PER_POLE)
+    pts, wts = phase_frequencies(poles, dt, POINTS_PER_POLE)
     # data: Q(s) − Q(∞) at the points, through the complex Schur form of A0
     TA, UA = sla.schur(Qm.A0.astype(complex), output="complex")
     Bq = np.hstack([Qm.Bqy, Qm.Bqu])

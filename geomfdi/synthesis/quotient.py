@@ -1,0 +1,125 @@
+"""The decoupled quotient of one residual row: S*, the quotient map and its system.
+
+See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.md``,
+sections 1–2).
+
+**Decoupled signals with feedthrough.**  A signal ``w`` to be decoupled (a disturbance, a
+decoupled fault) enters as ``x' = … + B_w w``, ``y = … + D_w w``.  Columns with
+``D_w ≠ 0`` are made states of an augmented model (``v' = free``)::
+
+    A_a = [[A, B_w'], [0, 0]],   C_a = [C, D_w'],   L_a = [[B_w'', 0], [0, I]]
+
+(``'``: columns with an output part, ``''``: the others), so that no output filter is
+needed and rows with ``H C = 0`` come out as static (order-0) parity relations.
+
+**Quotient.**  With ``S = S*(A_a, C_a, L_a)``, Q an orthonormal basis of S^⊥, P = Qᵀ,
+``D0 = −Q Qᵀ A_a S (C_a S)⁺`` and H an orthonormal basis of the left null space of
+``C_a S`` (so ``H [C S, D_w'] = 0``), ``ξ = P x_a`` obeys::
+
+    ξ' = A0 ξ − P D0 y + (P B + P D0 D_u) u + (P B_f + P D0 D_f) f,
+    z  = H (y − D_u u) = M ξ + H D_f f
+
+with ``A0 = P (A_a + D0 C_a) Q`` and ``M = H C_a Q``; decoupled signals are gone.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from geomfdi.geometry.subspace import Subspace, _norm2, pinv
+from geomfdi.geometry.unobservability import min_unobservability_subspace
+from geomfdi.tolerance import get_rtol
+
+__all__ = ["Quotient", "quotient_model"]
+
+
+@dataclass
+class Quotient:
+    """The decoupled quotient system of one row (module Notes)."""
+
+    A0: np.ndarray
+    M: np.ndarray
+    H: np.ndarray
+    Bqy: np.ndarray
+    Bqu: np.ndarray
+    Bf: list[np.ndarray]
+    Df: list[np.ndarray]
+    P: np.ndarray
+    S: Any
+    n_aug: int
+    identities: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def k(self) -> int:
+        return self.A0.shape[0]
+
+    @property
+    def rho(self) -> int:
+        return self.M.shape[0]
+
+
+def quotient_model(
+    A: np.ndarray,
+    B: np.ndarray,
+    C: np.ndarray,
+    Du: np.ndarray,
+    Bw: np.ndarray,
+    Dw: np.ndarray,
+    targets: list[tuple[np.ndarray, np.ndarray]],
+) -> Quotient:
+    """Augment decoupled feedthrough, compute S* and the quotient (module Notes)."""
+    n, q = A.shape[0], C.shape[0]
+    sc = max(_norm2(np.vstack([Bw, Dw])) if Bw.size else 0.0, 1e-300)
+    direct = np.linalg.norm(Dw, axis=0) > get_rtol(n + q) * sc if Dw.size else np.zeros(0, bool)
+    Wf_B, Wf_D = Bw[:, direct], Dw[:, direct]
+    Ws = Bw[:, ~direct] if Bw.size else np.zeros((n, 0))
+    na = int(np.count_nonzero(direct))
+    Aa = np.zeros((n + na, n + na))
+    Aa[:n, :n] = A
+    Aa[:n, n:] = Wf_B
+    Ca = np.hstack([C, Wf_D])
+    La = np.zeros((n + na, Ws.shape[1] + na))
+    La[:n, : Ws.shape[1]] = Ws
+    La[n:, Ws.shape[1] :] = np.eye(na)
+    Ba = np.vstack([B, np.zeros((na, B.shape[1]))])
+    S = min_unobservability_subspace(Aa, Ca, La)
+    nC, nA = max(_norm2(Ca), 1e-300), _norm2(Aa)
+    if S.dim:
+        Sb = S.basis
+        CS = Ca @ Sb
+        Q = S.complement().basis
+        D0 = -Q @ (Q.T @ Aa @ Sb @ pinv(CS, nC, what="(C S)⁺"))
+        H = Subspace(CS, scale=nC).complement().basis.T
+    else:
+        Sb = np.zeros((n + na, 0))
+        Q = np.eye(n + na)
+        D0 = np.zeros((n + na, q))
+        H = np.eye(q)
+    P = Q.T
+    A0 = P @ (Aa + D0 @ Ca) @ Q
+    M = H @ Ca @ Q
+    ident = {
+        "P (A + D0 C) S = 0": float(
+            _norm2(P @ (Aa + D0 @ Ca) @ Sb) / max(nA, _norm2(D0) * nC, 1e-300)
+        )
+        if Sb.size
+        else 0.0,
+        "H C S = 0": float(_norm2(H @ Ca @ Sb) / nC) if Sb.size and H.size else 0.0,
+    }
+    Bqy = -P @ D0
+    Bqu = P @ Ba + P @ D0 @ Du
+    Bf, Df = [], []
+    rt = 1e3 * get_rtol(n + na + q)
+    for Bt, Dt in targets:  # a target that reaches the quotient only through rounding is 0
+        b = P @ np.vstack([Bt, np.zeros((na, Bt.shape[1]))]) + P @ D0 @ Dt
+        dd = H @ Dt
+        if _norm2(b) <= rt * (_norm2(Bt) + _norm2(D0) * _norm2(Dt)):
+            b = np.zeros_like(b)
+        if _norm2(dd) <= rt * _norm2(Dt):
+            dd = np.zeros_like(dd)
+        Bf.append(b)
+        Df.append(dd)
+    return Quotient(A0, M, H, Bqy, Bqu, Bf, Df, P[:, :n], S, n + na, ident)

@@ -1,0 +1,114 @@
+"""Real output-normal (orthonormal) rational bases and the frequencies that sample them.
+
+See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.md``,
+section 6).
+
+For stable poles ``p_1 … p_k`` (closed under conjugation), a real pair ``(Λ, h)`` with
+``spec Λ = {p_i}`` and ``Λ + Λᵀ = −hᵀh`` (discrete ``ΛᵀΛ + hᵀh = I``) makes the functions
+``h (sI − Λ)⁻¹ e_j`` orthonormal on the stability boundary (the Takenaka–Malmquist basis;
+Ninness & Gustafsson 1997).  It is built directly, block by block::
+
+    Λ = blockdiag(Λ_i) − (block strictly upper part of hᵀ h),
+    Λ_i = p, h_i = √(−2 Re p)                          (a real pole)
+    Λ_i = [[2σ, |p|], [−|p|, 0]], h_i = [2√(−σ), 0]    (a pair σ ± iω)
+
+so that every entry is of the size of the poles, however many and however clustered;
+the discrete basis is the bilinear image for the poles ``(z − 1)/(z + 1)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["output_normal_basis", "phase_frequencies"]
+
+
+def _pairs_first(poles: np.ndarray) -> np.ndarray:
+    """Real poles, then conjugate pairs as ``(p, p̄)`` with ``Im p > 0``."""
+    p = np.asarray(poles, dtype=complex)
+    tol = 1e-12 * np.maximum(1.0, np.abs(p))
+    real = np.sort(p[np.abs(p.imag) <= tol].real).astype(complex)
+    upper = p[p.imag > tol]
+    upper = upper[np.argsort(upper.real)]
+    return np.concatenate([real, np.column_stack([upper, upper.conj()]).ravel()])
+
+
+def output_normal_basis(poles: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Real output-normal pair ``(Λ, h)`` with ``spec Λ = poles`` (module Notes, step 1).
+
+    Parameters
+    ----------
+    poles : ndarray
+        Stable poles, closed under conjugation (the pairs are matched here).
+    dt : float
+        0: continuous (``Λ + Λᵀ = −hᵀ h``); > 0: discrete (``ΛᵀΛ + hᵀh = I``).
+
+    Returns
+    -------
+    Lam : ndarray, shape (k, k)
+        Block upper triangular: real poles first, then 2 × 2 blocks of the pairs.
+    h : ndarray, shape (k,)
+    """
+    p = _pairs_first(poles)
+    if dt > 0:
+        p = (p - 1.0) / (p + 1.0)
+    k = p.size
+    h = np.zeros(k)
+    blocks: list[tuple[int, np.ndarray]] = []
+    i = 0
+    while i < k:
+        if p[i].imag > 0:
+            sig = p[i].real
+            h[i] = 2.0 * np.sqrt(-sig)
+            blocks.append((i, np.array([[2.0 * sig, abs(p[i])], [-abs(p[i]), 0.0]])))
+            i += 2
+        else:
+            h[i] = np.sqrt(-2.0 * p[i].real)
+            blocks.append((i, np.array([[p[i].real]])))
+            i += 1
+    Lam = -np.triu(np.outer(h, h), 1)
+    for j, b in blocks:
+        m = b.shape[0]
+        Lam[j : j + m, j : j + m] = b
+    if dt > 0 and k:
+        X = np.linalg.inv(np.eye(k) - Lam)
+        return (np.eye(k) + Lam) @ X, np.sqrt(2.0) * (h @ X)
+    return Lam, h
+
+
+def phase_frequencies(poles: np.ndarray, dt: float, per: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sample points on the stability boundary, equispaced in the basis' phase, and weights.
+
+    Continuous: with ``w_j = |Re p_j|``, ``b_j = Im p_j ≥ 0`` (each pair once), the phase
+    ``Θ(ω) = Σ_j atan((ω − b_j)/w_j) + atan((ω + b_j)/w_j)`` increases from 0 to
+    ``π · #poles`` on ``ω ≥ 0``; its derivative ``ρ(ω)`` is the density of
+    ``|h (iω − Λ)⁻¹|²`` (the orthonormal functions behave like ``e^{ikΘ}``).  The points
+    solve ``Θ(ω_i) = π #poles (i + ½)/N`` (bisection in ``atan ω``), ``N = per · k / 2``
+    complex points for k real basis functions; weights ``ρ(ω_i)^{-1/2}`` make the
+    least-squares problem a discretised inner product.  Clustered poles thus get as many
+    points as their share of the phase, not copies of one another's.  Discrete: the
+    same on the bilinear images, mapped to ``z = e^{2i atan ω}``.
+    """
+    p = np.asarray(poles, dtype=complex)
+    c = (p - 1.0) / (p + 1.0) if dt > 0 else p
+    k = c.size
+    c = c[c.imag >= 0]
+    w, b = np.abs(c.real), c.imag
+
+    def theta(om: np.ndarray) -> np.ndarray:
+        x = om[:, None]
+        return np.sum(np.arctan((x - b) / w) + np.arctan((x + b) / w), axis=1)
+
+    npts = max(1, int(np.ceil(per * k / 2)))
+    target = np.pi * c.size * (np.arange(npts) + 0.5) / npts
+    lo, hi = np.zeros(npts), np.full(npts, np.pi / 2)
+    for _ in range(60):  # bisection on φ = atan ω
+        mid = 0.5 * (lo + hi)
+        up = theta(np.tan(mid)) < target
+        lo, hi = np.where(up, mid, lo), np.where(up, hi, mid)
+    om = np.tan(0.5 * (lo + hi))
+    x = om[:, None]
+    dens = np.sum(w / ((x - b) ** 2 + w * w) + w / ((x + b) ** 2 + w * w), axis=1)
+    wts = 1.0 / np.sqrt(np.maximum(dens, 1e-300))
+    pts = np.exp(2j * np.arctan(om)) if dt > 0 else 1j * om
+    return pts, wts
