@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geomfdi.errors import ModelFileError
+from geomfdi.errors import GeomFDIError, ModelFileError
 from geomfdi.io import cli
 from geomfdi.io.modelfile import load_model, parse_model
 
@@ -636,3 +636,26 @@ def test_figure_alarms_follow_the_decimation() -> None:
     args = cli._residual_figure_args(Res, "t")
     assert args["t"].size < 5000
     assert args["alarms"].any() and args["alarms"].sum() < 10
+
+
+def test_model_file_residual_dim_and_common_poles() -> None:
+    from geomfdi.io.cli import design_all
+
+    triplex = {"A": [[-1.0]], "B": [[1.0]], "C": [[1.0], [1.0], [1.0]]}
+    spec = parse_model({"plant": triplex, "design": {"structure": [[1, 1, 1]], "residual_dim": 2}})
+    (g,) = design_all(spec)["exact"].generators
+    assert g.n_outputs == 2 and g.order == 0  # two independent static parity rows
+    spec = parse_model(
+        {"plant": triplex, "design": {"structure": [[1, 1, 1], [1, 1, 0]], "residual_dim": [3, 0]}}
+    )
+    bank = design_all(spec)["exact"]
+    assert [x.n_outputs for x in bank.generators] == [3, 1]
+    spec = parse_model(
+        {"plant": triplex, "design": {"exact": {"common_poles": True}, "structure": [[1, 1, 1]]}}
+    )
+    assert "joint_order" in design_all(spec)["exact"].info
+    for bad in (0, -1, 1.5, "2", True):
+        with pytest.raises(GeomFDIError, match="residual_dim"):
+            parse_model({"plant": triplex, "design": {"residual_dim": bad}})
+    with pytest.raises(GeomFDIError, match="common_poles"):
+        parse_model({"plant": triplex, "design": {"common_poles": 1}})

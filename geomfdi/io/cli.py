@@ -85,6 +85,16 @@ def _with_context(exc: GeomFDIError, where: str) -> GeomFDIError:
         return GeomFDIError(f"{where}: {exc}", argument=exc.argument)
 
 
+def _row_options(opt: Any) -> dict[str, Any]:
+    """``residual_dim`` and ``common_poles`` of a method, only where the file sets them."""
+    out: dict[str, Any] = {}
+    if opt.residual_dim is not None:
+        out["residual_dim"] = opt.residual_dim
+    if opt.common_poles:
+        out["common_poles"] = True
+    return out
+
+
 def design_all(spec: ModelSpec) -> dict[str, ResidualBank]:
     """One bank per method of the model file (normalised as requested)."""
     from geomfdi.synthesis.design import design_bank
@@ -101,6 +111,7 @@ def design_all(spec: ModelSpec) -> dict[str, ResidualBank]:
                 method=opt.method,
                 filter_pole=opt.filter_pole,
                 margin=opt.margin,
+                **_row_options(opt),
             )
         except GeomFDIError as exc:
             raise _with_context(exc, where) from exc

@@ -14,8 +14,10 @@ A model file has four parts (sensor and input indices are 0-based)::
     poles = [-2]                 # quotient spectrum (default: move only what must move)
     normalize = "markov"         # "dc" or "markov" (unit first Markov parameter)
     structure = [[1, 0, 0], ...] # default: identity (one residual per fault)
-    [design.paper]               # per-method overrides: poles, normalize, filter_pole, margin
-    poles = [-2]
+    residual_dim = 2             # exact method: rows per residual (or a list per row)
+    common_poles = false         # exact method: one pole list for every row
+    [design.paper]               # per-method overrides: poles, normalize, filter_pole,
+    poles = [-2]                 #   margin, residual_dim, common_poles
     [[design.faults]]            # default: one sensor fault per output
     type = "sensor"              # or "actuator" (b = [...]) or "general" (Bf, Df)
     sensor = 0
@@ -105,12 +107,14 @@ _DESIGN = {
     "faults",
     "filter_pole",
     "margin",
+    "residual_dim",
+    "common_poles",
     "exact",
     "full",
     "paper",
     "mvw",
 }
-_METHOD = {"poles", "normalize", "filter_pole", "margin"}
+_METHOD = {"poles", "normalize", "filter_pole", "margin", "residual_dim", "common_poles"}
 _SIM = {"t_end", "step", "x0", "u", "d", "K", "threshold", "window", "noise", "t_start"}
 _NOISE = {"measurement", "process", "seed"}
 _SCEN = {"name", "faults", "noise", "d"}
@@ -130,6 +134,8 @@ class MethodOptions:
     normalize: str | None = None
     filter_pole: float | None = None
     margin: float | None = None
+    residual_dim: int | list[int | None] | None = None
+    common_poles: bool = False
 
 
 @dataclass
@@ -343,6 +349,32 @@ def _filter_pole(ctx: _Ctx, value: Any, where: str, plant: Plant) -> float:
     return a
 
 
+def _residual_dim(ctx: _Ctx, value: Any, where: str) -> int | list[int | None] | None:
+    """Rows per residual: a whole number ≥ 1 for every row, or a list (0: the default)."""
+
+    def one(v: Any, at: str) -> int:
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise ctx.err(at, f"expected a whole number >= 1, got {v!r}")
+        return v
+
+    if value is None:
+        return None
+    if isinstance(value, list):
+        return [one(v, f"{where}[{i}]") or None for i, v in enumerate(value)]
+    v = one(value, where)
+    if v == 0:
+        raise ctx.err(where, "expected a whole number >= 1, got 0")
+    return v
+
+
+def _flag(ctx: _Ctx, value: Any, where: str) -> bool:
+    if value is None:
+        return False
+    if not isinstance(value, bool):
+        raise ctx.err(where, f"expected true or false, got {value!r}")
+    return value
+
+
 def _margin(ctx: _Ctx, value: Any, where: str, plant: Plant) -> float:
     """Stability margin: ``Re λ <= -margin`` (continuous) or ``|λ| <= margin < 1`` (discrete)."""
     m = ctx.number(value, where, positive=True)
@@ -379,6 +411,8 @@ def _method_options(ctx: _Ctx, d: dict[str, Any], plant: Plant) -> list[MethodOp
                 norm,
                 None if fp is None else _filter_pole(ctx, fp, f"design.{meth}.filter_pole", plant),
                 None if mg is None else _margin(ctx, mg, f"design.{meth}.margin", plant),
+                _residual_dim(ctx, merged.get("residual_dim"), f"design.{meth}.residual_dim"),
+                _flag(ctx, merged.get("common_poles"), f"design.{meth}.common_poles"),
             )
         )
     return out
