@@ -199,9 +199,11 @@ def test_high_degree_parity_basis_matches_the_brute_force_least_order(monkeypatc
 
 
 def test_chain_rows_of_high_least_order_are_delivered_at_it():
-    # 40-state lightly damped chain, 4 position sensors; a row reading three of them has
-    # least order 14 (largest observability index), far above the partial-fraction range
-    # and far below the quotient's 40 states
+    # 40-state lightly damped chain, 4 position sensors; a row reading three of them: the
+    # observer staircase (blocks 3 × 12, 2, 2) leaves no residual below degree 12, and the
+    # degree-12 space (one row) sees every target weakly (gains ~1e-4 of the largest).
+    # The partial-fraction basis misses two of them at degree 12 (its gains fall to
+    # rounding) and the row came out at 13-14, or as the 40-state quotient observer.
     from test_synthesis_realsize import chain
 
     p = chain(20, 4)
@@ -209,10 +211,10 @@ def test_chain_rows_of_high_least_order_are_delivered_at_it():
     g = gf.design_residual_generator(p, faults, [1, 2, 3], decouple=[0])
     cert = g.info["least_order"]
     assert g.info["realisation"] == "orthonormal parity basis"
-    assert g.order == cert["order"] == 14 < g.info["quotient_order"] == 40
-    assert cert["unseen_below"][13]
+    assert g.order == cert["order"] == 12 < g.info["quotient_order"] == 40
+    assert cert["parity_dims"][:12] == [0] * 12  # no residual of lower degree at all
     sigs = fault_matrices(faults, p.n, p.q)
     assert leak_angle(g, p.A, p.B, p.C, p.D, *sigs[0], False, 0.0, boundary=True) < 1e-9
     assert leak_angle(g, p.A, p.B, p.C, p.D, p.B, p.D, True, 0.0, boundary=True) < 1e-9
     for j in (1, 2, 3):
-        assert leak_angle(g, p.A, p.B, p.C, p.D, *sigs[j], False, 0.0, boundary=True) > 1e-6
+        assert leak_angle(g, p.A, p.B, p.C, p.D, *sigs[j], False, 0.0, boundary=True) > 1e-7

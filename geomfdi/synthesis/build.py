@@ -49,6 +49,7 @@ from geomfdi.synthesis.least_order import (
     Quotient,
     _Infeasible,
     least_order_row,
+    parity_basis_row,
     quotient_model,
     realise_on_plant,
 )
@@ -357,9 +358,10 @@ partial-fraction basis of ``k`` poles is then the ill-conditioned choice."""
 def _attempts(
     lo: LeastOrderRow, k: int, rho: int, poles: Any, prefix: bool
 ) -> list[tuple[str, float]]:
-    """Realisations tried in turn: ``("pf", pole scale)``, ``("onb", relaxation)`` (a
-    single-output row in the orthonormal basis) or ``("inj", relaxation)``."""
-    pf = [("pf", sc) for sc in RETRY_SCALES]
+    """Realisations tried in turn: ``("pf", pole scale)``, ``("onbp", 1)`` (the same row
+    in the orthonormal parity basis), ``("onb", relaxation)`` (a single-output row of
+    the whole quotient in the orthonormal basis) or ``("inj", relaxation)``."""
+    pf = [("pf", sc) for sc in RETRY_SCALES] + [("onbp", 1.0)]
     inj = [("inj", r) for r in RELAX]
     if rho == 1:
         inj = [("onb", r) for r in RELAX] + inj
@@ -415,6 +417,8 @@ def build_least_order(
                     if val == 1.0
                     else _search(Qm, plant, target, decouple, omega=omega * val, **kw)
                 )
+            elif kind == "onbp":
+                cur = parity_basis_row(Qm, lo, omega=omega, dt=plant.dt)
             else:
                 cert = dict(lo.certificate)
                 if first is not None:
@@ -446,7 +450,7 @@ def build_least_order(
         except np.linalg.LinAlgError as exc:
             first = first or _NumericalDesignError(f"{row}: {exc}", argument="plant")
             continue
-        if kind == "pf":
+        if kind in ("pf", "onbp"):
             g.info["pole_scale"] = val
             if poles is None and not prefix:
                 g = _strengthen(

@@ -47,7 +47,13 @@ import numpy as np
 from geomfdi.errors import DesignError
 from geomfdi.geometry.staircase import Staircase, observer_staircase
 from geomfdi.geometry.subspace import _norm2
-from geomfdi.synthesis.parity_onb import onb_parity_space, realise_onb
+from geomfdi.synthesis.parity_onb import (
+    clear_of_spectrum,
+    onb_parity_space,
+    realise_onb,
+    spectral_pole_set,
+)
+from geomfdi.synthesis.poles import _check_poles, validate_poles
 from geomfdi.synthesis.quotient import Quotient, quotient_model
 from geomfdi.tolerance import rank_decision
 
@@ -60,6 +66,7 @@ __all__ = [
     "LeastOrderRow",
     "quotient_target_gains",
     "NU_PF_MAX",
+    "parity_basis_row",
 ]
 
 SEE_TOL = 1e-8
@@ -70,6 +77,14 @@ NU_PF_MAX = 12
 the basis is too ill-conditioned (distinct poles over two decades) and only the top
 degree (the largest observability index, where the space holds every residual) is
 decided, on the quotient's own transfer."""
+
+ONB_CHECK_FROM = 2
+"""Degree from which a target the partial-fraction basis misses is checked again in the
+orthonormal basis (:func:`_onb_spectral`)."""
+
+SEE_OVERRIDE = 1e-6
+"""Relative gain a target needs in the orthonormal basis to override a miss of the
+partial-fraction basis (a margin of 100 over ``SEE_TOL``)."""
 
 ONB_GAP_MIN = 1e6
 """Singular-value gap of a high-degree parity space (orthonormal basis) above which a
@@ -135,64 +150,6 @@ def _blocks(Qm: Quotient, poles: np.ndarray) -> tuple[list[np.ndarray], list[tup
             kinds.append(("r", i))
             i += 1
     return out, kinds
-
-
-def _check_poles(poles: np.ndarray, A0: np.ndarray, dt: float) -> np.ndarray:
-    """Order conjugate pairs as (λ, λ̄) with Im λ > 0; distinct; not in spec(A0)."""
-    out: list[complex] = []
-    rest = list(np.asarray(poles, dtype=complex))
-    while rest:
-        lam = rest.pop(0)
-        if abs(lam.imag) <= 1e-14 * max(1.0, abs(lam)):
-            out.append(complex(lam.real, 0.0))
-            continue
-        j = int(np.argmin([abs(x - np.conj(lam)) for x in rest])) if rest else -1
-        if j < 0 or abs(rest[j] - np.conj(lam)) > 1e-9 * max(1.0, abs(lam)):
-            raise DesignError("poles: complex poles must come in conjugate pairs", argument="poles")
-        rest.pop(j)
-        lam = complex(lam.real, abs(lam.imag))
-        out += [lam, lam.conjugate()]
-    arr = np.array(out, dtype=complex)
-    scale = max(1.0, float(np.max(np.abs(arr)))) if arr.size else 1.0
-    for a in range(arr.size):
-        for b in range(a + 1, arr.size):
-            if abs(arr[a] - arr[b]) <= 1e-9 * scale:
-                raise DesignError(
-                    "poles: the least-order realisation needs distinct poles "
-                    f"(got {arr[a]:.6g} twice)",
-                    argument="poles",
-                )
-    if A0.size and arr.size:
-        eig = np.linalg.eigvals(A0)
-        near = np.min(np.abs(arr[:, None] - eig[None, :]), axis=1)
-        if np.any(near <= 1e-9 * max(scale, _norm2(A0))):
-            raise DesignError(
-                "poles: a requested pole coincides with an eigenvalue of the decoupled "
-                "quotient; choose other poles",
-                argument="poles",
-            )
-    return arr
-
-
-def validate_poles(poles: Any, dt: float) -> np.ndarray:
-    """User poles as a complex array: numbers, finite, stable, closed under conjugation."""
-    try:
-        arr = np.atleast_1d(np.asarray(poles, dtype=complex))
-    except (TypeError, ValueError, OverflowError) as exc:
-        raise DesignError(f"poles: must be numbers, got {poles!r:.60}", argument="poles") from exc
-    if arr.ndim != 1:
-        raise DesignError("poles: must be a flat list of numbers", argument="poles")
-    if not np.all(np.isfinite(arr)):
-        raise DesignError("poles: must be finite", argument="poles")
-    stable = np.abs(arr) < 1 if dt > 0 else arr.real < 0
-    if not np.all(stable):
-        where = "inside the unit circle" if dt > 0 else "in the open left half-plane"
-        raise DesignError(
-            f"poles: every pole must lie {where}; got {arr[~stable].tolist()}", argument="poles"
-        )
-    if not np.allclose(np.sort_complex(arr), np.sort_complex(arr.conj()), rtol=1e-12, atol=0):
-        raise DesignError("poles: complex poles must come in conjugate pairs", argument="poles")
-    return arr
 
 
 def _null_rows(blocks: list[np.ndarray], dim: int | None = None) -> tuple[np.ndarray, int, float]:
@@ -497,13 +454,8 @@ def least_order_row(
     dims, ranks, history = [], [], []
     nu = max(0, min_order)
     pool = default_pole_sequence(min(k, NU_PF_MAX) + 2, omega, dt)
-    if Qm.k:
-        eig = np.linalg.eigvals(Qm.A0)
-        for t in range(pool.size):  # keep default poles clear of the quotient's spectrum
-            for _ in range(20):
-                if np.min(np.abs(eig - pool[t])) > 1e-6 * max(omega, 1e-300):
-                    break
-                pool[t] *= 1.0 + 1e-3
+    if Qm.k:  # keep default poles clear of the quotient's spectrum
+        pool = clear_of_spectrum(pool, np.linalg.eigvals(Qm.A0), omega).real
     unseen_at: dict[int, list[int]] = {}
     undecided: list[int] = []
     staircase = {"blocks": st.blocks, "gaps": st.gaps, "indices": st.indices}
@@ -586,6 +538,15 @@ def least_order_row(
         history.append({"order": nu, "dim": X.shape[1], "rank": rank, "gap": gap})
         if np.all(seen) and nt:
             break
+        if nt and nu >= ONB_CHECK_FROM and user is None and min_order == 0:
+            # the partial-fraction basis loses weakly seen targets as ν grows: a target
+            # counts as missed only if the orthonormal basis on the quotient's own
+            # frequencies misses it too (or sees it only at rounding level)
+            sp = _onb_spectral(Qm, nu, X.shape[1], omega, dt)
+            if sp is not None and np.min(sp[0]["rel"]) > SEE_OVERRIDE:
+                return _onb_row(
+                    Qm, nu, sp[0], sp[1], dims, ranks, history, staircase, unseen_at, []
+                )
         unseen_at[nu] = [int(j) for j in np.flatnonzero(~seen)]
         if nu >= top:
             raise infeasible(unseen_at[nu])
@@ -645,23 +606,56 @@ def least_order_row(
     return LeastOrderRow(nu, F, Gs, T, c, h, cand, cert)
 
 
-def _onb_degree(
+def _onb_spectral(
     Qm: Quotient, nu: int, dim: int, omega: float, dt: float
 ) -> tuple[dict[str, Any], np.ndarray] | None:
-    """The degree-ν space in the orthonormal basis (:mod:`geomfdi.synthesis.parity_onb`);
-    ``None`` when it cannot be computed (then the quotient observer is the fallback)."""
-    poles = default_pole_sequence(nu, omega, dt).astype(complex)
-    if Qm.k:
-        eig = np.linalg.eigvals(Qm.A0)
-        for t in range(poles.size):  # clear of the quotient's spectrum
-            for _ in range(20):
-                if np.min(np.abs(eig - poles[t])) > 1e-6 * max(omega, 1e-300):
-                    break
-                poles[t] *= 1.0 + 1e-3
+    """The degree-ν space in the orthonormal basis with poles on the quotient's
+    frequencies, or ``None`` when it cannot be computed."""
+    poles = spectral_pole_set(Qm.A0, nu, omega, dt)
     try:
         return onb_parity_space(Qm, nu, dim, poles, dt, _points(Qm, poles, omega)), poles
     except (np.linalg.LinAlgError, ValueError):
         return None
+
+
+def _onb_degree(
+    Qm: Quotient, nu: int, dim: int, omega: float, dt: float
+) -> tuple[dict[str, Any], np.ndarray] | None:
+    """The degree-ν space in the orthonormal basis (:mod:`geomfdi.synthesis.parity_onb`)
+    with poles on the quotient's frequencies (:func:`spectral_pole_set`); a space that
+    misses a target is computed again with the default pole sequence, and a target
+    counts as missed only when both miss it.  ``None`` when it cannot be computed (then
+    the quotient observer is the fallback)."""
+    best = None
+    for kind in ("spectral", "default"):
+        if kind == "spectral":
+            got = _onb_spectral(Qm, nu, dim, omega, dt)
+            if got is None:
+                continue
+            space, poles = got
+        else:
+            eig = np.linalg.eigvals(Qm.A0) if Qm.k else np.zeros(0)
+            poles = clear_of_spectrum(default_pole_sequence(nu, omega, dt), eig, omega)
+            try:
+                space = onb_parity_space(Qm, nu, dim, poles, dt, _points(Qm, poles, omega))
+            except (np.linalg.LinAlgError, ValueError):
+                continue
+        if np.all(space["rel"] > SEE_TOL):
+            return space, poles
+        if best is None:
+            best = (space, poles)
+        else:  # missed by both bases
+            both = np.maximum(space["rel"], best[0]["rel"])
+            space["rel"] = best[0]["rel"]
+            # a target one basis sees and the other misses is not decided either way
+            seen_by_one = both > SEE_TOL
+            space["gap"] = (
+                0.0
+                if np.any(seen_by_one & ~(space["rel"] > SEE_TOL))
+                else min(space["gap"], best[0]["gap"])
+            )
+            best = (space, poles)
+    return best
 
 
 def _onb_row(
@@ -700,6 +694,35 @@ def _onb_row(
             f"{undecided} were not decided"
         ),
     }
+    return LeastOrderRow(nu, F, Gs, T, c, h, cand, cert)
+
+
+def parity_basis_row(Qm: Quotient, lo: LeastOrderRow, *, omega: float, dt: float) -> LeastOrderRow:
+    """The least-order row ``lo`` (found in partial fractions) realised again in the
+    orthonormal parity basis of :mod:`geomfdi.synthesis.parity_onb`.
+
+    Used when the partial-fraction realisation fails its checks on the plant: the same
+    degree, a well-conditioned basis, instead of the quotient observer of order k.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        Degree 0 (nothing to realise dynamically), or the space misses a target.
+    """
+    nu = lo.order
+    if nu == 0 or Qm.k == 0:
+        raise np.linalg.LinAlgError("orthonormal parity basis: nothing to realise")
+    dim = observer_staircase(Qm.A0, Qm.M).parity_dim(nu)
+    onb = _onb_degree(Qm, nu, dim, omega, dt) if dim > 0 else None
+    if onb is None or not np.all(onb[0]["rel"] > SEE_TOL):
+        raise np.linalg.LinAlgError("orthonormal parity basis: the space misses a target")
+    space, cand = onb
+    grams = [(W @ W.conj().T).real / max(_norm2(W) ** 2, 1e-300) for W in space["W"]]
+    alpha, val = _maxmin_direction(grams)
+    F, Gs, T, c, h = realise_onb(space, space["X"] @ alpha, Qm.rho)
+    cert = dict(lo.certificate)
+    cert["realisation"] = "orthonormal parity basis"
+    cert["min_target_gain"] = float(np.sqrt(max(val, 0.0)))
     return LeastOrderRow(nu, F, Gs, T, c, h, cand, cert)
 
 

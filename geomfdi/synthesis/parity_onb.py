@@ -37,7 +37,7 @@ from scipy.linalg import lapack
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.synthesis.rational_basis import output_normal_basis
 
-__all__ = ["onb_parity_space", "realise_onb"]
+__all__ = ["onb_parity_space", "realise_onb", "spectral_pole_set", "clear_of_spectrum"]
 
 
 def _sylvester_maps(Lam: np.ndarray, A0: np.ndarray, M: np.ndarray) -> list[np.ndarray]:
@@ -144,3 +144,56 @@ def realise_onb(space: dict[str, Any], x: np.ndarray, rho: int) -> tuple[np.ndar
         T = np.zeros((nu, space["k"]))
     h = x[nu * rho :]
     return Lam, Gs, T, c, h
+
+
+def clear_of_spectrum(poles: np.ndarray, eig: np.ndarray, scale: float) -> np.ndarray:
+    """The poles, each moved outwards by factors ``1 + 1e-3`` until it is more than
+    ``1e-6 scale`` from every eigenvalue (a Sylvester equation with a shared eigenvalue
+    has no unique solution)."""
+    out = np.asarray(poles, dtype=complex).copy()
+    for t in range(out.size):
+        for _ in range(20):
+            if not eig.size or np.min(np.abs(eig - out[t])) > 1e-6 * max(scale, 1e-300):
+                break
+            out[t] *= 1.0 + 1e-3
+    return out
+
+
+def spectral_pole_set(A0: np.ndarray, nu: int, omega: float, dt: float) -> np.ndarray:
+    """ν stable poles spread over the quotient's own frequencies (orthonormal parity basis).
+
+    Every eigenvalue λ of A0 gets a damped copy at its frequency: continuous
+    ``−(|Re λ| + 2α) + i Im λ`` with ``α = SDEG · ω`` (the stability degree of
+    :func:`geomfdi.synthesis.injection.mirror_rule`), discrete ``0.9 min(|λ|, 1/|λ|) λ/|λ|``
+    (at least 0.05); never an eigenvalue of A0.  The copies are sorted by frequency and ν of
+    them taken evenly (conjugate pairs kept whole; an odd ν gets a real copy, or ``−ω``
+    / 0.5).  A basis whose poles follow the quotient's dynamics represents its rows with
+    small coefficients; poles far from them (the default sequence) amplify rounding.
+    """
+    eig = np.linalg.eigvals(A0) if A0.size else np.zeros(0, complex)
+    if dt > 0:
+        r = np.abs(eig)
+        rr = np.maximum(0.9 * np.where(r <= 1.0, r, 1.0 / np.maximum(r, 1e-300)), 0.05)
+        ang = np.where(r > 0, eig / np.maximum(r, 1e-300), 1.0)
+        cand = rr * ang
+        filler = 0.5
+    else:
+        alpha = 0.05 * max(omega, 1e-300)
+        cand = -(np.abs(eig.real) + 2 * alpha) + 1j * eig.imag
+        filler = -max(omega, 1e-300)
+    tol = 1e-12 * np.maximum(1.0, np.abs(cand))
+    up = cand[cand.imag > tol]
+    real = np.sort(cand[np.abs(cand.imag) <= tol].real)
+    up = up[np.argsort(up.imag)]
+    npair = min(nu // 2, up.size)
+    nreal = nu - 2 * npair
+    out: list[complex] = []
+    if npair:
+        for i in np.linspace(0, up.size - 1, npair).round().astype(int):
+            out += [complex(up[i]), complex(np.conj(up[i]))]
+    if nreal:
+        pick = real[np.linspace(0, real.size - 1, nreal).round().astype(int)] if real.size else []
+        vals = [complex(x) for x in pick]
+        vals += [complex(filler * (1 + 0.1 * j)) for j in range(nreal - len(vals))]
+        out += vals
+    return clear_of_spectrum(np.array(out, dtype=complex), eig, omega)

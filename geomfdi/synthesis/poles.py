@@ -1,0 +1,74 @@
+"""Pole lists of a least-order row: the user's poles checked, conjugate pairs ordered.
+
+See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.md``,
+section 5).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from geomfdi.errors import DesignError
+from geomfdi.geometry.subspace import _norm2
+
+__all__ = ["validate_poles"]
+
+
+def _check_poles(poles: np.ndarray, A0: np.ndarray, dt: float) -> np.ndarray:
+    """Order conjugate pairs as (λ, λ̄) with Im λ > 0; distinct; not in spec(A0)."""
+    out: list[complex] = []
+    rest = list(np.asarray(poles, dtype=complex))
+    while rest:
+        lam = rest.pop(0)
+        if abs(lam.imag) <= 1e-14 * max(1.0, abs(lam)):
+            out.append(complex(lam.real, 0.0))
+            continue
+        j = int(np.argmin([abs(x - np.conj(lam)) for x in rest])) if rest else -1
+        if j < 0 or abs(rest[j] - np.conj(lam)) > 1e-9 * max(1.0, abs(lam)):
+            raise DesignError("poles: complex poles must come in conjugate pairs", argument="poles")
+        rest.pop(j)
+        lam = complex(lam.real, abs(lam.imag))
+        out += [lam, lam.conjugate()]
+    arr = np.array(out, dtype=complex)
+    scale = max(1.0, float(np.max(np.abs(arr)))) if arr.size else 1.0
+    for a in range(arr.size):
+        for b in range(a + 1, arr.size):
+            if abs(arr[a] - arr[b]) <= 1e-9 * scale:
+                raise DesignError(
+                    "poles: the least-order realisation needs distinct poles "
+                    f"(got {arr[a]:.6g} twice)",
+                    argument="poles",
+                )
+    if A0.size and arr.size:
+        eig = np.linalg.eigvals(A0)
+        near = np.min(np.abs(arr[:, None] - eig[None, :]), axis=1)
+        if np.any(near <= 1e-9 * max(scale, _norm2(A0))):
+            raise DesignError(
+                "poles: a requested pole coincides with an eigenvalue of the decoupled "
+                "quotient; choose other poles",
+                argument="poles",
+            )
+    return arr
+
+
+def validate_poles(poles: Any, dt: float) -> np.ndarray:
+    """User poles as a complex array: numbers, finite, stable, closed under conjugation."""
+    try:
+        arr = np.atleast_1d(np.asarray(poles, dtype=complex))
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise DesignError(f"poles: must be numbers, got {poles!r:.60}", argument="poles") from exc
+    if arr.ndim != 1:
+        raise DesignError("poles: must be a flat list of numbers", argument="poles")
+    if not np.all(np.isfinite(arr)):
+        raise DesignError("poles: must be finite", argument="poles")
+    stable = np.abs(arr) < 1 if dt > 0 else arr.real < 0
+    if not np.all(stable):
+        where = "inside the unit circle" if dt > 0 else "in the open left half-plane"
+        raise DesignError(
+            f"poles: every pole must lie {where}; got {arr[~stable].tolist()}", argument="poles"
+        )
+    if not np.allclose(np.sort_complex(arr), np.sort_complex(arr.conj()), rtol=1e-12, atol=0):
+        raise DesignError("poles: complex poles must come in conjugate pairs", argument="poles")
+    return arr
