@@ -510,24 +510,19 @@ def least_order_row(
             history.append({"order": nu, "dim": dim, "rank": ranks[-1], "gap": None})
             if not np.all(size > SEE_TOL) or not nt:
                 raise infeasible([int(j) for j in np.flatnonzero(~(size > SEE_TOL))])
-            low = undecided[0] if undecided else nu
-            cert = {
-                "order": nu if not undecided else None,
-                "bounds": (low, nu),
-                "parity_dims": dims,
-                "ranks": ranks,
-                "history": history,
-                "staircase": staircase,
-                "unseen_below": {int(a): b for a, b in unseen_at.items()},
-                "target_gain_on_space": size.tolist(),
-                "statement": (
-                    f"order {nu} is least: the degree-{nu - 1} parity space does not see "
-                    f"targets {unseen_at.get(nu - 1, [])}"
-                    if not undecided
-                    else f"least order between {low} (no residual of degree < {low}, by "
-                    f"the observer staircase) and {nu} (the largest observability index)"
-                ),
-            }
+            cert = _high_certificate(
+                nu,
+                dims,
+                ranks,
+                history,
+                staircase,
+                unseen_at,
+                undecided,
+                size,
+                f"least order between {undecided[0] if undecided else nu} (no residual of "
+                f"lower degree, by the observer staircase) and {nu} (the largest "
+                "observability index)",
+            )
             return LeastOrderRow(nu, None, None, None, None, None, np.zeros(0), cert)
         cand = _check_poles(pool[:nu].astype(complex), Qm.A0, dt)
         blocks, kinds = _blocks(Qm, cand)
@@ -658,6 +653,43 @@ def _onb_degree(
     return best
 
 
+def _onb_realise(space: dict[str, Any], rho: int) -> tuple[Any, ...]:
+    """``(Λ, G_s, T, c, h, value)`` of the space's max–min direction (section 4)."""
+    grams = [(W @ W.conj().T).real / max(_norm2(W) ** 2, 1e-300) for W in space["W"]]
+    alpha, val = _maxmin_direction(grams)
+    return (*realise_onb(space, space["X"] @ alpha, rho), val)
+
+
+def _high_certificate(
+    nu: int,
+    dims: list[int],
+    ranks: list[int],
+    history: list[dict[str, Any]],
+    staircase: dict[str, Any],
+    unseen_at: dict[int, list[int]],
+    undecided: list[int],
+    gains: np.ndarray,
+    undecided_statement: str,
+) -> dict[str, Any]:
+    """Certificate of a row found above the partial-fraction degrees."""
+    return {
+        "order": nu if not undecided else None,
+        "bounds": (undecided[0] if undecided else nu, nu),
+        "parity_dims": dims,
+        "ranks": ranks,
+        "history": history,
+        "staircase": staircase,
+        "unseen_below": {int(a): b for a, b in unseen_at.items()},
+        "target_gain_on_space": np.asarray(gains).tolist(),
+        "statement": (
+            f"order {nu} is least: the degree-{nu - 1} parity space does not see targets "
+            f"{unseen_at.get(nu - 1, [])}"
+            if not undecided
+            else undecided_statement
+        ),
+    }
+
+
 def _onb_row(
     Qm: Quotient,
     nu: int,
@@ -671,29 +703,22 @@ def _onb_row(
     undecided: list[int],
 ) -> LeastOrderRow:
     """The least-order row of a degree above ``NU_PF_MAX`` (orthonormal basis)."""
-    grams = [(W @ W.conj().T).real / max(_norm2(W) ** 2, 1e-300) for W in space["W"]]
-    alpha, val = _maxmin_direction(grams)
-    F, Gs, T, c, h = realise_onb(space, space["X"] @ alpha, Qm.rho)
+    F, Gs, T, c, h, val = _onb_realise(space, Qm.rho)
     low = undecided[0] if undecided else nu
-    cert = {
-        "order": nu if not undecided else None,
-        "bounds": (low, nu),
-        "parity_dims": dims,
-        "ranks": ranks,
-        "history": history,
-        "staircase": staircase,
-        "realisation": "orthonormal parity basis",
-        "unseen_below": {int(a): b for a, b in unseen_at.items()},
-        "min_target_gain": float(np.sqrt(max(val, 0.0))),
-        "target_gain_on_space": space["rel"].tolist(),
-        "statement": (
-            f"order {nu} is least: the degree-{nu - 1} parity space does not see targets "
-            f"{unseen_at.get(nu - 1, [])}"
-            if not undecided
-            else f"order {nu}: no residual of degree < {low} (observer staircase); degrees "
-            f"{undecided} were not decided"
-        ),
-    }
+    cert = _high_certificate(
+        nu,
+        dims,
+        ranks,
+        history,
+        staircase,
+        unseen_at,
+        undecided,
+        space["rel"],
+        f"order {nu}: no residual of degree < {low} (observer staircase); degrees "
+        f"{undecided} were not decided",
+    )
+    cert["realisation"] = "orthonormal parity basis"
+    cert["min_target_gain"] = float(np.sqrt(max(val, 0.0)))
     return LeastOrderRow(nu, F, Gs, T, c, h, cand, cert)
 
 
@@ -717,9 +742,7 @@ def parity_basis_row(Qm: Quotient, lo: LeastOrderRow, *, omega: float, dt: float
     if onb is None or not np.all(onb[0]["rel"] > SEE_TOL):
         raise np.linalg.LinAlgError("orthonormal parity basis: the space misses a target")
     space, cand = onb
-    grams = [(W @ W.conj().T).real / max(_norm2(W) ** 2, 1e-300) for W in space["W"]]
-    alpha, val = _maxmin_direction(grams)
-    F, Gs, T, c, h = realise_onb(space, space["X"] @ alpha, Qm.rho)
+    F, Gs, T, c, h, val = _onb_realise(space, Qm.rho)
     cert = dict(lo.certificate)
     cert["realisation"] = "orthonormal parity basis"
     cert["min_target_gain"] = float(np.sqrt(max(val, 0.0)))
