@@ -272,3 +272,25 @@ def test_weak_least_order_rows_are_raised_until_strong(monkeypatch):
     weak = gf.design_bank(p, faults, spec.structure)
     assert [g.order for g in weak.generators] == [1] * 4
     assert all(d.startswith("weak") for d in weak.diagnostics)
+
+
+def test_target_reaching_the_quotient_only_through_rounding_is_not_isolable():
+    # found by hypothesis (random mode): decoupling the general fault puts sensor 2 into
+    # S*; D0 = −Q Qᵀ A S (C S)⁺ is itself rounding (S nearly A-invariant), and the
+    # target's quotient input P D0 e_2 ≈ 4e-16 was judged against ‖D0‖ instead of the
+    # size D0 has before that cancellation: its rounding was "seen" by the parity
+    # space (a relative gain of noise over noise) and the row came out missing with
+    # "transfer identically zero" instead of "not isolable"
+    p = gf.Plant(
+        [[-0.5, 0.0], [0.0, 0.5]],
+        np.zeros((2, 0)),
+        [[0.0, -1.0], [2.0, 1.0], [0.0, 0.0]],
+        Bd=[[0.0], [-1.0]],
+        Dd=[[-1.0], [1.0], [1.0]],
+        dt=0.1,
+    )
+    faults = [gf.SensorFault(i) for i in range(3)]
+    faults += [gf.ActuatorFault([1.0, 1.0]), gf.Fault([0.0, -1.0], [0.0, 0.0, 1.0])]
+    with pytest.raises(gf.errors.NotIsolableError, match="not isolable") as exc:
+        gf.design_residual_generator(p, faults, [0, 1, 2, 3], decouple=[4])
+    assert "[2]" in str(exc.value)

@@ -91,12 +91,17 @@ def quotient_model(
         Sb = S.basis
         CS = Ca @ Sb
         Q = S.complement().basis
-        D0 = -Q @ (Q.T @ Aa @ Sb @ pinv(CS, nC, what="(C S)⁺"))
+        CSp = pinv(CS, nC, what="(C S)⁺")
+        D0 = -Q @ (Q.T @ Aa @ Sb @ CSp)
+        # the size D0 has before the cancellation Qᵀ A S ≈ 0 (S nearly A-invariant): the
+        # scale against which its entries are rounding
+        nD0 = max(_norm2(D0), nA * _norm2(CSp))
         H = Subspace(CS, scale=nC).complement().basis.T
     else:
         Sb = np.zeros((n + na, 0))
         Q = np.eye(n + na)
         D0 = np.zeros((n + na, q))
+        nD0 = 0.0
         H = np.eye(q)
     P = Q.T
     A0 = P @ (Aa + D0 @ Ca) @ Q
@@ -116,7 +121,7 @@ def quotient_model(
     for Bt, Dt in targets:  # a target that reaches the quotient only through rounding is 0
         b = P @ np.vstack([Bt, np.zeros((na, Bt.shape[1]))]) + P @ D0 @ Dt
         dd = H @ Dt
-        if _norm2(b) <= rt * (_norm2(Bt) + _norm2(D0) * _norm2(Dt)):
+        if _norm2(b) <= rt * (_norm2(Bt) + nD0 * _norm2(Dt)):
             b = np.zeros_like(b)
         if _norm2(dd) <= rt * _norm2(Dt):
             dd = np.zeros_like(dd)
