@@ -196,13 +196,9 @@ class Composite:
         widths = [c[0].shape[1] for c in channels]
         edges = np.cumsum([0, *widths])
         UB = np.hstack([self.UAh @ c[0] for c in channels])
-        q = self.g.q
         pts = self.raw_points
         Qall = self.generator_tf_many(pts)
-        if UB.size:
-            Yall = self.CUA @ _tri_solve_many(self.TA, pts, UB)
-        else:
-            Yall = np.zeros((pts.size, q, 0), dtype=complex)
+        Yall = self._plant_response(pts, UB)
         nQ = (
             np.linalg.norm(Qall, ord=2, axis=(1, 2))
             if Qall.shape[1] > 1
@@ -264,6 +260,15 @@ class Composite:
             T = T + self.MUF @ self._solve_F(s, self.UFEG)
         return T[:, : g.q], T[:, g.q :]
 
+    def _plant_response(self, pts: np.ndarray, UB: np.ndarray) -> np.ndarray:
+        """``C U (sI − T_A)⁻¹ UB`` at every point, ``(P, q, cols)``; the zero columns (a
+        sensor fault has ``Bx = 0``) are not solved for."""
+        out = np.zeros((pts.size, self.g.q, UB.shape[1]), dtype=complex)
+        nz = np.flatnonzero(np.any(UB != 0, axis=0))
+        if nz.size:
+            out[:, :, nz] = self.CUA @ _tri_solve_many(self.TA, pts, UB[:, nz])
+        return out
+
     def generator_tf_many(self, pts: np.ndarray) -> np.ndarray:
         """``[G_y(s), G_u(s)]`` at every point: shape ``(P, 1, q + m)`` (one residual row)
         or ``(P, rdim, q + m)``."""
@@ -292,7 +297,7 @@ class Composite:
         best = np.zeros(len(channels))
         pts = self.points
         P, q = pts.size, self.g.q
-        Yall = self.CUA @ _tri_solve_many(self.TA, pts, UB)
+        Yall = self._plant_response(pts, UB)
         cr = np.linalg.norm(Yall[:, :, -1], axis=1)
         Qall = self.generator_tf_many(pts)
         Gy, Gu = Qall[:, :, :q], Qall[:, :, q:]

@@ -57,6 +57,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
+from geomfdi.synthesis.gains import _tri_solve_many
 from geomfdi.synthesis.injection import mirror_rule
 from geomfdi.synthesis.least_order import LeastOrderRow
 from geomfdi.synthesis.quotient import Quotient
@@ -73,12 +74,14 @@ POINTS_PER_POLE = 6
 
 
 def _resolvent_rows(T: np.ndarray, left: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """``left (s I − T)⁻¹`` for an upper triangular complex T at every point (rows)."""
-    k = T.shape[0]
-    out = np.empty((pts.size, left.shape[0], k), dtype=complex)
-    for i, s in enumerate(pts):
-        out[i] = sla.solve_triangular(s * np.eye(k) - T, left.T, trans="T").T
-    return out
+    """``left (s I − T)⁻¹`` for an upper triangular complex T at every point (rows).
+
+    Transposed and index-reversed, ``J Tᵀ J`` is upper triangular again: one batched back
+    substitution over all points (:func:`geomfdi.synthesis.gains._tri_solve_many`).
+    """
+    Tr = T.T[::-1, ::-1]
+    X = _tri_solve_many(Tr, pts, left.T[::-1, :])  # (P, k, rows)
+    return X[:, ::-1, :].transpose(0, 2, 1)
 
 
 def orthonormal_row(
@@ -110,13 +113,20 @@ def orthonormal_row(
     poles = rule.targets
     Lam, h = output_normal_basis(poles, dt)
     pts, wts = phase_frequencies(poles, dt, POINTS_PER_POLE)
+    lam_m, mu_m = eig[rule.moved], poles[rule.moved]
+    f = np.prod((pts[:, None] - lam_m[None, :]) / (pts[:, None] - mu_m[None, :]), axis=1)
+    fa = np.abs(f)
+    if not np.max(fa) <= SPREAD_MAX * 1e6 * max(float(np.min(fa)), 1e-300):
+        raise np.linalg.LinAlgError(  # clearly unresolved: no resolvent needed to tell
+            "orthonormal-basis realisation: the row's frequency response spans "
+            f"{np.log10(np.max(fa) / max(float(np.min(fa)), 1e-300)):.0f} decades at this "
+            "stability degree"
+        )
     # data: Q(s) − Q(∞) at the points, through the complex Schur form of A0
     TA, UA = sla.schur(Qm.A0.astype(complex), output="complex")
     Bq = np.hstack([Qm.Bqy, Qm.Bqu])
     MR = _resolvent_rows(TA, Qm.M @ UA, pts)[:, 0, :]  # M U (sI − T)⁻¹
     UhB = UA.conj().T @ Bq
-    lam_m, mu_m = eig[rule.moved], poles[rule.moved]
-    f = np.prod((pts[:, None] - lam_m[None, :]) / (pts[:, None] - mu_m[None, :]), axis=1)
     Hrow = Qm.H[0]
     q = Hrow.size
     Qinf = np.concatenate([Hrow, -Hrow @ Du])
