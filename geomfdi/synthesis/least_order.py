@@ -737,7 +737,11 @@ def parity_basis_row(Qm: Quotient, lo: LeastOrderRow, *, omega: float, dt: float
     nu = lo.order
     if nu == 0 or Qm.k == 0:
         raise np.linalg.LinAlgError("orthonormal parity basis: nothing to realise")
-    dim = observer_staircase(Qm.A0, Qm.M).parity_dim(nu)
+    blocks = lo.certificate.get("staircase", {}).get("blocks")
+    if blocks is None:
+        dim = observer_staircase(Qm.A0, Qm.M).parity_dim(nu)
+    else:  # the staircase of the search: (ν + 1) ρ − Σ_{j ≤ ν+1} ρ_j
+        dim = (nu + 1) * Qm.rho - int(sum(blocks[: nu + 1]))
     onb = _onb_degree(Qm, nu, dim, omega, dt) if dim > 0 else None
     if onb is None or not np.all(onb[0]["rel"] > SEE_TOL):
         raise np.linalg.LinAlgError("orthonormal parity basis: the space misses a target")
