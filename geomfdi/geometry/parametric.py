@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -76,6 +77,27 @@ def real_number(x: Any, name: str) -> sp.Rational:
     if not np.isfinite(f):
         raise NonFiniteError(f"{name}: entries must be finite, got {f}", argument=name)
     return sp.Rational(repr(f))
+
+
+def exact_scalar(x: Any, name: str) -> sp.Expr:
+    """One exact scalar option (a pole, a filter parameter): never evaluates code.
+
+    Accepted: Python/numpy real numbers (binary floats exactly), sympy expressions that are
+    rational functions of symbols, and strings that are plain number literals (``"-1/2"``,
+    ``"0.25"``, ``"1e-3"``, parsed by :class:`fractions.Fraction`).  Any other string is
+    refused: strings are never handed to ``sympify``, which would execute them.
+    """
+    if isinstance(x, str):
+        try:
+            fr = Fraction(x.strip())
+        except (ValueError, ZeroDivisionError) as exc:
+            raise GeomFDIError(
+                f"{name}: strings must be plain numbers such as '-1/2' or '0.25' (they are "
+                f"never evaluated); give a number or a sympy expression, got {x!r:.60}",
+                argument=name,
+            ) from exc
+        return sp.Rational(fr.numerator, fr.denominator)
+    return _exact_entry(x, name)
 
 
 def _exact_entry(x: Any, name: str) -> sp.Expr:

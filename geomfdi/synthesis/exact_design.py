@@ -457,6 +457,41 @@ def _row_poles(poles: Any, rows: int) -> list[Any]:
     return [list(poles)] * rows
 
 
+def _exact_poles(poles: Any, dt: float, row: int, rows: int) -> list[sp.Expr]:
+    """A row's poles as exact scalars (never evaluated as code); numeric ones must be stable."""
+    where = "poles" if rows == 1 else f"poles (row {row})"
+    if isinstance(poles, str | bytes) or not isinstance(poles, list | tuple | np.ndarray):
+        raise DesignError(
+            f"{where}: expected a list of numbers, got {poles!r:.60}", argument="poles"
+        )
+    try:
+        out = [pm.exact_scalar(p, where) for p in poles]
+    except GeomFDIError as exc:
+        exc.argument = "poles"
+        raise
+    bad = [p for p in out if not p.free_symbols and not (abs(p) < 1 if dt > 0 else p < 0)]
+    if bad:
+        region = "inside the unit circle" if dt > 0 else "in the open left half-plane"
+        raise DesignError(
+            f"{where}: every numeric pole must lie {region}; got {[str(p) for p in bad]}",
+            argument="poles",
+        )
+    return out
+
+
+def _exact_filter_pole(value: Any, dt: float) -> sp.Expr:
+    """The output-filter parameter ``a`` (filter pole −a, or a for discrete time), exactly."""
+    a = pm.exact_scalar(value, "filter_pole")
+    if not a.free_symbols and not (0 < a < 1 if dt > 0 else a > 0):
+        raise DesignError(
+            "filter_pole: expected "
+            + ("0 < filter_pole < 1 for a discrete plant" if dt > 0 else "filter_pole > 0")
+            + f" (a stable output filter), got {a}",
+            argument="filter_pole",
+        )
+    return a
+
+
 def _plant_mats(plant: Plant) -> dict[str, sp.Matrix]:
     return {
         k: pm.as_exact_matrix(
@@ -528,7 +563,7 @@ def design_bank_exact(
     a = (
         (sp.Rational(1, 2) if plant.dt > 0 else sp.Integer(1))
         if filter_pole is None
-        else (sp.nsimplify(filter_pole) if not isinstance(filter_pole, sp.Basic) else filter_pole)
+        else _exact_filter_pole(filter_pole, plant.dt)
     )
     mats = _plant_mats(plant)
     sigs = [
@@ -538,7 +573,10 @@ def design_bank_exact(
         )
         for Bf, Df in fault_matrices(faults, plant.n, plant.q)
     ]
-    per_row = _row_poles(poles, req.shape[0])
+    per_row = [
+        None if rp is None else _exact_poles(rp, plant.dt, r, req.shape[0])
+        for r, rp in enumerate(_row_poles(poles, req.shape[0]))
+    ]
     deadline = time.monotonic() + float(time_limit)
     gens: list[ExactResidualGenerator | None] = []
     diags: list[str] = []

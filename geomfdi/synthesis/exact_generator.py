@@ -64,6 +64,10 @@ def _subs_values(parameters: tuple[Any, ...], values: Any) -> dict[Any, Any]:
                 f"values: {k} is not a parameter (parameters: {list(parameters)})",
                 argument="values",
             )
+        if isinstance(v, str):  # a number literal, never evaluated
+            from geomfdi.geometry.parametric import exact_scalar
+
+            v = exact_scalar(v, "values")
         try:
             fv = float(v)
         except (TypeError, ValueError) as exc:
