@@ -245,6 +245,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.campaign.runner import Campaign  # noqa: F401
     from geomfdi.campaign.spec import Scenario, Uncertainty  # noqa: F401
     from geomfdi.data.aircraft import aircraft_model  # noqa: F401
+    from geomfdi.data.three_tank import three_tank_model  # noqa: F401
     from geomfdi.deployment.monitor import Monitor  # noqa: F401
     from geomfdi.deployment.persistence import load_bank, load_monitor  # noqa: F401
     from geomfdi.deployment.recorded import evaluate  # noqa: F401
