@@ -2,7 +2,8 @@
 
 ``geomfdi evaluate MODEL.toml DATA.csv --out DIR`` designs the model's bank, reads the
 CSV (a header row naming the columns ``t`` or ``time``, outputs ``y0, y1, ...`` and
-inputs ``u0, ...``; empty or ``nan`` cells are missing samples), runs
+inputs ``u0, ...``; empty or ``nan`` cells are missing samples, anything else that is not
+a decimal number is refused: :mod:`geomfdi.deployment.csvfile`), runs
 :func:`geomfdi.evaluate` and writes ``residuals.csv``, ``alarms.csv`` (confirmed alarms and
 the isolation decision per sample), ``report.md`` (thresholds, masked windows, alarm
 episodes with isolation) and ``residuals.png``.
@@ -20,9 +21,11 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._files import csv_texts, replace_file, write_text
+from geomfdi.deployment.csvfile import CHUNK_ROWS, read_record
 from geomfdi.deployment.decide import as_persistence
-from geomfdi.deployment.recorded import EvaluationResult, channel_columns, evaluate
-from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.deployment.recorded import EvaluationResult, evaluate
+from geomfdi.errors import GeomFDIError
 from geomfdi.evaluation.persistence import Persistence
 
 __all__ = ["read_csv", "evaluate_files", "codegen_files", "parse_persistence", "describe_rule"]
@@ -62,51 +65,35 @@ def describe_rule(rule: Persistence) -> str:
 
 
 def read_csv(path: str | Path, q: int, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``t, y (q, N), u (m, N)`` from a CSV with a header row (module docstring)."""
-    path = Path(path)
-    with path.open(newline="", encoding="utf-8") as fh:
-        header = next(csv.reader(fh), None)
-    if not header:
-        raise ShapeError(f"{path}: empty file (expected a header row)", argument="data")
-    header = [h.strip() for h in header]
-    ys, us = channel_columns(header, "y"), channel_columns(header, "u")
-    tcol = next((c for c in ("t", "time") if c in header), None)
-    if tcol is None:
-        raise ShapeError(f"{path}: no time column (name it t or time)", argument="data")
-    if len(ys) != q or len(us) != m:
-        raise ShapeError(
-            f"{path}: the bank reads {q} outputs and {m} inputs; the header has "
-            f"{len(ys)} output columns {ys} and {len(us)} input columns {us}",
-            argument="data",
-        )
-    data = np.genfromtxt(path, delimiter=",", skip_header=1, dtype=float, ndmin=2)
-    if data.ndim != 2 or data.shape[1] != len(header):
-        raise ShapeError(
-            f"{path}: expected {len(header)} columns per row, got shape {data.shape}",
-            argument="data",
-        )
-    col = {h: i for i, h in enumerate(header)}
-    t = data[:, col[tcol]]
-    y = data[:, [col[c] for c in ys]].T
-    u = data[:, [col[c] for c in us]].T if us else np.zeros((0, data.shape[0]))
-    return t, y, u
+    """``t, y (q, N), u (m, N)`` from a CSV with a header row (module docstring), read by
+    the strict reader :func:`geomfdi.deployment.csvfile.read_record`."""
+    rec = read_record(path, q, m)
+    return rec.t, rec.y, rec.u
 
 
 def _write_table(path: Path, header: list[str], columns: list[np.ndarray]) -> None:
-    with path.open("w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        for row in zip(*columns, strict=True):
-            w.writerow(
-                [repr(float(x)) if isinstance(x, float | np.floating) else int(x) for x in row]
-            )
+    """A CSV table (floats in their shortest round-trip form, integers as integers),
+    written in chunks of rows through :func:`geomfdi._files.replace_file`."""
+    import pandas as pd
+
+    def write(tmp: Path) -> None:
+        N = len(columns[0]) if columns else 0
+        with tmp.open("w", newline="", encoding="utf-8") as fh:
+            csv.writer(fh).writerow(csv_texts(header))
+            for a in range(0, N, CHUNK_ROWS):
+                frame = pd.DataFrame({k: c[a : a + CHUNK_ROWS] for k, c in enumerate(columns)})
+                frame.to_csv(fh, header=False, index=False, lineterminator="\r\n")
+
+    replace_file(path, write)
 
 
 def _fmt(x: float | None) -> str:
     return "-" if x is None else f"{x:.6g}"
 
 
-def _report(res: EvaluationResult, model: str, data: str, method: str) -> str:
+def _report(
+    res: EvaluationResult, model: str, data: str, method: str, missing: tuple[int, int] = (0, 0)
+) -> str:
     lines = [
         f"# Residual evaluation: {model}",
         "",
@@ -123,6 +110,11 @@ def _report(res: EvaluationResult, model: str, data: str, method: str) -> str:
         peak = float(np.nanmax(np.abs(row))) if np.isfinite(row).any() else float("nan")
         lines.append(f"| {lab} | {thr} | {peak:.6g} | {int(res.alarms[i].sum())} |")
     lines += ["", "## Masked windows (missing samples)", ""]
+    lines += [
+        f"{missing[0]} missing cells (empty or nan) in {missing[1]} of {res.t.size} samples; "
+        f"{int(res.masked.sum())} samples masked (a missing or non-finite value).",
+        "",
+    ]
     lines += [f"- {a:g} .. {b:g} s" for a, b in res.gaps] or ["none"]
     lines += ["", "## Alarm episodes", ""]
     if res.episodes:
@@ -167,8 +159,12 @@ def evaluate_files(
     gens = [g for g in bank.generators if g is not None]
     if not gens:
         raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
-    t, y, u = read_csv(data, gens[0].q, gens[0].m)
-    res = evaluate(bank, y, u, t, threshold=threshold, persistence=persistence, initial=initial)
+    rec = read_record(data, gens[0].q, gens[0].m)
+    res = evaluate(
+        bank, rec.y, rec.u, rec.t, threshold=threshold, persistence=persistence, initial=initial
+    )
+    missing = (rec.missing, rec.missing_samples)
+    del rec  # (the residuals are computed: the signals are not needed any more)
     out.mkdir(parents=True, exist_ok=True)
     _write_table(out / "residuals.csv", ["t", *res.residual_labels], [res.t, *list(res.residuals)])
     _write_table(
@@ -176,13 +172,12 @@ def evaluate_files(
         ["t", *res.residual_labels, "isolated"],
         [res.t, *[a.astype(int) for a in res.alarms], res.isolated],
     )
-    report = _report(res, model, str(data), method)
-    (out / "report.md").write_text(report, encoding="utf-8")
+    report = _report(res, model, str(data), method, missing)
+    write_text(out / "report.md", report)
     files = ["residuals.csv", "alarms.csv", "report.md"]
     if plots:
-        from geomfdi.plotting.residuals import save_png
-
-        save_png(res.plot(title=f"{model}: {Path(data).name}"), out / "residuals.png")
+        fig = res.plot(title=f"{model}: {Path(data).name}")
+        replace_file(out / "residuals.png", lambda tmp: fig.savefig(tmp, dpi=120, format="png"))
         files.append("residuals.png")
     return {
         "report": report,
