@@ -21,6 +21,7 @@ __all__ = [
     "BankFileError",
     "SchemaVersionError",
     "ResourceLimitError",
+    "CampaignIncompleteError",
 ]
 
 
@@ -129,3 +130,17 @@ class ResourceLimitError(GeomFDIError):
         super().__init__(message, argument=argument)
         self.limit = limit
         self.estimate = estimate
+
+
+class CampaignIncompleteError(GeomFDIError):
+    """A campaign lost workers more often than it retries their tasks.
+
+    Attributes
+    ----------
+    partial : CampaignResult or None
+        The runs that were done (``partial.complete`` is False), or None.
+    """
+
+    def __init__(self, message: str, *, partial: object = None, argument: str | None = None):
+        super().__init__(message, argument=argument)
+        self.partial = partial

@@ -31,6 +31,11 @@ from geomfdi.evaluation.persistence import Persistence
 __all__ = ["read_csv", "evaluate_files", "codegen_files", "parse_persistence", "describe_rule"]
 
 
+MAX_PERSISTENCE = 100_000
+"""Largest sample count of ``--persistence`` (the rule's window and reset; the monitor
+and the generated code keep a ring of that many samples)."""
+
+
 def parse_persistence(text: str | None) -> Any:
     """``"3"`` (3 consecutive samples), ``"2/3"`` (2 of 3) or ``"2/3/50"`` (2 of 3, the
     alarm episode ends after 50 quiet samples) from the command line; the pattern is
@@ -41,6 +46,11 @@ def parse_persistence(text: str | None) -> Any:
         parts = [int(p) for p in str(text).split("/")]
     except ValueError:
         parts = []
+    if any(p > MAX_PERSISTENCE for p in parts):
+        raise GeomFDIError(
+            f"--persistence: at most {MAX_PERSISTENCE} samples per count, got {text!r}",
+            argument="persistence",
+        )
     if len(parts) == 1:
         return as_persistence(parts[0])
     if len(parts) == 2:

@@ -599,7 +599,8 @@ def load_campaign(path: str | Path, *, runs: int | None = None) -> Any:
 
 def campaign_command(args: argparse.Namespace) -> int:
     """``geomfdi campaign MODEL.toml``: run, write CSV tables and PNGs, print the summary."""
-    from geomfdi.campaign.config import campaign_report, write_outputs
+    from geomfdi.campaign.config import campaign_report, write_csv, write_outputs
+    from geomfdi.errors import CampaignIncompleteError
 
     try:
         if args.runs is not None and args.runs < 1:
@@ -621,6 +622,14 @@ def campaign_command(args: argparse.Namespace) -> int:
         else:
             result = cfg.campaign.run(args.executor, workers=args.workers, progress=progress)
         files = write_outputs(result, args.out, plots=not args.no_plots, name=cfg.spec.name)
+    except CampaignIncompleteError as exc:
+        saved = ""
+        if exc.partial is not None:
+            args.out.mkdir(parents=True, exist_ok=True)
+            path = write_csv(exc.partial.table, args.out / "campaign.incomplete.csv", index=False)
+            saved = f"; the runs done are in {path} (incomplete)"
+        print(f"geomfdi: error: {_one_line(exc)}{saved}", file=sys.stderr)
+        return 2
     except (GeomFDIError, OSError) as exc:
         print(f"geomfdi: error: {_one_line(exc)}", file=sys.stderr)
         return 2
