@@ -10,7 +10,7 @@ from geomfdi.deployment.monitor import Monitor, MonitorOutput, MonitorStep
 from geomfdi.deployment.persistence import load_bank, load_monitor, save_bank, save_monitor
 from geomfdi.deployment.recorded import AlarmEpisode, EvaluationResult, evaluate
 from geomfdi.evaluation.persistence import Persistence
-from geomfdi.synthesis.discretize import discretize_bank
+from geomfdi.generators.discretize import discretize_bank
 
 __all__ = [
     "AlarmEpisode",

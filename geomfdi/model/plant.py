@@ -182,7 +182,7 @@ class Plant:
         """
         if not self.is_parametric:
             return self
-        from geomfdi.synthesis.exact_generator import _subs_values
+        from geomfdi.generators.exact import _subs_values
 
         vals = _subs_values(self.parameters, values)
         out = []

@@ -1,12 +1,12 @@
 """The full-quotient observer: (F, E, G, M, H, K) from S* (Hou, Wen & Chen 2011, §3.4).
 
 This is the construction behind ``method="full"``, ``"paper"`` and ``"mvw"``; the default
-least-order rows are in :mod:`geomfdi.synthesis.least_order`.  See the user guide,
+least-order rows are in :mod:`geomfdi.synthesis.least_order.search`.  See the user guide,
 *Theory: the geometric approach* (``docs/theory/geometric-approach.md``).
 
 For a residual that must see the faults ``target`` and ignore ``decouple`` (and every
 disturbance), with S = S*(Σ_{i∈decouple} Im L_i + Im L_d) on the design model of
-:mod:`geomfdi.synthesis.transforms`, Q an orthonormal basis of S^⊥ and P = Qᵀ::
+:mod:`geomfdi.synthesis.sensor_transforms`, Q an orthonormal basis of S^⊥ and P = Qᵀ::
 
     D0 = −Q Qᵀ A S (C S)⁺              P (A + D0 C) S = 0
     H  = orthonormal rows of Im C ⊖ C S  Ker H C = Ker C + S
@@ -48,16 +48,16 @@ import scipy.linalg
 
 from geomfdi._validation import as_positive, as_sequence_of
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError
+from geomfdi.generators.gains import LEAK_TOL, PlantFactor, fault_gains
+from geomfdi.generators.generator import ResidualGenerator
+from geomfdi.generators.realization import minimal_realization, reachable_subspace
 from geomfdi.geometry.subspace import Subspace, _norm2, pinv
 from geomfdi.geometry.unobservability import measurement_map, min_unobservability_subspace
 from geomfdi.model.faults import Fault
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.synthesis.gains import LEAK_TOL, PlantFactor, fault_gains
-from geomfdi.synthesis.generator import ResidualGenerator
-from geomfdi.synthesis.least_order import validate_poles
-from geomfdi.synthesis.placement import place_poles
-from geomfdi.synthesis.realization import minimal_realization, reachable_subspace
-from geomfdi.synthesis.transforms import DesignModel, pseudo_actuator_model
+from geomfdi.synthesis.least_order.placement import place_poles
+from geomfdi.synthesis.least_order.search import validate_poles
+from geomfdi.synthesis.sensor_transforms import DesignModel, pseudo_actuator_model
 from geomfdi.tolerance import rank_decision
 
 __all__ = ["build_full", "default_margin", "IDENTITY_TOL"]
@@ -205,7 +205,7 @@ def _place(
     coordinates only moves eig(T22) and keeps eig(T11).  Default: T22's eigenvalues are
     mirrored across the margin (:func:`_mirror_gain`, the minimum-norm choice; far
     better conditioned than pushing them onto the margin line).  Requested poles: the
-    Schur method of :func:`geomfdi.synthesis.placement.place_poles` on the whole
+    Schur method of :func:`geomfdi.synthesis.least_order.placement.place_poles` on the whole
     quotient.  The computed spectrum is checked afterwards; a placement that misses it
     (a high-order quotient observed through few outputs is intrinsically
     ill-conditioned) raises.

@@ -29,7 +29,7 @@ __all__ = ["METHODS", "discretize_generator", "discretize_bank"]
 METHODS = ("zoh", "tustin")
 
 if TYPE_CHECKING:  # pragma: no cover
-    from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
+    from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 
 
 def discretize_generator(g: ResidualGenerator, dt: float, method: str = "zoh") -> ResidualGenerator:

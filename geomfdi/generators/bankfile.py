@@ -40,7 +40,7 @@ from geomfdi.errors import BankFileError, GeomFDIError, SchemaVersionError
 from geomfdi.model.faults import ActuatorFault, Fault, SensorFault
 
 if TYPE_CHECKING:  # pragma: no cover
-    from geomfdi.synthesis.generator import ResidualBank
+    from geomfdi.generators.generator import ResidualBank
 
 __all__ = ["SCHEMA", "bank_to_dict", "save_bank"]
 

@@ -309,15 +309,15 @@ class ResidualBank:
     # ------------------------------------------- sampling and saving
     def discretize(self, dt: float, method: str = "zoh") -> ResidualBank:
         """The bank sampled at ``dt`` (``"zoh"`` or ``"tustin"``), keeping its faults,
-        structure, diagnostics and info; see :func:`geomfdi.synthesis.discretize.discretize_bank`.
+        structure, diagnostics and info; see :func:`geomfdi.generators.discretize.discretize_bank`.
         """
-        from geomfdi.synthesis.discretize import discretize_bank
+        from geomfdi.generators.discretize import discretize_bank
 
         return discretize_bank(self, dt, method)
 
     def save(self, path: Any) -> Any:
         """Write the bank to a versioned JSON file (read back with ``gf.load_bank``)."""
-        from geomfdi.synthesis.bankfile import save_bank
+        from geomfdi.generators.bankfile import save_bank
 
         return save_bank(self, path)
 
