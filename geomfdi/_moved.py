@@ -35,6 +35,7 @@ MOVED: dict[str, str] = {
     "geomfdi.synthesis.exact_design": "geomfdi.synthesis.exact.design",
     "geomfdi.synthesis.transforms": "geomfdi.synthesis.sensor_transforms",
     "geomfdi.synthesis.decisions": "geomfdi.synthesis.rank_decisions",
+    "geomfdi.parity.seed004": "geomfdi.parity.dodecahedron_experiment",
 }
 """Old module path -> the module that now holds its code."""
 
