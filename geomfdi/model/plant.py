@@ -1,4 +1,7 @@
-"""The plant model: ``x' = A x + B u + Bd d``, ``y = C x + D u + Dd d`` (math.md §1)."""
+"""The plant model: ``x' = A x + B u + Bd d``, ``y = C x + D u + Dd d``.
+
+The model of Hou, Wen & Chen (2011), §2, with the disturbance and feedthrough terms.
+"""
 
 from __future__ import annotations
 

@@ -4,7 +4,8 @@
 * :mod:`~geomfdi.parity.glt`, :mod:`~geomfdi.parity.opt`, :mod:`~geomfdi.parity.multiple`
   -- the statistics; :mod:`~geomfdi.parity.decision` -- per-sample decisions;
 * :mod:`~geomfdi.parity.capability` -- isolation capability of a configuration;
-* :mod:`~geomfdi.parity.montecarlo`, :mod:`~geomfdi.parity.dodecahedron_experiment` -- Monte-Carlo rates;
+* :mod:`~geomfdi.parity.montecarlo`, :mod:`~geomfdi.parity.dodecahedron_experiment` --
+  Monte-Carlo rates (the dodecahedron experiment of Qin & Niu 1999);
 * :mod:`~geomfdi.parity.configs` -- sensor configurations (dodecahedron, cones, ...);
 * figures in :mod:`geomfdi.plotting.parity`.
 

@@ -18,7 +18,7 @@ giving ``w' = F w − E y + G u, r = M w − H y + K u`` with the identities
 ``F P = P A + E C``, ``M P = H C`` checked on every design, so that ``e = w − P x``
 obeys ``e' = F e − P L m`` and ``r = M e``.
 
-Beyond the construction of math.md §4:
+Beyond the construction of Hou, Wen & Chen 2011 (§3.4, eq. 17–23):
 
 * **Parity rows.**  With redundant sensors (rank C < q, e.g. a zero or a repeated row
   of C) a target's direct output part can be read by static relations ``N y``,
@@ -331,11 +331,11 @@ def _construct(
     A, B, C, Du = model.A, model.B, model.C, model.Du
     Q = S.complement().basis
     P = Q.T
-    # D0 = −Q Qᵀ A S (C S)⁺ (math.md §4).  Whether S is conditioned invariant is judged
-    # by the identity P (A + D0 C) S = 0 checked below, relative to the data's norms,
-    # not by the subspace-membership test of ``friend``, whose rank decision on
-    # A (S ∩ Ker C) can be close for large n although S* itself was decided with a
-    # wide gap.
+    # D0 = −Q Qᵀ A S (C S)⁺ (``docs/theory/geometric-approach.md``).  Whether S is
+    # conditioned invariant is judged by the identity P (A + D0 C) S = 0 checked below,
+    # relative to the data's norms, not by the subspace-membership test of ``friend``,
+    # whose rank decision on A (S ∩ Ker C) can be close for large n although S* itself
+    # was decided with a wide gap.
     if S.dim < model.n:
         Sb = S.basis
         D0 = -Q @ (Q.T @ A @ Sb @ pinv(C @ Sb, _norm2(C), what="(C S)⁺"))
@@ -677,7 +677,8 @@ def build_full(
             why = [
                 f"fault {j}: not seen by the paper-method residual: its transfer is "
                 f"identically zero on the physical model (relative gain {gains[j]:.2g}), "
-                "although the pseudo-actuator model sees it (math.md Erratum 2)"
+                "although the pseudo-actuator model sees it (Hou, Wen & Chen 2011, erratum 2 "
+                "in docs/theory/errata.md)"
                 for j in unseen
             ]
         else:

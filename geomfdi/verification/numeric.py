@@ -180,7 +180,7 @@ def verify(
 
     Notes
     -----
-    math.md §5, items 1–3.  The transfer from sensor i is
+    ``docs/theory/verification.md``, items 1–3.  The transfer from sensor i is
     ``−M (sI − F)⁻¹ E e_i − H e_i`` composed with the plant; from u and d it must vanish.
     Unlike the paper's check on its pseudo-actuator model, this one uses the measured y,
     so the paper design's transient leakage (Erratum 2) is visible.
