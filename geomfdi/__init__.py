@@ -8,16 +8,21 @@ Use as ``import geomfdi as gf``. The package follows the data path of a design::
 
     geomfdi.model          plants and faults
     geomfdi.geometry       subspaces, W*, S* (numeric and exact)
-    geomfdi.synthesis      transforms, construction, generators and banks
+    geomfdi.generators     residual generators and banks, bank files, sampling
+    geomfdi.synthesis      design front end, least-order rows, exact design
     geomfdi.verification   numeric and symbolic proofs on the physical plant
     geomfdi.simulation     fault signals, LTI core, closed loop
     geomfdi.evaluation     thresholds, alarms, isolation
+    geomfdi.deployment     recorded and live evaluation, generated code
+    geomfdi.campaign       Monte-Carlo campaigns
     geomfdi.parity         redundant sensors (parity space)
     geomfdi.diagnosability KL and directional indices
     geomfdi.monitoring     AR-model innovation monitoring
     geomfdi.io             model files and the command line
     geomfdi.data           test models (a 32-state aircraft)
     geomfdi.plotting       figures
+
+The layers and what each may import: ``docs/architecture.md``.
 
 Public names are loaded on first use (``gf.design_bank`` imports the synthesis
 subpackage, not the simulator), so ``import geomfdi`` stays cheap.
@@ -197,6 +202,7 @@ _MODULES: dict[str, str] = {
     "model": "geomfdi.model",
     "geometry": "geomfdi.geometry",
     "synthesis": "geomfdi.synthesis",
+    "generators": "geomfdi.generators",
     "data": "geomfdi.data",
     "verification": "geomfdi.verification",
     "simulation": "geomfdi.simulation",

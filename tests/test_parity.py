@@ -1,4 +1,4 @@
-"""Parity-space FDI (seeds 000 and 004): parity matrix, GLT, OPT, two-fault statistics."""
+"""Parity-space FDI (Zhang, Chen & Liu 2005; Qin & Niu 1999): parity matrix, GLT, OPT, pairs."""
 
 from __future__ import annotations
 

@@ -10,6 +10,9 @@
 * figures in :mod:`geomfdi.plotting.parity`.
 
 See the user guide, *Theory: parity space* (``docs/theory/parity-space.md``).
+
+Layer: a side branch on measurements as arrays.  It may import the base modules and,
+inside functions, :mod:`geomfdi.plotting`.
 """
 
 from geomfdi.parity.configs import (
