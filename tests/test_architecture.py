@@ -265,7 +265,6 @@ def _type_imports(path: Path) -> set[str]:
 KNOWN_TYPE_CYCLES: list[list[str]] = [
     [f"geomfdi.diagnosability.{m}" for m in ("applicability", "indices", "model", "stacking")]
     + ["geomfdi.diagnosability.tables"],
-    [f"geomfdi.monitoring.{m}" for m in ("batch", "monitor", "streaming", "training")],
     [
         f"geomfdi.parity.{m}"
         for m in (
