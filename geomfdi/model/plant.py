@@ -95,11 +95,16 @@ class Plant:
         if _has_symbols(A, B, C, D, Bd, Dd):
             self._init_parametric(A, B, C, D, Bd, Dd, dt)
             return
-        self.A = as_matrix(A, "A", square=True)
+        self.A = as_matrix(A, "A", square=True, allow_empty=True)
         n = self.A.shape[0]
         if C is None:
             raise GeomFDIError("C: the output matrix is required", argument="C")
-        self.C = as_matrix(C, "C", cols=n, vector_as="row")
+        # a static plant (n = 0, ``A = np.zeros((0, 0))``) has C of shape (q, 0)
+        self.C = as_matrix(C, "C", cols=n, vector_as="row", allow_empty=n == 0)
+        if self.C.shape[0] == 0:
+            raise ShapeError(
+                f"C: must have at least one row, got shape {self.C.shape}", argument="C"
+            )
         q = self.C.shape[0]
         if B is None:
             self.B = np.zeros((n, 0))

@@ -1,0 +1,98 @@
+"""The model every specification analysis works on: checked, column-normalised, with quotients.
+
+See the user guide, *Theory: achievable signatures* (``docs/theory/achievable-signatures.md``).
+
+A residual's fault signature does not change when a fault signal or a disturbance is
+measured in other units: each fault's signature ``[B_f; D_f]`` and each disturbance column
+``[B_d; D_d]`` is scaled to unit norm here, and the state is balanced by the design's own
+quotient step (:func:`geomfdi.synthesis.build._quotient`), so that a badly scaled plant and
+a well-scaled one meet the same rank decisions.  Every decision of the analysis is taken on
+the quotient of the decoupled signals (S*), as in the design (Varga 2017, §3.5: the
+normal-rank conditions of fault detectability; here in their geometric form).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from geomfdi.errors import GeomFDIError
+from geomfdi.geometry.subspace import _norm2
+from geomfdi.model.faults import Fault, fault_matrices
+from geomfdi.model.plant import Plant, as_plant
+
+__all__ = ["SpecModel", "spec_model", "quotient_of"]
+
+
+@dataclass(frozen=True)
+class SpecModel:
+    """A plant and its faults prepared for the specification analyses."""
+
+    plant: Plant
+    """The plant with unit-norm disturbance columns."""
+    faults: list[Fault]
+    sigs: list[tuple[np.ndarray, np.ndarray]]
+    """``(B_f, D_f)`` of each fault, scaled to ``‖[B_f; D_f]‖₂ = 1``."""
+    omega: float
+    """The plant's frequency scale (:func:`geomfdi.synthesis.least_order.plant_scale`)."""
+
+    @property
+    def nf(self) -> int:
+        return len(self.sigs)
+
+    @property
+    def names(self) -> list[str]:
+        return [f.name for f in self.faults]
+
+
+def _unit_columns(B: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    if B.shape[1] == 0:
+        return B, D
+    nrm = np.linalg.norm(np.vstack([B, D]), axis=0)
+    nrm[nrm == 0] = 1.0
+    return B / nrm, D / nrm
+
+
+def spec_model(plant: Any, faults: Any) -> SpecModel:
+    """Check ``plant`` and ``faults`` and return the column-normalised :class:`SpecModel`.
+
+    Raises
+    ------
+    GeomFDIError
+        ``argument="plant"`` or ``"faults"`` for bad input (an empty fault list, a fault
+        whose signature does not fit the plant, a fault with a zero signature).
+    """
+    from geomfdi.synthesis.construction import _coerce_faults
+    from geomfdi.synthesis.least_order import plant_scale
+
+    plant = as_plant(plant)
+    flist = _coerce_faults(faults)
+    raw = fault_matrices(flist, plant.n, plant.q)
+    sigs = []
+    for k, (Bf, Df) in enumerate(raw):
+        nrm = _norm2(np.vstack([Bf, Df]))
+        if not np.isfinite(nrm) or nrm == 0:
+            raise GeomFDIError(
+                f"faults[{k}]: the fault {flist[k].name!r} has a zero signature (Bf = 0, Df = 0)",
+                argument="faults",
+            )
+        sigs.append((Bf / nrm, Df / nrm))
+    Bd, Dd = _unit_columns(plant.Bd, plant.Dd)
+    scaled = Plant(plant.A, plant.B, plant.C, plant.D, plant.dt, Bd=Bd, Dd=Dd)
+    return SpecModel(scaled, flist, sigs, plant_scale(plant.A, plant.dt))
+
+
+def quotient_of(model: SpecModel, target: tuple[int, ...], decouple: tuple[int, ...]) -> Any:
+    """The design's decoupled quotient of the row seeing ``target`` and ignoring ``decouple``
+    (and the disturbances), on the balanced model; ``None`` when its identities fail (the
+    rank decisions behind S* are ill-conditioned)."""
+    from geomfdi.synthesis.build import _quotient
+    from geomfdi.synthesis.construction import _NumericalDesignError
+
+    try:
+        Qm, _ = _quotient(model.plant, model.sigs, target, decouple, "row", True)
+    except _NumericalDesignError:
+        return None
+    return Qm
