@@ -244,7 +244,9 @@ def achievable_signatures(
     freqs = _checked_frequencies(frequencies)
     tol = GAIN_TOL if gain_tol is None else as_float(gain_tol, "gain_tol")
     if not (0 <= tol < 1):
-        raise GeomFDIError(f"gain_tol: expected a value in [0, 1), got {gain_tol!r}", "gain_tol")
+        raise GeomFDIError(
+            f"gain_tol: expected a value in [0, 1), got {gain_tol!r}", argument="gain_tol"
+        )
     pts = None if freqs is None else _boundary_points(freqs, model.plant.dt)
     nf = model.nf
     full = (1 << nf) - 1
