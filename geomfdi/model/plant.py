@@ -46,6 +46,8 @@ class Plant:
     Parameters
     ----------
     A : array_like, (n, n)
+        ``np.zeros((0, 0))`` for a static plant (n = 0, ``C`` of shape (q, 0)), accepted by
+        the structure analyses (:func:`~geomfdi.achievable_structures`).
     B : array_like, (n, m) or None
         ``None`` means no known input (``m = 0``).
     C : array_like, (q, n)
@@ -100,6 +102,12 @@ class Plant:
         if C is None:
             raise GeomFDIError("C: the output matrix is required", argument="C")
         # a static plant (n = 0, ``A = np.zeros((0, 0))``) has C of shape (q, 0)
+        if n == 0 and np.shape(C)[-1:] != (0,):
+            raise ShapeError(
+                f"A: must not be empty when C has columns (a static plant has C of shape "
+                f"(q, 0)), got A of shape {self.A.shape}",
+                argument="A",
+            )
         self.C = as_matrix(C, "C", cols=n, vector_as="row", allow_empty=n == 0)
         if self.C.shape[0] == 0:
             raise ShapeError(

@@ -270,9 +270,8 @@ def isolability_analysis(
     >>> import numpy as np, geomfdi as gf
     >>> plant = gf.Plant([[-1.0, 0.0], [0.0, -2.0]], None, np.eye(2))
     >>> rep = gf.isolability_analysis(plant, [gf.SensorFault(0), gf.SensorFault(1)])
-    >>> rep.suggested.structure.astype(int), rep.suggested.total_order
-    (array([[0, 1],
-           [1, 0]]), 0)
+    >>> rep.suggested.name, rep.suggested.structure.astype(int).tolist()
+    ('suggested (generalised observer scheme)', [[0, 1], [1, 0]])
     """
     from geomfdi.synthesis.specification.model import spec_model
 
@@ -322,6 +321,15 @@ def isolability_analysis(
         ),
     }
     suggested = _scheme("suggested (least total order)", chosen, lookup, det, cls_of, model)
+    for sch in list(schemes.values()):  # a classical scheme at the same cost is preferred
+        if (
+            sch.isolates
+            and sch.orders is not None
+            and suggested.orders is not None
+            and (sch.total_order, len(sch.orders)) <= (suggested.total_order, len(chosen))
+        ):
+            suggested = Scheme(f"suggested ({sch.name})", sch.structure, sch.orders, True)
+            break
     schemes["suggested"] = suggested
     if structure is not None:
         req = as_structure(structure, nf, "structure")

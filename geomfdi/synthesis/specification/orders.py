@@ -100,7 +100,7 @@ def structure_orders(plant: Any, faults: Any, S: Any) -> np.ndarray:
     >>> plant = gf.Plant([[-1.0, 1.0], [0.0, -2.0]], None, np.eye(2))
     >>> faults = [gf.SensorFault(0), gf.SensorFault(1)]
     >>> gf.structure_orders(plant, faults, [[1, 1], [0, 1], [1, 0]]).tolist()
-    [0, 1, 1]
+    [1, 1, 2]
     """
     model = spec_model(plant, faults)
     rows = as_structure(S, model.nf)

@@ -287,7 +287,7 @@ def achievable_signatures(
                 strong,
             )  # fmt: skip
         )
-    rows.sort(key=lambda r: (-int(r.pattern.sum()), tuple((~r.pattern).tolist())))
+    rows.sort(key=lambda r: (-int(r.pattern.sum()), tuple(r.pattern.tolist())))
     weak = np.array([r.pattern for r in rows], dtype=bool).reshape(len(rows), nf)
     return AchievableSignatures(weak, rows, model.names, freqs, tol, len(evaluated), notes)
 
