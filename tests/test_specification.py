@@ -386,3 +386,32 @@ def test_design_bank_warns_on_identical_columns():
         warnings.simplefilter("error", gf.IsolabilityWarning)
         gf.design_bank(plant, faults, [[1, 1]])  # detection only: no isolation requested
         gf.design_bank(plant, faults, [[1, 0], [0, 1]])
+
+
+def test_discrete_plant_zero_at_dc():
+    # G_f(z) = (z − 1)/(z − 0.5): a constant fault is seen during its transient only
+    plant = gf.Plant([[0.5]], None, [[-0.5]], dt=0.1)
+    faults = [gf.Fault([1.0], [1.0])]
+    assert rows(gf.achievable_structures(plant, faults)) == {"1"}
+    assert gf.achievable_structures(plant, faults, frequencies=[0.0]).shape == (0, 1)
+    assert rows(gf.achievable_structures(plant, faults, frequencies=[10.0])) == {"1"}
+    assert gf.structure_orders(plant, faults, [[1]]).tolist() == [1]  # an observer of x
+
+
+def test_fault_with_several_columns():
+    # faults 1 and 2 of Yuan et al. as one two-column fault: its column is the union
+    plant, faults = yuan()
+    B = np.hstack([f.signatures(4, 3)[0] for f in faults])
+    merged = [gf.ActuatorFault(B[:, :2]), *faults[2:]]
+    S = gf.achievable_structures(plant, merged)
+    assert rows(S) == {f"{int(r[0]) | int(r[1])}{r[2:]}" for r in YUAN_WEAK}
+
+
+def test_requested_rows_weak_only_are_named():
+    plant, faults = boeing_747()
+    rep = gf.isolability_analysis(
+        plant, faults, frequencies=[0, 1], structure=[[1, 1, 0, 0, 0], [0, 0, 0, 0, 1]]
+    )
+    note = rep.schemes["requested"].note
+    assert rep.schemes["requested"].orders is None
+    assert "rows [0, 1] achievable in the weak sense only" in note

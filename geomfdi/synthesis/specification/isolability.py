@@ -222,10 +222,21 @@ def _scheme(
     det: list[int],
     cls_of: dict[int, int],
     model: Any,
+    weak_rows: set[bytes],
 ) -> Scheme:
     missing = [i for i, row in enumerate(Sc) if row.tobytes() not in lookup]
     if missing:
-        return Scheme(name, Sc, None, _isolates(Sc, det, cls_of), f"rows {missing} not achievable")
+        weak = [i for i in missing if Sc[i].tobytes() in weak_rows]
+        none = [i for i in missing if i not in weak]
+        note = "; ".join(
+            text
+            for text in (
+                f"rows {none} not achievable" if none else "",
+                f"rows {weak} achievable in the weak sense only (not strong)" if weak else "",
+            )
+            if text
+        )
+        return Scheme(name, Sc, None, _isolates(Sc, det, cls_of), note)
     orders = np.array([lookup[row.tobytes()] for row in Sc], dtype=int)
     if np.any(orders < 0):
         orders = np.array([r.order for r in row_orders(model, Sc)], dtype=int)
@@ -290,6 +301,7 @@ def isolability_analysis(
     isolable = detectable & np.array([all(j not in c for c in classes) for j in range(nf)])
     contained = contained_columns(S, det)
     lookup = {row.tobytes(): int(o) for row, o in zip(S, orders, strict=True)}
+    weak = {row.tobytes() for row in ach.weak}
     usable = [i for i in range(len(S)) if orders[i] >= 0]
     elems = _pairs(det, cls_of)
     notes: list[str] = []
@@ -314,13 +326,13 @@ def isolability_analysis(
     chosen = chosen[order_key][::-1] if len(chosen) else chosen
     schemes = {
         "generalised observer scheme": _scheme(
-            "generalised observer scheme", ~np.eye(nf, dtype=bool), lookup, det, cls_of, model
+            "generalised observer scheme", ~np.eye(nf, dtype=bool), lookup, det, cls_of, model, weak
         ),
         "dedicated observer scheme": _scheme(
-            "dedicated observer scheme", np.eye(nf, dtype=bool), lookup, det, cls_of, model
+            "dedicated observer scheme", np.eye(nf, dtype=bool), lookup, det, cls_of, model, weak
         ),
     }
-    suggested = _scheme("suggested (least total order)", chosen, lookup, det, cls_of, model)
+    suggested = _scheme("suggested (least total order)", chosen, lookup, det, cls_of, model, weak)
     for sch in list(schemes.values()):  # a classical scheme at the same cost is preferred
         if (
             sch.isolates
@@ -333,7 +345,7 @@ def isolability_analysis(
     schemes["suggested"] = suggested
     if structure is not None:
         req = as_structure(structure, nf, "structure")
-        schemes["requested"] = _scheme("requested", req, lookup, det, cls_of, model)
+        schemes["requested"] = _scheme("requested", req, lookup, det, cls_of, model, weak)
         for g in identical_columns(req, det):
             notes.append(
                 "requested structure: identical columns for "
