@@ -285,7 +285,7 @@ def achievable_signatures(
                 info["gain"],
                 sg,
                 strong,
-            )  # fmt: skip
+            )
         )
     rows.sort(key=lambda r: (-int(r.pattern.sum()), tuple(r.pattern.tolist())))
     weak = np.array([r.pattern for r in rows], dtype=bool).reshape(len(rows), nf)
