@@ -267,6 +267,10 @@ def test_static_plants():
     faults3 = [gf.Fault(None, D[:2, j]) for j in range(3)]
     plant2 = gf.Plant(np.zeros((0, 0)), None, np.zeros((2, 0)))
     assert rows(gf.achievable_structures(plant2, faults3)) == {"111", "011", "101", "110"}
+    # the design functions need states: a clean refusal naming the plant
+    with pytest.raises(GeomFDIError) as exc:
+        gf.design_bank(plant2, faults3, [[1, 1, 0], [0, 1, 1]])
+    assert exc.value.argument == "plant" and "static" in str(exc.value)
 
 
 def test_random_plant_without_inputs():

@@ -365,7 +365,19 @@ def _require_numeric(plant: Plant, name: str) -> None:
         )
 
 
-def as_plant(plant: Any, name: str = "plant", *, parametric: bool = False) -> Plant:
+def _require_states(plant: Plant, name: str, static: bool) -> Plant:
+    if plant.n == 0 and not static:
+        raise GeomFDIError(
+            f"{name}: a static plant (n = 0) is accepted by the structure analyses "
+            "(achievable_structures, structure_orders, isolability_analysis) only",
+            argument=name,
+        )
+    return plant
+
+
+def as_plant(
+    plant: Any, name: str = "plant", *, parametric: bool = False, static: bool = False
+) -> Plant:
     """Return ``plant`` as a :class:`Plant`; a python-control ``StateSpace`` is converted.
 
     Every public function that takes a plant accepts either form (the ``StateSpace`` inputs
@@ -374,21 +386,24 @@ def as_plant(plant: Any, name: str = "plant", *, parametric: bool = False) -> Pl
 
     ``parametric=True`` also accepts a plant with symbolic parameters (for the exact
     functions); otherwise such a plant is refused with a message asking for ``subs``.
+    ``static=True`` also accepts a static plant (n = 0; the structure analyses such as
+    :func:`~geomfdi.achievable_structures`); otherwise it is refused.
 
     Raises
     ------
     GeomFDIError
-        Naming ``name`` when ``plant`` is neither (or is parametric where numbers are needed).
+        Naming ``name`` when ``plant`` is neither (or is parametric where numbers are needed,
+        or static where states are needed).
     """
     if isinstance(plant, Plant):
         if not parametric:
             _require_numeric(plant, name)
-        return plant
+        return _require_states(plant, name, static)
     if type(plant).__module__.split(".")[0] == "control":
         import control
 
         if isinstance(plant, control.StateSpace):
-            return Plant.from_statespace(plant)
+            return _require_states(Plant.from_statespace(plant), name, static)
     raise GeomFDIError(
         f"{name}: expected a gf.Plant or control.StateSpace, got {type(plant).__name__}",
         argument=name,

@@ -67,7 +67,7 @@ def spec_model(plant: Any, faults: Any) -> SpecModel:
     from geomfdi.synthesis.construction import _coerce_faults
     from geomfdi.synthesis.least_order import plant_scale
 
-    plant = as_plant(plant)
+    plant = as_plant(plant, static=True)
     flist = _coerce_faults(faults)
     raw = fault_matrices(flist, plant.n, plant.q)
     sigs = []
