@@ -11,4 +11,10 @@
   quotient every analysis decides on.
 
 See the user guide, *Choosing a structure* (``docs/guide/choosing-a-structure.md``).
+
+These modules may import :mod:`geomfdi.model`, :mod:`geomfdi.geometry` and
+:mod:`geomfdi.synthesis.least_order` (the quotient and the degree search the design uses),
+never the synthesis front end (``design``, ``build``, ``construction``); the front end
+imports :func:`~geomfdi.synthesis.specification.isolability.identical_columns` inside
+``design_bank`` for its warning.
 """

@@ -4,9 +4,9 @@ See the user guide, *Theory: achievable signatures* (``docs/theory/achievable-si
 
 A residual's fault signature does not change when a fault signal or a disturbance is
 measured in other units: each fault's signature ``[B_f; D_f]`` and each disturbance column
-``[B_d; D_d]`` is scaled to unit norm here, and the state is balanced by the design's own
-quotient step (:func:`geomfdi.synthesis.build._quotient`), so that a badly scaled plant and
-a well-scaled one meet the same rank decisions.  Every decision of the analysis is taken on
+``[B_d; D_d]`` is scaled to unit norm here, and the state is balanced as in the design's
+quotient step (:func:`quotient_of`), so that a badly scaled plant and a well-scaled one
+meet the same rank decisions.  Every decision of the analysis is taken on
 the quotient of the decoupled signals (S*), as in the design (Varga 2017, §3.5: the
 normal-rank conditions of fault detectability; here in their geometric form).
 """
@@ -19,11 +19,15 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import GeomFDIError
+from geomfdi.geometry.balancing import state_scaling
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
 
-__all__ = ["SpecModel", "spec_model", "quotient_of"]
+__all__ = ["SpecModel", "spec_model", "quotient_of", "IDENTITY_TOL"]
+
+IDENTITY_TOL = 1e-8
+"""Largest relative residual of the quotient identities accepted (the design's bound)."""
 
 
 @dataclass(frozen=True)
@@ -55,6 +59,20 @@ def _unit_columns(B: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return B / nrm, D / nrm
 
 
+def _fault_list(faults: Any) -> list[Fault]:
+    if isinstance(faults, Fault):
+        faults = [faults]
+    try:
+        out = list(faults)
+    except TypeError as exc:
+        raise GeomFDIError(
+            "faults: must be a list of SensorFault / ActuatorFault / Fault", argument="faults"
+        ) from exc
+    if not out:
+        raise GeomFDIError("faults: at least one fault is required", argument="faults")
+    return out
+
+
 def spec_model(plant: Any, faults: Any) -> SpecModel:
     """Check ``plant`` and ``faults`` and return the column-normalised :class:`SpecModel`.
 
@@ -64,11 +82,10 @@ def spec_model(plant: Any, faults: Any) -> SpecModel:
         ``argument="plant"`` or ``"faults"`` for bad input (an empty fault list, a fault
         whose signature does not fit the plant, a fault with a zero signature).
     """
-    from geomfdi.synthesis.construction import _coerce_faults
-    from geomfdi.synthesis.least_order import plant_scale
+    from geomfdi.synthesis.least_order.search import plant_scale
 
     plant = as_plant(plant, static=True)
-    flist = _coerce_faults(faults)
+    flist = _fault_list(faults)
     raw = fault_matrices(flist, plant.n, plant.q)
     sigs = []
     for k, (Bf, Df) in enumerate(raw):
@@ -85,14 +102,22 @@ def spec_model(plant: Any, faults: Any) -> SpecModel:
 
 
 def quotient_of(model: SpecModel, target: tuple[int, ...], decouple: tuple[int, ...]) -> Any:
-    """The design's decoupled quotient of the row seeing ``target`` and ignoring ``decouple``
-    (and the disturbances), on the balanced model; ``None`` when its identities fail (the
-    rank decisions behind S* are ill-conditioned)."""
-    from geomfdi.synthesis.build import _quotient
-    from geomfdi.synthesis.construction import _NumericalDesignError
+    """The decoupled quotient of the row seeing ``target`` and ignoring ``decouple`` (and the
+    disturbances), formed as the design forms it: the state balanced over every input-side
+    column (:func:`geomfdi.geometry.balancing.state_scaling`), then
+    :func:`geomfdi.synthesis.least_order.quotient.quotient_model`.  ``None`` when the
+    quotient's identities fail (the rank decisions behind S* are ill-conditioned)."""
+    from geomfdi.synthesis.least_order.quotient import quotient_model
 
-    try:
-        Qm, _ = _quotient(model.plant, model.sigs, target, decouple, "row", True)
-    except _NumericalDesignError:
+    p, sigs = model.plant, model.sigs
+    n = p.n
+    cols = [M for M in (p.B, p.Bd, *[Bf for Bf, _ in sigs]) if M.size]
+    d = state_scaling(p.A, np.hstack(cols) if cols else np.zeros((n, 0)), p.C)
+    Ab = p.A * d[None, :] / d[:, None]
+    Bw = np.hstack([p.Bd / d[:, None], *[sigs[j][0] / d[:, None] for j in decouple]])
+    Dw = np.hstack([p.Dd, *[sigs[j][1] for j in decouple]])
+    tg = [(sigs[j][0] / d[:, None], sigs[j][1]) for j in target]
+    Qm = quotient_model(Ab, p.B / d[:, None], p.C * d[None, :], p.D, Bw, Dw, tg)
+    if any(v > IDENTITY_TOL for v in Qm.identities.values()):
         return None
     return Qm

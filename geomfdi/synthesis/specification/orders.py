@@ -4,9 +4,9 @@ See the user guide, *Theory: achievable signatures* (``docs/theory/achievable-si
 and *Theory: least-order synthesis* (``docs/theory/least-order.md``).
 
 Each row is decided exactly as the design decides it: the balanced model, the quotient by
-S* of the decoupled signals (:mod:`geomfdi.synthesis.quotient`) and the degree search of
-:func:`geomfdi.synthesis.least_order.least_order_row`, whose certificate states that the
-parity space of one degree less sees no residual with every target (Varga's
+S* of the decoupled signals (:mod:`geomfdi.synthesis.least_order.quotient`) and the degree
+search of :func:`geomfdi.synthesis.least_order.search.least_order_row`, whose certificate
+states that the parity space of one degree less sees no residual with every target (Varga's
 ``fdichkspec(…; minimal = true)`` answers the same question by minimal-basis degrees).
 """
 
@@ -49,7 +49,7 @@ def as_structure(S: Any, nf: int, name: str = "S") -> np.ndarray:
 
 
 def _row_order(model: SpecModel, row: np.ndarray) -> RowOrder:
-    from geomfdi.synthesis.least_order import _Infeasible, least_order_row
+    from geomfdi.synthesis.least_order.search import _Infeasible, least_order_row
 
     tgt = tuple(int(j) for j in np.flatnonzero(row))
     dec = tuple(int(j) for j in np.flatnonzero(~row))

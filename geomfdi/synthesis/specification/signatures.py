@@ -6,10 +6,12 @@ See the user guide, *Choosing a structure* (``docs/guide/choosing-a-structure.md
 **Weak (normal-rank) signatures.**  A residual that decouples the disturbances and the
 faults of a set W sees fault j iff ``rank [G_W  G_j] > rank G_W`` (normal rank; Varga 2017,
 §3.5).  Geometrically: with ``S*`` the least unobservability subspace containing the
-channels of W and ``(A0, M)`` the quotient by it (:mod:`geomfdi.synthesis.quotient`), every
+channels of W and ``(A0, M)`` the quotient by it (:mod:`geomfdi.synthesis.least_order.quotient`),
+every
 such residual is ``v(s) (z − M ξ̂)`` and sees fault j iff the quotient's transfer
 ``G_j(s) = M (sI − A0)⁻¹ B_fj + H D_fj`` is not identically zero
-(:func:`geomfdi.synthesis.least_order.quotient_target_gains`, the test the design uses).
+(:func:`geomfdi.synthesis.least_order.search.quotient_target_gains`, the test the design
+uses).
 The signature of W is the set ``p(W)`` of faults so seen; an achievable signature is a
 non-empty ``p(W)``.
 
@@ -165,7 +167,7 @@ def strong_gains(Qm: Any, points: np.ndarray, omega: float, dt: float) -> np.nda
 
 def _node(model: SpecModel, W: int, pts: np.ndarray | None) -> tuple[int, dict[str, Any]]:
     """Evaluate the closed-set candidate W (bit mask of decoupled faults)."""
-    from geomfdi.synthesis.least_order import SEE_TOL, _points, quotient_target_gains
+    from geomfdi.synthesis.least_order.search import SEE_TOL, _points, quotient_target_gains
 
     nf = model.nf
     dec = tuple(j for j in range(nf) if W >> j & 1)
