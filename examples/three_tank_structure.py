@@ -54,6 +54,12 @@ def analyse(plant: gf.Plant, faults: list) -> gf.IsolabilityReport:
     rep = gf.isolability_analysis(plant, faults, frequencies=[0.0], structure=by_hand)
     print("\nisolability analysis:")
     print(rep.summary())
+    with warnings.catch_warnings(record=True) as caught:  # design_bank says so too
+        warnings.simplefilter("always", gf.IsolabilityWarning)
+        gf.design_bank(plant, faults, by_hand)
+    for w in caught:
+        if issubclass(w.category, gf.IsolabilityWarning):
+            print(f"design_bank on the hand-made structure: {w.message}")
     return rep
 
 
