@@ -130,6 +130,9 @@ class IsolabilityReport:
             )
         if not self.classes and not und:
             lines.append("every fault is isolable")
+        else:
+            iso = [nm[j] for j in np.flatnonzero(self.isolable)]
+            lines.append(f"isolable: {iso if iso else 'none'}")
         for sch in self.schemes.values():
             cost = "not achievable" if sch.orders is None else f"total order {sch.total_order}"
             lines.append(

@@ -48,7 +48,9 @@ class SpecModel:
 
     @property
     def names(self) -> list[str]:
-        return [f.name for f in self.faults]
+        """The faults' names, with their index appended where two names coincide."""
+        raw = [f.name for f in self.faults]
+        return [f"{n} #{j}" if raw.count(n) > 1 else n for j, n in enumerate(raw)]
 
 
 def _unit_columns(B: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
