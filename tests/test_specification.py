@@ -444,3 +444,19 @@ def test_requested_rows_weak_only_are_named():
     note = rep.schemes["requested"].note
     assert rep.schemes["requested"].orders is None
     assert "rows [0, 1] achievable in the weak sense only" in note
+
+
+def test_three_tank_in_other_units():
+    # states in km, cm and µm, sensors in mm, hm and m, flows in l/s, sensor faults in cm
+    plant, faults = gf.three_tank_model()
+    T = np.diag([1e-3, 1e2, 1e4])
+    Ti, O = np.linalg.inv(T), np.diag([1e3, 1e-2, 1.0])
+    other = gf.Plant(Ti @ plant.A @ T, 1e-3 * Ti @ plant.B, O @ plant.C @ T)
+    flows = [1e-3 * Ti @ f.signatures(3, 3)[0][:, 0] for f in faults[:3]]
+    ofaults = [gf.ActuatorFault(b) for b in flows] + [
+        gf.Fault(None, 1e-2 * O[:, i]) for i in range(3)
+    ]
+    a = gf.achievable_signatures(plant, faults, frequencies=[0.0])
+    b = gf.achievable_signatures(other, ofaults, frequencies=[0.0])
+    assert rows(a.weak) == rows(b.weak) and rows(a.strong) == rows(b.strong)
+    assert len(b.strong) == 18

@@ -2,11 +2,12 @@
 
 See the user guide, *Theory: achievable signatures* (``docs/theory/achievable-signatures.md``).
 
-A residual's fault signature does not change when a fault signal or a disturbance is
-measured in other units: each fault's signature ``[B_f; D_f]`` and each disturbance column
-``[B_d; D_d]`` is scaled to unit norm here, and the state is balanced as in the design's
+A residual's fault signature does not change when a fault signal, a disturbance or a
+measurement is given in other units: each output row of ``[C D Dd Df]`` (on the balanced
+state) and then each fault's signature ``[B_f; D_f]`` and each disturbance column
+``[B_d; D_d]`` are scaled to unit norm here, and the state is balanced as in the design's
 quotient step (:func:`quotient_of`), so that a badly scaled plant and a well-scaled one
-meet the same rank decisions.  Every decision of the analysis is taken on
+meet the same rank decisions and the same strong gains.  Every decision of the analysis is taken on
 the quotient of the decoupled signals (S*), as in the design (Varga 2017, §3.5: the
 normal-rank conditions of fault detectability; here in their geometric form).
 """
@@ -61,6 +62,11 @@ def _unit_columns(B: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return B / nrm, D / nrm
 
 
+def _unit_block(B: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    nrm = _norm2(np.vstack([B, D]))
+    return (B / nrm, D / nrm) if nrm > 0 else (B, D)
+
+
 def _fault_list(faults: Any) -> list[Fault]:
     if isinstance(faults, Fault):
         faults = [faults]
@@ -89,17 +95,24 @@ def spec_model(plant: Any, faults: Any) -> SpecModel:
     plant = as_plant(plant, static=True)
     flist = _fault_list(faults)
     raw = fault_matrices(flist, plant.n, plant.q)
-    sigs = []
     for k, (Bf, Df) in enumerate(raw):
-        nrm = _norm2(np.vstack([Bf, Df]))
-        if not np.isfinite(nrm) or nrm == 0:
+        if not np.any(Bf) and not np.any(Df):
             raise GeomFDIError(
                 f"faults[{k}]: the fault {flist[k].name!r} has a zero signature (Bf = 0, Df = 0)",
                 argument="faults",
             )
-        sigs.append((Bf / nrm, Df / nrm))
-    Bd, Dd = _unit_columns(plant.Bd, plant.Dd)
-    scaled = Plant(plant.A, plant.B, plant.C, plant.D, plant.dt, Bd=Bd, Dd=Dd)
+    # outputs in comparable units: each row of [C D Dd Df] (state balanced) to unit norm
+    n = plant.n
+    cols = [M for M in (plant.B, plant.Bd, *[Bf for Bf, _ in raw]) if M.size]
+    d = state_scaling(plant.A, np.hstack(cols) if cols else np.zeros((n, 0)), plant.C)
+    rows = np.hstack([plant.C * d[None, :], plant.D, plant.Dd, *[Df for _, Df in raw]])
+    w = np.linalg.norm(rows, axis=1)
+    w[~(w > 0)] = 1.0
+    sigs = [_unit_block(Bf, Df / w[:, None]) for Bf, Df in raw]
+    Bd, Dd = _unit_columns(plant.Bd, plant.Dd / w[:, None])
+    scaled = Plant(
+        plant.A, plant.B, plant.C / w[:, None], plant.D / w[:, None], plant.dt, Bd=Bd, Dd=Dd
+    )
     return SpecModel(scaled, flist, sigs, plant_scale(plant.A, plant.dt))
 
 
