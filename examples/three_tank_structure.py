@@ -100,6 +100,7 @@ def main() -> None:
     plant, faults = gf.three_tank_model()
     rep = analyse(plant, faults)
     S = rep.suggested.structure
+    print(f"\nsuggested structure (orders {rep.suggested.orders.tolist()}):\n{S.astype(int)}")
     fig = gf.plot_structure(
         S,
         fault_labels=rep.names,
