@@ -37,8 +37,8 @@ from geomfdi.deployment.decide import (
     settle,
     settle_one,
 )
-from geomfdi.deployment.program import Program, initial_state, run_program
-from geomfdi.errors import ShapeError
+from geomfdi.deployment.program import SAMPLE_LIMIT, Program, initial_state, run_program
+from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.evaluation.decision import NO_ALARM, isolate
 from geomfdi.evaluation.persistence import Persistence
 
@@ -158,6 +158,22 @@ def _signal(value: Any, size: int, name: str) -> None:
         )
 
 
+def _real_sample(y: Any, u: Any, m: int, nw: int) -> np.ndarray:
+    """``[xi-slot; y; u]`` for a sample that is not already real floats: booleans and
+    integers are read as numbers, complex values and text are refused (named)."""
+    from geomfdi._validation import as_real_array
+
+    parts = [np.zeros(nw)]
+    for name, value in (("y", y), ("u", u if m else [])):
+        try:
+            parts.append(as_real_array(value, name, allow_nonfinite=True).reshape(-1))
+        except GeomFDIError:
+            raise
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ShapeError(f"{name}: cannot read the sample ({exc})", argument=name) from exc
+    return np.concatenate(parts)
+
+
 def _read_only(a: np.ndarray) -> np.ndarray:
     a.flags.writeable = False
     return a
@@ -208,7 +224,9 @@ def make_step(
     conf_cache: dict[int, tuple[np.ndarray, int]] = {}
     dec_cache: dict[int, int] = {}
     nan_rows = np.full(rows, np.nan)
-    concatenate, isfinite = np.concatenate, math.isfinite
+    concatenate, isfinite, abs_, float64 = np.concatenate, math.isfinite, np.abs, np.float64
+    limit = SAMPLE_LIMIT
+    zeros_out = np.zeros(n_out)
     empty = np.zeros(0)
     row_bits = [1 << i for i in range(rows)]
 
@@ -267,16 +285,20 @@ def make_step(
             v = concatenate((state.xi, y, u if m else empty))
         except (ValueError, TypeError) as exc:
             raise ShapeError(f"y, u: cannot read the sample ({exc})", argument="y") from exc
+        if v.dtype != float64:
+            v = _real_sample(y, u, m, nw)
         state.samples += 1
-        if not isfinite(v.dot(v)):  # a missing sample: flagged, state not advanced
-            state.pending = restart
-            conf, code = confirmed(zero_entry)
-            return MonitorStep(nan_rows.copy(), conf, code)
-        state.last = v[nw:]
+        z = v[nw:]
+        # missing: an entry not finite or out of range (max of a nan is nan)
+        if not abs_(z).max(initial=0.0) <= limit:
+            return missing()
         if state.pending is not None:
-            v[:nw] = initial_state(program, state.pending, v[nw:])
+            v[:nw] = initial_state(program, state.pending, z)
             state.pending = None
         res = Phi.dot(v)
+        if not isfinite(res.dot(zeros_out)):  # an overflow (x * 0 is nan for inf / nan)
+            return missing()
+        state.last = z
         state.xi = res[:nw]
         if fast:
             r = res[nw : nw + rows]
@@ -292,6 +314,12 @@ def make_step(
             entry = raw_cache.get(key) or raw_entry(key, raw)
         conf, code = confirmed(entry)
         return MonitorStep(r, conf, code)
+
+    def missing() -> MonitorStep:
+        """A missing sample: flagged, state not advanced, restart at the next one."""
+        state.pending = restart
+        conf, code = confirmed(zero_entry)
+        return MonitorStep(nan_rows.copy(), conf, code)
 
     return step
 

@@ -43,7 +43,23 @@ from geomfdi.deployment._lti import (
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
-__all__ = ["Program", "build_program", "as_bank", "check_initial", "initial_state", "run_program"]
+__all__ = [
+    "SAMPLE_LIMIT",
+    "Program",
+    "build_program",
+    "as_bank",
+    "check_initial",
+    "initial_state",
+    "run_program",
+    "sample_valid",
+]
+
+#: Largest magnitude of a sample entry that is evaluated: a sample with an entry that is
+#: not finite or larger than this (in magnitude) is *missing*.  Products of such samples
+#: with the matrices of a bank stay far from overflow (``1e150 ** 2 = 1e300``), so every
+#: deployment path (:class:`geomfdi.Monitor` step and chunk, :func:`geomfdi.evaluate`, the
+#: generated C and Python) takes the same decisions on out-of-range data.
+SAMPLE_LIMIT = 1e150
 
 
 def as_bank(bank: Any) -> ResidualBank:
@@ -147,9 +163,10 @@ class Program:
             if b - a == 1:
                 out[i] = comp[a]
             else:  # sequential sum of squares, the order of the generated code
-                acc = comp[a] * comp[a]
-                for c in range(a + 1, b):
-                    acc = acc + comp[c] * comp[c]
+                with np.errstate(over="ignore"):  # beyond float range: +inf, an alarm
+                    acc = comp[a] * comp[a]
+                    for c in range(a + 1, b):
+                        acc = acc + comp[c] * comp[c]
                 out[i] = np.sqrt(acc)
         return out
 
@@ -324,6 +341,22 @@ def restart_rule(program: Program, initial: Any) -> str:
     return "steady" if program.steady is not None else "zero"
 
 
+def sample_valid(Z: np.ndarray) -> np.ndarray:
+    """Per column of ``Z`` (``(nz, L)``): every entry finite and at most
+    :data:`SAMPLE_LIMIT` in magnitude (``False``: a missing sample)."""
+    return (np.abs(Z) <= SAMPLE_LIMIT).all(axis=0)
+
+
+def _in_range(Z: np.ndarray) -> bool:
+    """Every entry of ``Z`` valid (no temporary array: ``max``/``min`` propagate nan)."""
+    return Z.size == 0 or bool(Z.max() <= SAMPLE_LIMIT and Z.min() >= -SAMPLE_LIMIT)
+
+
+def _finite(a: np.ndarray) -> bool:
+    """Every entry of ``a`` finite (``max``/``min`` propagate nan; no temporary)."""
+    return a.size == 0 or bool(np.isfinite(a.max()) and np.isfinite(a.min()))
+
+
 def run_program(
     program: Program, Z: np.ndarray, xi: np.ndarray, pending: Any, restart: str
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
@@ -333,7 +366,8 @@ def run_program(
     ----------
     program : Program
     Z : ndarray, (nz, L)
-        ``[y; u]`` per sample; a column with a non-finite entry is a *missing* sample.
+        ``[y; u]`` per sample; a column with an entry that is not finite or beyond
+        :data:`SAMPLE_LIMIT` in magnitude is a *missing* sample.
     xi : ndarray, (nw,)
         State before the first sample (ignored while ``pending`` is set).
     pending : None, str or ndarray
@@ -352,11 +386,18 @@ def run_program(
         State after the last sample.
     pending : None or rule
         Set when the record ends on missing samples (or was empty and still pending).
+
+    Notes
+    -----
+    A generator state or residual component that overflows (only an unstable bank or
+    one of gain beyond ``1e150`` can get there from valid samples) makes that sample
+    missing too, and the next sample restarts the generators: the chunk is then run
+    sample by sample (:func:`run_plain`), the rule of the per-sample step.
     """
     L = Z.shape[1]
-    # a finite sum proves every entry finite (cheap); otherwise the exact per-sample test
-    every = bool(np.isfinite(Z.sum()))
-    valid = np.ones(L, dtype=bool) if every else np.isfinite(Z).all(axis=0)
+    # a bounded maximum and minimum prove every entry valid (cheap); else the exact test
+    every = _in_range(Z)
+    valid = np.ones(L, dtype=bool) if every else sample_valid(Z)
     every = every or bool(valid.all())
     comp = np.empty((program.nc, L)) if every else np.full((program.nc, L), np.nan)
     if L == 0:
@@ -366,6 +407,7 @@ def run_program(
     else:
         edges = np.flatnonzero(np.diff(np.concatenate(([0], valid.astype(np.int8), [0]))))
         segments = list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
+    xi0, pending0 = xi, pending
     xi = np.array(xi, dtype=float)
     for s, e in segments:
         if s > 0:  # missing samples before this segment
@@ -381,6 +423,41 @@ def run_program(
             xi = (Zu @ se).real
         else:
             comp[:, s:e] = program.D @ Zs
+        if not (_finite(comp[:, s:e]) and _finite(xi)):
+            return run_plain(program, Z, xi0, pending0, restart)  # an overflow
     if not valid[-1]:
+        pending = restart
+    return comp, valid, xi, pending
+
+
+def run_plain(
+    program: Program, Z: np.ndarray, xi: np.ndarray, pending: Any, restart: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
+    """:func:`run_program` sample by sample (for a bank whose state overflows).
+
+    Sample ``k`` is missing when its entries are out of range (:func:`sample_valid`) or
+    when ``c[k] = C xi + D z`` or the next state ``A xi + B z`` has a non-finite entry;
+    either way the state is not advanced and the next valid sample restarts it.
+    """
+    L = Z.shape[1]
+    valid = sample_valid(Z)
+    comp = np.full((program.nc, L), np.nan)
+    xi = np.array(xi, dtype=float)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in np.flatnonzero(valid).tolist():
+            z = Z[:, k]
+            if k > 0 and not valid[k - 1]:
+                pending = restart
+            if pending is not None:
+                xi = initial_state(program, pending, z)
+                pending = None
+            c = program.C @ xi + program.D @ z
+            nxt = program.A @ xi + program.B @ z
+            if np.isfinite(c).all() and np.isfinite(nxt).all():
+                comp[:, k], xi = c, nxt
+            else:
+                valid[k] = False
+                pending = restart
+    if L and not valid[-1]:
         pending = restart
     return comp, valid, xi, pending

@@ -28,7 +28,9 @@ This is the rule :class:`geomfdi.Persistence` (:mod:`geomfdi.deployment.decide`)
 
 from __future__ import annotations
 
+import keyword
 import re
+import sys
 from dataclasses import dataclass
 from typing import Any
 
@@ -82,11 +84,41 @@ class CodeSpec:
         return self.structure.shape[1]
 
 
+#: Keywords of C (C99 to C23) and Python: never a name of generated code.
+C_KEYWORDS = frozenset(
+    "auto break case char const continue default do double else enum extern float for goto "
+    "if inline int long register restrict return short signed sizeof static struct switch "
+    "typedef union unsigned void volatile while alignas alignof bool constexpr false "
+    "nullptr static_assert thread_local true typeof typeof_unqual".split()
+)
+#: Modules the generated Python imports (a module of that name would shadow them).
+SHADOWED = frozenset({"numpy", "np", "math"})
+
+
 def check_name(name: str) -> str:
-    """A C identifier / Python module name (letters, digits, underscores)."""
-    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+    """A C identifier / Python module name (letters, digits, underscores).
+
+    Refused: keywords of C or Python, names reserved in C (a leading underscore), and
+    module names that the generated Python module would shadow when it is imported
+    from its folder (``numpy``, ``math`` and the other modules of Python's standard
+    library).  Internal names of the generated C carry the prefix ``name_``, so any
+    accepted name (``start``, ``decide``) is free of clashes.
+    """
+    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):
         raise GeomFDIError(
-            f"name: must be an identifier (letters, digits, _), got {name!r}", argument="name"
+            f"name: must be an identifier of letters, digits and _ beginning with a letter, "
+            f"got {name!r:.60}",
+            argument="name",
+        )
+    if len(name) > 64:
+        raise GeomFDIError(f"name: at most 64 characters, got {len(name)}", argument="name")
+    if keyword.iskeyword(name) or keyword.issoftkeyword(name) or name in C_KEYWORDS:
+        raise GeomFDIError(f"name: {name!r} is a keyword of C or Python", argument="name")
+    if name in SHADOWED or name in sys.stdlib_module_names:
+        raise GeomFDIError(
+            f"name: {name!r} would shadow the module of that name when the generated code "
+            "is imported; choose another name (e.g. 'monitor_{name}')",
+            argument="name",
         )
     return name
 
