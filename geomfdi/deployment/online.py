@@ -321,7 +321,25 @@ def make_step(
         conf, code = confirmed(zero_entry)
         return MonitorStep(nan_rows.copy(), conf, code)
 
+    if _may_overflow(program, Phi):  # an unstable or huge bank: overflow is expected
+        plain = step
+
+        def step(y: Any, u: Any = None) -> MonitorStep:
+            with np.errstate(over="ignore", invalid="ignore"):
+                return plain(y, u)
+
     return step
+
+
+def _may_overflow(program: Program, Phi: np.ndarray) -> bool:
+    """Whether the update of a valid sample can overflow: an unstable bank (spectral
+    radius of ``A`` at least 1), or products beyond ``1e250`` for samples and states
+    at :data:`~geomfdi.deployment.program.SAMPLE_LIMIT`."""
+    if not Phi.size:
+        return False
+    if np.abs(Phi).sum(axis=1).max() > 1e100:
+        return True
+    return bool(program.nw and np.abs(np.linalg.eigvals(program.A)).max() >= 1.0)
 
 
 def _chunk(value: Any, rows: int, name: str, L: int | None = None) -> np.ndarray:

@@ -316,7 +316,7 @@ def check_initial(initial: Any, program: Program) -> Any:
                 argument="initial",
             )
         return initial
-    return as_vector(initial, "initial", length=program.nw).copy()
+    return as_vector(initial, "initial", length=program.nw, allow_empty=not program.nw).copy()
 
 
 def initial_state(program: Program, initial: Any, z0: np.ndarray) -> np.ndarray:
@@ -407,6 +407,22 @@ def run_program(
     else:
         edges = np.flatnonzero(np.diff(np.concatenate(([0], valid.astype(np.int8), [0]))))
         segments = list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is handled below
+        return _run_segments(program, Z, xi, pending, restart, comp, valid, segments)
+
+
+def _run_segments(
+    program: Program,
+    Z: np.ndarray,
+    xi: np.ndarray,
+    pending: Any,
+    restart: str,
+    comp: np.ndarray,
+    valid: np.ndarray,
+    segments: list[tuple[int, int]],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
+    """The lifted recursion over each segment of valid samples (:func:`run_program`)."""
+    L = Z.shape[1]
     xi0, pending0 = xi, pending
     xi = np.array(xi, dtype=float)
     for s, e in segments:
@@ -425,7 +441,7 @@ def run_program(
             comp[:, s:e] = program.D @ Zs
         if not (_finite(comp[:, s:e]) and _finite(xi)):
             return run_plain(program, Z, xi0, pending0, restart)  # an overflow
-    if not valid[-1]:
+    if not valid[L - 1]:
         pending = restart
     return comp, valid, xi, pending
 
