@@ -110,7 +110,8 @@ class Program:
         generator).
     lifted : LiftedMaps or None
         The lifted form on blocks of samples in those coordinates, used by the loop-free
-        recursion of :func:`run_program`.
+        recursion of :func:`run_program`; ``None`` when it overflows (an unstable bank:
+        then the recursion runs sample by sample, :func:`run_plain`).
     """
 
     A: np.ndarray
@@ -248,6 +249,8 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
         steady = np.zeros((0, nz))
     rows: list[tuple[int, int] | None] = []
     basis, lifted = _lifted_form(A, B, C, D, gens) if nw else (None, None)
+    if lifted is not None and not _finite_maps(lifted):
+        lifted = None  # an unstable or huge bank: run sample by sample (run_plain)
     o = 0
     for g in bank.generators:
         if g is None:
@@ -273,6 +276,12 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
     )
 
 
+def _finite_maps(maps: LiftedMaps) -> bool:
+    """Every matrix of the lifted form finite (powers of an unstable ``T`` overflow)."""
+    parts = [maps.powers, maps.Hz, maps.Gam, maps.Psi, *maps.doubling]
+    return all(np.isfinite(a).all() for a in parts)
+
+
 def _lifted_form(
     A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, gens: list[ResidualGenerator]
 ) -> tuple[np.ndarray, LiftedMaps]:
@@ -295,7 +304,8 @@ def _lifted_form(
     T = scipy.linalg.block_diag(*Ts)
     Z = scipy.linalg.block_diag(*Zs)
     M = lift_factor(A.shape[0], C.shape[0], B.shape[1])
-    return Z, lifted_maps(A, B, C, D, T, Z, M, np.array(stops, dtype=int))
+    with np.errstate(over="ignore", invalid="ignore"):  # checked by _finite_maps
+        return Z, lifted_maps(A, B, C, D, T, Z, M, np.array(stops, dtype=int))
 
 
 INITIAL = ("zero", "steady")
@@ -402,6 +412,8 @@ def run_program(
     comp = np.empty((program.nc, L)) if every else np.full((program.nc, L), np.nan)
     if L == 0:
         return comp, valid, xi, pending
+    if program.nw and program.lifted is None:
+        return run_plain(program, Z, xi, pending, restart)
     if every:
         segments = [(0, L)]
     else:
