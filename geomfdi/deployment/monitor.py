@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
-from geomfdi._validation import as_real_array
+from geomfdi._validation import as_bool, as_real_array
 from geomfdi.deployment.decide import as_persistence, threshold_values
 from geomfdi.deployment.online import (
     MonitorOutput,
@@ -88,7 +88,7 @@ class Monitor:
         self.dt = self.program.dt
         self.thresholds = threshold_values(threshold, self.program.n_rows, self.program.present)
         self.persistence = as_persistence(persistence)
-        self.isolation = bool(isolation)
+        self.isolation = as_bool(isolation, "isolation")
         self.initial = check_initial(initial, self.program)
         self._restart = restart_rule(self.program, self.initial)
         self.reset()
@@ -205,7 +205,7 @@ def set_state(state: MonitorState, program: Any, persistence: Any, value: Any) -
             "(such a sample is missing and never stored)",
             argument="state",
         )
-    ring = np.asarray(value["ring"])
+    ring = _state_bits(value["ring"], "ring")
     if xi.shape != (program.nw,) or last.shape != (program.nz,):
         raise ShapeError(
             f"state: xi must have {program.nw} and last_sample {program.nz} entries",
@@ -253,12 +253,20 @@ def _state_vector(value: Any, key: str) -> np.ndarray:
         raise
 
 
+def _state_bits(value: Any, key: str) -> np.ndarray:
+    """A 0/1 array entry of a state (its shape is checked by the caller)."""
+    try:
+        return np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"state: {key} must be an array of 0/1 ({exc})", argument="state") from exc
+
+
 def _rule_state(value: dict[str, Any], program: Any, persistence: Any) -> tuple:
     """``held``, ``quiet``, ``decisions`` of a state dict, checked (defaults when absent)."""
     rows, n = program.n_rows, persistence.n
     if "held" not in value:
         return np.zeros(rows, dtype=bool), 0, [NO_ALARM] * (n - 1)
-    held = np.asarray(value["held"])
+    held = _state_bits(value["held"], "held")
     if held.shape != (rows,) or not np.isin(held, (0, 1)).all():
         raise ShapeError(f"state: held must be {rows} values 0 or 1", argument="state")
     quiet = value["quiet"]

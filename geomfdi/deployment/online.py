@@ -152,10 +152,13 @@ def _signal(value: Any, size: int, name: str) -> None:
         if size:
             raise ShapeError(f"{name}: expected {size} values, got None", argument=name)
         return
-    if np.ndim(value) != 1 or len(value) != size:
-        raise ShapeError(
-            f"{name}: expected {size} values, got shape {np.shape(value)}", argument=name
-        )
+    try:
+        shape = f"shape {np.shape(value)}"
+        ok = np.ndim(value) == 1 and len(value) == size
+    except (TypeError, ValueError):  # ragged or not a sequence
+        shape, ok = f"a ragged or unreadable {type(value).__name__}", False
+    if not ok:
+        raise ShapeError(f"{name}: expected {size} values, got {shape}", argument=name)
 
 
 def _real_sample(y: Any, u: Any, m: int, nw: int) -> np.ndarray:
@@ -277,9 +280,9 @@ def make_step(
     zero_entry = (0, _read_only(np.zeros(rows, dtype=bool)), 0)
 
     def step(y: Any, u: Any = None) -> MonitorStep:
-        if len(y) != q:
+        if not hasattr(y, "__len__") or len(y) != q:
             _signal(y, q, "y")
-        if m and (u is None or len(u) != m):
+        if m and (not hasattr(u, "__len__") or len(u) != m):
             _signal(u, m, "u")
         try:
             v = concatenate((state.xi, y, u if m else empty))

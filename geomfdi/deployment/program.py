@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from geomfdi._validation import as_vector
+from geomfdi._validation import as_float, as_vector
 from geomfdi.deployment._lti import (
     LiftedMaps,
     discretize_hold,
@@ -218,6 +218,8 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
     F, Bz, M, Dz = _stack(gens)
     nw, nz = F.shape[0], q + m
     bdt = float(bank.dt)
+    if dt is not None:
+        dt = as_float(dt, "dt")
     if bdt > 0:
         if dt is not None and abs(float(dt) - bdt) > 1e-6 * bdt:
             raise GeomFDIError(

@@ -158,9 +158,16 @@ def residual_noise_model(
         stationary (generator not decoupled from an unstable loop, or ``F`` unstable).
     """
     from geomfdi.model.plant import as_plant
+    from geomfdi.simulation.noise import Noise
+    from geomfdi.synthesis.generator import ResidualGenerator
 
     plant = as_plant(plant)
-    if noise is None:
+    if not isinstance(generator, ResidualGenerator):
+        raise GeomFDIError(
+            f"generator: expected a ResidualGenerator, got {type(generator).__name__}",
+            argument="generator",
+        )
+    if not isinstance(noise, Noise):
         raise GeomFDIError(
             "noise: a Noise with measurement or process noise is needed", argument="noise"
         )
@@ -169,7 +176,7 @@ def residual_noise_model(
         raise GeomFDIError(
             "noise: neither measurement nor process noise is given", argument="noise"
         )
-    if hold not in ("foh", "zoh"):
+    if not isinstance(hold, str) or hold not in ("foh", "zoh"):
         raise GeomFDIError(f"hold: must be 'foh' or 'zoh', got {hold!r}", argument="hold")
     n, m, q = plant.n, plant.m, plant.q
     if controller is None:

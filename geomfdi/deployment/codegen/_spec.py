@@ -29,16 +29,18 @@ This is the rule :class:`geomfdi.Persistence` (:mod:`geomfdi.deployment.decide`)
 from __future__ import annotations
 
 import keyword
+import os
 import re
 import sys
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from geomfdi.errors import GeomFDIError, NotDiscreteError
 
-__all__ = ["CodeSpec", "code_spec", "check_name"]
+__all__ = ["CodeSpec", "code_spec", "check_name", "check_out_dir"]
 
 
 @dataclass(frozen=True)
@@ -121,6 +123,20 @@ def check_name(name: str) -> str:
             argument="name",
         )
     return name
+
+
+def check_out_dir(out_dir: Any) -> Path:
+    """The output folder: a path (``str`` or path-like), not an existing file."""
+    if not isinstance(out_dir, str | os.PathLike) or not str(out_dir).strip():
+        raise GeomFDIError(
+            f"out_dir: expected a folder path, got {type(out_dir).__name__}", argument="out_dir"
+        )
+    if "\x00" in str(out_dir):
+        raise GeomFDIError("out_dir: the path holds a NUL character", argument="out_dir")
+    path = Path(out_dir)
+    if path.exists() and not path.is_dir():
+        raise GeomFDIError(f"out_dir: {path} exists and is not a folder", argument="out_dir")
+    return path
 
 
 def code_spec(

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.deployment.codegen._spec import CodeSpec, check_name, code_spec
+from geomfdi.deployment.codegen._spec import CodeSpec, check_name, check_out_dir, code_spec
 from geomfdi.deployment.program import SAMPLE_LIMIT
 
 __all__ = ["c", "c_source"]
@@ -383,6 +383,7 @@ def c(
         For a continuous bank (sample it with ``bank.discretize(dt)``).
     """
     name = check_name(name)
+    out_dir = check_out_dir(out_dir)
     spec = code_spec(source, threshold=threshold, persistence=persistence, initial=initial)
     h, src = c_source(spec, name)
     out = Path(out_dir)

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.deployment.codegen._spec import CodeSpec, check_name, code_spec
+from geomfdi.deployment.codegen._spec import CodeSpec, check_name, check_out_dir, code_spec
 from geomfdi.deployment.program import SAMPLE_LIMIT
 
 
@@ -246,6 +246,7 @@ def python(
     """Write ``name.py`` for a monitor or a discrete bank (arguments as for
     :func:`geomfdi.codegen.c`); returns its path."""
     name = check_name(name)
+    out_dir = check_out_dir(out_dir)
     spec = code_spec(source, threshold=threshold, persistence=persistence, initial=initial)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
