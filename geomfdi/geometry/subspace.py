@@ -22,14 +22,6 @@ import scipy.linalg
 
 from geomfdi._validation import as_int, as_matrix, as_positive
 
-#: Largest dimension of a space built from a bare size (an ``n x n`` basis of 8 GiB).
-MAX_SPACE_DIM = 32_768
-
-
-def _space_dim(n: Any) -> int:
-    """``n`` of ``Subspace.full(n)`` / ``zero(n)``: an integer in ``0 .. MAX_SPACE_DIM``."""
-    return as_int(n, "n", minimum=0, maximum=MAX_SPACE_DIM)
-
 
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.tolerance import rank_decision
@@ -47,6 +39,14 @@ __all__ = [
     "extend_basis",
     "split_kernel",
 ]
+
+#: Largest dimension of a space built from a bare size (an ``n x n`` basis of 8 GiB).
+MAX_SPACE_DIM = 32_768
+
+
+def _space_dim(n: Any) -> int:
+    """``n`` of ``Subspace.full(n)`` / ``zero(n)``: an integer in ``0 .. MAX_SPACE_DIM``."""
+    return as_int(n, "n", minimum=0, maximum=MAX_SPACE_DIM)
 
 
 def _norm2(M: np.ndarray) -> float:

@@ -8,6 +8,7 @@ Used by ``test_fuzz_online.py`` with the values and the outcome classifier of
 
 from __future__ import annotations
 
+import contextlib
 import tempfile
 from typing import Any
 
@@ -62,7 +63,8 @@ def _set_state(**kw: Any) -> Any:
 def _codegen(lang: str) -> Any:
     def call(**kw: Any) -> Any:
         write = gf.codegen.c if lang == "c" else gf.codegen.python
-        with tempfile.TemporaryDirectory() as tmp:
+        # inside a scratch folder: a relative out_dir ("abc") lands there
+        with tempfile.TemporaryDirectory() as tmp, contextlib.chdir(tmp):
             kw.setdefault("out_dir", tmp)
             out = write(**kw)
             paths = out if isinstance(out, tuple) else (out,)
