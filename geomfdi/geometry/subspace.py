@@ -21,8 +21,6 @@ import numpy as np
 import scipy.linalg
 
 from geomfdi._validation import as_int, as_matrix, as_positive
-
-
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.tolerance import rank_decision
 
