@@ -194,8 +194,10 @@ def make_step(
 
     One fused product per sample: ``res = Phi [xi; z]`` with rows ``[A B]`` (next
     state), ``[C D]`` and ``[-C -D]`` (the residual rows and their negatives, so that
-    ``|r| > threshold`` is one comparison).  A sample is missing when ``v . v`` is not
-    finite (a ``nan`` or an infinite entry).  The raw alarm pattern, its k-of-n counts
+    ``|r| > threshold`` is one comparison).  A sample is missing when an entry of ``z``
+    is not finite or beyond :data:`~geomfdi.deployment.program.SAMPLE_LIMIT` in
+    magnitude, or when ``Phi v`` overflows (``(Phi v) . 0`` is ``nan``); the state is then
+    not advanced and the start-up rule is pending.  The raw alarm pattern, its k-of-n counts
     and the pattern decision are looked up in caches keyed by the packed pattern; the
     held pattern and the settling of decisions (:mod:`geomfdi.deployment.decide`) are
     integer operations on bit codes.

@@ -3,9 +3,10 @@
 Both generators (C and Python) emit exactly the per-sample algorithm of
 :class:`geomfdi.Monitor` (see :mod:`geomfdi.deployment.online`):
 
-1. ``z = [y; u]``; if an entry is not finite the sample is *missing*: residuals ``nan``,
-   a raw alarm pattern of zeros enters the persistence window, and the next valid sample
-   restarts the generators (``restart`` rule);
+1. ``z = [y; u]``; if an entry is not finite or beyond ``SAMPLE_LIMIT`` (``1e150``) in
+   magnitude, or if the update of step 3 overflows, the sample is *missing*: residuals
+   ``nan``, a raw alarm pattern of zeros enters the persistence window, the state is not
+   advanced and the next valid sample restarts the generators (``restart`` rule);
 2. at the first valid sample of a segment ``xi = S z`` (steady), ``-J z`` (zero) or
    ``w0 - J z`` (explicit ``w0``);
 3. ``c = C xi + D z``, ``xi <- A xi + B z``; residual of row ``i`` = ``c[a]`` or
