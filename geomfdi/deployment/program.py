@@ -41,7 +41,7 @@ from geomfdi.deployment._lti import (
     schur_form,
 )
 from geomfdi.errors import GeomFDIError, ShapeError
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 
 __all__ = [
     "SAMPLE_LIMIT",
