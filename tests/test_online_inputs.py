@@ -70,7 +70,7 @@ def test_state_with_out_of_range_last_sample_is_refused() -> None:
 def test_monitor_file_with_nan_state_is_refused(tmp_path: Path) -> None:
     """A file whose checksum is right (written by someone else's tool) but whose state
     holds ``nan``: refused by the state check, not only by the checksum."""
-    from geomfdi.synthesis.bankfile import _checksum
+    from geomfdi.generators.bankfile import _checksum
 
     mon = gf.Monitor(_gen(), threshold=0.4)
     path = mon.save(tmp_path / "m.json")

@@ -158,16 +158,14 @@ def residual_noise_model(
         stationary (generator not decoupled from an unstable loop, or ``F`` unstable).
     """
     from geomfdi.model.plant import as_plant
-    from geomfdi.simulation.noise import Noise
-    from geomfdi.synthesis.generator import ResidualGenerator
 
     plant = as_plant(plant)
-    if not isinstance(generator, ResidualGenerator):
+    if not all(hasattr(generator, k) for k in ("F", "E", "G", "M", "H", "K")):
         raise GeomFDIError(
             f"generator: expected a ResidualGenerator, got {type(generator).__name__}",
             argument="generator",
         )
-    if not isinstance(noise, Noise):
+    if not callable(getattr(noise, "factors", None)):  # a Noise (simulation layer)
         raise GeomFDIError(
             "noise: a Noise with measurement or process noise is needed", argument="noise"
         )
