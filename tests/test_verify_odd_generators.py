@@ -49,6 +49,10 @@ def test_unstable_generator_is_reported_not_raised() -> None:
     assert not report.ok
     assert not report.stable[0]
     assert any("unstable generator" in d for d in report.details)
+    # the measures are still computed: the pole at the plant's unstable pole 1 keeps
+    # that mode in the residual (the largest angle), the fault gains are finite
+    assert np.isfinite(report.gain).all()
+    assert report.unstable_leakage[0] == 1.0
 
 
 @pytest.mark.parametrize("fname", list(ODD_F))

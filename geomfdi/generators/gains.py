@@ -171,7 +171,10 @@ class Composite:
             return worst
         ref = max(_norm2(self.generator_tf(s)[0]) for s in self.points)
         for mu, v in factor.unstable:
-            Gy, _ = self.generator_tf(mu)
+            try:
+                Gy, _ = self.generator_tf(mu)
+            except np.linalg.LinAlgError:  # a generator pole at mu: the mode is not removed
+                return 1.0
             Cv = self.plant.C @ v
             den = max(ref, _norm2(Gy)) * float(np.linalg.norm(Cv))
             if den > 0:

@@ -210,7 +210,10 @@ def verify(
     VerificationReport
         ``leakage`` and ``input_leakage`` are the angle measure (module Notes);
         ``stable[r]``: the generator is stable; ``unstable_leakage[r]``: angle between
-        the residual and the plant's unstable modes (must be 0).
+        the residual and the plant's unstable modes (must be 0).  Any generator gives a
+        report: one whose transfer cannot be evaluated (singular, or beyond float range)
+        gets ``nan`` measures, ``ok = False`` and the reason in ``details``; an unstable
+        one ``stable[r] = False``.
 
     Notes
     -----
