@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi._validation import as_index, as_int, as_probability, as_real_array
-from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.errors import GeomFDIError, ResourceLimitError, ShapeError
 from geomfdi.monitoring import batch as _batch
 from geomfdi.monitoring import streaming as _streaming
 from geomfdi.monitoring import training as _training
@@ -28,6 +28,13 @@ from geomfdi.monitoring._records import ARNull, ARSettings
 from geomfdi.monitoring.results import ARMonitorResult, ARStep
 
 __all__ = ["ARMonitor"]
+
+#: Largest AR order, window (samples) and their product (the entries of one window's
+#: regression, 8 bytes each) an :class:`ARMonitor` accepts: checked before anything is
+#: allocated, so ``ARMonitor(order=10**9, window=10**10)`` is refused, not attempted.
+MAX_ORDER = 1_000
+MAX_WINDOW = 10_000_000
+MAX_WINDOW_ENTRIES = 100_000_000
 
 
 class ARMonitor:
@@ -147,8 +154,16 @@ class ARMonitor:
         prefill: bool = False,
         refit_every: int | None = None,
     ) -> None:
-        self.order = as_int(order, "order", minimum=1)
-        self.window = as_int(window, "window", minimum=2)
+        self.order = as_int(order, "order", minimum=1, maximum=MAX_ORDER)
+        self.window = as_int(window, "window", minimum=2, maximum=MAX_WINDOW)
+        if self.order * self.window > MAX_WINDOW_ENTRIES:
+            raise ResourceLimitError(
+                f"window: a window of {self.window} samples for AR({self.order}) holds "
+                f"{self.order * self.window:.3g} regression entries (at most "
+                f"{MAX_WINDOW_ENTRIES:.0e}, 800 MB); use a shorter window or a lower order",
+                limit="max_memory",
+                argument="window",
+            )
         if self.order >= self.window:
             raise GeomFDIError(
                 f"order: must be smaller than window = {self.window}, got {self.order}",
