@@ -176,6 +176,14 @@ _register("geomfdi.synthesis.generator", "ResidualBank", "ResidualGenerator")
 _register("geomfdi.synthesis.realization", "minimal_realization", "reachable_subspace")
 _register("geomfdi.synthesis.transforms", "pseudo_actuator_model")
 _register("geomfdi.tolerance", "CloseRankWarning", "set_rtol")
+_register(
+    "geomfdi.verification.norms",
+    "HinfNorm",
+    "HminusIndex",
+    "UnstableSystemError",
+    "hinf_norm",
+    "hminus_index",
+)
 _register("geomfdi.verification.numeric", "VerificationReport", "verify")
 _register("geomfdi.verification.symbolic", "SymbolicReport", "verify_symbolic")
 
