@@ -176,6 +176,7 @@ _register("geomfdi.synthesis.generator", "ResidualBank", "ResidualGenerator")
 _register("geomfdi.synthesis.realization", "minimal_realization", "reachable_subspace")
 _register("geomfdi.synthesis.transforms", "pseudo_actuator_model")
 _register("geomfdi.tolerance", "CloseRankWarning", "set_rtol")
+_register("geomfdi.verification.gap", "FaultToNoiseGap", "fault_to_noise_gap")
 _register(
     "geomfdi.verification.norms",
     "HinfNorm",
