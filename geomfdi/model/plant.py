@@ -1,7 +1,8 @@
 """The plant model: ``x' = A x + B u + Bd d + Bw w``, ``y = C x + D u + Dd d + Dw w``.
 
-See the user guide, *Plants and faults* and *Theory: approximate synthesis*
-(``docs/theory/approximate-synthesis.md``) for the noise inputs ``w``.
+The model of Hou, Wen & Chen (2011), §2, with the disturbance and feedthrough terms, and
+the noise inputs ``w`` of Varga (2017), §2.2 (attenuated, not decoupled; see the user
+guide, *Theory: approximate synthesis*, ``docs/theory/approximate-synthesis.md``).
 """
 
 from __future__ import annotations
@@ -170,7 +171,7 @@ class Plant:
         """
         if not self.is_parametric:
             return self
-        from geomfdi.synthesis.exact_generator import _subs_values
+        from geomfdi.generators.exact import _subs_values
 
         vals = _subs_values(self.parameters, values)
         out = []
