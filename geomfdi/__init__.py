@@ -10,7 +10,8 @@ Use as ``import geomfdi as gf``. The package follows the data path of a design::
     geomfdi.geometry       subspaces, W*, S* (numeric and exact)
     geomfdi.generators     residual generators and banks, bank files, sampling
     geomfdi.synthesis      design front end, least-order rows, exact design
-    geomfdi.verification   numeric and symbolic proofs on the physical plant
+    geomfdi.verification   numeric and symbolic proofs on the physical plant; H∞ norms and
+                           the fault-to-noise gap
     geomfdi.simulation     fault signals, LTI core, closed loop
     geomfdi.evaluation     thresholds, alarms, isolation
     geomfdi.deployment     recorded and live evaluation, generated code
@@ -382,5 +383,13 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.generators.realization import minimal_realization, reachable_subspace  # noqa: F401
     from geomfdi.synthesis.sensor_transforms import pseudo_actuator_model  # noqa: F401
     from geomfdi.tolerance import CloseRankWarning, set_rtol  # noqa: F401
+    from geomfdi.verification.gap import FaultToNoiseGap, fault_to_noise_gap  # noqa: F401
+    from geomfdi.verification.norms import (  # noqa: F401
+        HinfNorm,
+        HminusIndex,
+        UnstableSystemError,
+        hinf_norm,
+        hminus_index,
+    )
     from geomfdi.verification.numeric import VerificationReport, verify  # noqa: F401
     from geomfdi.verification.symbolic import SymbolicReport, verify_symbolic  # noqa: F401

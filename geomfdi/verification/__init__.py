@@ -1,4 +1,5 @@
-"""Verification of delivered generators on the physical plant, numeric and exact.
+"""Verification of delivered generators on the physical plant, numeric and exact, and the
+system norms of the approximate problems (H∞ norm, H₋ index, fault-to-noise gap).
 
 Layer: above :mod:`geomfdi.generators`.  It may import :mod:`geomfdi.model`,
 :mod:`geomfdi.geometry` and :mod:`geomfdi.generators` (the generator types and their

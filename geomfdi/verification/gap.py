@@ -4,7 +4,7 @@ A generator in series with the plant has the internal form (Varga 2017, §3.1)
 
     r = R_f(λ) f + R_w(λ) w        (+ R_u u + R_d d, zero for a correct design)
 
-with the transfers of the composite of :class:`geomfdi.synthesis.gains.Composite` (the
+with the transfers of the composite of :class:`geomfdi.generators.gains.Composite` (the
 same realisation that :func:`geomfdi.verify` evaluates)::
 
     A_c = [[A, 0], [−E C, F]],   C_c = [−H C, M],
@@ -172,7 +172,7 @@ def fault_to_noise_gap(
     >>> round(float(r.beta[0]), 12), round(float(r.gamma[0]), 12)
     (1.0, 0.1)
     """
-    from geomfdi.synthesis.gains import Composite, PlantFactor
+    from geomfdi.generators.gains import Composite, PlantFactor
     from geomfdi.verification.numeric import _unpack
 
     measure = as_choice(measure, "measure", ("columns", "singular"))

@@ -164,7 +164,7 @@ class _System:
 
     def response(self, w: Any) -> np.ndarray:
         """``G`` at the frequencies ``w`` (rad/s): shape ``(P, p, m)``; ``ω = inf`` gives D."""
-        from geomfdi.synthesis.gains import _tri_solve_many
+        from geomfdi.generators.gains import _tri_solve_many
 
         w = np.atleast_1d(np.asarray(w, dtype=float))
         out = np.empty((w.size, self.p, self.m), dtype=complex)
@@ -230,7 +230,7 @@ def _boundary_distance(lam: np.ndarray, dt: float, scale: float) -> np.ndarray:
 
 def _stable_system(A, B, C, D, dt: float, argument: str) -> tuple[_System | None, float, float]:
     """The system, or ``(None, inf, ω)`` for a pole on the boundary; unstable: refused."""
-    from geomfdi.synthesis.realization import minimal_realization
+    from geomfdi.generators.realization import minimal_realization
 
     n = A.shape[0]
     if n == 0:
