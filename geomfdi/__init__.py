@@ -83,6 +83,7 @@ _register(
     "residual_noise_models",
 )
 _register("geomfdi.evaluation.decision", "FaultEvent", "Threshold", "isolate", "fault_hypotheses")
+_register("geomfdi.evaluation.gap_threshold", "GapThreshold", "gap_threshold")
 _register("geomfdi.evaluation.metrics", "DetectionMetrics")
 _register("geomfdi.evaluation.persistence", "Persistence")
 _register("geomfdi.evaluation.roc", "roc_curve", "wilson_interval")
@@ -195,6 +196,7 @@ _register(
     "UnstableSystemError",
     "hinf_norm",
     "hminus_index",
+    "peak_gain",
 )
 _register("geomfdi.verification.numeric", "VerificationReport", "verify")
 _register("geomfdi.verification.symbolic", "SymbolicReport", "verify_symbolic")
@@ -296,6 +298,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         fault_hypotheses,
         isolate,
     )
+    from geomfdi.evaluation.gap_threshold import GapThreshold, gap_threshold  # noqa: F401
     from geomfdi.evaluation.metrics import DetectionMetrics  # noqa: F401
     from geomfdi.evaluation.persistence import Persistence  # noqa: F401
     from geomfdi.evaluation.roc import roc_curve, wilson_interval  # noqa: F401
@@ -390,6 +393,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         UnstableSystemError,
         hinf_norm,
         hminus_index,
+        peak_gain,
     )
     from geomfdi.verification.numeric import VerificationReport, verify  # noqa: F401
     from geomfdi.verification.symbolic import SymbolicReport, verify_symbolic  # noqa: F401

@@ -124,3 +124,45 @@ def test_gap_refuses_an_unstable_generator():
     with pytest.raises(UnstableSystemError) as exc:
         gf.fault_to_noise_gap(g, plant, [gf.SensorFault(0)])
     assert exc.value.argument == "generator_or_bank"
+
+
+def test_gap_threshold_energy_and_peak_bounds_hold_in_simulation():
+    plant = _plant(0.0)
+    faults = [gf.SensorFault(i) for i in range(3)]
+    S = np.array([[0, 1, 1], [1, 0, 1], [1, 1, 0]], dtype=bool)
+    bank = gf.design_bank(plant, faults, S)
+    res = gf.fault_to_noise_gap(bank, plant, peak=True)
+    delta = 0.2
+    en = gf.gap_threshold(res, delta)
+    assert np.allclose(en.threshold, res.gamma * delta)
+    assert np.allclose(en.min_fault, 2 * delta / res.gap)
+    pk = gf.gap_threshold(res, delta, norm="peak")
+    assert np.all(pk.threshold >= en.threshold * 0)  # defined for every row
+    # peak bound: any noise with |w_j(t)| <= delta keeps |r| below the peak threshold
+    t = np.linspace(0, 30, 6001)
+    rng = np.random.default_rng(1)
+    for _ in range(3):
+        w = delta * np.sign(rng.standard_normal((2, 60))).repeat(100, axis=1)[:, : t.size]
+        w = np.pad(w, ((0, 0), (0, t.size - w.shape[1])), mode="edge")
+        r = gf.simulate(plant, bank, t, w=w).residuals
+        assert np.all(np.max(np.abs(r), axis=1) <= pk.threshold * (1 + 1e-6))
+    # energy bound: the L2 norm of the residual stays below gamma * ||w||_2
+    w = np.vstack([np.sin(res.gamma_frequency[0] * t), np.zeros_like(t)]) * np.exp(-0.05 * t)
+    r = gf.simulate(plant, bank, t, w=w).residuals
+    l2 = lambda x: np.sqrt(np.trapezoid(x**2, t, axis=-1))  # noqa: E731
+    assert np.all(l2(r) <= res.gamma * l2(w[0]) * (1 + 1e-3))
+    assert l2(r[0]) >= 0.3 * res.gamma[0] * l2(w[0])  # and is not loose at the peak frequency
+    with pytest.raises(gf.errors.GeomFDIError) as exc:
+        gf.gap_threshold(gf.fault_to_noise_gap(bank, plant), delta, norm="peak")
+    assert exc.value.argument == "gap"
+
+
+def test_peak_gain_known_values():
+    from geomfdi.verification.norms import peak_gain
+
+    assert peak_gain([[-1.0]], [[1.0]], [[1.0]])[0] == pytest.approx(1.0, rel=1e-5)
+    assert peak_gain([[-2.0]], [[1.0]], [[1.0]], [[0.5]])[0] == pytest.approx(1.0, rel=1e-5)
+    assert peak_gain([[-0.5]], [[1.0]], [[1.0]], dt=0.1)[0] == pytest.approx(2.0, rel=1e-12)
+    # e^{-t} sin t: ∫|h| = (1 + e^{-π}) / (2 (1 - e^{-π}))
+    exact = (1 + np.exp(-np.pi)) / (2 * (1 - np.exp(-np.pi)))
+    assert peak_gain([[-1, 1], [-1, -1]], [[0], [1]], [[1, 0]])[0] == pytest.approx(exact, rel=1e-5)

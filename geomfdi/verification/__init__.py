@@ -6,7 +6,29 @@ Layer: above :mod:`geomfdi.generators`.  It may import :mod:`geomfdi.model`,
 transfer gains); never the design code of :mod:`geomfdi.synthesis`.
 """
 
+from geomfdi.verification.gap import FaultToNoiseGap, fault_to_noise_gap
+from geomfdi.verification.norms import (
+    HinfNorm,
+    HminusIndex,
+    UnstableSystemError,
+    hinf_norm,
+    hminus_index,
+    peak_gain,
+)
 from geomfdi.verification.numeric import VerificationReport, verify
 from geomfdi.verification.symbolic import SymbolicReport, verify_symbolic
 
-__all__ = ["verify", "verify_symbolic", "VerificationReport", "SymbolicReport"]
+__all__ = [
+    "verify",
+    "verify_symbolic",
+    "VerificationReport",
+    "SymbolicReport",
+    "fault_to_noise_gap",
+    "FaultToNoiseGap",
+    "hinf_norm",
+    "hminus_index",
+    "peak_gain",
+    "HinfNorm",
+    "HminusIndex",
+    "UnstableSystemError",
+]

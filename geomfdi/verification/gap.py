@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
-from geomfdi._validation import as_choice, as_sequence_of
+from geomfdi._validation import as_bool, as_choice, as_sequence_of
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.verification.norms import UnstableSystemError, hinf_norm, hminus_index
@@ -83,6 +83,10 @@ class FaultToNoiseGap:
         How β is taken: ``"columns"`` or ``"singular"`` (:func:`geomfdi.hminus_index`).
     frequencies : ndarray or None
     band : tuple or None
+    gamma_peak : ndarray (rows,) or None
+        With ``peak=True``: the peak-to-peak gain from ``w`` (each component bounded by
+        δ) to the Euclidean norm of the row's residual, ``sqrt(Σ_i g_i²)`` with ``g_i``
+        the L1 gains of :func:`geomfdi.verification.norms.peak_gain`.
     """
 
     beta: np.ndarray
@@ -98,6 +102,7 @@ class FaultToNoiseGap:
     measure: str = "columns"
     frequencies: np.ndarray | None = None
     band: tuple[float, float] | None = None
+    gamma_peak: np.ndarray | None = None
 
     @property
     def min_gap(self) -> float:
@@ -129,6 +134,7 @@ def fault_to_noise_gap(
     frequencies: Any = None,
     band: Any = None,
     measure: str = "columns",
+    peak: bool = False,
 ) -> FaultToNoiseGap:
     """β, γ and the fault-to-noise gap β/γ of a generator or of each row of a bank.
 
@@ -146,6 +152,9 @@ def fault_to_noise_gap(
     measure : {"columns", "singular"}
         With ``frequencies`` or ``band``: the smallest target-fault column norm
         (FDITOOLS ``fdhinfminus``) or the smallest singular value (Ding 2008).
+    peak : bool
+        Also the peak-to-peak gain from the noise inputs (``gamma_peak``, for thresholds
+        under a peak bound on ``w``: :func:`geomfdi.gap_threshold`).
 
     Returns
     -------
@@ -173,7 +182,10 @@ def fault_to_noise_gap(
     (1.0, 0.1)
     """
     from geomfdi.generators.gains import Composite, PlantFactor
+    from geomfdi.verification.norms import peak_gain
     from geomfdi.verification.numeric import _unpack
+
+    peak = as_bool(peak, "peak")
 
     measure = as_choice(measure, "measure", ("columns", "singular"))
     if faults is not None:
@@ -185,6 +197,7 @@ def fault_to_noise_gap(
         k: np.zeros(rows) for k in ("beta", "gamma", "gap", "bf", "gf", "nontarget", "noise_gamma")
     }
     weakest = np.full(rows, -1, dtype=int)
+    gpeak = np.zeros(rows) if peak else None
     missing: list[int] = []
     factor = PlantFactor(plant)
     sigs = fault_matrices(faults, plant.n, plant.q)
@@ -213,6 +226,8 @@ def fault_to_noise_gap(
             nw = hinf_norm(Ac, Bw, Cc, Dw, dt) if Bw.shape[1] else None
             Bn, Dn, _ = _stack([fch[j] for j in non], nc, p)
             nt = hinf_norm(Ac, Bn, Cc, Dn, dt) if Bn.shape[1] else None
+            if gpeak is not None and Bw.shape[1]:
+                gpeak[r] = float(np.linalg.norm(peak_gain(Ac, Bw, Cc, Dw, dt)))
         except UnstableSystemError as exc:
             raise UnstableSystemError(
                 f"generator_or_bank: row {r}: the internal form is unstable ({exc})",
@@ -242,4 +257,5 @@ def fault_to_noise_gap(
         measure=measure,
         frequencies=freqs,
         band=None if band is None else (float(band[0]), float(band[1])),
+        gamma_peak=gpeak,
     )

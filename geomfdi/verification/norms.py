@@ -76,6 +76,7 @@ __all__ = [
     "UnstableSystemError",
     "hinf_norm",
     "hminus_index",
+    "peak_gain",
 ]
 
 BOUNDARY_TOL = 1e-9
@@ -559,3 +560,68 @@ def hminus_index(
     else:
         val, wv, col = _band_minimum(sys, bnd, groups, measure)
     return HminusIndex(val, wv, col if measure == "columns" else -1, measure)
+
+
+# ====================================================================== peak-to-peak
+@limit_blas_threads
+def peak_gain(
+    A: Any, B: Any, C: Any, D: Any = None, dt: float = 0.0, *, samples: int = 20000
+) -> np.ndarray:
+    """Peak-to-peak (L1) gains of the outputs: ``sup |y_i| / sup_t max_j |u_j|`` per output.
+
+    ``g_i = Σ_j ( ∫₀^∞ |h_ij(t)| dt + |D_ij| )`` with ``h = C e^{At} B`` (continuous; the
+    integral by the trapezoidal rule on ``samples`` points over the horizon where
+    ``‖e^{At}‖`` has decayed to 1e-16 of its start, an ``O(h²)`` approximation), or
+    ``Σ_j Σ_k |h_ij[k]| + |D_ij|`` with ``h[k] = C A^{k-1} B`` (discrete, exact up to the
+    decay).  A bounded input ``|u_j(t)| ≤ δ`` gives ``|y_i(t)| ≤ g_i δ`` (the induced
+    L∞ norm; Dahleh & Diaz-Bobillo 1995, §4).
+
+    Returns
+    -------
+    ndarray (p,)
+        ``inf`` for a pole on the stability boundary.
+
+    Raises
+    ------
+    UnstableSystemError
+        Naming ``A`` for an unstable system.
+    """
+    A, B, C, D, dt = _checked(A, B, C, D, dt)
+    sys, inf, _ = _stable_system(A, B, C, D, dt, "A")
+    p = C.shape[0]
+    if sys is None:
+        return np.full(p, np.inf)
+    out = np.abs(D).sum(axis=1)
+    n = sys.n
+    if n == 0 or sys.m == 0:
+        return out
+    rate = np.max(np.abs(sys.poles)) if dt > 0 else -np.max(sys.poles.real)
+    if dt > 0:
+        N = int(min(max(np.ceil(np.log(1e-16) / np.log(max(rate, 1e-300))) + 1, 2), 10**6))
+        Phi, step = sys.A, 1.0
+    else:
+        T = 36.8 / rate  # e^{-36.8} = 1e-16
+        step = T / samples
+        Phi, N = scipy.linalg.expm(sys.A * step), samples + 1
+    # h_k = C Phi^k B for k = 0 .. N-1 in blocks of L: [B, Phi B, ...] by doubling
+    L = 1 << int(np.ceil(np.log2(max(min(N, 512), 1))))
+    Y, P = sys.B, Phi
+    while Y.shape[1] < L * sys.m:
+        Y = np.hstack([Y, P @ Y])
+        P = P @ P
+    Z = sys.C
+    acc = np.zeros((p, sys.m))
+    weights_done = 0
+    while weights_done < N:
+        H = (Z @ Y).reshape(p, -1, sys.m)[:, : N - weights_done]  # (p, L, m)
+        w = np.ones(H.shape[1])
+        if dt == 0:
+            w *= step
+            if weights_done == 0:
+                w[0] *= 0.5
+            if weights_done + H.shape[1] == N:
+                w[-1] *= 0.5
+        acc += np.einsum("plm,l->pm", np.abs(H), w)
+        weights_done += H.shape[1]
+        Z = Z @ P
+    return out + acc.sum(axis=1)
