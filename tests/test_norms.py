@@ -78,11 +78,12 @@ def _control_norm(A, B, C, D, dt, scale):
         return scale * float(control.norm(sys, "inf", tol=1e-9, print_warning=False))
 
 
-@pytest.mark.parametrize("dt", [0.0, 0.1])
-def test_hinf_norm_agrees_with_sweep_and_python_control(dt):
-    rng = np.random.default_rng(2025 if dt else 7)
+def _agreement(dt: float, count: int, seed: int) -> tuple[float, float]:
+    """Largest relative differences to the sweep and to python-control over ``count``
+    random stable systems."""
+    rng = np.random.default_rng(seed)
     worst_sweep = worst_control = 0.0
-    for _ in range(40):  # 40 random stable systems per time domain
+    for _ in range(count):
         A, B, C, D = _random_stable(rng, dt)
         r = gf.hinf_norm(A, B, C, D, dt)
         with threadpool_limits(1):
@@ -93,8 +94,22 @@ def test_hinf_norm_agrees_with_sweep_and_python_control(dt):
         # the reported frequency attains the value
         at = np.linalg.norm(D, 2) if np.isinf(r.frequency) else _sigma(A, B, C, D, dt, r.frequency)
         assert at == pytest.approx(r.value, rel=1e-9)
+    return worst_sweep, worst_control
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("dt", [0.0, 0.1])
+def test_hinf_norm_agrees_with_sweep_and_python_control(dt):
+    """The acceptance test: 40 random continuous and 40 random discrete systems."""
+    worst_sweep, worst_control = _agreement(dt, 40, 2025 if dt else 7)
     assert worst_sweep < 1e-6
     assert worst_control < 1e-6
+
+
+@pytest.mark.parametrize("dt", [0.0, 0.1])
+def test_hinf_norm_agrees_on_a_few_systems(dt):
+    worst_sweep, worst_control = _agreement(dt, 6, 99)
+    assert worst_sweep < 1e-6 and worst_control < 1e-6
 
 
 def test_hinf_norm_known_values():
