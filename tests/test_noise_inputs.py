@@ -117,3 +117,13 @@ def test_model_file_noise_inputs():
                 "simulation": {"t_end": 1.0, "step": 0.01, "noise": {"inputs": 0.1}},
             }
         )
+
+
+def test_threshold_calibration_on_noise_inputs_alone():
+    p = gf.Plant(A, B, C, Bw=[[0.0], [1.0]], Dw=[[0.05], [0.0]])
+    bank = _bank(p)
+    t = np.linspace(0, 5, 501)
+    thr = gf.calibrate_threshold(
+        p, bank, t, noise=gf.Noise(inputs=0.1, seed=1), false_alarm_rate=0.05, runs=2
+    )
+    assert np.all(np.asarray(thr.values) > 0)
