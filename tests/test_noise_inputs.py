@@ -127,3 +127,17 @@ def test_threshold_calibration_on_noise_inputs_alone():
         p, bank, t, noise=gf.Noise(inputs=0.1, seed=1), false_alarm_rate=0.05, runs=2
     )
     assert np.all(np.asarray(thr.values) > 0)
+
+
+def test_random_noise_inputs_under_output_feedback():
+    import control
+
+    pd = gf.Plant([[0.5, 0.1], [0.0, 0.3]], B, C, dt=0.1, Dw=np.eye(2))
+    bank = _bank(pd)
+    K = control.ss([[0.2]], [[0.1, 0.05]], [[-0.3]], [[-0.1, 0.0]], 0.1)
+    td = 0.1 * np.arange(300)
+    a = gf.simulate(pd, bank, td, noise=gf.Noise(inputs=[0.1, 0.2], seed=2), controller=K)
+    b = gf.simulate(pd, bank, td, noise=gf.Noise(measurement=[0.1, 0.2], seed=2), controller=K)
+    assert np.max(np.abs(a.residuals)) > 1e-3
+    assert np.allclose(a.residuals, b.residuals, rtol=1e-12, atol=1e-15)
+    assert np.allclose(a.u, b.u, rtol=1e-12, atol=1e-15)
