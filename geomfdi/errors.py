@@ -22,6 +22,7 @@ __all__ = [
     "SchemaVersionError",
     "ResourceLimitError",
     "CampaignIncompleteError",
+    "IsolabilityWarning",
 ]
 
 
@@ -144,3 +145,13 @@ class CampaignIncompleteError(GeomFDIError):
     def __init__(self, message: str, *, partial: object = None, argument: str | None = None):
         super().__init__(message, argument=argument)
         self.partial = partial
+
+
+# ------------------------------------------------------------------------------- warnings
+class IsolabilityWarning(UserWarning):
+    """A requested structure matrix cannot tell two faults apart (identical columns).
+
+    Issued by :func:`geomfdi.design_bank` before the design; see
+    :func:`geomfdi.isolability_analysis` and the user guide, *Choosing a structure*
+    (``docs/guide/choosing-a-structure.md``).
+    """
