@@ -63,6 +63,21 @@ def parse_persistence(text: str | None) -> Any:
     )
 
 
+def parse_settle(text: str) -> float | str:
+    """``--settle``: seconds (a finite number >= 0) or ``auto``."""
+    if str(text).strip() == "auto":
+        return "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value >= 0 and value < float("inf")):
+        raise GeomFDIError(
+            f"--settle: expected seconds >= 0 or auto, got {text!r:.40}", argument="settle"
+        )
+    return value
+
+
 def describe_rule(rule: Persistence) -> str:
     """A one-line description of a persistence rule (for reports)."""
     if rule.trivial:
@@ -109,7 +124,8 @@ def _report(
         "",
         f"Data: `{data}`, {res.t.size} samples, t = {res.t[0]:g} .. {res.t[-1]:g} s, "
         f"dt = {res.info['dt']:g} s; design `{method}`; start-up `{res.info['initial']}`; "
-        f"persistence: {describe_rule(res.persistence)}.",
+        f"persistence: {describe_rule(res.persistence)}; no decisions in the first "
+        f"{res.info['settle']:g} s (settle).",
         "",
         "| residual | threshold | max abs(r) | alarming samples |",
         "|---|---|---|---|",
@@ -161,6 +177,7 @@ def evaluate_files(
     persistence: Any = None,
     initial: str = "steady",
     plots: bool = True,
+    settle: float | str = 0.0,
 ) -> dict[str, Any]:
     """Evaluate ``bank`` on the CSV ``data``; write the outputs to ``out`` (module docstring).
 
@@ -171,7 +188,14 @@ def evaluate_files(
         raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
     rec = read_record(data, gens[0].q, gens[0].m)
     res = evaluate(
-        bank, rec.y, rec.u, rec.t, threshold=threshold, persistence=persistence, initial=initial
+        bank,
+        rec.y,
+        rec.u,
+        rec.t,
+        threshold=threshold,
+        persistence=persistence,
+        initial=initial,
+        settle=settle,
     )
     missing = (rec.missing, rec.missing_samples)
     del rec  # (the residuals are computed: the signals are not needed any more)

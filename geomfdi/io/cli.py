@@ -481,6 +481,11 @@ def _add_deployment_parsers(sub: Any) -> None:
     ev = sub.add_parser("evaluate", help=text, description=text)
     ev.add_argument("model", help="model file (TOML)")
     ev.add_argument("data", help="CSV with a header row: t, y0, y1, ..., u0, ...")
+    ev.add_argument(
+        "--settle",
+        default="0",
+        help="seconds from the first sample without decisions (the start-up transient), or auto",
+    )
     text = "write C99 or Python code of the designed bank's online monitor"
     cg = sub.add_parser("codegen", help=text, description=text)
     cg.add_argument("model", help="model file (TOML)")
@@ -536,6 +541,7 @@ def _run_deployment(args: Any) -> int:
                 persistence=persistence,
                 initial=args.initial,
                 plots=not args.no_plots,
+                settle=commands.parse_settle(args.settle),
             )
             text = summary["report"] + f"\nwritten to {args.out}"
         else:
