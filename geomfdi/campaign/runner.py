@@ -437,7 +437,8 @@ class Campaign:
         self.eval_start = float(eval_start)
         if not self.eval_start < first:
             raise GeomFDIError(
-                f"eval_start: {self.eval_start!r} must be before the first onset {first!r}",
+                f"eval_start: {self.eval_start!r} must be before the first of the onsets "
+                f"({first!r})",
                 argument="eval_start",
             )
         self.block_size = as_int(block_size, "block_size", minimum=1)
