@@ -1,0 +1,59 @@
+"""Loose ends a new user meets first: imports, messages, CLI details (one test each)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import geomfdi
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# One fresh interpreter imports the third-party stack and the package's root only; each
+# defining module's first public name is then resolved in a forked child of it, so every
+# module meets an empty geomfdi module cache (no import order can hide a cycle) without
+# starting a hundred interpreters.
+_FRESH = """
+import os, sys
+import numpy, scipy.linalg, scipy.signal, scipy.stats, sympy, control, matplotlib.pyplot
+import geomfdi
+assert not [m for m in sys.modules if m.startswith("geomfdi.")], "root imports submodules"
+bad = []
+for name in sys.argv[1:]:
+    pid = os.fork()
+    if pid == 0:
+        try:
+            getattr(geomfdi, name)
+        except BaseException as exc:  # report and leave the child at once
+            sys.stderr.write(f"{name}: {type(exc).__name__}: {exc}\\n")
+            os._exit(1)
+        os._exit(0)
+    _, status = os.waitpid(pid, 0)
+    if status:
+        bad.append(name)
+print(",".join(bad))
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")
+def test_every_public_name_imports_in_a_fresh_interpreter():
+    first: dict[str, str] = {}
+    for name, module in sorted(geomfdi._NAMES.items()):
+        first.setdefault(module, name)
+    names = sorted(first.values())
+    assert "plot_isolability" in names and len(first) > 40
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    out = subprocess.run(
+        [sys.executable, "-c", _FRESH, *names],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+        check=True,
+    )
+    assert out.stdout.strip() == "", out.stderr
