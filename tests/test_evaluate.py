@@ -14,6 +14,7 @@ from scipy.signal import cont2discrete
 
 import geomfdi as gf
 from geomfdi.errors import GeomFDIError, ShapeError, TimeGridError
+from geomfdi.evaluation.decision import MULTIPLE
 from geomfdi.io.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -344,7 +345,7 @@ def test_alarm_episodes_match_their_definition() -> None:
     for _ in range(100):
         N, R = int(rng.integers(1, 60)), int(rng.integers(1, 4))
         alarms = rng.random((R, N)) < rng.random()
-        iso = np.where(alarms.any(axis=0), rng.integers(-3, 3, N), -1)
+        iso = np.where(alarms.any(axis=0), rng.integers(-4, 3, N), -1)
         t = np.arange(N) * 0.1
         got = alarm_episodes(t, alarms, iso)
         on = np.r_[False, alarms.any(axis=0), False]
@@ -354,9 +355,34 @@ def test_alarm_episodes_match_their_definition() -> None:
         for ep, s, e in zip(got, starts, stops, strict=True):
             assert (ep.start, ep.stop) == (t[s], t[e - 1])
             assert ep.residuals == tuple(np.flatnonzero(alarms[:, s:e].any(axis=1)).tolist())
-            ok = np.flatnonzero(iso[s:e] >= 0)
-            assert ep.fault == (int(iso[s + ok[0]]) if ok.size else None)
-            assert ep.isolated_at == (t[s + ok[0]] if ok.size else None)
+            ok = np.flatnonzero((iso[s:e] >= 0) | (iso[s:e] == MULTIPLE))
+            assert ep.first_fault == (int(iso[s + ok[0]]) if ok.size else None)
+            assert ep.first_isolated_at == (t[s + ok[0]] if ok.size else None)
+            if not ok.size:
+                assert ep.fault is None and ep.isolated_at is None
+                continue
+            # settled: the decision on most decided samples, the later one on a tie
+            seq = iso[s:e][ok].tolist()
+            best = max(set(seq), key=lambda d: (seq.count(d), max(ok[np.array(seq) == d])))
+            assert ep.fault == best
+            assert ep.isolated_at == t[s + ok[seq.index(best)]]
+            assert ep.share == pytest.approx(seq.count(best) / len(seq))
+
+
+def test_an_episode_reports_its_settled_decision_not_its_first() -> None:
+    """A start-up transient isolates another fault for a few samples; the episode reports
+    the decision the pattern settles on (96 % of the samples), and keeps the first one."""
+    from geomfdi.deployment.recorded import alarm_episodes
+
+    t = np.arange(120) * 0.5
+    alarms = np.zeros((2, 120), dtype=bool)
+    alarms[0, 10:110] = True
+    iso = np.full(120, -1)
+    iso[10:14] = 3  # the level sensor, briefly
+    iso[14:110] = 2  # the leak, from then on
+    (ep,) = alarm_episodes(t, alarms, iso)
+    assert (ep.fault, ep.isolated_at, ep.share) == (2, t[14], pytest.approx(0.96))
+    assert (ep.first_fault, ep.first_isolated_at) == (3, t[10])
 
 
 def _odd_bank() -> gf.ResidualBank:

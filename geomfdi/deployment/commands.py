@@ -106,6 +106,16 @@ def _fmt(x: float | None) -> str:
     return "-" if x is None else f"{x:.6g}"
 
 
+def _decision(res: EvaluationResult, fault: int | None, at: float | None) -> str:
+    if fault is None:
+        return "-"
+    if fault < 0:  # MULTIPLE: several faults at once
+        k = int(np.searchsorted(res.t, at))
+        sus = np.flatnonzero(res.suspects[:, k])
+        return "several: " + ", ".join(res.fault_labels[j] for j in sus)
+    return res.fault_labels[fault]
+
+
 def _report(res: EvaluationResult, model: str, data: str, method: str) -> str:
     lines = [
         f"# Residual evaluation: {model}",
@@ -127,22 +137,25 @@ def _report(res: EvaluationResult, model: str, data: str, method: str) -> str:
     lines += ["", "## Alarm episodes", ""]
     if res.episodes:
         lines += [
-            "| start | stop | residuals | isolated fault | isolated at |",
-            "|---|---|---|---|---|",
+            "| start | stop | residuals | isolated fault (settled) | share | isolated at "
+            "| first decision |",
+            "|---|---|---|---|---|---|---|",
         ]
         for ep in res.episodes:
-            if ep.fault is None:
-                fault = "-"
-            elif ep.fault < 0:  # MULTIPLE: several faults at once
-                k = int(np.searchsorted(res.t, ep.isolated_at))
-                sus = np.flatnonzero(res.suspects[:, k])
-                fault = "several: " + ", ".join(res.fault_labels[j] for j in sus)
-            else:
-                fault = res.fault_labels[ep.fault]
+            fault = _decision(res, ep.fault, ep.isolated_at)
+            first = _decision(res, ep.first_fault, ep.first_isolated_at)
+            if ep.first_fault is not None:
+                first += f" at {ep.first_isolated_at:g}"
+            share = "-" if ep.fault is None else f"{100 * ep.share:.0f} %"
             rs = ", ".join(res.residual_labels[r] for r in ep.residuals)
             lines.append(
-                f"| {ep.start:g} | {ep.stop:g} | {rs} | {fault} | {_fmt(ep.isolated_at)} |"
+                f"| {ep.start:g} | {ep.stop:g} | {rs} | {fault} | {share} "
+                f"| {_fmt(ep.isolated_at)} | {first} |"
             )
+        lines += [
+            "",
+            "The settled decision is the one held on most of the episode's decided samples.",
+        ]
     else:
         lines.append("none")
     return "\n".join(lines) + "\n"

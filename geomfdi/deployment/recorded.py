@@ -175,10 +175,16 @@ class AlarmEpisode:
     residuals : tuple of int
         Bank rows that alarm during the episode.
     fault : int or None
-        The first isolation decision in the episode: a structure column, or
-        :data:`~geomfdi.evaluation.decision.MULTIPLE` (several faults); ``None``: none.
+        The *settled* isolation decision of the episode: the decision (a structure column,
+        or :data:`~geomfdi.evaluation.decision.MULTIPLE` for several faults) held on most
+        of the episode's decided samples, the later one on a tie; ``None``: no decision.
     isolated_at : float or None
-        When that decision was first reached.
+        When the settled decision was first reached.
+    share : float
+        Fraction of the episode's decided samples that hold the settled decision.
+    first_fault, first_isolated_at : int or None, float or None
+        The first decision of the episode and its time (a start-up transient may
+        point at another fault before the pattern settles).
     """
 
     start: float
@@ -186,6 +192,48 @@ class AlarmEpisode:
     residuals: tuple[int, ...]
     fault: int | None
     isolated_at: float | None
+    share: float = 0.0
+    first_fault: int | None = None
+    first_isolated_at: float | None = None
+
+
+def _settled(
+    starts: np.ndarray, stops: np.ndarray, isolated: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """Per episode: (found, settled decision, its first sample, share, first decision's
+    sample), grouping the decided samples by (episode, decision) without a sample loop."""
+    n_ep = starts.size
+    hits = np.flatnonzero((isolated >= 0) | (isolated == MULTIPLE))
+    ep = np.searchsorted(starts, hits, side="right") - 1
+    keep = (ep >= 0) & (hits < stops[np.maximum(ep, 0)])
+    hits, ep = hits[keep], ep[keep]
+    found = np.zeros(n_ep, dtype=bool)
+    found[ep] = True
+    dec = np.zeros(n_ep, dtype=np.int64)
+    at = starts.copy()
+    share = np.zeros(n_ep)
+    first = starts.copy()
+    if hits.size == 0:
+        return found, dec, at, share, first
+    first[ep[::-1]] = hits[::-1]  # the earliest decided sample of each episode
+    code = isolated[hits].astype(np.int64) - MULTIPLE  # >= 0
+    key = ep * (int(code.max()) + 1) + code
+    order = np.argsort(key, kind="stable")  # samples stay in time order within a group
+    k_sorted = key[order]
+    grp_start = np.flatnonzero(np.r_[True, k_sorted[1:] != k_sorted[:-1]])
+    grp_stop = np.r_[grp_start[1:], k_sorted.size]
+    g_ep = ep[order][grp_start]
+    g_count = grp_stop - grp_start
+    g_first = hits[order][grp_start]
+    g_last = hits[order][grp_stop - 1]
+    # the largest group per episode, the later one (by its last sample) on a tie
+    best = np.lexsort((g_last, g_count, g_ep))
+    last_of_ep = best[np.r_[g_ep[best][1:] != g_ep[best][:-1], True]]
+    e = g_ep[last_of_ep]
+    dec[e] = code[order][grp_start][last_of_ep] + MULTIPLE
+    at[e] = g_first[last_of_ep]
+    share[e] = g_count[last_of_ep] / np.bincount(ep, minlength=n_ep)[e]
+    return found, dec, at, share, first
 
 
 def alarm_episodes(t: np.ndarray, alarms: np.ndarray, isolated: np.ndarray) -> list[AlarmEpisode]:
@@ -201,19 +249,20 @@ def alarm_episodes(t: np.ndarray, alarms: np.ndarray, isolated: np.ndarray) -> l
     cuts = np.searchsorted(ep, np.arange(starts.size + 1)).tolist()
     row_list = row.tolist()
     rows = [tuple(row_list[cuts[i] : cuts[i + 1]]) for i in range(starts.size)]
-    hits = np.flatnonzero((isolated >= 0) | (isolated == MULTIPLE))
-    first = np.searchsorted(hits, starts)
-    first_k = hits[np.minimum(first, max(hits.size - 1, 0))] if hits.size else starts
-    found = (first < hits.size) & (first_k < stops) if hits.size else np.zeros(starts.size, bool)
-    ts, te, tk = t[starts].tolist(), t[stops - 1].tolist(), t[first_k].tolist()
-    faults = isolated[first_k].tolist()
+    found, dec, at, share, first = _settled(starts, stops, np.asarray(isolated))
+    ts, te = t[starts].tolist(), t[stops - 1].tolist()
+    ta, tf = t[at].tolist(), t[first].tolist()
+    dec_l, share_l, first_l = dec.tolist(), share.tolist(), isolated[first].tolist()
     return [
         AlarmEpisode(
             ts[i],
             te[i],
             rows[i],
-            int(faults[i]) if found[i] else None,
-            tk[i] if found[i] else None,
+            int(dec_l[i]) if found[i] else None,
+            ta[i] if found[i] else None,
+            float(share_l[i]),
+            int(first_l[i]) if found[i] else None,
+            tf[i] if found[i] else None,
         )
         for i in range(starts.size)
     ]
