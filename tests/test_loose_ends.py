@@ -7,9 +7,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import geomfdi
+import geomfdi as gf
+from geomfdi.errors import NotIsolableError
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -57,3 +60,31 @@ def test_every_public_name_imports_in_a_fresh_interpreter():
         check=True,
     )
     assert out.stdout.strip() == "", out.stderr
+
+
+def _dup_plant():
+    A = -np.diag([1.0, 2.0, 3.0])
+    faults = [
+        *(gf.SensorFault(i) for i in range(3)),
+        gf.ActuatorFault([1.0, 0.0, 0.0]),
+        gf.ActuatorFault([0.0, 1.0, 0.0]),
+        gf.ActuatorFault([0.0, 1.0, 0.0], name="duplicate"),
+    ]
+    return gf.Plant(A, np.eye(3), np.eye(3)), faults
+
+
+def test_not_isolable_message_names_fault_numbers_not_target_positions():
+    plant, faults = _dup_plant()
+    with pytest.raises(NotIsolableError) as info:
+        gf.design_residual_generator(plant, faults, target=[0, 5], decouple=[4])
+    msg = str(info.value)
+    assert "faults [5] are not isolable from faults [4]" in msg
+    assert "[1]" not in msg  # 5 is the target at position 1
+
+
+def test_least_order_certificate_names_fault_numbers():
+    plant, faults = _dup_plant()
+    g = gf.design_residual_generator(plant, faults, target=[5], decouple=[0, 3])
+    cert = g.info["least_order"]
+    assert cert["order"] == 1 and cert["unseen_below"] == {0: [5]}
+    assert "does not see faults [5]" in cert["statement"]
