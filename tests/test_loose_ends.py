@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import importlib
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -88,3 +90,37 @@ def test_least_order_certificate_names_fault_numbers():
     cert = g.info["least_order"]
     assert cert["order"] == 1 and cert["unseen_below"] == {0: [5]}
     assert "does not see faults [5]" in cert["statement"]
+
+
+DOTTED = re.compile(r"`(geomfdi(?:\.[A-Za-z_]\w*)+)")
+
+
+def _resolve(name: str) -> bool:
+    parts = name.split(".")
+    for i in range(len(parts), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:i]))
+        except ImportError:
+            continue
+        try:
+            for attr in parts[i:]:
+                obj = getattr(obj, attr)
+        except AttributeError:
+            return False
+        return True
+    return False
+
+
+def test_dotted_names_in_the_docs_exist():
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    names = {(p.name, m) for p in pages for m in DOTTED.findall(p.read_text(encoding="utf-8"))}
+    assert len(names) > 20 and ("cli-and-model-files.md", "geomfdi.io.modelfile.load_model") in names
+    assert [n for n in sorted(names) if not _resolve(n[1])] == []
+    assert not _resolve("geomfdi.io.load_model")
+
+
+def test_verification_page_defines_the_plant_before_its_matrices():
+    text = (ROOT / "docs" / "theory" / "verification.md").read_text(encoding="utf-8")
+    first_use = min(text.index(s) for s in ("[[A, 0]", "−E C", "B; G"))
+    assert text.index("x' = A x + B u") < first_use
+    assert text.index("y = C x + D u") < first_use
