@@ -124,3 +124,21 @@ def test_verification_page_defines_the_plant_before_its_matrices():
     first_use = min(text.index(s) for s in ("[[A, 0]", "−E C", "B; G"))
     assert text.index("x' = A x + B u") < first_use
     assert text.index("y = C x + D u") < first_use
+
+
+@pytest.mark.parametrize(
+    "script", sorted((ROOT / "examples").glob("*.py")), ids=lambda p: p.name
+)
+def test_example_help_prints_usage_and_writes_nothing(script, tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    proc = subprocess.run(
+        [sys.executable, str(script), "--help"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.startswith("usage:")
+    assert list(tmp_path.iterdir()) == []
