@@ -142,3 +142,14 @@ def test_example_help_prints_usage_and_writes_nothing(script, tmp_path):
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.startswith("usage:")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_wilson_bounds_are_exact_at_the_ends():
+    n = np.array([7, 50, 1000, 1000])
+    k = np.array([0, 50, 0, 300])
+    lo, hi = gf.wilson_interval(k, n)
+    assert lo[0] == 0.0 and lo[2] == 0.0 and hi[1] == 1.0  # not 3.5e-18
+    assert np.all((lo <= k / n) & (k / n <= hi))
+    assert 0.0 < hi[0] < 1.0 and 0.0 < lo[1] < 1.0 and 0.0 < lo[3] < 0.3 < hi[3] < 1.0
+    lo0, hi0 = gf.wilson_interval(0, 1000)
+    assert isinstance(lo0, float) and f"{lo0:.3g}" == "0" and hi0 > 0
