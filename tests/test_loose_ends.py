@@ -14,7 +14,7 @@ import pytest
 
 import geomfdi
 import geomfdi as gf
-from geomfdi.errors import NotIsolableError
+from geomfdi.errors import GeomFDIError, NotIsolableError
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -153,3 +153,14 @@ def test_wilson_bounds_are_exact_at_the_ends():
     assert 0.0 < hi[0] < 1.0 and 0.0 < lo[1] < 1.0 and 0.0 < lo[3] < 0.3 < hi[3] < 1.0
     lo0, hi0 = gf.wilson_interval(0, 1000)
     assert isinstance(lo0, float) and f"{lo0:.3g}" == "0" and hi0 > 0
+
+
+def test_messages_quote_numbers_as_the_user_typed_them():
+    with pytest.raises(GeomFDIError) as info:
+        gf.Plant([[-1.0]], [[1.0]], [[1.0]], dt=np.float64(-0.1))
+    assert "got -0.1" in str(info.value) and "np." not in str(info.value)
+    from geomfdi.errors import plain_numbers
+
+    got = plain_numbers(str([np.float64(1.5), np.int64(-3), np.True_, np.complex128(1j)]))
+    assert got == "[1.5, -3, True, 1j]"
+    assert plain_numbers("np.linalg.norm(x) = 2") == "np.linalg.norm(x) = 2"
