@@ -114,7 +114,8 @@ def _resolve(name: str) -> bool:
 def test_dotted_names_in_the_docs_exist():
     pages = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
     names = {(p.name, m) for p in pages for m in DOTTED.findall(p.read_text(encoding="utf-8"))}
-    assert len(names) > 20 and ("cli-and-model-files.md", "geomfdi.io.modelfile.load_model") in names
+    assert len(names) > 20
+    assert ("cli-and-model-files.md", "geomfdi.io.modelfile.load_model") in names
     assert [n for n in sorted(names) if not _resolve(n[1])] == []
     assert not _resolve("geomfdi.io.load_model")
 
@@ -126,9 +127,7 @@ def test_verification_page_defines_the_plant_before_its_matrices():
     assert text.index("y = C x + D u") < first_use
 
 
-@pytest.mark.parametrize(
-    "script", sorted((ROOT / "examples").glob("*.py")), ids=lambda p: p.name
-)
+@pytest.mark.parametrize("script", sorted((ROOT / "examples").glob("*.py")), ids=lambda p: p.name)
 def test_example_help_prints_usage_and_writes_nothing(script, tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
     proc = subprocess.run(

@@ -197,9 +197,7 @@ class AlarmEpisode:
     first_isolated_at: float | None = None
 
 
-def _settled(
-    starts: np.ndarray, stops: np.ndarray, isolated: np.ndarray
-) -> tuple[np.ndarray, ...]:
+def _settled(starts: np.ndarray, stops: np.ndarray, isolated: np.ndarray) -> tuple[np.ndarray, ...]:
     """Per episode: (found, settled decision, its first sample, share, first decision's
     sample), grouping the decided samples by (episode, decision) without a sample loop."""
     n_ep = starts.size

@@ -32,7 +32,6 @@ Steps for a row that must see ``target`` and ignore ``decouple`` (and every dist
 from __future__ import annotations
 
 import re
-
 from typing import Any
 
 import numpy as np
