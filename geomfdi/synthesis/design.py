@@ -31,7 +31,7 @@ import numpy as np
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_bool, as_float, as_indices, as_real_array
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
-from geomfdi.model.faults import Fault, SensorFault, fault_matrices
+from geomfdi.model.faults import Fault, SensorFault, bind_faults, fault_matrices
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.build import FD_GAIN_TOL, build_least_order, check_angles, weak_targets
 from geomfdi.synthesis.construction import (
@@ -293,7 +293,7 @@ def design_residual_generator(
         )
     # --- end exact ---
     plant = _coerce_plant(plant)
-    faults = _coerce_faults(faults)
+    faults = bind_faults(plant, _coerce_faults(faults))
     method = _check_method(method)
     minimal = as_bool(minimal, "minimal")
     filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
@@ -466,7 +466,7 @@ def design_bank(
         )
     # --- end exact ---
     plant = _coerce_plant(plant)
-    faults = _coerce_faults(faults)
+    faults = bind_faults(plant, _coerce_faults(faults))
     method = _check_method(method)
     minimal = as_bool(minimal, "minimal")
     filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
@@ -606,6 +606,7 @@ def design_bank(
         [any(cols[j]) and all(cols[j] != cols[i] for i in range(nf) if i != j) for j in range(nf)]
     )
     info.update(margin=mg, plant_scale=omega)
+    info["signals"] = plant.signal_info()  # names and operating point for deployment
     info["total_order"] = sum(g.order for g in gens if g is not None)
     info["closest_gaps"] = [None if g is None else g.info.get("closest_gap") for g in gens]
     if common_poles:
@@ -658,7 +659,7 @@ def design_sensor_bank(
         )
     # --- end exact ---
     plant = _coerce_plant(plant)
-    faults = [SensorFault(i) for i in range(plant.q)]
+    faults = bind_faults(plant, [SensorFault(i) for i in range(plant.q)])
     return design_bank(
         plant,
         faults,
