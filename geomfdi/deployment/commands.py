@@ -1,8 +1,9 @@
 """The ``geomfdi evaluate`` and ``geomfdi codegen`` commands (their work, not their parsing).
 
 ``geomfdi evaluate MODEL.toml DATA.csv --out DIR`` designs the model's bank, reads the
-CSV (a header row naming the columns ``t`` or ``time``, outputs ``y0, y1, ...`` and
-inputs ``u0, ...``; empty or ``nan`` cells are missing samples), runs
+CSV (a header row naming the columns ``t`` or ``time``, the plant's output and input
+names, or outputs ``y0, y1, ...`` and inputs ``u0, ...``; empty or ``nan`` cells are
+missing samples; physical values when the plant has an operating point), runs
 :func:`geomfdi.evaluate` and writes ``residuals.csv``, ``alarms.csv`` (confirmed alarms and
 the isolation decision per sample), ``report.md`` (thresholds, masked windows, alarm
 episodes with isolation) and ``residuals.png``.
@@ -24,6 +25,7 @@ from geomfdi.deployment.decide import as_persistence
 from geomfdi.deployment.recorded import EvaluationResult, channel_columns, evaluate
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.evaluation.persistence import Persistence
+from geomfdi.model.signals import bank_signals
 
 __all__ = ["read_csv", "evaluate_files", "codegen_files", "parse_persistence", "describe_rule"]
 
@@ -61,8 +63,13 @@ def describe_rule(rule: Persistence) -> str:
     return f"{text}, isolation on the momentary pattern"
 
 
-def read_csv(path: str | Path, q: int, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``t, y (q, N), u (m, N)`` from a CSV with a header row (module docstring)."""
+def read_csv(
+    path: str | Path, q: int, m: int, names: tuple[Any, Any] | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``t, y (q, N), u (m, N)`` from a CSV with a header row (module docstring).
+
+    ``names = (outputs, inputs)``: the plant's signal names, read when the header has
+    them all (else the columns ``y0, ..., u0, ...``)."""
     path = Path(path)
     with path.open(newline="", encoding="utf-8") as fh:
         header = next(csv.reader(fh), None)
@@ -70,6 +77,11 @@ def read_csv(path: str | Path, q: int, m: int) -> tuple[np.ndarray, np.ndarray, 
         raise ShapeError(f"{path}: empty file (expected a header row)", argument="data")
     header = [h.strip() for h in header]
     ys, us = channel_columns(header, "y"), channel_columns(header, "u")
+    if names is not None:
+        if list(names[0]) and set(names[0]) <= set(header):
+            ys = list(names[0])
+        if list(names[1]) and set(names[1]) <= set(header):
+            us = list(names[1])
     tcol = next((c for c in ("t", "time") if c in header), None)
     if tcol is None:
         raise ShapeError(f"{path}: no time column (name it t or time)", argument="data")
@@ -180,7 +192,9 @@ def evaluate_files(
     gens = [g for g in bank.generators if g is not None]
     if not gens:
         raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
-    t, y, u = read_csv(data, gens[0].q, gens[0].m)
+    sig = bank_signals(bank)
+    names = (sig["outputs"], sig["inputs"]) if sig["named"] else None
+    t, y, u = read_csv(data, gens[0].q, gens[0].m, names)
     res = evaluate(bank, y, u, t, threshold=threshold, persistence=persistence, initial=initial)
     out.mkdir(parents=True, exist_ok=True)
     _write_table(out / "residuals.csv", ["t", *res.residual_labels], [res.t, *list(res.residuals)])

@@ -14,6 +14,7 @@ guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +33,7 @@ from geomfdi.deployment.program import Program, as_bank, build_program, check_in
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.evaluation.decision import AMBIGUOUS, MULTIPLE, NO_ALARM, UNEXPLAINED
 from geomfdi.evaluation.persistence import Persistence
+from geomfdi.model.signals import bank_signals
 from geomfdi.synthesis.bankfile import _enc_float, _write, bank_to_dict, encode
 
 __all__ = ["Monitor", "MonitorStep", "MonitorOutput"]
@@ -83,6 +85,11 @@ class Monitor:
         self.isolation = bool(isolation)
         self.initial = check_initial(initial, self.program)
         self._restart = restart_rule(self.program, self.initial)
+        sig = bank_signals(self.bank)
+        #: output and input names (the plant's), the order of ``y`` and ``u``
+        self.outputs, self.inputs = sig["outputs"], sig["inputs"]
+        self._y_op = sig["y_op"] if np.any(sig["z_op"] != 0) else None
+        self._u_op = sig["u_op"]
         self.reset()
 
     @property
@@ -106,8 +113,31 @@ class Monitor:
     def step(self, y: Any, u: Any = None) -> MonitorStep:
         """One sample ``y`` (q,), ``u`` (m,): residual per bank row, confirmed alarms and
         the isolation decision.  A sample with a non-finite entry gives ``nan`` residuals,
-        no alarm, and restarts the generators at the next valid sample."""
+        no alarm, and restarts the generators at the next valid sample.
+
+        ``y`` may be a mapping ``{name: value}`` holding every output (and then every input
+        unless ``u`` is given) by the plant's names.  Physical values: a bank designed at
+        an operating point subtracts ``y_op`` and ``u_op`` itself."""
+        if isinstance(y, Mapping) or self._y_op is not None:
+            y, u = self._deviations(y, u, 1)
         return self._step(y, u)
+
+    def _deviations(self, y: Any, u: Any, ndim: int) -> tuple[Any, Any]:
+        """Named samples in channel order, minus the operating point."""
+        if isinstance(y, Mapping):
+            src = y
+            y = _by_name(src, self.outputs, "y")
+            if u is None and self.inputs:
+                u = _by_name(src, self.inputs, "u")
+        if self._y_op is None:
+            return y, u
+        yd = np.asarray(y, dtype=float)
+        op_y = self._y_op if ndim == 1 or yd.ndim == 1 else self._y_op[:, None]
+        y = yd - op_y
+        if u is not None and len(self._u_op):
+            ud = np.asarray(u, dtype=float)
+            u = ud - (self._u_op if ndim == 1 or ud.ndim == 1 else self._u_op[:, None])
+        return y, u
 
     @limit_blas_threads
     def feed(self, Y: Any, U: Any = None) -> MonitorOutput:
@@ -115,7 +145,10 @@ class Monitor:
 
         Like the other entry points of geomfdi it runs with the BLAS limited to
         :func:`geomfdi.get_blas_threads` threads (one by default): its products are small.
+        Named and physical samples as for :meth:`step` (a mapping of rows).
         """
+        if isinstance(Y, Mapping) or self._y_op is not None:
+            Y, U = self._deviations(Y, U, 2)
         return self._feed(Y, U)
 
     @property
@@ -142,6 +175,16 @@ class Monitor:
             f"Monitor(rows={self.n_residuals}, order={self.program.nw}, dt={self.dt:g}, "
             f"persistence={p.k}-of-{p.n} latch={p.latch} reset={p.reset}, threshold={thr})"
         )
+
+
+def _by_name(src: Mapping[str, Any], names: tuple[str, ...], argument: str) -> np.ndarray:
+    missing = [n for n in names if n not in src]
+    if missing:
+        raise ShapeError(
+            f"{argument}: no values for {missing} (the bank reads {list(names)})",
+            argument=argument,
+        )
+    return np.asarray([src[n] for n in names], dtype=float)
 
 
 def _pending_json(pending: Any) -> Any:

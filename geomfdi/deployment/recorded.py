@@ -54,6 +54,7 @@ from geomfdi.evaluation.decision import (
     isolate,
 )
 from geomfdi.evaluation.persistence import Persistence
+from geomfdi.model.signals import bank_signals
 
 __all__ = ["evaluate", "EvaluationResult", "AlarmEpisode", "check_time", "channel_columns"]
 
@@ -137,6 +138,21 @@ def _from_frame(
     y = df[outputs].to_numpy(dtype=float).T
     u = df[inputs].to_numpy(dtype=float).T if inputs else np.zeros((0, y.shape[1]))
     return y, u, t
+
+
+def _named_columns(
+    columns: Sequence[str],
+    sig: dict[str, Any],
+    outputs: Sequence[str] | None,
+    inputs: Sequence[str] | None,
+) -> tuple[Sequence[str] | None, Sequence[str] | None]:
+    """The bank's signal names as the columns to read, when the frame has them all."""
+    cols = {str(c) for c in columns}
+    if outputs is None and sig["named"] and set(sig["outputs"]) <= cols:
+        outputs = list(sig["outputs"])
+    if inputs is None and sig["named"] and set(sig["inputs"]) <= cols:
+        inputs = list(sig["inputs"])
+    return outputs, inputs
 
 
 def _signals(y: Any, u: Any, q: int, m: int) -> tuple[np.ndarray, np.ndarray]:
@@ -393,9 +409,12 @@ def evaluate(
         Continuous (sampled with a first-order hold at the grid step) or discrete (its
         ``dt`` must equal the grid step).
     y : array_like (q, N), or pandas.DataFrame
-        Measured outputs.  A DataFrame holds every signal in named columns: outputs
-        ``y0, y1, ...`` (or ``y[0]``, ``y_0``), inputs ``u0, ...`` and time ``t`` /
-        ``time`` unless ``outputs``, ``inputs``, ``time`` name them.
+        Measured outputs.  A DataFrame holds every signal in named columns: the bank's
+        signal names (the plant's ``outputs`` and ``inputs``) when the frame has them,
+        else outputs ``y0, y1, ...`` (or ``y[0]``, ``y_0``), inputs ``u0, ...``; time
+        ``t`` / ``time``; unless ``outputs``, ``inputs``, ``time`` name them.
+        Physical values: a bank designed on a plant with an operating point subtracts
+        ``y_op`` and ``u_op`` itself (``bank.info["signals"]``).
     u : array_like (m, N), optional
         Known inputs (required when the bank reads inputs).
     t : array_like (N,), optional
@@ -450,9 +469,11 @@ def evaluate(
     (3.0, True)
     """
     bank = as_bank(bank)
+    sig = bank_signals(bank)
     if _is_frame(y):
         if u is not None:
             raise GeomFDIError("u: give the inputs as columns of the DataFrame", argument="u")
+        outputs, inputs = _named_columns(y.columns, sig, outputs, inputs)
         y, u, t_frame = _from_frame(y, outputs, inputs, time)
         if t is None:
             t = t_frame
@@ -460,6 +481,9 @@ def evaluate(
     if not gens:
         raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
     y, u = _signals(y, u, gens[0].q, gens[0].m)
+    if np.any(sig["z_op"] != 0):  # physical values: the bank works on deviations
+        y = y - sig["y_op"][:, None]
+        u = u - sig["u_op"][:, None]
     N = y.shape[1]
     if t is not None:
         t, step = check_time(t, N)

@@ -117,9 +117,7 @@ class SensorFault(Fault):
         self._Df = None
 
     def __eq__(self, other: object) -> bool:
-        return (
-            isinstance(other, SensorFault) and other.i == self.i and other.output == self.output
-        )
+        return isinstance(other, SensorFault) and other.i == self.i and other.output == self.output
 
     def __hash__(self) -> int:
         return hash(("SensorFault", self.i, self.output))

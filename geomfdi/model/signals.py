@@ -25,6 +25,7 @@ __all__ = [
     "index_of",
     "c_identifier",
     "python_control_names",
+    "bank_signals",
 ]
 
 _PREFIX = {"inputs": "u", "outputs": "y", "states": "x", "disturbances": "d"}
@@ -119,3 +120,38 @@ def c_identifier(name: str) -> str:
     a leading digit is prefixed with ``_`` (``"level 1"`` -> ``level_1``)."""
     out = re.sub(r"[^0-9A-Za-z_]+", "_", str(name)).strip("_") or "signal"
     return f"_{out}" if out[0].isdigit() else out
+
+
+def bank_signals(bank: Any) -> dict[str, Any]:
+    """The signal names and operating point a bank was designed with.
+
+    Read from ``bank.info["signals"]`` (written by the design functions from the plant);
+    defaults ``y0, ...``, ``u0, ...`` and a zero operating point for a bank without it.
+    Returns a dict with ``outputs``, ``inputs`` (tuples), ``named`` (bool), ``y_op``,
+    ``u_op`` (arrays) and ``z_op = [y_op; u_op]``.
+    """
+    gens = [g for g in getattr(bank, "generators", [bank]) if g is not None]
+    q, m = (gens[0].q, gens[0].m) if gens else (0, 0)
+    info = getattr(bank, "info", None) or {}
+    sig = info.get("signals") if isinstance(info, dict) else None
+    sig = sig if isinstance(sig, dict) else {}
+    outputs = tuple(sig.get("outputs") or default_names("outputs", q))
+    inputs = tuple(sig.get("inputs") or default_names("inputs", m))
+    if len(outputs) != q:
+        outputs = default_names("outputs", q)
+    if len(inputs) != m:
+        inputs = default_names("inputs", m)
+    y_op = np.asarray(sig.get("y_op") or np.zeros(q), dtype=float).reshape(-1)
+    u_op = np.asarray(sig.get("u_op") or np.zeros(m), dtype=float).reshape(-1)
+    if y_op.size != q:
+        y_op = np.zeros(q)
+    if u_op.size != m:
+        u_op = np.zeros(m)
+    return {
+        "outputs": outputs,
+        "inputs": inputs,
+        "named": bool(sig.get("named", False)),
+        "y_op": y_op,
+        "u_op": u_op,
+        "z_op": np.concatenate([y_op, u_op]),
+    }

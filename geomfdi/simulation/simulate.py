@@ -387,7 +387,7 @@ def simulate(
         residual_labels=residual_labels_of(view),
         xc=xc,
         w=unbalance_states(view, ctx.info, ws),
-        info=ctx.info,
+        info={**ctx.info, "signals": plant.signal_info()},
         vector_rows=[g is not None and g.n_outputs > 1 for g in view.generators],
     )
 
