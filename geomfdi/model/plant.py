@@ -196,6 +196,7 @@ class Plant:
             "named": self.named,
             "y_op": self.y_op.tolist(),
             "u_op": self.u_op.tolist(),
+            "x_op": self.x_op.tolist(),
         }
 
     def output_index(self, key: Any, argument: str = "sensor") -> int:
@@ -379,8 +380,8 @@ class Plant:
         u = np.zeros(sys.ninputs) if u_op is None else np.asarray(u_op, dtype=float).reshape(-1)
         if u.size != sys.ninputs:
             raise ShapeError(f"u_op: expected {sys.ninputs} values, got {u.size}", argument="u_op")
-        lin = sys.linearize(x, u, params=params or {}, copy_names=True)
-        y = np.asarray(sys.output(0.0, x, u, params=params or {}), dtype=float).reshape(-1)
+        lin = sys.linearize(x, u, params=params, copy_names=True)
+        y = np.asarray(sys.output(0.0, x, u, params=params), dtype=float).reshape(-1)
         k = as_int(n_disturbances, "n_disturbances", minimum=0)
         return cls.from_statespace(
             lin, n_disturbances=k, x_op=x, u_op=u[: u.size - k], y_op=y, **signals
