@@ -148,3 +148,18 @@ def test_a_physical_gain_fault_equals_the_deviation_form():
     s1 = gf.simulate(phys, bank, t, u, faults=[gf.StuckFault(0, start=200, value=h[0] + 0.01)])
     s0 = gf.simulate(lin, bank, t, u, faults=[gf.StuckFault(0, start=200, value=0.01)])
     np.testing.assert_allclose(s1.residuals, s0.residuals, atol=1e-12)
+
+
+def test_a_pump_gain_fault_scales_the_physical_flow():
+    """``ActuatorGainFault(i, gain=0.8)`` on a plant at ``u_op`` loses 20 % of the whole
+    flow: the deviation form is ``gain=0.8, bias=-0.2 u_op``; by name as well."""
+    lin, faults = three_tank_model()
+    h, Q = three_tank_operating_point()
+    phys = gf.Plant(lin.A, lin.B, lin.C, u_op=Q, y_op=h, inputs=INPUTS)
+    bank = gf.design_bank(lin, faults[:3], 1 - np.eye(3))
+    t = np.linspace(0.0, 600.0, 601)
+    dev = gf.ActuatorGainFault(0, start=100, gain=0.8, bias=-0.2 * Q[0])
+    ref = gf.simulate(lin, bank, t, faults=[dev])
+    got = gf.simulate(phys, bank, t, faults=[gf.ActuatorGainFault("Q1", start=100, gain=0.8)])
+    scale = np.abs(ref.residuals).max()
+    assert scale > 0 and np.abs(got.residuals - ref.residuals).max() <= 1e-10 * scale

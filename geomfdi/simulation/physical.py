@@ -9,8 +9,9 @@ sensor faults are stated on the physical reading (user guide, *Physical plants*,
 
 so a 10 % gain loss is ``GainFault(sensor, start=..., gain=0.9)`` and acts on the whole
 reading, as a real sensor's does, not on the deviation alone; a stuck sensor's ``value``
-is a physical reading (``value − y_op`` in deviations).  Bias faults are the same in both
-forms.  Sensors may be named by the plant's output names.
+is a physical reading (``value − y_op`` in deviations).  Actuator gain and stuck faults
+likewise act on the physical input ``u_op + u``.  Bias faults are the same in both forms.
+Sensors and actuators may be named by the plant's output and input names.
 """
 
 from __future__ import annotations
@@ -21,21 +22,40 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.simulation.signals import GainFault, SensorFaultSignal, StuckFault
+from geomfdi.simulation.input_faults import ActuatorGainFault, ActuatorStuckFault
+from geomfdi.simulation.signals import GainFault, SensorFaultSignal, StuckFault, _evaluate
 
 __all__ = ["deviation_faults"]
 
 
-def _shifted_bias(f: GainFault, y_op: float) -> Any:
+def _shifted_bias(f: Any, y_op: float) -> Any:
     """``lambda + (eta − 1) y_op`` (a number, or a function of t if either is one)."""
     gain, bias = f.gain, f.bias
     if not callable(gain) and not callable(bias):
         return float(bias) + (float(gain) - 1.0) * y_op
 
     def shifted(t: np.ndarray) -> np.ndarray:
-        return f.bias_values(t) + (f.gain_values(t) - 1.0) * y_op
+        return _evaluate(bias, t, "bias") + (_evaluate(gain, t, "gain") - 1.0) * y_op
 
     return shifted
+
+
+def _actuator(f: Any, plant: Any, u_op: Any, k: int) -> Any:
+    """An actuator gain or stuck fault on the physical input ``u_op + u``."""
+    g = f
+    if isinstance(f.actuator, str):
+        g = copy.copy(f)
+        g.actuator = plant.input_index(f.actuator, f"faults[{k}].actuator")
+    op = 0.0 if u_op is None or g.actuator >= len(u_op) else float(u_op[g.actuator])
+    if op == 0.0:
+        return g
+    if isinstance(g, ActuatorGainFault):
+        return ActuatorGainFault(
+            g.actuator, start=g.start, end=g.end, gain=g.gain, bias=_shifted_bias(g, op)
+        )
+    if g.value is None:
+        return g
+    return ActuatorStuckFault(g.actuator, start=g.start, end=g.end, value=float(g.value) - op)
 
 
 def deviation_faults(faults: Sequence[Any], plant: Any) -> list[Any]:
@@ -45,8 +65,12 @@ def deviation_faults(faults: Sequence[Any], plant: Any) -> list[Any]:
     Faults that need no change are returned as they are (the same objects).
     """
     y_op = getattr(plant, "y_op", None)
+    u_op = getattr(plant, "u_op", None)
     out = []
     for k, f in enumerate(faults):
+        if isinstance(f, ActuatorGainFault | ActuatorStuckFault):
+            out.append(_actuator(f, plant, u_op, k))
+            continue
         if not isinstance(f, SensorFaultSignal):
             out.append(f)
             continue
