@@ -1,6 +1,9 @@
-"""The plant model: ``x' = A x + B u + Bd d``, ``y = C x + D u + Dd d`` (user guide, *Models
-and faults*, ``docs/guide/models-and-faults.md``), with signal names and an operating point
-(*Physical plants*, ``docs/guide/physical-plants.md``)."""
+"""The plant model: ``x' = A x + B u + Bd d``, ``y = C x + D u + Dd d``.
+
+The model of Hou, Wen & Chen (2011), §2, with the disturbance and feedthrough terms, signal
+names and an operating point (user guide, *Physical plants*,
+``docs/guide/physical-plants.md``).
+"""
 
 from __future__ import annotations
 
@@ -264,7 +267,7 @@ class Plant:
         """
         if not self.is_parametric:
             return self
-        from geomfdi.synthesis.exact_generator import _subs_values
+        from geomfdi.generators.exact import _subs_values
 
         vals = _subs_values(self.parameters, values)
         out = []
