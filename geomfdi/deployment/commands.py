@@ -16,6 +16,7 @@ design sampled at ``--dt``.
 from __future__ import annotations
 
 import csv
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +28,14 @@ from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.evaluation.persistence import Persistence
 from geomfdi.model.signals import bank_signals
 
-__all__ = ["read_csv", "evaluate_files", "codegen_files", "parse_persistence", "describe_rule"]
+__all__ = [
+    "read_csv",
+    "evaluate_files",
+    "codegen_files",
+    "parse_persistence",
+    "parse_threshold",
+    "describe_rule",
+]
 
 
 def parse_persistence(text: str | None) -> Any:
@@ -50,6 +58,21 @@ def parse_persistence(text: str | None) -> Any:
         f"--persistence: expected D, K/N or K/N/RESET (integers), got {text!r}",
         argument="persistence",
     )
+
+
+def parse_threshold(values: Sequence[float] | None, rows: int) -> Any:
+    """``--threshold``: ``None``, one value for every residual, or one per residual."""
+    if values is None:
+        return None
+    vals = [float(v) for v in values]
+    if len(vals) == 1:
+        return vals[0]
+    if len(vals) != rows:
+        raise GeomFDIError(
+            f"--threshold: give one value or {rows} (one per residual), got {len(vals)}",
+            argument="threshold",
+        )
+    return vals
 
 
 def describe_rule(rule: Persistence) -> str:
