@@ -75,13 +75,13 @@ class Plant:
         the Monitor and generated code then take physical values and subtract
         ``u_op, y_op``; sensor gain faults scale the physical reading ``y_op + y``.
 
-    A python-control ``StateSpace`` may be given in place of ``A`` (``gf.Plant(sys)``):
-    its matrices, sampling period and signal names are taken (all inputs known; see
-    :meth:`from_statespace` for disturbances).  A nonlinear system is linearised by
-    :meth:`linearize`.
-
     Notes
     -----
+    **python-control systems.**  A ``StateSpace`` may be given in place of ``A``
+    (``gf.Plant(sys)``): its matrices, sampling period and signal names are taken (all
+    inputs known; see :meth:`from_statespace` for disturbances).  A nonlinear system is
+    linearised by :meth:`linearize`.
+
     **Parametric plants.**  Entries may be sympy expressions in symbols
     (``m = sympy.Symbol("m", positive=True)``): rational functions of the parameters.
     The matrices are then kept as sympy matrices (floats read through their shortest
