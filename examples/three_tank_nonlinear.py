@@ -125,7 +125,7 @@ def main(out_dir: str, runs: int) -> list[Any]:
         li = run(plant, bank, fault, 7, thr)
         print(describe(f"{label}, nonlinear:", nl))
         print(describe(f"{label}, linear:", li))
-        stem = label.split()[0] + ("_pump" if "pump" in label else "")
+        stem = label.split()[0]
         fig = nl.plot(title=f"nonlinear three-tank: {label} at {ONSET:g} s")
         gf.save_png(fig, out / f"{stem}_nonlinear_residuals.png")
 
