@@ -26,7 +26,8 @@ _FRESH = """
 import os, sys
 import numpy, scipy.linalg, scipy.signal, scipy.stats, sympy, control, matplotlib.pyplot
 import geomfdi
-assert not [m for m in sys.modules if m.startswith("geomfdi.")], "root imports submodules"
+loaded = [m for m in sys.modules if m.startswith("geomfdi.") and not m.startswith("geomfdi._")]
+assert not loaded, f"the root imports {loaded}"
 bad = []
 for name in sys.argv[1:]:
     pid = os.fork()
