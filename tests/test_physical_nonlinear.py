@@ -96,3 +96,41 @@ def test_the_nonlinear_three_tank_example_runs(tmp_path):
     assert abs(big["nonlinear"][5] - big["linear"][5]) < 10.0  # isolation delays close
     for name in ("leak_nonlinear_residuals.png", "pump_nonlinear_residuals.png", "campaign.png"):
         assert (tmp_path / name).stat().st_size > 5000
+
+
+def test_a_campaign_marks_runs_that_diverge():
+    _, plant, bank, ctrl = _loop()
+    t = np.arange(0.0, 20.0, 0.01)
+    camp = gf.Campaign(
+        plant,
+        bank,
+        [gf.Scenario.sensor("gain", 0, sizes=[0.0, -2.0], onsets=[5.0])],  # gain 1 and -1
+        gf.Noise(measurement=1e-4, seed=1),
+        t=t,
+        runs=2,
+        test=gf.AbsTest(np.full(2, 1e-3)),
+        u=np.full((1, t.size), 0.1),
+        x0=[0.1],
+        controller=ctrl,
+        detection_window=4.0,
+    )
+    with pytest.warns(gf.DivergenceWarning, match="2 of 4 runs diverged"):
+        res = camp.run()
+    bank_rows = res.table[res.table["residual"] == "bank"]
+    flipped = bank_rows["size"] == -2.0
+    assert (
+        bank_rows.loc[flipped, "diverged"].all() and not bank_rows.loc[~flipped, "diverged"].any()
+    )
+    assert bank_rows.loc[flipped, "detected"].all()  # detected before it diverged
+
+
+def test_cut_divergent_zeroes_the_statistic_from_the_first_bad_sample():
+    from geomfdi.campaign.runner import cut_divergent
+
+    stat = np.ones((3, 2, 6))
+    stat[1, 0, 3] = 5e6  # beyond 1e6 thresholds
+    stat[2, 1, 4] = np.nan
+    out, div = cut_divergent(stat, [1.0, 1.0])
+    assert div.tolist() == [False, True, True]
+    assert np.all(out[0] == 1) and np.all(out[1, :, 3:] == 0) and np.all(out[1, :, :3] == 1)
+    assert np.all(out[2, :, 4:] == 0) and np.all(out[2, :, :4] == 1)

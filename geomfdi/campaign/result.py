@@ -19,7 +19,8 @@ class CampaignResult:
     """Tidy table of a campaign: one row per run and residual (and ``"bank"``).
 
     Columns: ``run, model, scenario, size, onset, repetition, residual, score_pre,
-    score_post, false_alarm, detected, delay`` and, for a bank (on its ``"bank"`` rows;
+    score_post, false_alarm, detected, delay, diverged`` (a run stopped by
+    :func:`geomfdi.campaign.runner.cut_divergent`) and, for a bank (on its ``"bank"`` rows;
     missing on the residuals' rows), the isolation of the run: ``true_fault`` (a fault
     label, ``"multiple"`` for simultaneous faults, ``"no fault"`` for size 0),
     ``isolated`` (the first decision in the detection window: a fault label,
@@ -68,6 +69,20 @@ class CampaignResult:
                 "delay": cols["delay"].ravel(),
             }
         )
+        if all("diverged" in p for p in parts):  # runs a fault destabilised (runner)
+            div = np.concatenate([p["diverged"] for p in parts])[order]
+            table["diverged"] = np.repeat(div, n)
+            if div.any():
+                import warnings
+
+                from geomfdi.simulation.nonlinear import DivergenceWarning
+
+                warnings.warn(
+                    f"{int(div.sum())} of {div.size} runs diverged; their decisions stop "
+                    "there (column 'diverged')",
+                    DivergenceWarning,
+                    stacklevel=3,
+                )
         table["false_alarm"] = table["score_pre"] > 1.0
         table["detected"] = table["score_post"] > 1.0
         if campaign.structure is not None:

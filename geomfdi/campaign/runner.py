@@ -259,11 +259,12 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
             progress=False,
         )
     test = job["test"]
-    stat = test.statistic(res.residuals)
+    stat, diverged = cut_divergent(test.statistic(res.residuals), test.thresholds)
     out = evaluate_runs(
         job["t"], stat, test.thresholds, block.onset, job["window"], job["eval_start"]
     )
     out["run"] = block.runs
+    out["diverged"] = diverged
     structure = job["structure"]
     if structure is not None:
         cache: dict[Any, Any] = {}
@@ -286,6 +287,30 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
             )
         )
     return out
+
+
+#: A statistic this many times its threshold (or non-finite) marks a run as diverged.
+DIVERGED_RATIO = 1e6
+
+
+def cut_divergent(statistic: np.ndarray, thresholds: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Runs ``(R, n, N)`` whose statistic turns non-finite or exceeds
+    :data:`DIVERGED_RATIO` times its threshold: from that sample on the statistic is set to
+    0 (no alarm, no decision, no score).  Returns the statistic and ``diverged`` (R,).
+
+    A campaign keeps no plant states, so a run that a fault destabilises is recognised on
+    its residuals (they grow with the state); :func:`geomfdi.simulate` judges the state.
+    """
+    thr = np.asarray(thresholds, dtype=float)
+    lim = np.where(np.isfinite(thr), DIVERGED_RATIO * thr, np.inf)[:, None]
+    bad = ~np.isfinite(statistic) | (np.abs(statistic) > lim)
+    bad = bad.any(axis=-2)  # (R, N)
+    hit = bad.any(axis=-1)
+    if not hit.any():
+        return statistic, hit
+    k = np.where(hit, np.argmax(bad, axis=-1), statistic.shape[-1])
+    after = np.arange(statistic.shape[-1])[None, :] >= k[:, None]
+    return np.where(after[:, None, :], 0.0, statistic), hit
 
 
 def _run_task(job: dict[str, Any], blocks: list[_Block]) -> list[dict[str, np.ndarray]]:
