@@ -9,7 +9,12 @@ import numpy as np
 import pytest
 
 import geomfdi as gf
-from geomfdi.data.three_tank import three_tank_operating_point, three_tank_system
+from geomfdi.data.three_tank import (
+    three_tank_model,
+    three_tank_operating_point,
+    three_tank_system,
+)
+from geomfdi.errors import GeomFDIError
 from geomfdi.evaluation.decision import NO_ALARM
 
 
@@ -134,3 +139,32 @@ def test_cut_divergent_zeroes_the_statistic_from_the_first_bad_sample():
     assert div.tolist() == [False, True, True]
     assert np.all(out[0] == 1) and np.all(out[1, :, 3:] == 0) and np.all(out[1, :, :3] == 1)
     assert np.all(out[2, :, 4:] == 0) and np.all(out[2, :, :4] == 1)
+
+
+def _leak_faults(size, onset):
+    _, faults = three_tank_model()
+    return [gf.AdditiveFault(faults[2], start=onset, size=size)]
+
+
+def test_a_campaign_over_the_nonlinear_three_tank_system():
+    sys = three_tank_system()
+    h, Q = three_tank_operating_point()
+    lin = gf.Plant.linearize(sys, h, [*Q, 0.0])
+    plant = gf.Plant(lin.A, lin.B[:, :2], lin.C, inputs=lin.inputs[:2], outputs=lin.outputs,
+                     x_op=h, u_op=Q, y_op=h)  # fmt: skip
+    _, tank_faults = three_tank_model()
+    bank = gf.design_bank(plant, [tank_faults[0], tank_faults[2]], [[0, 1], [1, 0]])
+    t = np.arange(0.0, 400.0, 1.0)
+    args = ([gf.Scenario("leak", _leak_faults, sizes=[0.0, 1e-5], onsets=[150.0])],
+            gf.Noise(measurement=1e-4, seed=5))  # fmt: skip
+    kw = {"t": t, "runs": 2, "test": gf.AbsTest(np.full(2, 2e-5)), "detection_window": 200.0}
+    camp = gf.Campaign(sys, bank, *args, **kw)
+    pickle.dumps(camp._job())  # ships to process and Dask workers
+    res = camp.run()
+    tb = res.table[res.table["residual"] == "bank"]
+    assert tb.loc[tb["size"] > 0, "detected"].all() and not tb["diverged"].any()
+    one = gf.simulate(sys, bank, t, faults=_leak_faults(1e-5, 150.0), threshold=2e-5)
+    assert one.events[0].detection_delay is not None
+    assert tb.loc[tb["size"] > 0, "delay"].max() < 30.0
+    with pytest.raises(GeomFDIError, match="uncertainty"):
+        gf.Campaign(sys, bank, *args, **kw, uncertainty=gf.Uncertainty(relative=0.01, samples=2))

@@ -40,7 +40,13 @@ import numpy as np
 
 from geomfdi.errors import GeomFDIError, ShapeError
 
-__all__ = ["simulate_nonlinear", "is_nonlinear", "DivergenceWarning", "default_bound"]
+__all__ = [
+    "simulate_nonlinear",
+    "is_nonlinear",
+    "design_plant",
+    "DivergenceWarning",
+    "default_bound",
+]
 
 
 class DivergenceWarning(UserWarning):
@@ -124,6 +130,28 @@ def _rk4(
     k3 = fz(tt + h / 2, z + h / 2 * k2)
     k4 = fz(tt + h, z + h * k3)
     return z + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+
+def design_plant(sys: Any, bank: Any, params: dict[str, Any] | None = None) -> Any:
+    """The linearisation of ``sys`` at the bank's operating point, on the inputs the bank
+    reads, with the bank's signal names: the plant that matches simulated faults to the
+    bank's structure columns (and gives sizes to a campaign)."""
+    from geomfdi.deployment.program import as_bank
+    from geomfdi.model.plant import Plant
+    from geomfdi.model.signals import bank_signals
+
+    bank = as_bank(bank)
+    sig = bank_signals(bank)
+    info_sig = (bank.info or {}).get("signals") or {}
+    n = sys.nstates
+    x_op = np.asarray(info_sig.get("x_op") or np.zeros(n), dtype=float)
+    x_op = x_op if x_op.size == n else np.zeros(n)
+    known, _ = _channels(sys, sig)
+    u_full = np.zeros(sys.ninputs)
+    u_full[known] = sig["u_op"]
+    lin = Plant.linearize(sys, x_op, u_full, params=params)
+    return Plant(lin.A, lin.B[:, known], lin.C, lin.D[:, known], outputs=sig["outputs"],
+                 inputs=sig["inputs"], x_op=x_op, u_op=sig["u_op"], y_op=sig["y_op"])  # fmt: skip
 
 
 def simulate_nonlinear(
@@ -239,14 +267,12 @@ def simulate_nonlinear(
     if substeps < 1:
         raise GeomFDIError("substeps: must be >= 1", argument="substeps")
     bound = default_bound(x_op) if bound is None else float(bound)
-    # the linearised plant, for names and matching faults to structure columns
-    u_full = np.zeros(sys.ninputs)
-    u_full[known] = sig["u_op"]
-    lin = Plant.linearize(sys, x_op, u_full, params=params)
-    design = Plant(lin.A, lin.B[:, known], lin.C, lin.D[:, known], outputs=sig["outputs"],
-                   inputs=sig["inputs"])  # fmt: skip
+    design = design_plant(sys, bank, params)
     fl = [faults] if isinstance(faults, FaultSignal) else list(faults or [])
-    fl = deviation_faults(fl, design) if fl else []  # names only: y_op is zero on `design`
+    # names only (faults act on the physical values of a nonlinear plant: no op shift)
+    names = Plant(design.A, design.B, design.C, design.D, outputs=design.outputs,
+                  inputs=design.inputs)  # fmt: skip
+    fl = deviation_faults(fl, names) if fl else []
     sensor = [f for f in fl if isinstance(f, SensorFaultSignal)]
     act = [f for f in fl if isinstance(f, InputFaultSignal) and not isinstance(f, AdditiveFault)]
     add = [f for f in fl if isinstance(f, AdditiveFault)]
