@@ -97,3 +97,39 @@ def test_an_unknown_signal_name_is_named_in_the_error(tmp_path):
     with pytest.raises(ModelFileError, match=r"actuator: no input named 'Q9'"):
         load_model(path)
     assert isinstance(gf.Plant, type)
+
+
+CAMPAIGN = """
+[simulation.noise]
+measurement = 0.001
+seed = 1
+[campaign]
+runs = 2
+sizes = [0.0, 0.5]
+onsets = [5.0]
+faults = [{type = "actuator gain", actuator = "Q1"}, {type = "additive", fault = "leak"},
+          {type = "stuck", sensor = "level 3"}, {type = "bias", sensor = "level 2"}]
+test = {type = "chi2", window = 20, false_alarm_rate = 1e-3}
+"""
+
+
+def test_campaign_tables_take_every_fault_kind_by_name(tmp_path):
+    import pickle
+
+    from geomfdi.io.cli import load_campaign
+
+    path = tmp_path / "tanks.toml"
+    path.write_text(MODEL + CAMPAIGN, encoding="utf-8")
+    cfg = load_campaign(path)
+    names = [s.name for s in cfg.campaign.scenarios]
+    assert names == ["actuator gain on 0", "additive on leak", "stuck on 2", "bias on sensor 1"]
+    acts = cfg.campaign.scenarios[0].faults(0.5, 5.0)
+    assert type(acts[0]).__name__ == "ActuatorGainFault" and acts[0].gain == 1.5
+    assert cfg.campaign.scenarios[1].faults(0.0, 5.0) == []  # size 0: no fault
+    pickle.dumps(cfg.campaign.scenarios)  # picklable for process and Dask workers
+    res = cfg.campaign.run()
+    assert set(res.table["scenario"].astype(str)) == set(names)
+    bad = tmp_path / "bad.toml"
+    bad.write_text((MODEL + CAMPAIGN).replace('actuator = "Q1"}', 'actuator = "Q7"}'))
+    with pytest.raises(ModelFileError, match="no input named 'Q7'"):
+        load_campaign(bad)
