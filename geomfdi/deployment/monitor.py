@@ -138,12 +138,14 @@ class Monitor:
         return self._step(y, u)
 
     def _deviations(self, y: Any, u: Any, ndim: int) -> tuple[Any, Any]:
-        """Named samples in channel order, minus the operating point."""
+        """Named samples in channel order, minus the operating point (errors name the
+        arguments of :meth:`step`, ``y``/``u``, or of :meth:`feed`, ``Y``/``U``)."""
         if isinstance(y, Mapping):
             src = y
-            y = _by_name(src, self.outputs, "y")
+            ay, au = ("y", "u") if ndim == 1 else ("Y", "U")
+            y = _by_name(src, self.outputs, ay)
             if u is None and self.inputs:
-                u = _by_name(src, self.inputs, "u")
+                u = _by_name(src, self.inputs, au)
         if self._y_op is None:
             return y, u
         return _minus(y, self._y_op, ndim), _minus(u, self._u_op, ndim)

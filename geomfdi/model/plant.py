@@ -1,8 +1,9 @@
-"""The plant model: ``x' = A x + B u + Bd d``, ``y = C x + D u + Dd d``.
+"""The plant model: ``x' = A x + B u + Bd d + Bw w``, ``y = C x + D u + Dd d + Dw w``.
 
-The model of Hou, Wen & Chen (2011), §2, with the disturbance and feedthrough terms, signal
-names and an operating point (user guide, *Physical plants*,
-``docs/guide/physical-plants.md``).
+The model of Hou, Wen & Chen (2011), §2, with the disturbance and feedthrough terms, the
+noise inputs ``w`` of Varga (2017), §2.2 (attenuated, not decoupled; see the user guide,
+*Theory: approximate synthesis*, ``docs/theory/approximate-synthesis.md``), signal names and
+an operating point (user guide, *Physical plants*, ``docs/guide/physical-plants.md``).
 """
 
 from __future__ import annotations
@@ -36,17 +37,19 @@ def _as_dt(dt: Any) -> float:
 
 
 class Plant:
-    """A linear time-invariant plant with known inputs and disturbances.
+    """A linear time-invariant plant with known inputs, disturbances and noise inputs.
 
     Continuous time (``dt = 0``)::
 
-        x' = A x + B u + Bd d,      y = C x + D u + Dd d
+        x' = A x + B u + Bd d + Bw w,      y = C x + D u + Dd d + Dw w
 
     or discrete time (``dt > 0``, python-control convention)::
 
-        x[k+1] = A x[k] + B u[k] + Bd d[k],   y[k] = C x[k] + D u[k] + Dd d[k]
+        x[k+1] = A x[k] + B u[k] + Bd d[k] + Bw w[k],   y[k] = C x[k] + D u[k] + Dd d[k] + Dw w[k]
 
-    Disturbances ``d`` are always decoupled by the residual generators, never diagnosed.
+    Disturbances ``d`` are always decoupled exactly by the residual generators, never
+    diagnosed.  Noise inputs ``w`` are not decoupled: their effect on a residual is
+    attenuated and measured by the H∞ norm ``‖R_w‖∞`` (:func:`geomfdi.fault_to_noise_gap`).
 
     Parameters
     ----------
@@ -60,6 +63,10 @@ class Plant:
         Feedthrough; zero by default.
     Bd, Dd : array_like, optional
         Disturbance channels, (n, nd) and (q, nd).  Either may be omitted (zero).
+    Bw, Dw : array_like, optional
+        Noise-input channels, (n, nw) and (q, nw) (Varga 2017, §2.2: the noise inputs of
+        the approximate problems).  Either may be omitted (zero); none by default
+        (``nw = 0``).
     dt : float
         0 for continuous time, the sampling period for discrete time.  Positional as the
         5th argument, as in python-control's ``ss(A, B, C, D, dt)``.  A scalar 4th
@@ -67,10 +74,10 @@ class Plant:
         is accepted only for one output and one input; otherwise a :class:`ShapeError`
         naming ``D`` explains that the sampling period is written ``dt=``.
 
-    inputs, outputs, states, disturbances : sequence of str, optional
+    inputs, outputs, states, disturbances, noise : sequence of str, optional
         Signal names (as python-control's ``inputs=``, ...; defaults ``u0, u1, ...``,
-        ``y0, ...``, ``x0, ...``, ``d0, ...``).  Faults, reports, recorded-data columns,
-        the Monitor and generated code use them.
+        ``y0, ...``, ``x0, ...``, ``d0, ...``, ``w0, ...``).  Faults, reports, recorded-data
+        columns, the Monitor and generated code use them.
     x_op, u_op, y_op : array_like, optional
         The operating point the linear model is taken at (zero by default): the model
         holds for ``x - x_op``, ``u - u_op``, ``y - y_op``.  Recorded data, ``gf.evaluate``,
@@ -81,8 +88,8 @@ class Plant:
     -----
     **python-control systems.**  A ``StateSpace`` may be given in place of ``A``
     (``gf.Plant(sys)``): its matrices, sampling period and signal names are taken (all
-    inputs known; see :meth:`from_statespace` for disturbances).  A nonlinear system is
-    linearised by :meth:`linearize`.
+    inputs known; see :meth:`from_statespace` for disturbances and noise inputs).  A
+    nonlinear system is linearised by :meth:`linearize`.
 
     **Parametric plants.**  Entries may be sympy expressions in symbols
     (``m = sympy.Symbol("m", positive=True)``): rational functions of the parameters.
@@ -112,29 +119,32 @@ class Plant:
         *,
         Bd: Any = None,
         Dd: Any = None,
+        Bw: Any = None,
+        Dw: Any = None,
         inputs: Any = None,
         outputs: Any = None,
         states: Any = None,
         disturbances: Any = None,
+        noise: Any = None,
         x_op: Any = None,
         u_op: Any = None,
         y_op: Any = None,
     ) -> None:
         self.parameters: tuple[Any, ...] = ()
         names = {"inputs": inputs, "outputs": outputs, "states": states}
-        names["disturbances"] = disturbances
+        names.update(disturbances=disturbances, noise=noise)
         if _is_statespace(A):
-            if any(v is not None for v in (B, C, D, Bd, Dd)):
+            if any(v is not None for v in (B, C, D, Bd, Dd, Bw, Dw)):
                 raise GeomFDIError(
                     "B: give either a control.StateSpace or the matrices, not both",
                     argument="B",
                 )
-            A, B, C, D, Bd, Dd, dt, found = _statespace_parts(A, 0)
+            A, B, C, D, Bd, Dd, Bw, Dw, dt, found = _statespace_parts(A, 0, 0)
             names = {k: v if v is not None else found.get(k) for k, v in names.items()}
         self._op = (x_op, u_op, y_op)
         self._names = names
-        if _has_symbols(A, B, C, D, Bd, Dd):
-            self._init_parametric(A, B, C, D, Bd, Dd, dt)
+        if _has_symbols(A, B, C, D, Bd, Dd, Bw, Dw):
+            self._init_parametric(A, B, C, D, Bd, Dd, dt, Bw, Dw)
             self._init_signals()
             return
         self.A = as_matrix(A, "A", square=True, allow_empty=True)
@@ -164,22 +174,10 @@ class Plant:
         else:
             _check_scalar_d(D, q, m)
             self.D = as_matrix(D, "D", rows=q, cols=m, allow_empty=True)
-        nd = 0
-        if Bd is not None:
-            Bd = as_matrix(Bd, "Bd", rows=n, allow_empty=True, vector_as="column")
-            nd = Bd.shape[1]
-        if Dd is not None:
-            Dd = as_matrix(Dd, "Dd", rows=q, allow_empty=True, vector_as="column")
-            if Bd is not None and Dd.shape[1] != nd:
-                raise ShapeError(
-                    f"Dd: expected {nd} columns (as many as Bd), got shape {Dd.shape}",
-                    argument="Dd",
-                )
-            nd = Dd.shape[1]
-        self.Bd = Bd if Bd is not None else np.zeros((n, nd))
-        self.Dd = Dd if Dd is not None else np.zeros((q, nd))
+        self.Bd, self.Dd = _channel_pair(Bd, Dd, n, q, "Bd", "Dd")
+        self.Bw, self.Dw = _channel_pair(Bw, Dw, n, q, "Bw", "Dw")
         self.dt = _as_dt(dt)
-        for arr in (self.A, self.B, self.C, self.D, self.Bd, self.Dd):
+        for arr in (self.A, self.B, self.C, self.D, self.Bd, self.Dd, self.Bw, self.Dw):
             arr.setflags(write=False)
         self._init_signals()
 
@@ -195,6 +193,7 @@ class Plant:
         self.outputs = check_names(given["outputs"], self.q, "outputs")
         self.states = check_names(given["states"], self.n, "states")
         self.disturbances = check_names(given["disturbances"], self.nd, "disturbances")
+        self.noise = check_names(given["noise"], self.nw, "noise")
         self.x_op = check_point(x_op, self.n, "x_op")
         self.u_op = check_point(u_op, self.m, "u_op")
         self.y_op = check_point(y_op, self.q, "y_op")
@@ -227,7 +226,7 @@ class Plant:
 
         return index_of(key, self.inputs, "input", argument)
 
-    def _init_parametric(self, A, B, C, D, Bd, Dd, dt) -> None:
+    def _init_parametric(self, A, B, C, D, Bd, Dd, dt, Bw=None, Dw=None) -> None:
         from geomfdi.geometry.parametric import as_exact_matrix
 
         self.A = as_exact_matrix(A, "A")
@@ -245,23 +244,11 @@ class Plant:
         else:
             _check_scalar_d(D, q, m)
         self.D = as_exact_matrix(D, "D", rows=q, cols=m)
-        nd = 0 if Bd is None and Dd is None else None
-        self.Bd = None if Bd is None else as_exact_matrix(Bd, "Bd", rows=n)
-        self.Dd = None if Dd is None else as_exact_matrix(Dd, "Dd", rows=q)
-        if nd is None:
-            nd = (self.Bd if self.Bd is not None else self.Dd).cols
-        if self.Bd is None:
-            self.Bd = as_exact_matrix(np.zeros((n, nd)), "Bd", rows=n, cols=nd)
-        if self.Dd is None:
-            self.Dd = as_exact_matrix(np.zeros((q, nd)), "Dd", rows=q, cols=nd)
-        if self.Dd.cols != self.Bd.cols:
-            raise ShapeError(
-                f"Dd: expected {self.Bd.cols} columns (as many as Bd), got shape {self.Dd.shape}",
-                argument="Dd",
-            )
+        self.Bd, self.Dd = _exact_channel_pair(Bd, Dd, n, q, "Bd", "Dd")
+        self.Bw, self.Dw = _exact_channel_pair(Bw, Dw, n, q, "Bw", "Dw")
         self.dt = _as_dt(dt)
         syms: set[Any] = set()
-        for M in (self.A, self.B, self.C, self.D, self.Bd, self.Dd):
+        for M in (self.A, self.B, self.C, self.D, self.Bd, self.Dd, self.Bw, self.Dw):
             syms |= M.free_symbols
         self.parameters = tuple(sorted(syms, key=lambda s: s.name))
 
@@ -284,17 +271,17 @@ class Plant:
 
         vals = _subs_values(self.parameters, values)
         out = []
-        for name in ("A", "B", "C", "D", "Bd", "Dd"):
+        for name in ("A", "B", "C", "D", "Bd", "Dd", "Bw", "Dw"):
             M = getattr(self, name)
             X = M.subs(vals) if M.rows and M.cols else M
             if any(not x.is_finite for x in X):
                 raise GeomFDIError(f"values: {name} is undefined at {values}", argument="values")
             out.append(np.array(X.evalf(30).tolist(), dtype=float).reshape(M.shape))
-        A, B, C, D, Bd, Dd = out
-        return Plant(A, B, C, D, self.dt, Bd=Bd, Dd=Dd, **self._signal_kwargs())
+        A, B, C, D, Bd, Dd, Bw, Dw = out
+        return Plant(A, B, C, D, self.dt, Bd=Bd, Dd=Dd, Bw=Bw, Dw=Dw, **self._signal_kwargs())
 
     def _signal_kwargs(self) -> dict[str, Any]:
-        names = ("inputs", "outputs", "states", "disturbances")
+        names = ("inputs", "outputs", "states", "disturbances", "noise")
         kw: dict[str, Any] = {k: getattr(self, k) for k in names} if self.named else {}
         return {**kw, "x_op": self.x_op, "u_op": self.u_op, "y_op": self.y_op}
 
@@ -320,28 +307,37 @@ class Plant:
         return self.Bd.shape[1]
 
     @property
+    def nw(self) -> int:
+        """Number of noise inputs (attenuated, not decoupled)."""
+        return self.Bw.shape[1]
+
+    @property
     def is_discrete(self) -> bool:
         """True for a discrete-time plant (``dt > 0``)."""
         return self.dt > 0
 
     # ------------------------------------------------------------ conversion
     @classmethod
-    def from_statespace(cls, sys: Any, *, n_disturbances: int = 0, **signals: Any) -> Plant:
+    def from_statespace(
+        cls, sys: Any, *, n_disturbances: int = 0, n_noise: int = 0, **signals: Any
+    ) -> Plant:
         """Build a plant from a python-control ``StateSpace``, keeping its signal names.
 
         Parameters
         ----------
         sys : control.StateSpace
-            Its inputs are ``[u; d]``.
+            Its inputs are ``[u; d; w]``.
         n_disturbances : int
-            How many of the *last* inputs are disturbances (default 0).
+            How many inputs before the noise inputs are disturbances (default 0).
+        n_noise : int
+            How many of the *last* inputs are noise inputs ``w`` (default 0).
         **signals
-            ``inputs``, ``outputs``, ``states``, ``disturbances`` (names replacing the
-            system's labels) and ``x_op``, ``u_op``, ``y_op`` (the operating point).
+            ``inputs``, ``outputs``, ``states``, ``disturbances``, ``noise`` (names replacing
+            the system's labels) and ``x_op``, ``u_op``, ``y_op`` (the operating point).
         """
-        A, B, C, D, Bd, Dd, dt, found = _statespace_parts(sys, n_disturbances)
+        A, B, C, D, Bd, Dd, Bw, Dw, dt, found = _statespace_parts(sys, n_disturbances, n_noise)
         kw = {**found, **{k: v for k, v in signals.items() if v is not None}}
-        return cls(A, B, C, D, dt, Bd=Bd, Dd=Dd, **kw)
+        return cls(A, B, C, D, dt, Bd=Bd, Dd=Dd, Bw=Bw, Dw=Dw, **kw)
 
     @classmethod
     def linearize(
@@ -351,6 +347,7 @@ class Plant:
         u_op: Any = None,
         *,
         n_disturbances: int = 0,
+        n_noise: int = 0,
         params: dict[str, Any] | None = None,
         **signals: Any,
     ) -> Plant:
@@ -365,10 +362,13 @@ class Plant:
         Parameters
         ----------
         sys : control.NonlinearIOSystem
-            Inputs ``[u; d]`` (the last ``n_disturbances`` are disturbances).
+            Inputs ``[u; d; w]`` (the last ``n_noise`` are noise inputs, the
+            ``n_disturbances`` before them disturbances).
         x_op : array_like (n,)
-        u_op : array_like (m + nd,), optional
-            Zero by default.
+        u_op : array_like (m + nd + nw,), optional
+            Zero by default.  Only the known inputs' part is kept as :attr:`u_op`.
+        n_disturbances, n_noise : int
+            As in :meth:`from_statespace`.
         params : dict, optional
             Parameters passed to the system's functions.
         **signals
@@ -398,23 +398,27 @@ class Plant:
             raise ShapeError(f"u_op: expected {sys.ninputs} values, got {u.size}", argument="u_op")
         lin = sys.linearize(x, u, params=params, copy_names=True)
         y = np.asarray(sys.output(0.0, x, u, params=params), dtype=float).reshape(-1)
-        k = as_int(n_disturbances, "n_disturbances", minimum=0)
-        return cls.from_statespace(
-            lin, n_disturbances=k, x_op=x, u_op=u[: u.size - k], y_op=y, **signals
-        )
+        A, B, C, D, Bd, Dd, Bw, Dw, dt, found = _statespace_parts(lin, n_disturbances, n_noise)
+        kw = {**found, **{k: v for k, v in signals.items() if v is not None}}
+        op = {"x_op": x, "u_op": u[: B.shape[1]], "y_op": y}
+        return cls(A, B, C, D, dt, Bd=Bd, Dd=Dd, Bw=Bw, Dw=Dw, **op, **kw)
 
     def to_statespace(self) -> Any:
-        """The plant as a python-control ``StateSpace`` with inputs ``[u; d]``."""
+        """The plant as a python-control ``StateSpace`` with inputs ``[u; d; w]``."""
         import control
 
         _require_numeric(self, "plant")
-        B = np.hstack([self.B, self.Bd])
-        D = np.hstack([self.D, self.Dd])
+        B = np.hstack([self.B, self.Bd, self.Bw])
+        D = np.hstack([self.D, self.Dd, self.Dw])
         if self.named:
-            names_in = [*self.inputs, *self.disturbances]
+            names_in = [*self.inputs, *self.disturbances, *self.noise]
             outs, sts = list(self.outputs), list(self.states)
         else:
-            names_in = [f"u[{i}]" for i in range(self.m)] + [f"d[{i}]" for i in range(self.nd)]
+            names_in = (
+                [f"u[{i}]" for i in range(self.m)]
+                + [f"d[{i}]" for i in range(self.nd)]
+                + [f"w[{i}]" for i in range(self.nw)]
+            )
             outs, sts = [f"y[{i}]" for i in range(self.q)], [f"x[{i}]" for i in range(self.n)]
         return control.ss(
             np.array(self.A),
@@ -430,7 +434,49 @@ class Plant:
     def __repr__(self) -> str:
         kind = f"dt={self.dt:g}" if self.is_discrete else "continuous"
         par = f", parameters={list(self.parameters)}" if self.parameters else ""
-        return f"Plant(n={self.n}, m={self.m}, q={self.q}, nd={self.nd}, {kind}{par})"
+        nw = f", nw={self.nw}" if self.nw else ""
+        return f"Plant(n={self.n}, m={self.m}, q={self.q}, nd={self.nd}{nw}, {kind}{par})"
+
+
+def _channel_pair(
+    Bx: Any, Dx: Any, n: int, q: int, bname: str, dname: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """An input channel ``(Bx (n, k), Dx (q, k))``; an omitted half is zero of the other's width."""
+    k = 0
+    if Bx is not None:
+        Bx = as_matrix(Bx, bname, rows=n, allow_empty=True, vector_as="column")
+        k = Bx.shape[1]
+    if Dx is not None:
+        Dx = as_matrix(Dx, dname, rows=q, allow_empty=True, vector_as="column")
+        if Bx is not None and Dx.shape[1] != k:
+            raise ShapeError(
+                f"{dname}: expected {k} columns (as many as {bname}), got shape {Dx.shape}",
+                argument=dname,
+            )
+        k = Dx.shape[1]
+    return (
+        Bx if Bx is not None else np.zeros((n, k)),
+        Dx if Dx is not None else np.zeros((q, k)),
+    )
+
+
+def _exact_channel_pair(Bx: Any, Dx: Any, n: int, q: int, bname: str, dname: str) -> tuple:
+    """:func:`_channel_pair` for a parametric plant (sympy matrices)."""
+    from geomfdi.geometry.parametric import as_exact_matrix
+
+    Bm = None if Bx is None else as_exact_matrix(Bx, bname, rows=n)
+    Dm = None if Dx is None else as_exact_matrix(Dx, dname, rows=q)
+    k = 0 if Bm is None and Dm is None else (Bm if Bm is not None else Dm).cols
+    if Bm is None:
+        Bm = as_exact_matrix(np.zeros((n, k)), bname, rows=n, cols=k)
+    if Dm is None:
+        Dm = as_exact_matrix(np.zeros((q, k)), dname, rows=q, cols=k)
+    if Dm.cols != Bm.cols:
+        raise ShapeError(
+            f"{dname}: expected {Bm.cols} columns (as many as {bname}), got shape {Dm.shape}",
+            argument=dname,
+        )
+    return Bm, Dm
 
 
 def _is_statespace(obj: Any) -> bool:
@@ -441,8 +487,10 @@ def _is_statespace(obj: Any) -> bool:
     return isinstance(obj, control.StateSpace)
 
 
-def _statespace_parts(sys: Any, n_disturbances: Any) -> tuple[Any, ...]:
-    """``A, B, C, D, Bd, Dd, dt`` and the signal names of a python-control system."""
+def _statespace_parts(sys: Any, n_disturbances: Any, n_noise: Any) -> tuple[Any, ...]:
+    """``A, B, C, D, Bd, Dd, Bw, Dw, dt`` and the signal names of a python-control system
+    with inputs ``[u; d; w]`` (the last ``n_noise`` noise inputs, the ``n_disturbances``
+    before them disturbances)."""
     import control
 
     from geomfdi.model.signals import python_control_names
@@ -462,17 +510,23 @@ def _statespace_parts(sys: Any, n_disturbances: Any) -> tuple[Any, ...]:
         )
     B = np.asarray(sys.B, dtype=float)
     D = np.asarray(sys.D, dtype=float)
-    k = as_int(n_disturbances, "n_disturbances", minimum=0)
-    if k > B.shape[1]:
+    kw = as_int(n_noise, "n_noise", minimum=0)
+    if kw > B.shape[1]:
         raise GeomFDIError(
-            f"n_disturbances: must be in 0..{B.shape[1]}, got {n_disturbances}",
+            f"n_noise: must be in 0..{B.shape[1]}, got {n_noise}", argument="n_noise"
+        )
+    k = as_int(n_disturbances, "n_disturbances", minimum=0)
+    if k > B.shape[1] - kw:
+        raise GeomFDIError(
+            f"n_disturbances: must be in 0..{B.shape[1] - kw}, got {n_disturbances}",
             argument="n_disturbances",
         )
-    mu = B.shape[1] - k
+    mu, md = B.shape[1] - k - kw, B.shape[1] - kw
     labels_in = python_control_names(sys.input_labels, "inputs")
     found = {
         "inputs": None if labels_in is None else labels_in[:mu],
-        "disturbances": None if labels_in is None or not k else labels_in[mu:],
+        "disturbances": None if labels_in is None or not k else labels_in[mu:md],
+        "noise": None if labels_in is None or not kw else labels_in[md:],
         "outputs": python_control_names(sys.output_labels, "outputs"),
         "states": python_control_names(sys.state_labels, "states"),
     }
@@ -482,8 +536,10 @@ def _statespace_parts(sys: Any, n_disturbances: Any) -> tuple[Any, ...]:
         B[:, :mu],
         np.asarray(sys.C, dtype=float),
         D[:, :mu],
-        B[:, mu:] if k else None,
-        D[:, mu:] if k else None,
+        B[:, mu:md] if k else None,
+        D[:, mu:md] if k else None,
+        B[:, md:] if kw else None,
+        D[:, md:] if kw else None,
         dt,
         found,
     )

@@ -1,11 +1,11 @@
 """Signal names and operating points of a plant (see the user guide, *Physical plants*,
 ``docs/guide/physical-plants.md``).
 
-A plant's inputs, outputs, states and disturbances carry names (python-control's
-``inputs=``, ``outputs=``, ``states=``; defaults ``u0, u1, ...``, ``y0, ...``, ``x0, ...``,
-``d0, ...``, the column names of recorded data).  A linearised plant also carries its
-operating point ``x_op, u_op, y_op``: the linear model holds for the deviations
-``x - x_op``, ``u - u_op``, ``y - y_op``.
+A plant's inputs, outputs, states, disturbances and noise inputs carry names
+(python-control's ``inputs=``, ``outputs=``, ``states=``; defaults ``u0, u1, ...``,
+``y0, ...``, ``x0, ...``, ``d0, ...``, ``w0, ...``, the column names of recorded data).
+A linearised plant also carries its operating point ``x_op, u_op, y_op``: the linear model
+holds for the deviations ``x - x_op``, ``u - u_op``, ``y - y_op``.
 """
 
 from __future__ import annotations
@@ -28,12 +28,13 @@ __all__ = [
     "bank_signals",
 ]
 
-_PREFIX = {"inputs": "u", "outputs": "y", "states": "x", "disturbances": "d"}
-_PC_DEFAULT = re.compile(r"^[uyxd]\[\d+\]$")
+_PREFIX = {"inputs": "u", "outputs": "y", "states": "x", "disturbances": "d", "noise": "w"}
+_PC_DEFAULT = re.compile(r"^[uyxdw]\[\d+\]$")
 
 
 def default_names(kind: str, count: int) -> tuple[str, ...]:
-    """``u0, u1, ...`` (inputs), ``y0, ...`` (outputs), ``x0, ...``, ``d0, ...``."""
+    """``u0, u1, ...`` (inputs), ``y0, ...`` (outputs), ``x0, ...``, ``d0, ...``, ``w0, ...``
+    (noise inputs)."""
     return tuple(f"{_PREFIX[kind]}{i}" for i in range(count))
 
 

@@ -192,9 +192,11 @@ def simulate_nonlinear(
     x0 : array_like (n,), optional
         Physical initial state (default ``x_op``).
     d : array_like (k, N), callable, mapping name -> signal, or None
-        The system's inputs the bank does not read (e.g. a leak), zero by default.
+        The system's inputs the bank does not read (e.g. a leak, or noise inputs), zero
+        by default.
     noise : Noise, optional
-        Measurement noise on the readings; process noise ``Bw w`` held per interval.
+        Measurement noise on the readings; process noise ``Bw w`` held per interval
+        (``Noise(inputs=)`` is refused: the system's noise inputs are given in ``d``).
     controller : None, array (m, n) or python-control StateSpace
         State feedback on ``x − x_op``, or a continuous controller from the measured
         deviation ``y − y_op`` to the commanded deviation added to ``u``.
@@ -295,6 +297,12 @@ def simulate_nonlinear(
     Lv = Bw = Lw = None
     zv = zw = None
     if noise is not None:
+        if getattr(noise, "inputs", None) is not None:
+            raise GeomFDIError(
+                "noise.inputs: a nonlinear system's noise inputs are among its other inputs; "
+                "give their signals in d= (a mapping from input name to signal)",
+                argument="noise.inputs",
+            )
         Lv, Bw, Lw = noise.factors(design)
         from geomfdi.simulation.noise import NoiseStream
 
