@@ -172,6 +172,37 @@ def read_campaign(path: str | Path) -> tuple[dict[str, Any], Any]:
     return camp, spec
 
 
+def _scenario(src: Any, f: Any, where: str, spec: Any, sizes: Any, onsets: Any) -> Any:
+    """One campaign fault entry: ``{type, sensor | actuator | fault}`` (indices or names)."""
+    from geomfdi.campaign.spec import Scenario, _SizedFaults
+
+    kind = f.get("type") if isinstance(f, dict) else None
+    if kind not in _SizedFaults.KINDS:
+        raise _err(src, where, f"expected a type among {list(_SizedFaults.KINDS)}")
+    key = "fault" if kind == "additive" else "actuator" if "actuator" in kind else "sensor"
+    if key not in f:
+        raise _err(src, f"{where}.{key}", "missing")
+    ch = f[key]
+    try:
+        if key == "sensor":
+            ch = spec.plant.output_index(ch, f"{where}.sensor")
+        elif key == "actuator":
+            ch = spec.plant.input_index(ch, f"{where}.actuator")
+        else:
+            names = [x.name for x in spec.faults]
+            j = names.index(ch) if isinstance(ch, str) and ch in names else ch
+            if isinstance(j, bool) or not isinstance(j, int) or not 0 <= j < len(spec.faults):
+                raise _err(src, f"{where}.fault", f"a design fault index or one of {names}")
+            ch = spec.faults[j]
+    except GeomFDIError as exc:
+        if isinstance(exc, ModelFileError):
+            raise
+        raise _err(src, where, str(exc)) from exc
+    if kind in ("gain", "bias") and key == "sensor":
+        return Scenario.sensor(kind, ch, sizes, onsets)
+    return Scenario.of_kind(kind, ch, sizes, onsets)
+
+
 def build_campaign(
     camp: dict[str, Any], spec: Any, banks: dict[str, Any], *, runs: int | None = None
 ) -> CampaignConfig:
@@ -191,7 +222,7 @@ def build_campaign(
 
 def _build(camp: dict[str, Any], spec: Any, banks: dict[str, Any], runs: int | None) -> Any:
     from geomfdi.campaign.runner import Campaign
-    from geomfdi.campaign.spec import Scenario, Uncertainty
+    from geomfdi.campaign.spec import Uncertainty
     from geomfdi.evaluation.persistence import Persistence, as_persistence
     from geomfdi.simulation.noise import Noise
 
@@ -211,14 +242,9 @@ def _build(camp: dict[str, Any], spec: Any, banks: dict[str, Any], runs: int | N
         raise _err(src, "faults", "expected a non-empty list of {type, sensor} tables")
     scenarios = []
     for i, f in enumerate(faults):
-        if not isinstance(f, dict) or f.get("type") not in ("bias", "gain") or "sensor" not in f:
-            raise _err(src, f"faults[{i}]", "expected {type = 'bias' | 'gain', sensor = i}")
-        if set(f) - {"type", "sensor"}:
-            raise _err(src, f"faults[{i}]", f"unknown keys {sorted(set(f) - {'type', 'sensor'})}")
-        sensor = _int(src, f"faults[{i}].sensor", f["sensor"], minimum=0)
-        if sensor >= spec.plant.q:
-            raise _err(src, f"faults[{i}].sensor", f"must be in 0..{spec.plant.q - 1}")
-        scenarios.append(Scenario.sensor(f["type"], sensor, sizes, onsets))
+        if not isinstance(f, dict):
+            raise _err(src, f"faults[{i}]", "expected a table {type, sensor | actuator | fault}")
+        scenarios.append(_scenario(src, f, f"faults[{i}]", spec, sizes, onsets))
     unc = camp.get("uncertainty")
     uncertainty = None
     if unc is not None:

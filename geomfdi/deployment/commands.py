@@ -1,9 +1,11 @@
 """The ``geomfdi evaluate`` and ``geomfdi codegen`` commands (their work, not their parsing).
 
 ``geomfdi evaluate MODEL.toml DATA.csv --out DIR`` designs the model's bank, reads the
-CSV (a header row naming the columns ``t`` or ``time``, outputs ``y0, y1, ...`` and
-inputs ``u0, ...``; empty or ``nan`` cells are missing samples, anything else that is not
-a decimal number is refused: :mod:`geomfdi.deployment.csvfile`), runs
+CSV (a header row naming the columns ``t`` or ``time``, the plant's output and input
+names, or outputs ``y0, y1, ...`` and inputs ``u0, ...``; empty or ``nan`` cells are
+missing samples, anything else that is not a decimal number is refused:
+:mod:`geomfdi.deployment.csvfile`; physical values when the plant has an operating
+point), runs
 :func:`geomfdi.evaluate` and writes ``residuals.csv``, ``alarms.csv`` (confirmed alarms and
 the isolation decision per sample), ``report.md`` (thresholds, masked windows, alarm
 episodes with isolation) and ``residuals.png``.
@@ -16,6 +18,7 @@ design sampled at ``--dt``.
 from __future__ import annotations
 
 import csv
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,8 +30,16 @@ from geomfdi.deployment.decide import as_persistence
 from geomfdi.deployment.recorded import EvaluationResult, evaluate
 from geomfdi.errors import GeomFDIError
 from geomfdi.evaluation.persistence import Persistence
+from geomfdi.model.signals import bank_signals
 
-__all__ = ["read_csv", "evaluate_files", "codegen_files", "parse_persistence", "describe_rule"]
+__all__ = [
+    "read_csv",
+    "evaluate_files",
+    "codegen_files",
+    "parse_persistence",
+    "parse_threshold",
+    "describe_rule",
+]
 
 
 MAX_PERSISTENCE = 100_000
@@ -78,6 +89,21 @@ def parse_settle(text: str) -> float | str:
     return value
 
 
+def parse_threshold(values: Sequence[float] | None, rows: int) -> Any:
+    """``--threshold``: ``None``, one value for every residual, or one per residual."""
+    if values is None:
+        return None
+    vals = [float(v) for v in values]
+    if len(vals) == 1:
+        return vals[0]
+    if len(vals) != rows:
+        raise GeomFDIError(
+            f"--threshold: give one value or {rows} (one per residual), got {len(vals)}",
+            argument="threshold",
+        )
+    return vals
+
+
 def describe_rule(rule: Persistence) -> str:
     """A one-line description of a persistence rule (for reports)."""
     if rule.trivial:
@@ -89,10 +115,15 @@ def describe_rule(rule: Persistence) -> str:
     return f"{text}, isolation on the momentary pattern"
 
 
-def read_csv(path: str | Path, q: int, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def read_csv(
+    path: str | Path, q: int, m: int, names: tuple[Any, Any] | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``t, y (q, N), u (m, N)`` from a CSV with a header row (module docstring), read by
-    the strict reader :func:`geomfdi.deployment.csvfile.read_record`."""
-    rec = read_record(path, q, m)
+    the strict reader :func:`geomfdi.deployment.csvfile.read_record`.
+
+    ``names = (outputs, inputs)``: the plant's signal names, read when the header has
+    them all (else the columns ``y0, ..., u0, ...``)."""
+    rec = read_record(path, q, m, names=names)
     return rec.t, rec.y, rec.u
 
 
@@ -114,6 +145,16 @@ def _write_table(path: Path, header: list[str], columns: list[np.ndarray]) -> No
 
 def _fmt(x: float | None) -> str:
     return "-" if x is None else f"{x:.6g}"
+
+
+def _decision(res: EvaluationResult, fault: int | None, at: float | None) -> str:
+    if fault is None:
+        return "-"
+    if fault < 0:  # MULTIPLE: several faults at once
+        k = int(np.searchsorted(res.t, at))
+        sus = np.flatnonzero(res.suspects[:, k])
+        return "several: " + ", ".join(res.fault_labels[j] for j in sus)
+    return res.fault_labels[fault]
 
 
 def _report(
@@ -145,22 +186,25 @@ def _report(
     lines += ["", "## Alarm episodes", ""]
     if res.episodes:
         lines += [
-            "| start | stop | residuals | isolated fault | isolated at |",
-            "|---|---|---|---|---|",
+            "| start | stop | residuals | isolated fault (settled) | share | isolated at "
+            "| first decision |",
+            "|---|---|---|---|---|---|---|",
         ]
         for ep in res.episodes:
-            if ep.fault is None:
-                fault = "-"
-            elif ep.fault < 0:  # MULTIPLE: several faults at once
-                k = int(np.searchsorted(res.t, ep.isolated_at))
-                sus = np.flatnonzero(res.suspects[:, k])
-                fault = "several: " + ", ".join(res.fault_labels[j] for j in sus)
-            else:
-                fault = res.fault_labels[ep.fault]
+            fault = _decision(res, ep.fault, ep.isolated_at)
+            first = _decision(res, ep.first_fault, ep.first_isolated_at)
+            if ep.first_fault is not None:
+                first += f" at {ep.first_isolated_at:g}"
+            share = "-" if ep.fault is None else f"{100 * ep.share:.0f} %"
             rs = ", ".join(res.residual_labels[r] for r in ep.residuals)
             lines.append(
-                f"| {ep.start:g} | {ep.stop:g} | {rs} | {fault} | {_fmt(ep.isolated_at)} |"
+                f"| {ep.start:g} | {ep.stop:g} | {rs} | {fault} | {share} "
+                f"| {_fmt(ep.isolated_at)} | {first} |"
             )
+        lines += [
+            "",
+            "The settled decision is the one held on most of the episode's decided samples.",
+        ]
     else:
         lines.append("none")
     return "\n".join(lines) + "\n"
@@ -186,7 +230,9 @@ def evaluate_files(
     gens = [g for g in bank.generators if g is not None]
     if not gens:
         raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
-    rec = read_record(data, gens[0].q, gens[0].m)
+    sig = bank_signals(bank)
+    names = (sig["outputs"], sig["inputs"]) if sig["named"] else None
+    rec = read_record(data, gens[0].q, gens[0].m, names=names)
     res = evaluate(
         bank,
         rec.y,

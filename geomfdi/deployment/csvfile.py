@@ -180,7 +180,13 @@ def _numbers(cells: Any, path: Path, first_line: int, name: str) -> np.ndarray:
 
 
 def read_record(
-    path: str | Path, q: int, m: int, *, chunk_rows: int = CHUNK_ROWS, check_text: bool = False
+    path: str | Path,
+    q: int,
+    m: int,
+    *,
+    names: tuple[Any, Any] | None = None,
+    chunk_rows: int = CHUNK_ROWS,
+    check_text: bool = False,
 ) -> Record:
     """``t, y (q, N), u (m, N)`` from a CSV file of recorded data (module docstring).
 
@@ -201,6 +207,11 @@ def read_record(
     path = Path(path)
     header = _header(path)
     ys, us = channel_columns(header, "y"), channel_columns(header, "u")
+    if names is not None:
+        if list(names[0]) and set(names[0]) <= set(header):
+            ys = list(names[0])
+        if list(names[1]) and set(names[1]) <= set(header):
+            us = list(names[1])
     tcol = next((c for c in ("t", "time") if c in header), None)
     if tcol is None:
         raise ShapeError(f"{path}: no time column (name it t or time)", argument="data")
