@@ -101,3 +101,25 @@ def test_persistence_option_accepts_the_documented_forms() -> None:
     assert parse_persistence("3").n == 3
     rule = parse_persistence("2/3/50")
     assert (rule.k, rule.n, rule.reset) == (2, 3, 50)
+
+
+def test_cli_run_does_not_write_through_links(tmp_path: Path) -> None:
+    from geomfdi.io.cli import main
+
+    model = tmp_path / "m.toml"
+    model.write_text(
+        'name = "m"\n[plant]\nA = [[-1.0, 0.0], [0.0, -2.0]]\nB = [[1.0], [1.0]]\n'
+        "C = [[1.0, 0.0], [0.0, 1.0]]\n[simulation]\nt_end = 1.0\nstep = 0.01\n"
+        'threshold = 0.5\n[[scenario]]\nname = "s"\n[[scenario.faults]]\ntype = "bias"\n'
+        "sensor = 0\nstart = 0.5\nbias = 1.0\n"
+    )
+    victim = tmp_path / "victim"
+    victim.write_text("precious")
+    out = tmp_path / "out"
+    out.mkdir()
+    for name in ("report.md", "summary.json", "structure_exact.png", "residuals_s_exact.png"):
+        (out / name).symlink_to(victim)
+    assert main(["run", str(model), "--out", str(out), "--quiet", "--no-symbolic"]) == 0
+    assert victim.read_text() == "precious"
+    assert not any(p.is_symlink() for p in out.iterdir())
+    assert (out / "residuals_s_exact.png").read_bytes()[:4] == b"\x89PNG"

@@ -343,12 +343,14 @@ def run_model(
         figs.close()
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        (out / "report.md").write_text(summary["report"] + "\n", encoding="utf-8")
-        (out / "summary.json").write_text(
+        from geomfdi._files import write_text
+
+        write_text(out / "report.md", summary["report"] + "\n")
+        write_text(
+            out / "summary.json",
             json.dumps(
                 {k: v for k, v in summary.items() if k != "report"}, indent=2, default=_json_default
             ),
-            encoding="utf-8",
         )
     return summary
 

@@ -61,10 +61,16 @@ def decimate_minmax(t: Any, r: Any, columns: int = FIGURE_COLUMNS) -> np.ndarray
 
 
 def _save(fig: Any, path: Path) -> str:
-    """``fig`` written to ``path`` (a checked output file) as PNG; returns the file name."""
-    fig.savefig(
-        path, dpi=FIGURE_DPI, format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL}
-    )
+    """``fig`` written to ``path`` (a checked output file) as PNG, through a temporary file
+    renamed over it (a link at ``path`` is replaced, never followed); returns the name."""
+    from geomfdi._files import replace_file
+
+    def write(tmp: Path) -> None:
+        fig.savefig(
+            tmp, dpi=FIGURE_DPI, format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL}
+        )
+
+    replace_file(path, write)
     return path.name
 
 
