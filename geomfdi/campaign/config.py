@@ -42,6 +42,7 @@ __all__ = [
     "write_outputs",
     "campaign_report",
     "write_csv",
+    "save_partial",
 ]
 
 _KEYS = {
@@ -378,6 +379,16 @@ def write_csv(frame: Any, path: Path, *, index: bool = True) -> Path:
     frame.index = safe(frame.index)
     frame.columns = safe(frame.columns)
     return replace_file(path, lambda tmp: frame.to_csv(tmp, index=index))
+
+
+def save_partial(exc: Any, out: Path) -> str:
+    """Write the runs done of a :class:`~geomfdi.errors.CampaignIncompleteError` to
+    ``out/campaign.incomplete.csv``; returns the note for the error line."""
+    if getattr(exc, "partial", None) is None:
+        return ""
+    out.mkdir(parents=True, exist_ok=True)
+    path = write_csv(exc.partial.table, out / "campaign.incomplete.csv", index=False)
+    return f"; the runs done are in {path} (incomplete)"
 
 
 def campaign_report(cfg: CampaignConfig, result: Any, files: list[Path]) -> str:
