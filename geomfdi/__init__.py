@@ -163,6 +163,7 @@ _register(
     "apply_faults",
 )
 _register("geomfdi.simulation.simulate", "simulate")
+_register("geomfdi.synthesis.approximate.estimation", "design_fault_estimator")
 _register(
     "geomfdi.synthesis.design", "design_bank", "design_residual_generator", "design_sensor_bank"
 )
