@@ -494,8 +494,9 @@ def design_bank(
         ``bank.info["gaps"]`` lists the gap per row.
     models : list of Plant, optional
         Several models of the same dimensions (operating points, parameter corners);
-        ``plant`` is the nominal one (put first in the family when it is not in the list).  Exact decoupling is
-        used where it holds on every model; otherwise each row maximises its worst-case gap
+        ``plant`` is the nominal one (put first in the family when it is not in the
+        list).  Exact decoupling is used where it holds on every model; otherwise each row
+        maximises its worst-case gap
         over the models, the leaking inputs counting as noise
         (:mod:`geomfdi.synthesis.approximate.multimodel`).  ``g.info["model_gaps"]`` (and
         ``bank.info["model_gaps"]``) hold the gap per model of the family, and
