@@ -118,7 +118,9 @@ def _factor(
     Ao, Bo, Co, Do = A, K @ Rh, C, Rh
     Ai, Bi, Ci, Di = A - K @ C, K, -Rhi @ C, Rhi
     ev = np.linalg.eigvals(Ai) if n else np.zeros(0)
-    unstable = np.any(np.abs(ev) >= 1 - 1e-10) if dt > 0 else np.any(ev.real >= -1e-10)
+    # a zero on the boundary shows as an eigenvalue of A − K C within rounding of it
+    tol = 1e-6 * max(1.0, float(np.linalg.norm(A, 1)) if n else 1.0)
+    unstable = np.any(np.abs(ev) >= 1 - tol) if dt > 0 else np.any(ev.real >= -tol)
     if n and unstable:
         raise DesignError("noise channel: zeros on the stability boundary")
     return Ao, Bo, Co, Do, Ai, Bi, Ci, Di

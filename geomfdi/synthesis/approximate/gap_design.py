@@ -69,6 +69,8 @@ def series(g: ResidualGenerator, Ai, Bi, Ci, Di) -> ResidualGenerator:
 
 def _beta_grid(M: np.ndarray, Gf: list[np.ndarray]) -> float:
     """``min_j max_ω ‖M G_j(ω)‖`` on the grid (``Gf[j]``: (k, ρ, kj))."""
+    if M.shape[0] == 1:  # one row: the spectral norm is the vector norm
+        return min(float(np.max(np.linalg.norm(M[0] @ G, axis=-1))) for G in Gf)
     return min(float(np.max(np.linalg.norm(M @ G, ord=2, axis=(1, 2)))) for G in Gf)
 
 
@@ -157,6 +159,7 @@ def _exact_noise_decoupling(plant, faults, target, decouple, Bw, Dw, poles):
             list(target),
             decouple=[*decouple, len(faults)],
             poles=poles,
+            objective="decoupling",
         )
     except (NotIsolableError, DesignError):
         return None

@@ -90,7 +90,13 @@ def decoupling_basis(
             argument="target",
         )
     g = design_residual_generator(
-        plant, faults, list(target), decouple=list(decouple), poles=poles, residual_dim=rho
+        plant,
+        faults,
+        list(target),
+        decouple=list(decouple),
+        poles=poles,
+        residual_dim=rho,
+        objective="decoupling",
     )
     g.info["nullspace_dim"] = rho
     return g
