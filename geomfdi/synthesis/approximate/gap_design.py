@@ -179,6 +179,7 @@ def gap_design(
     poles: Any = None,
     residual_dim: int | None = None,
     regularization: float | None = None,
+    measure: bool = True,
 ) -> ResidualGenerator:
     """One AFD/AFDI row: the generator maximising the fault-to-noise gap (module docstring).
 
@@ -186,6 +187,8 @@ def gap_design(
     ``gap``, ``beta``, ``gamma`` (measured on the plant), ``fault_norms`` (per target),
     ``leak_u``, ``leak_d``, ``nullspace_dim`` (``ρ``), ``regularization`` (ε, 0 in the
     standard case), ``standard`` and ``noise_decoupled`` (the exact case, gap ``inf``).
+    ``measure=False`` skips the H∞ measurement (β, γ, gap and leaks are then absent; the
+    multi-model design measures on every model itself).
     """
     A, C, dt = plant.A, plant.C, plant.dt
     tsigs = [sigs[j] for j in target]
@@ -234,18 +237,21 @@ def gap_design(
         decoupled=decouple,
     )
     g = finish(gM)
-    num = gap_numbers(g, A, plant.B, plant.Bd, Bw, C, plant.D, plant.Dd, Dw, tsigs, dt)
     poles_g = g.poles
     stable = bool(np.all(np.abs(poles_g) < 1)) if dt > 0 else bool(np.all(poles_g.real < 0))
     if not stable:
         raise DesignError("plant: the gap design produced an unstable generator", argument="plant")
+    if measure:
+        num = gap_numbers(g, A, plant.B, plant.Bd, Bw, C, plant.D, plant.Dd, Dw, tsigs, dt)
+        g.info.update(
+            gap=num.gap,
+            beta=num.beta,
+            gamma=num.gamma,
+            fault_norms=num.fault_norms,
+            leak_u=num.leak_u,
+            leak_d=num.leak_d,
+        )
     g.info.update(
-        gap=num.gap,
-        beta=num.beta,
-        gamma=num.gamma,
-        fault_norms=num.fault_norms,
-        leak_u=num.leak_u,
-        leak_d=num.leak_d,
         nullspace_dim=rho,
         residual_dim=rdim,
         design_rows=Mrow,
