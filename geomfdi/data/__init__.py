@@ -5,6 +5,8 @@
 * :mod:`~geomfdi.data.three_tank` -- the three-tank laboratory system: nonlinear model
   (Torricelli flows), operating points and the linearised plant with pump, leak and level-sensor
   faults: ``gf.three_tank_model()``.
+
+Layer: beside the model.  It may import :mod:`geomfdi.model` and the base modules only.
 """
 
 from geomfdi.data.aircraft import aircraft_model

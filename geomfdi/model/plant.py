@@ -1,4 +1,7 @@
-"""The plant model: ``x' = A x + B u + Bd d``, ``y = C x + D u + Dd d`` (math.md §1)."""
+"""The plant model: ``x' = A x + B u + Bd d``, ``y = C x + D u + Dd d``.
+
+The model of Hou, Wen & Chen (2011), §2, with the disturbance and feedthrough terms.
+"""
 
 from __future__ import annotations
 
@@ -182,7 +185,7 @@ class Plant:
         """
         if not self.is_parametric:
             return self
-        from geomfdi.synthesis.exact_generator import _subs_values
+        from geomfdi.generators.exact import _subs_values
 
         vals = _subs_values(self.parameters, values)
         out = []

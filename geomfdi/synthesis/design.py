@@ -4,7 +4,7 @@ See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.m
 *Theory: the geometric approach* (``docs/theory/geometric-approach.md``).
 
 ``method="exact"`` (default) delivers, per row, one **scalar residual of least order**
-(:mod:`geomfdi.synthesis.least_order`, :mod:`geomfdi.synthesis.build`): order 0 (a static
+(:mod:`geomfdi.synthesis.least_order.search`, :mod:`geomfdi.synthesis.build`): order 0 (a static
 parity relation) where redundant sensors allow it, otherwise the smallest order of any
 proper residual that sees every target and ignores the rest, with a certificate.
 ``method="full"`` keeps the full-quotient observer of the geometric construction (the
@@ -15,7 +15,7 @@ construction.
 
 Defaults relative to the plant: the default poles of a least-order row are distinct, real
 and geometrically spread over ``[−10ω, −ω/10]`` (continuous; ω the spectral radius of A,
-see :func:`geomfdi.synthesis.least_order.plant_scale`) or ``[0.001, 0.93]`` (discrete).
+see :func:`geomfdi.synthesis.least_order.search.plant_scale`) or ``[0.001, 0.93]`` (discrete).
 A row is reported ``"weak"`` when the DC gain from a target is below ``FD_GAIN_TOL``
 times the largest gain from any fault over frequency (strong detectability), never
 ``"ok"``.
@@ -31,6 +31,9 @@ import numpy as np
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_bool, as_float, as_indices, as_real_array
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
+from geomfdi.generators.gains import LEAK_TOL, PlantFactor
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator
+from geomfdi.generators.realization import minimal_realization
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.build import FD_GAIN_TOL, build_least_order, check_angles, weak_targets
@@ -42,13 +45,10 @@ from geomfdi.synthesis.construction import (
     checked_margin,
     checked_poles,
 )
-from geomfdi.synthesis.decisions import attach, close_note, record_design, summarise
-from geomfdi.synthesis.gains import LEAK_TOL, PlantFactor
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
-from geomfdi.synthesis.least_order import plant_scale
+from geomfdi.synthesis.least_order.search import plant_scale
 from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
-from geomfdi.synthesis.realization import minimal_realization
-from geomfdi.synthesis.transforms import default_filter_pole, pseudo_actuator_model
+from geomfdi.synthesis.rank_decisions import attach, close_note, record_design, summarise
+from geomfdi.synthesis.sensor_transforms import default_filter_pole, pseudo_actuator_model
 
 __all__ = [
     "design_residual_generator",
@@ -203,7 +203,7 @@ def design_residual_generator(
         ``"exact"``: least-order scalar residual (exact decoupling, no output filter).
         ``"full"``: full-quotient observer with the output filter of the exact
         sensor-fault transform.  ``"paper"``, ``"mvw"``: the full-quotient observer on
-        those transforms (:mod:`geomfdi.synthesis.transforms`).
+        those transforms (:mod:`geomfdi.synthesis.sensor_transforms`).
     filter_pole : float, optional
         ``a`` of the output filter (``"full"``).
     margin : float, optional
@@ -227,8 +227,8 @@ def design_residual_generator(
     exact : bool
         Run the construction in exact arithmetic (rationals, or rational functions of the
         parameters of a parametric plant) and return an
-        :class:`~geomfdi.synthesis.exact_generator.ExactResidualGenerator`; see
-        :func:`geomfdi.synthesis.exact_design.design_bank_exact` (``margin`` and
+        :class:`~geomfdi.generators.exact.ExactResidualGenerator`; see
+        :func:`geomfdi.synthesis.exact.design.design_bank_exact` (``margin`` and
         ``minimal`` do not apply).
     objective : {"decoupling", "gap"}, optional
         ``"decoupling"``: the exact design above (every unknown input decoupled).
@@ -309,9 +309,9 @@ def design_residual_generator(
             f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
             argument="residual_dim",
         )
-    # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
+    # --- exact / parametric design (geomfdi.synthesis.exact.design) ---
     if exact:
-        from geomfdi.synthesis.exact_design import exact_dispatch
+        from geomfdi.synthesis.exact.design import exact_dispatch
 
         return exact_dispatch(
             "residual",
@@ -485,8 +485,8 @@ def design_bank(
         components is missing, its diagnostic names ``residual_dim`` and the maximum.
     exact : bool
         Exact / parametric design: returns an
-        :class:`~geomfdi.synthesis.exact_generator.ExactResidualBank` (see
-        :func:`geomfdi.synthesis.exact_design.design_bank_exact`).
+        :class:`~geomfdi.generators.exact.ExactResidualBank` (see
+        :func:`geomfdi.synthesis.exact.design.design_bank_exact`).
     objective, regularization
         As in :func:`design_residual_generator`: with ``"gap"`` (default for a plant with
         noise inputs) every row is an approximate FDI row (Varga 2017, §5.5): it decouples
@@ -536,9 +536,9 @@ def design_bank(
             "(method='exact', exact=False), not by the exact-arithmetic design",
             argument="residual_dim",
         )
-    # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
+    # --- exact / parametric design (geomfdi.synthesis.exact.design) ---
     if exact:
-        from geomfdi.synthesis.exact_design import exact_dispatch
+        from geomfdi.synthesis.exact.design import exact_dispatch
 
         return exact_dispatch(
             "bank",
@@ -734,9 +734,9 @@ def design_sensor_bank(
     >>> gf.design_sensor_bank(p, method="mvw").isolable.tolist()
     [True, False, False]
     """
-    # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
+    # --- exact / parametric design (geomfdi.synthesis.exact.design) ---
     if exact:
-        from geomfdi.synthesis.exact_design import exact_dispatch
+        from geomfdi.synthesis.exact.design import exact_dispatch
 
         return exact_dispatch(
             "sensor", plant, None, poles=poles, method=method, filter_pole=filter_pole

@@ -12,9 +12,11 @@
   ``design_residual_generator(..., objective="gap")`` and ``design_bank(..., objective="gap")``.
 * :mod:`~geomfdi.synthesis.approximate.estimation` -- fault estimators (model matching).
 
-The modules import the generator types and the exact front end
-(:mod:`geomfdi.synthesis.design`, lazily); nothing outside this subpackage imports it at
-module level.  See *Theory: approximate synthesis* (``docs/theory/approximate-synthesis.md``).
+It may import :mod:`geomfdi.model`, :mod:`geomfdi.generators`, :mod:`geomfdi.tolerance` and
+the least-order row builders of :mod:`geomfdi.synthesis` (``build``, ``multirow``,
+``least_order``, lazily); the front end :mod:`geomfdi.synthesis.design` imports it lazily,
+never the other way round.  See *Theory: approximate synthesis*
+(``docs/theory/approximate-synthesis.md``).
 """
 
 from geomfdi.synthesis.approximate.bank import gap_bank, gap_residual_generator

@@ -13,25 +13,17 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.approximate.gap_design import gap_design
 from geomfdi.synthesis.approximate.measure import hinf
-from geomfdi.synthesis.approximate.nullspace import channel
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
+from geomfdi.synthesis.approximate.multimodel import robust_gap_design
+from geomfdi.synthesis.approximate.nullspace import channel, noise_channel
 
 __all__ = ["noise_channel", "gap_residual_generator", "gap_bank", "fault_norms"]
 
 STRUCTURE_TOL = 1e-8
-
-
-def noise_channel(plant: Plant) -> tuple[np.ndarray, np.ndarray]:
-    """``(Bw, Dw)`` of the plant (empty when it has no noise inputs)."""
-    Bw = getattr(plant, "Bw", None)
-    Dw = getattr(plant, "Dw", None)
-    if Bw is None:
-        return np.zeros((plant.n, 0)), np.zeros((plant.q, 0))
-    return np.asarray(Bw, dtype=float), np.asarray(Dw, dtype=float)
 
 
 def fault_norms(
@@ -73,8 +65,6 @@ def gap_residual_generator(
     faults = list(faults)
     tgt, dec = _indices(target, decouple, len(faults))
     if models is not None:
-        from geomfdi.synthesis.approximate.multimodel import robust_gap_design
-
         fam = check_models(models, plant)
         fam = [plant, *[m for m in fam if m is not plant]]
         return robust_gap_design(

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import DesignError, NotIsolableError
+from geomfdi.generators.generator import ResidualGenerator
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.approximate.factorization import co_outer_factor
@@ -39,10 +40,10 @@ from geomfdi.synthesis.approximate.nullspace import (
     _PROBES,
     channel,
     decoupling_basis,
+    noise_channel,
     normal_rank,
     transfer_on_grid,
 )
-from geomfdi.synthesis.generator import ResidualGenerator
 
 __all__ = ["design_fault_estimator"]
 
@@ -91,7 +92,6 @@ def design_fault_estimator(
     >>> est.info["exact"], est.info["error_norm"] < 1e-8
     (True, True)
     """
-    from geomfdi.synthesis.approximate.bank import noise_channel
     from geomfdi.synthesis.construction import _coerce_faults, _coerce_plant
 
     plant = _coerce_plant(plant)

@@ -27,29 +27,21 @@ import numpy as np
 import scipy.optimize as sopt
 
 from geomfdi.errors import DesignError, NotIsolableError
-from geomfdi.model.faults import Fault
+from geomfdi.generators.generator import ResidualGenerator
+from geomfdi.generators.realization import minimal_realization
+from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.approximate.factorization import co_outer_factor
 from geomfdi.synthesis.approximate.measure import gap_numbers, hinf
-from geomfdi.synthesis.approximate.nullspace import channel, decoupling_basis, transfer_on_grid
-from geomfdi.synthesis.generator import ResidualGenerator
-from geomfdi.synthesis.realization import minimal_realization
+from geomfdi.synthesis.approximate.nullspace import (
+    channel,
+    decoupling_basis,
+    frequency_grid,
+    transfer_on_grid,
+)
 from geomfdi.tolerance import CloseRankWarning
 
-__all__ = ["gap_design", "frequency_grid", "series", "choose_rows", "finish"]
-
-
-def frequency_grid(A: np.ndarray, dt: float, count: int = 160) -> np.ndarray:
-    """Points on the boundary (``jω`` or ``e^{jθ}``) spread over the plant's time scales."""
-    if dt > 0:
-        th = np.concatenate([[0.0], np.logspace(-4, 0, count - 1) * np.pi])
-        return np.exp(1j * th)
-    ev = np.abs(np.linalg.eigvals(A)) if A.size else np.ones(1)
-    ev = ev[ev > 0]
-    lo = float(ev.min()) if ev.size else 1.0
-    hi = float(ev.max()) if ev.size else 1.0
-    w = np.logspace(np.log10(lo) - 3, np.log10(hi) + 3, count - 1)
-    return 1j * np.concatenate([[0.0], w])
+__all__ = ["gap_design", "series", "choose_rows", "finish"]
 
 
 def series(g: ResidualGenerator, Ai, Bi, Ci, Di) -> ResidualGenerator:
@@ -147,19 +139,25 @@ def finish(g: ResidualGenerator) -> ResidualGenerator:
 
 def _exact_noise_decoupling(plant, faults, target, decouple, Bw, Dw, poles):
     """The exact design with the noise decoupled too, or ``None`` when it cannot see the targets."""
-    from geomfdi.synthesis.design import design_residual_generator
+    from geomfdi.generators.gains import PlantFactor
+    from geomfdi.synthesis.build import build_least_order
+    from geomfdi.synthesis.least_order.search import plant_scale
 
     if not Bw.shape[1]:
         return None
-    wf = Fault(Bw, Dw, name="noise")
+    fl = [*faults, Fault(Bw, Dw, name="noise")]
+    sigs = fault_matrices(fl, plant.n, plant.q)
     try:
-        g = design_residual_generator(
+        g = build_least_order(
             plant,
-            [*faults, wf],
-            list(target),
-            decouple=[*decouple, len(faults)],
+            fl,
+            sigs,
+            tuple(target),
+            (*decouple, len(faults)),
             poles=poles,
-            objective="decoupling",
+            omega=plant_scale(plant.A, plant.dt),
+            row="the residual",
+            factor=PlantFactor(plant),
         )
     except (NotIsolableError, DesignError):
         return None

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from geomfdi.generators.generator import ResidualGenerator
 from geomfdi.synthesis.approximate.nullspace import channel
-from geomfdi.synthesis.generator import ResidualGenerator
 
 __all__ = ["hinf", "GapNumbers", "gap_numbers"]
 
@@ -39,8 +39,7 @@ def hinf(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, dt: float) 
     except (np.linalg.LinAlgError, ValueError):
         # python-control's bisection breaks when the peak is the feed-through (an all-pass
         # channel): the value at infinity against a sweep of the boundary
-        from geomfdi.synthesis.approximate.gap_design import frequency_grid
-        from geomfdi.synthesis.approximate.nullspace import transfer_on_grid
+        from geomfdi.synthesis.approximate.nullspace import frequency_grid, transfer_on_grid
 
         pts = frequency_grid(A, dt, count=2000)
         sweep = np.linalg.norm(transfer_on_grid(A, B, C, D, pts), ord=2, axis=(1, 2))

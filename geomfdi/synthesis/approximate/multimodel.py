@@ -30,20 +30,25 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import DesignError, NotIsolableError
+from geomfdi.generators.generator import ResidualGenerator
+from geomfdi.generators.realization import minimal_realization
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.approximate.factorization import co_outer_factor
 from geomfdi.synthesis.approximate.gap_design import (
     choose_rows,
     finish,
-    frequency_grid,
     gap_design,
     series,
 )
 from geomfdi.synthesis.approximate.measure import hinf
-from geomfdi.synthesis.approximate.nullspace import channel, decoupling_basis, transfer_on_grid
-from geomfdi.synthesis.generator import ResidualGenerator
-from geomfdi.synthesis.realization import minimal_realization
+from geomfdi.synthesis.approximate.nullspace import (
+    channel,
+    decoupling_basis,
+    frequency_grid,
+    noise_channel,
+    transfer_on_grid,
+)
 from geomfdi.tolerance import CloseRankWarning
 
 __all__ = ["robust_gap_design", "model_gaps"]
@@ -69,8 +74,6 @@ def _channels(
     g: ResidualGenerator, model: Plant, sigs: list, target: tuple, decouple: tuple
 ) -> tuple[Channel, Channel, list[Channel]]:
     """Noise channel, leak channel ``[u, d, f_dec]`` and target-fault channels on ``model``."""
-    from geomfdi.synthesis.approximate.bank import noise_channel
-
     A, C = model.A, model.C
     Bw, Dw = noise_channel(model)
     nz = channel(g, A, Bw, C, Dw)
@@ -191,8 +194,6 @@ def robust_gap_design(
     ``candidates`` (worst-case gap of each on the frequency grid, which ranks them; the
     chosen one and the nominal one are then measured by H∞ norms).
     """
-    from geomfdi.synthesis.approximate.bank import noise_channel
-
     cands: list[tuple[str, ResidualGenerator]] = []
     for c, m in enumerate(models):
         sigs = fault_matrices(faults, m.n, m.q)

@@ -18,15 +18,44 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import NotIsolableError
+from geomfdi.generators.generator import ResidualGenerator
+from geomfdi.generators.realization import minimal_realization
 from geomfdi.model.faults import Fault
 from geomfdi.model.plant import Plant
-from geomfdi.synthesis.generator import ResidualGenerator
-from geomfdi.synthesis.realization import minimal_realization
 from geomfdi.tolerance import CloseRankWarning
 
-__all__ = ["normal_rank", "decoupling_basis", "channel", "transfer_on_grid"]
+__all__ = [
+    "normal_rank",
+    "decoupling_basis",
+    "channel",
+    "transfer_on_grid",
+    "frequency_grid",
+    "noise_channel",
+]
 
 _PROBES = (0.7071 + 0.3183j, 1.618 + 2.7183j, 0.5772 - 1.4142j)
+
+
+def noise_channel(plant: Plant) -> tuple[np.ndarray, np.ndarray]:
+    """``(Bw, Dw)`` of the plant (empty when it has no noise inputs)."""
+    Bw = getattr(plant, "Bw", None)
+    Dw = getattr(plant, "Dw", None)
+    if Bw is None:
+        return np.zeros((plant.n, 0)), np.zeros((plant.q, 0))
+    return np.asarray(Bw, dtype=float), np.asarray(Dw, dtype=float)
+
+
+def frequency_grid(A: np.ndarray, dt: float, count: int = 160) -> np.ndarray:
+    """Points on the boundary (``jω`` or ``e^{jθ}``) spread over the plant's time scales."""
+    if dt > 0:
+        th = np.concatenate([[0.0], np.logspace(-4, 0, count - 1) * np.pi])
+        return np.exp(1j * th)
+    ev = np.abs(np.linalg.eigvals(A)) if A.size else np.ones(1)
+    ev = ev[ev > 0]
+    lo = float(ev.min()) if ev.size else 1.0
+    hi = float(ev.max()) if ev.size else 1.0
+    w = np.logspace(np.log10(lo) - 3, np.log10(hi) + 3, count - 1)
+    return 1j * np.concatenate([[0.0], w])
 
 
 def transfer_on_grid(
@@ -82,7 +111,6 @@ def decoupling_basis(
     NotIsolableError
         ``ρ = 0`` (nothing is left after the decoupling) or no row sees every target.
     """
-    from geomfdi.synthesis.design import design_residual_generator
 
     n, q = plant.n, plant.q
     Bdec = np.hstack([plant.Bd, *[sigs[j][0] for j in decouple]]).reshape(n, -1)
@@ -94,15 +122,19 @@ def decoupling_basis(
             f"{list(decouple)} leaves no residual (normal rank of their channel is {q})",
             argument="target",
         )
-    g = design_residual_generator(
-        plant,
-        faults,
-        list(target),
-        decouple=list(decouple),
-        poles=poles,
-        residual_dim=rho,
-        objective="decoupling",
-    )
+    from geomfdi.generators.gains import PlantFactor
+    from geomfdi.synthesis.build import build_least_order
+    from geomfdi.synthesis.least_order.search import plant_scale
+    from geomfdi.synthesis.multirow import build_multirow
+
+    omega = plant_scale(plant.A, plant.dt)
+    factor = PlantFactor(plant)
+    kw: dict[str, Any] = dict(poles=poles, omega=omega, row="the decoupling basis", factor=factor)
+    tgt, dec = tuple(target), tuple(decouple)
+    if rho == 1:
+        g = build_least_order(plant, faults, sigs, tgt, dec, **kw)
+    else:
+        g = build_multirow(plant, faults, sigs, tgt, dec, residual_dim=rho, **kw)
     g.info["nullspace_dim"] = rho
     return g
 
