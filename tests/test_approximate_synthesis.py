@@ -334,3 +334,22 @@ def test_fault_estimator_not_possible():
     p = gf.Plant([[-1.0]], None, [[1.0]])
     with pytest.raises(gf.errors.NotIsolableError if hasattr(gf, "errors") else Exception):
         gf.design_fault_estimator(p, [gf.SensorFault(0), gf.ActuatorFault([1.0])])
+
+
+def test_joint_exact_decoupling_on_every_model():
+    # duplicated sensor: y0 − y1 is blind to u on every model, whatever A is
+    C = np.array([[1.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    Dw = np.diag([0.1, 0.1, 0.1])
+    models = [
+        noisy_plant([[-1.0, a], [0.0, -2.0]], [[0.0], [1.0]], C, Bw=np.zeros((2, 3)), Dw=Dw)
+        for a in (0.5, 1.0, 2.0)
+    ]
+    faults = [gf.SensorFault(0)]
+    g = gf.design_residual_generator(models[0], faults, 0, models=models)
+    assert g.info["exact_on_all_models"]
+    for m in models:
+        assert leak_u(g, m) < 1e-9
+    gaps = np.asarray(g.info["model_gaps"])
+    assert gaps.min() >= np.asarray(g.info["nominal_model_gaps"]).min() * (1 - 1e-9)
+    # the static parity relation (y0 − y1)/(0.1·√2) is optimal: gap 1/(0.1·√2) on every model
+    np.testing.assert_allclose(gaps, 1 / (0.1 * np.sqrt(2)), rtol=1e-2)
