@@ -354,3 +354,15 @@ def test_joint_exact_decoupling_on_every_model():
     assert gaps.min() >= np.asarray(g.info["nominal_model_gaps"]).min() * (1 - 1e-9)
     # the static parity relation (y0 − y1)/(0.1·√2) is optimal: gap 1/(0.1·√2) on every model
     np.testing.assert_allclose(gaps, 1 / (0.1 * np.sqrt(2)), rtol=1e-2)
+
+
+def test_fault_estimator_discrete_exact():
+    p = gf.Plant([[0.9, 0.1], [0.0, 0.5]], [[1.0], [0.5]], np.eye(2), dt=0.1)
+    faults = [gf.SensorFault(0), gf.SensorFault(1)]
+    est = gf.design_fault_estimator(p, faults)
+    assert est.info["exact"] and est.dt == 0.1
+    for th in [0.0, 1.0, 3.0]:
+        R = _resp(est, p, np.zeros((2, 2)), np.eye(2), np.array([np.exp(1j * th)]))[0]
+        np.testing.assert_allclose(R, np.eye(2), atol=1e-9)
+    assert leak_u(est, p) < 1e-9
+    assert_stable(est)
