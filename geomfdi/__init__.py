@@ -75,6 +75,7 @@ _register(
     "StackedWindow",
 )
 _register("geomfdi.diagnosability.tables", "diagnosability_table")
+_register("geomfdi.errors", "IsolabilityWarning")
 _register(
     "geomfdi.evaluation.covariance",
     "ResidualNoiseModel",
@@ -186,6 +187,18 @@ _register(
 _register("geomfdi.generators.generator", "ResidualBank", "ResidualGenerator")
 _register("geomfdi.generators.realization", "minimal_realization", "reachable_subspace")
 _register("geomfdi.synthesis.sensor_transforms", "pseudo_actuator_model")
+_register(
+    "geomfdi.synthesis.specification.isolability",
+    "IsolabilityReport",
+    "isolability_analysis",
+)
+_register("geomfdi.synthesis.specification.orders", "structure_orders")
+_register(
+    "geomfdi.synthesis.specification.signatures",
+    "AchievableSignatures",
+    "achievable_signatures",
+    "achievable_structures",
+)
 _register("geomfdi.tolerance", "CloseRankWarning", "set_rtol")
 _register("geomfdi.verification.numeric", "VerificationReport", "verify")
 _register("geomfdi.verification.symbolic", "SymbolicReport", "verify_symbolic")
@@ -276,6 +289,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         StackedWindow,
     )  # noqa: F401
     from geomfdi.diagnosability.tables import diagnosability_table  # noqa: F401
+    from geomfdi.errors import IsolabilityWarning  # noqa: F401
     from geomfdi.evaluation.covariance import (
         ResidualNoiseModel,
         residual_noise_model,
@@ -374,6 +388,16 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.generators.generator import ResidualBank, ResidualGenerator  # noqa: F401
     from geomfdi.generators.realization import minimal_realization, reachable_subspace  # noqa: F401
     from geomfdi.synthesis.sensor_transforms import pseudo_actuator_model  # noqa: F401
+    from geomfdi.synthesis.specification.isolability import (  # noqa: F401
+        IsolabilityReport,
+        isolability_analysis,
+    )
+    from geomfdi.synthesis.specification.orders import structure_orders  # noqa: F401
+    from geomfdi.synthesis.specification.signatures import (  # noqa: F401
+        AchievableSignatures,
+        achievable_signatures,
+        achievable_structures,
+    )
     from geomfdi.tolerance import CloseRankWarning, set_rtol  # noqa: F401
     from geomfdi.verification.numeric import VerificationReport, verify  # noqa: F401
     from geomfdi.verification.symbolic import SymbolicReport, verify_symbolic  # noqa: F401

@@ -23,6 +23,7 @@ times the largest gain from any fault over frequency (strong detectability), nev
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -30,7 +31,13 @@ import numpy as np
 
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_bool, as_float, as_indices, as_real_array
-from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
+from geomfdi.errors import (
+    DesignError,
+    GeomFDIError,
+    IsolabilityWarning,
+    NotIsolableError,
+    ShapeError,
+)
 from geomfdi.generators.gains import LEAK_TOL, PlantFactor
 from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.generators.realization import minimal_realization
@@ -443,6 +450,24 @@ def _joint_order(gens: list[ResidualGenerator | None]) -> int:
     return minimal_realization(F, B, C, np.zeros((len(present), q + m))).A.shape[0]
 
 
+def _warn_inseparable(req: np.ndarray, faults: Sequence[Fault]) -> None:
+    """:class:`~geomfdi.errors.IsolabilityWarning` when a structure of several rows gives
+    two requested faults identical columns (no residual of the bank separates them)."""
+    if req.shape[0] < 2:
+        return  # one row: fault detection, not isolation
+    from geomfdi.synthesis.specification.isolability import identical_columns
+
+    groups = identical_columns(req, [j for j in range(req.shape[1]) if req[:, j].any()])
+    if groups:
+        text = "; ".join(", ".join(f"{j} ({faults[j].name!r})" for j in g) for g in groups)
+        warnings.warn(
+            f"structure: identical columns for faults {text}: the bank cannot tell them "
+            "apart (gf.isolability_analysis suggests a structure that can)",
+            IsolabilityWarning,
+            stacklevel=4,  # the caller of design_bank (behind its BLAS-limit wrapper)
+        )
+
+
 @limit_blas_threads
 def design_bank(
     plant: Plant,
@@ -567,6 +592,7 @@ def design_bank(
     if not np.all((S == 0) | (S == 1)):
         raise GeomFDIError("structure: entries must be 0 or 1", argument="structure")
     req = S.astype(bool)
+    _warn_inseparable(req, faults)
     dims = _row_dims(residual_dim, req.shape[0])
     if max(dims, default=1) > 1 and (exact or method != "exact"):
         raise DesignError(
