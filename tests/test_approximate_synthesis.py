@@ -366,3 +366,24 @@ def test_fault_estimator_discrete_exact():
         np.testing.assert_allclose(R, np.eye(2), atol=1e-9)
     assert leak_u(est, p) < 1e-9
     assert_stable(est)
+
+
+def test_unstable_plant():
+    # the plant's unstable modes are unobservable in a decoupling residual: the noise
+    # channel is stable and the design proceeds as for a stable plant
+    rng = np.random.default_rng(1)
+    A = rng.standard_normal((4, 4))
+    A += (0.5 - np.max(np.linalg.eigvals(A).real)) * np.eye(4)
+    p = noisy_plant(
+        A,
+        rng.standard_normal((4, 1)),
+        rng.standard_normal((3, 4)),
+        Bw=rng.standard_normal((4, 3)),
+        Dw=rng.standard_normal((3, 3)),
+    )
+    faults = [gf.Fault(rng.standard_normal((4, 1)), rng.standard_normal((3, 1))) for _ in range(2)]
+    g = gf.design_residual_generator(p, faults, [0, 1])
+    gap = measured_gap(g, p, faults, [0, 1])[2]
+    assert np.isfinite(gap) and g.gap == pytest.approx(gap, rel=1e-2)
+    assert leak_u(g, p) < 1e-9
+    assert_stable(g)
