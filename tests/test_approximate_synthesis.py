@@ -408,3 +408,12 @@ def test_choose_rows_finds_the_best_direction_in_the_plane():
         ).max()
         assert val >= 0.99 * brute
         assert val <= brute * (1 + 1e-4)  # the scan is a discretisation
+
+
+def test_gap_objective_without_noise_is_exact():
+    p, faults = example_5_6()
+    plain = gf.Plant(p.A, p.B, p.C, p.D)
+    g = gf.design_residual_generator(plain, faults, [0, 1], objective="gap")
+    assert g.gap == np.inf and g.info["noise_decoupled"]
+    assert leak_u(g, plain) < 1e-9
+    assert min(g.info["fault_norms"]) > 1e-3

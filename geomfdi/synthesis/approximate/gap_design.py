@@ -218,6 +218,36 @@ def gap_design(
         )
     Aw, Bw1, Cw, Dw1 = channel(Q1, A, Bw, C, Dw)
     scale = hinf(Aw, Bw1, Cw, Dw1, dt)
+    if scale == 0:  # no noise, or none reaches the decoupling basis: the exact design
+        g = finish(
+            ResidualGenerator(
+                Q1.F,
+                Q1.E,
+                Q1.G,
+                Q1.M[:rdim],
+                Q1.H[:rdim],
+                Q1.K[:rdim],
+                dt=dt,
+                target=target,
+                decoupled=decouple,
+            )
+        )
+        num = gap_numbers(g, A, plant.B, plant.Bd, Bw, C, plant.D, plant.Dd, Dw, tsigs, dt)
+        g.info.update(
+            gap=float("inf"),
+            beta=num.beta,
+            gamma=0.0,
+            fault_norms=num.fault_norms,
+            leak_u=num.leak_u,
+            leak_d=num.leak_d,
+            noise_decoupled=True,
+            regularization=0.0,
+            standard=True,
+            nullspace_dim=rho,
+            residual_dim=rdim,
+            poles=g.poles,
+        )
+        return g
     fac = co_outer_factor(Aw, Bw1, Cw, Dw1, dt, scale=scale, regularization=regularization)
     Qt = series(Q1, fac.Ai, fac.Bi, fac.Ci, fac.Di)
     pts = frequency_grid(A, dt)
