@@ -14,7 +14,9 @@
 
 It may import :mod:`geomfdi.model`, :mod:`geomfdi.generators`, :mod:`geomfdi.tolerance` and
 the least-order row builders of :mod:`geomfdi.synthesis` (``build``, ``multirow``,
-``least_order``, lazily); the front end :mod:`geomfdi.synthesis.design` imports it lazily,
+``least_order``, lazily) and, lazily, the H∞ routine
+:func:`geomfdi.verification.norms.hinf_norm` (it depends on nothing above the generators
+layer); the front end :mod:`geomfdi.synthesis.design` imports it lazily,
 never the other way round.  See *Theory: approximate synthesis*
 (``docs/theory/approximate-synthesis.md``).
 """

@@ -3,7 +3,9 @@
 ``β = min_j ‖R_fj‖∞`` over the target fault columns (Varga's ``H∞−`` index used by his
 ``fdif2ngap``), ``γ = ‖R_w‖∞``, gap ``= β / γ`` (``inf`` when ``γ = 0``); see *Theory:
 approximate synthesis* (``docs/theory/approximate-synthesis.md``).  H∞ norms come from
-python-control's ``norm`` (Hamiltonian bisection).
+:func:`geomfdi.verification.norms.hinf_norm`, imported lazily (the one import of this
+subpackage from the verification layer: the norm routine depends on nothing above
+:mod:`geomfdi.generators`).
 """
 
 from __future__ import annotations
@@ -19,31 +21,19 @@ __all__ = ["hinf", "GapNumbers", "gap_numbers"]
 
 
 def hinf(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, dt: float) -> float:
-    """H∞ norm of ``(A, B, C, D)`` (stable realisation; 0 for an empty channel)."""
+    """H∞ norm of a stable ``(A, B, C, D)`` (0 for an empty channel).
+
+    Computed by :func:`geomfdi.verification.norms.hinf_norm` (the two-step Hamiltonian /
+    symplectic-pencil algorithm of Bruinsma & Steinbuch 1990), the routine every geomfdi
+    gap measurement uses.
+    """
     if B.shape[1] == 0 or C.shape[0] == 0:
         return 0.0
-    if A.shape[0] == 0:
+    if A.shape[0] == 0 or not (np.any(B) and np.any(C)):
         return float(np.linalg.norm(D, 2))
-    if not (np.any(B) and np.any(C)):
-        return float(np.linalg.norm(D, 2))
-    import control
+    from geomfdi.verification.norms import hinf_norm
 
-    p, m = D.shape
-    if p > m:  # zero columns / rows leave the norm unchanged (square for python-control)
-        B, D = np.hstack([B, np.zeros((B.shape[0], p - m))]), np.hstack([D, np.zeros((p, p - m))])
-    elif m > p:
-        C, D = np.vstack([C, np.zeros((m - p, C.shape[1]))]), np.vstack([D, np.zeros((m - p, m))])
-    sys = control.ss(A, B, C, D, dt if dt > 0 else 0)
-    try:
-        return float(control.norm(sys, "inf", tol=1e-8, print_warning=False))
-    except (np.linalg.LinAlgError, ValueError):
-        # python-control's bisection breaks when the peak is the feed-through (an all-pass
-        # channel): the value at infinity against a sweep of the boundary
-        from geomfdi.synthesis.approximate.nullspace import frequency_grid, transfer_on_grid
-
-        pts = frequency_grid(A, dt, count=2000)
-        sweep = np.linalg.norm(transfer_on_grid(A, B, C, D, pts), ord=2, axis=(1, 2))
-        return float(max(np.max(sweep), np.linalg.norm(D, 2)))
+    return float(hinf_norm(A, B, C, D, dt, tol=1e-8).value)
 
 
 @dataclass

@@ -139,6 +139,34 @@ def decoupling_basis(
     return g
 
 
+def _error_coordinates(g: ResidualGenerator, A: np.ndarray, C: np.ndarray) -> np.ndarray | None:
+    """``T`` with ``F T − T A = E C`` and ``M T ≈ H C`` (relative 1e-9), else ``None``."""
+    import scipy.linalg as sla
+
+    n, nw = A.shape[0], g.order
+    if n == 0:
+        return np.zeros((nw, 0))
+    if nw == 0:
+        T = np.zeros((0, n))
+    else:
+        try:
+            T = sla.solve_sylvester(g.F, -A, g.E @ C)
+        except (np.linalg.LinAlgError, ValueError):
+            return None
+        if not np.all(np.isfinite(T)):
+            return None
+        # the Sylvester residual itself (close spectra of F and A make T unreliable)
+        res = np.linalg.norm(g.F @ T - T @ A - g.E @ C)
+        if res > 1e-9 * (
+            np.linalg.norm(g.F) * np.linalg.norm(T) + np.linalg.norm(g.E @ C) + 1e-300
+        ):
+            return None
+    scale = np.linalg.norm(g.M) * np.linalg.norm(T) + np.linalg.norm(g.H @ C) + 1e-300
+    if np.linalg.norm(g.M @ T - g.H @ C) > 1e-9 * scale:
+        return None
+    return T
+
+
 def channel(
     g: ResidualGenerator,
     A: np.ndarray,
@@ -160,8 +188,24 @@ def channel(
 
     followed by the removal of unreachable and unobservable states (the plant's own modes
     are unobservable in a decoupling residual).
+
+    When ``g`` is a residual generator of this plant — ``T`` solving the Sylvester equation
+    ``F T − T A = E C`` gives ``M T = H C``, so that the error ``e = ξ − T x`` obeys
+    ``e' = F e − (E Dx + T Bx) v`` and ``r = M e − H Dx v`` — the channel is realised in those
+    coordinates directly: only the generator's states, none of the plant's (exact for an
+    unstable plant, and cheaper).  Otherwise (a model the generator was not designed on)
+    the composite above is used.
     """
     n, nw = A.shape[0], g.order
+    short = _error_coordinates(g, A, C)
+    if short is not None:
+        T = short
+        Bc = -(g.E @ Dx + T @ Bx) + (g.G if known_input else 0.0)
+        Dc = -g.H @ Dx + (g.K if known_input else 0.0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", CloseRankWarning)
+            mr = minimal_realization(g.F, np.reshape(Bc, (nw, Dc.shape[1])), g.M, Dc)
+        return mr.A, mr.B, mr.C, mr.D
     Ac = np.block([[A, np.zeros((n, nw))], [-g.E @ C, g.F]])
     Bc = np.vstack([Bx, -g.E @ Dx + (g.G if known_input else 0.0)])
     Cc = np.hstack([-g.H @ C, g.M])
