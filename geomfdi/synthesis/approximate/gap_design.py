@@ -59,6 +59,59 @@ def series(g: ResidualGenerator, Ai, Bi, Ci, Di) -> ResidualGenerator:
     )
 
 
+def whiten(
+    Q1: ResidualGenerator,
+    A: np.ndarray,
+    Bw: np.ndarray,
+    C: np.ndarray,
+    Dw: np.ndarray,
+    Rw: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    dt: float,
+    scale: float,
+    regularization: float | None,
+) -> tuple[ResidualGenerator, Any]:
+    """``R_wo⁻¹ Q1`` and the factor, of the order of ``Q1`` where possible.
+
+    In the error coordinates of ``Q1`` (:func:`~geomfdi.synthesis.approximate.nullspace.channel`)
+    the noise channel shares ``Q1``'s ``(F, M)``: ``R_w = (F, B_w', M, D_w')``.  The factor
+    then has the form ``R_wo = (I + M (λI − F)⁻¹ K) R̃^{1/2}`` and
+
+        R_wo⁻¹ Q1 = R̃^{-1/2} [M (λI − F + K M)⁻¹ (B1 − K D1) + D1]
+
+    (``B1 = [−E, G]``, ``D1 = [−H, K]``): an observer-like update of ``Q1`` with no new
+    state.  Otherwise (no error coordinates) the series connection ``R_wo⁻¹ · Q1``.
+    """
+    from geomfdi.synthesis.approximate.nullspace import _error_coordinates
+
+    T = _error_coordinates(Q1, A, C)
+    if T is not None and Q1.order:
+        Bwe = -(Q1.E @ Dw + T @ Bw)
+        Dwe = -Q1.H @ Dw
+        try:
+            fac = co_outer_factor(
+                Q1.F, Bwe, Q1.M, Dwe, dt, scale=scale, regularization=regularization
+            )
+        except DesignError:
+            fac = None
+        if fac is not None:  # the factor keeps the given (F, M)
+            K = fac.B @ np.linalg.inv(fac.D)  # R_wo = (F, K R^{1/2}, M, R^{1/2})
+            Rhi = fac.Di
+            Qt = ResidualGenerator(
+                Q1.F - K @ Q1.M,
+                Q1.E - K @ Q1.H,
+                Q1.G - K @ Q1.K,
+                Rhi @ Q1.M,
+                Rhi @ Q1.H,
+                Rhi @ Q1.K,
+                dt=Q1.dt,
+                target=Q1.target,
+                decoupled=Q1.decoupled,
+            )
+            return Qt, fac
+    fac = co_outer_factor(*Rw, dt, scale=scale, regularization=regularization)
+    return series(Q1, fac.Ai, fac.Bi, fac.Ci, fac.Di), fac
+
+
 def _beta_grid(M: np.ndarray, Gf: list[np.ndarray]) -> float:
     """``min_j max_ω ‖M G_j(ω)‖`` on the grid (``Gf[j]``: (k, ρ, kj))."""
     if M.shape[0] == 1:  # one row: the spectral norm is the vector norm
@@ -248,8 +301,7 @@ def gap_design(
             poles=g.poles,
         )
         return g
-    fac = co_outer_factor(Aw, Bw1, Cw, Dw1, dt, scale=scale, regularization=regularization)
-    Qt = series(Q1, fac.Ai, fac.Bi, fac.Ci, fac.Di)
+    Qt, fac = whiten(Q1, A, Bw, C, Dw, (Aw, Bw1, Cw, Dw1), dt, scale, regularization)
     pts = frequency_grid(A, dt)
     Gf = [transfer_on_grid(*channel(Qt, A, Bf, C, Df), pts) for Bf, Df in tsigs]
     Mrow, _ = choose_rows(Gf, rdim)
