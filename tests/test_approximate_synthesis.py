@@ -93,6 +93,11 @@ def measured_gap(g, plant, faults, target):
     return beta, gamma, (np.inf if gamma == 0 else beta / gamma)
 
 
+def shared_gap(g, plant, faults):
+    """The gap measured by ``gf.fault_to_noise_gap`` (H∞ by the two-step algorithm)."""
+    return float(gf.fault_to_noise_gap(g, plant, faults).gap[0])
+
+
 def leak_u(g, plant):
     return _peak(g, plant, plant.B, plant.D, known_u=True)
 
@@ -133,6 +138,7 @@ def test_example_5_6_scalar_gap_beats_published():
     beta, gamma, gap = measured_gap(g, p, faults, [0, 1])
     assert gap >= 0.99 * 3.0
     assert g.gap == g.info["gap"] == pytest.approx(gap, rel=1e-2)
+    assert shared_gap(g, p, faults) == pytest.approx(g.gap, rel=1e-2)
     assert g.info["beta"] == pytest.approx(beta, rel=1e-2)
     assert leak_u(g, p) < 1e-9
     assert_stable(g)
@@ -147,6 +153,8 @@ def test_example_5_11_bank_gaps():
     g0, g1 = bank.generators
     gap0 = measured_gap(g0, p, faults, [0])[2]
     assert gap0 >= 0.99 * 3.0 and g0.info["gap"] == pytest.approx(gap0, rel=1e-2)
+    shared = gf.fault_to_noise_gap(bank, p, faults).gap
+    assert shared[0] == pytest.approx(gap0, rel=1e-2) and shared[1] == np.inf
     assert g1.info["gap"] == np.inf and g1.info["noise_decoupled"]
     assert measured_gap(g1, p, faults, [1])[1] < 1e-12  # no noise reaches row 1
     assert bank.structure.tolist() == [[True, False], [False, True]]
@@ -226,6 +234,7 @@ def test_random_standard_optimal_against_other_designs(dt):
         beta, gamma, gap = measured_gap(g, p, faults, [0, 1])
         assert g.info["standard"] and g.n_outputs == g.info["nullspace_dim"]
         assert g.info["gap"] == pytest.approx(gap, rel=1e-2)
+        assert shared_gap(g, p, faults) == pytest.approx(gap, rel=1e-2)
         assert gamma == pytest.approx(1.0, rel=1e-3)  # noise all-pass after R_wo⁻¹
         assert leak_u(g, p) < 1e-9
         assert_stable(g)
