@@ -255,6 +255,10 @@ def test_objective_default_and_errors():
     with pytest.raises(DesignError) as e:
         gf.design_residual_generator(p, faults, [0, 1], objective="best")
     assert e.value.argument == "objective"
+    assert gf.design_residual_generator(p, faults, [0, 1], method="full").method != "gap"
+    with pytest.raises(DesignError) as e:
+        gf.design_residual_generator(p, faults, [0, 1], objective="gap", method="paper")
+    assert e.value.argument == "method"
     with pytest.raises(DesignError) as e:
         gf.design_residual_generator(p, faults, [0, 1], residual_dim=3)
     assert e.value.argument == "residual_dim"

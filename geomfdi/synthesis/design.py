@@ -245,7 +245,7 @@ def design_residual_generator(
         number of rows (default: the whole decoupling basis, the optimal gap) and the gap,
         β and γ are in ``g.info`` (:mod:`geomfdi.synthesis.approximate`; user guide,
         *Approximate synthesis*).  Default: ``"gap"`` when the plant has noise inputs
-        (``plant.nw > 0``), else ``"decoupling"``.
+        (``plant.nw > 0``) and ``method="exact"``, ``exact=False``, else ``"decoupling"``.
     regularization : float, optional
         ``objective="gap"``: ``ε`` (relative to the noise channel's H∞ norm) of the
         regularised factorisation used when the noise channel is non-standard (zeros at
@@ -296,7 +296,7 @@ def design_residual_generator(
     >>> g2.n_outputs, g2.info["row_orders"]
     (2, [1, 1])
     """
-    if _objective(objective, plant, models, exact) == "gap":
+    if _objective(objective, plant, models, exact, method) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_residual_generator
 
         return gap_residual_generator(
@@ -378,10 +378,13 @@ def design_residual_generator(
 OBJECTIVES = ("decoupling", "gap")
 
 
-def _objective(objective: Any, plant: Any, models: Any = None, exact: bool = False) -> str:
-    """``objective`` checked; ``None``: ``"gap"`` for a plant with noise inputs."""
+def _objective(
+    objective: Any, plant: Any, models: Any = None, exact: bool = False, method: Any = "exact"
+) -> str:
+    """``objective`` checked; ``None``: ``"gap"`` for a plant with noise inputs (unless an
+    exact-decoupling construction was asked for: ``exact=True`` or another ``method``)."""
     if objective is None:
-        if exact is True:
+        if exact is True or method != "exact":
             return "decoupling"
         nw = getattr(plant, "nw", 0)
         if models is not None:
@@ -391,6 +394,12 @@ def _objective(objective: Any, plant: Any, models: Any = None, exact: bool = Fal
         raise DesignError(
             f"objective: must be one of {list(OBJECTIVES)}, got {objective!r:.40}",
             argument="objective",
+        )
+    if objective == "gap" and (exact is True or method != "exact"):
+        raise DesignError(
+            "method: objective='gap' builds on the least-order decoupling basis "
+            f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
+            argument="method",
         )
     if objective == "decoupling" and models is not None:
         raise DesignError(
@@ -542,7 +551,7 @@ def design_bank(
         ``bank.info["closest_gaps"]``: that gap per row (``g.info["rank_decisions"]``
         has where it was taken).
     """
-    if _objective(objective, plant, models, exact) == "gap":
+    if _objective(objective, plant, models, exact, method) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_bank
 
         return gap_bank(
