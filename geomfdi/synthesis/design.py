@@ -554,7 +554,7 @@ def design_bank(
     if _objective(objective, plant, models, exact, method) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_bank
 
-        return gap_bank(
+        bank = gap_bank(
             _coerce_plant(plant),
             _coerce_faults(faults),
             structure,
@@ -563,6 +563,8 @@ def design_bank(
             regularization=regularization,
             models=models,
         )
+        _warn_inseparable(bank.requested, bank.faults)
+        return bank
     dims_given = np.atleast_1d(np.asarray(residual_dim, dtype=object)).tolist()
     if exact and any(v is not None and v != 1 for v in dims_given):
         raise DesignError(
