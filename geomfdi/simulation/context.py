@@ -41,6 +41,9 @@ class BankView:
         return [k for k, g in enumerate(self.generators) if g is not None]
 
 
+_BALANCE: dict[tuple[tuple[int, ...], bytes], np.ndarray] = {}
+
+
 def balanced_generator(g: ResidualGenerator) -> tuple[ResidualGenerator, np.ndarray]:
     """``g`` in balanced state coordinates ``w = diag(e) w_b`` (the residual is unchanged).
 
@@ -50,8 +53,16 @@ def balanced_generator(g: ResidualGenerator) -> tuple[ResidualGenerator, np.ndar
     """
     if g.order == 0:
         return g, np.ones(0)
-    _, (e, _) = scipy.linalg.matrix_balance(g.F, permute=False, separate=True)
-    e = np.asarray(e, dtype=float)
+    F = np.ascontiguousarray(g.F, dtype=float)
+    key = (F.shape, F.tobytes())
+    e = _BALANCE.get(key)
+    if e is None:  # depends on F only: repeated simulations of a bank balance once
+        _, (e, _) = scipy.linalg.matrix_balance(F, permute=False, separate=True)
+        e = np.asarray(e, dtype=float)
+        e.setflags(write=False)
+        if len(_BALANCE) >= 256:
+            _BALANCE.clear()
+        _BALANCE[key] = e
     if np.all(e == 1.0):
         return g, e
     gb = replace(
