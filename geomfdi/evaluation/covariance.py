@@ -160,7 +160,12 @@ def residual_noise_model(
     from geomfdi.model.plant import as_plant
 
     plant = as_plant(plant)
-    if noise is None:
+    if not all(hasattr(generator, k) for k in ("F", "E", "G", "M", "H", "K")):
+        raise GeomFDIError(
+            f"generator: expected a ResidualGenerator, got {type(generator).__name__}",
+            argument="generator",
+        )
+    if not callable(getattr(noise, "factors", None)):  # a Noise (simulation layer)
         raise GeomFDIError(
             "noise: a Noise with measurement or process noise is needed", argument="noise"
         )
@@ -169,7 +174,7 @@ def residual_noise_model(
         raise GeomFDIError(
             "noise: neither measurement nor process noise is given", argument="noise"
         )
-    if hold not in ("foh", "zoh"):
+    if not isinstance(hold, str) or hold not in ("foh", "zoh"):
         raise GeomFDIError(f"hold: must be 'foh' or 'zoh', got {hold!r}", argument="hold")
     n, m, q = plant.n, plant.m, plant.q
     if controller is None:

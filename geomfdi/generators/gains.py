@@ -171,7 +171,10 @@ class Composite:
             return worst
         ref = max(_norm2(self.generator_tf(s)[0]) for s in self.points)
         for mu, v in factor.unstable:
-            Gy, _ = self.generator_tf(mu)
+            try:
+                Gy, _ = self.generator_tf(mu)
+            except np.linalg.LinAlgError:  # a generator pole at mu: the mode is not removed
+                return 1.0
             Cv = self.plant.C @ v
             nCv = float(np.linalg.norm(Cv))
             if nCv <= 1e2 * _EPS * self.N * _norm2(self.plant.C) * float(np.linalg.norm(v)):
