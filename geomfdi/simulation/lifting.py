@@ -188,6 +188,7 @@ def _real_product(Mat: np.ndarray, arr: np.ndarray) -> np.ndarray:
 _CACHE_ENTRIES = 64
 _MODAL: dict[Any, Any] = {}
 _LIFTED: dict[Any, Any] = {}
+_BLOCKS: dict[Any, Any] = {}  # block-diagonal modal bases (the final state's coordinates)
 
 
 def _digest(arrays: list[np.ndarray]) -> bytes:
@@ -595,7 +596,7 @@ def block_recursion(
         return res
     if N == 0:
         return res, np.array(np.broadcast_to(x0, (nS, R)), dtype=float)
-    Zb = scipy.linalg.block_diag(*Zs) if Zs else np.zeros((0, 0))
+    Zb = _cached(_BLOCKS, mkey, lambda: scipy.linalg.block_diag(*Zs) if Zs else np.zeros((0, 0)))
     return res, np.ascontiguousarray(_real_product(Zb, last))
 
 
