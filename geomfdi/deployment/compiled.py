@@ -156,8 +156,12 @@ def _bind(dll: ctypes.CDLL, monitor: Any) -> tuple[Any, Any]:
     dll.gfmon_init(sp)
     ybuf, ubuf = np.zeros(max(q, 1)), np.zeros(max(m, 1))
     rbuf, abuf = np.zeros(max(rows, 1)), np.zeros(max(rows, 1), dtype=np.intc)
-    yp, up, rp, ap = (b.ctypes.data for b in (ybuf, ubuf, rbuf, abuf))
-    c_step, c_run = dll.gfmon_step, dll.gfmon_run
+    # the step through its own function object without argtypes, called with prepared
+    # pointer objects: no per-call argument conversion
+    c_step = dll["gfmon_step"]
+    c_step.restype = ctypes.c_int
+    ptrs = (sp, *(ctypes.c_void_p(b.ctypes.data) for b in (ybuf, ubuf, rbuf, abuf)))
+    c_run = dll.gfmon_run
     isolation = monitor.isolation
     thr = monitor.thresholds
     thr_col = None if thr is None else np.where(np.isfinite(thr), thr, np.inf)[:, None]
@@ -175,8 +179,8 @@ def _bind(dll: ctypes.CDLL, monitor: Any) -> tuple[Any, Any]:
             raise ShapeError(
                 f"y, u: expected {q} outputs and {m} inputs ({exc})", argument="y"
             ) from exc
-        iso = c_step(sp, yp, up, rp, ap)
-        return MonitorStep(rbuf[:rows].copy(), abuf[:rows] != 0, iso if isolation else None)
+        iso = c_step(*ptrs)
+        return MonitorStep(rbuf[:rows].copy(), abuf[:rows].astype(bool), iso if isolation else None)
 
     def feed(Y: Any, U: Any = None) -> MonitorOutput:
         Y = _chunk(Y, q, "Y")
@@ -195,12 +199,13 @@ def _bind(dll: ctypes.CDLL, monitor: Any) -> tuple[Any, Any]:
             c_run(
                 sp, L, Yt.ctypes.data, Ut.ctypes.data, R.ctypes.data, A.ctypes.data, iso.ctypes.data
             )
-        res = np.ascontiguousarray(R[:, :rows].T)
+        res = R[:, :rows].T  # (rows, L) views of the sample-major C arrays
         with np.errstate(invalid="ignore"):
             raw = np.zeros(res.shape, dtype=bool) if thr_col is None else np.abs(res) > thr_col
         masked = ~(np.isfinite(Y).all(axis=0) & np.isfinite(U).all(axis=0))
-        alarms = np.ascontiguousarray(A[:, :rows].T) != 0
+        alarms = A[:, :rows].T != 0
         isolated = iso[:L].astype(np.int64) if isolation else None
         return MonitorOutput(res, raw, alarms, isolated, masked)
 
+    step.state_buffer = feed.state_buffer = state  # type: ignore[attr-defined]  # kept alive
     return step, feed
