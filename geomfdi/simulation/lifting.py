@@ -179,9 +179,14 @@ def _as_slice(idx: np.ndarray) -> slice | np.ndarray:
 
 
 def _real_product(Mat: np.ndarray, arr: np.ndarray) -> np.ndarray:
-    """``Re(Mat @ arr)`` without forming the complex product."""
+    """``Re(Mat @ arr)`` without forming the complex product: one real product of
+    ``[Re Mat, -Im Mat]`` with ``[Re arr; Im arr]`` (contiguous operands: the strided
+    real and imaginary views would miss the BLAS)."""
     if np.iscomplexobj(arr):
-        return Mat.real @ arr.real - Mat.imag @ arr.imag
+        if not np.iscomplexobj(Mat):
+            return Mat @ np.ascontiguousarray(arr.real)
+        W = np.concatenate([Mat.real, -Mat.imag], axis=-1)
+        return W @ np.concatenate([arr.real, arr.imag], axis=-2)
     return Mat.real @ arr
 
 
