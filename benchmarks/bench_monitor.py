@@ -66,7 +66,10 @@ def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
 
         return run
 
-    dll = list(compiled._LOADED.values())[-1]
+    from geomfdi.deployment.codegen._spec import code_spec
+    from geomfdi.deployment.codegen.c import c_source
+
+    dll = compiled._load(compiled.build_library(*c_source(code_spec(mc), "gfmon")))
     state = ctypes.create_string_buffer(int(dll.gfmon_state_size()))
     Yt, Ut = np.ascontiguousarray(Y.T), np.ascontiguousarray(U.T)
     R = np.empty((L, nb))
