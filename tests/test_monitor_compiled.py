@@ -120,3 +120,27 @@ def test_library_is_cached_by_source(tmp_path, monkeypatch):
     gf.Monitor(sampled_bank(), threshold=2.0, backend="c")  # other tables: another library
     assert len(list(tmp_path.glob("*.so"))) == 2
     assert compiled.cache_dir() == tmp_path
+
+
+@needs_cc
+def test_vector_rows_missing_generator_and_explicit_start_agree():
+    from test_codegen import _bank_with_vector_row
+
+    bank = _bank_with_vector_row()
+    rng = np.random.default_rng(5)
+    L = 1500
+    Y = rng.normal(size=(2, L))
+    U = rng.normal(size=(1, L))
+    Y[0, 700:] += 3.0
+    Y[1, 300:303] = np.nan
+    thr = np.maximum(_threshold(bank, Y, U), 1.0)  # the missing generator's row: 0
+    x0 = rng.normal(size=gf.Monitor(bank).program.nw)
+    kw = dict(threshold=thr, persistence=(2, 3), initial=x0)
+    a = gf.Monitor(bank, **kw).feed(Y, U)
+    b = gf.Monitor(bank, backend="c", **kw).feed(Y, U)
+    assert a.alarms.any()
+    np.testing.assert_array_equal(a.alarms, b.alarms)
+    np.testing.assert_array_equal(a.isolated, b.isolated)
+    ok = ~np.isnan(a.residuals)
+    np.testing.assert_array_equal(ok, ~np.isnan(b.residuals))
+    np.testing.assert_allclose(b.residuals[ok], a.residuals[ok], rtol=1e-9, atol=1e-9)
