@@ -184,6 +184,9 @@ def design_residual_generator(
     minimal: bool = True,
     residual_dim: int | None = None,
     exact: bool = False,
+    objective: str | None = None,
+    regularization: float | None = None,
+    models: Sequence[Plant] | None = None,
 ) -> ResidualGenerator:
     """Design one residual generator that sees ``target`` and ignores ``decouple``.
 
@@ -234,6 +237,22 @@ def design_residual_generator(
         :class:`~geomfdi.generators.exact.ExactResidualGenerator`; see
         :func:`geomfdi.synthesis.exact.design.design_bank_exact` (``margin`` and
         ``minimal`` do not apply).
+    objective : {"decoupling", "gap"}, optional
+        ``"decoupling"``: the exact design above (every unknown input decoupled).
+        ``"gap"``: the approximate design (Varga 2017, §5.3): ``u``, ``d`` and the
+        ``decouple`` faults decoupled exactly, the fault-to-noise gap ``β/γ`` over the noise
+        inputs ``w`` of the plant (``Bw``, ``Dw``) maximised; ``residual_dim`` is then the
+        number of rows (default: the whole decoupling basis, the optimal gap) and the gap,
+        β and γ are in ``g.info`` (:mod:`geomfdi.synthesis.approximate`; user guide,
+        *Approximate synthesis*).  Default: ``"gap"`` when the plant has noise inputs
+        (``plant.nw > 0``) and ``method="exact"``, ``exact=False``, else ``"decoupling"``.
+    regularization : float, optional
+        ``objective="gap"``: ``ε`` (relative to the noise channel's H∞ norm) of the
+        regularised factorisation used when the noise channel is non-standard (zeros at
+        infinity or on the stability boundary); default ``1e-2`` there, unused otherwise.
+    models : list of Plant, optional
+        ``objective="gap"``: design over several models (same dimensions); see
+        :func:`design_bank`.
 
     Returns
     -------
@@ -277,6 +296,19 @@ def design_residual_generator(
     >>> g2.n_outputs, g2.info["row_orders"]
     (2, [1, 1])
     """
+    if _objective(objective, plant, models, exact, method) == "gap":
+        from geomfdi.synthesis.approximate.bank import gap_residual_generator
+
+        return gap_residual_generator(
+            _coerce_plant(plant),
+            _coerce_faults(faults),
+            target,
+            decouple=decouple,
+            poles=None if poles is None else checked_poles(poles),
+            residual_dim=None if residual_dim is None else check_residual_dim(residual_dim),
+            regularization=regularization,
+            models=models,
+        )
     rdim = check_residual_dim(residual_dim)
     if rdim > 1 and (exact or method != "exact"):
         raise DesignError(
@@ -341,6 +373,39 @@ def design_residual_generator(
         )
     attach(g, rec, "the residual")
     return g
+
+
+OBJECTIVES = ("decoupling", "gap")
+
+
+def _objective(
+    objective: Any, plant: Any, models: Any = None, exact: bool = False, method: Any = "exact"
+) -> str:
+    """``objective`` checked; ``None``: ``"gap"`` for a plant with noise inputs (unless an
+    exact-decoupling construction was asked for: ``exact=True`` or another ``method``)."""
+    if objective is None:
+        if exact is True or method != "exact":
+            return "decoupling"
+        nw = getattr(plant, "nw", 0)
+        if models is not None:
+            return "gap"
+        return "gap" if isinstance(nw, int) and nw > 0 else "decoupling"
+    if not isinstance(objective, str) or objective not in OBJECTIVES:
+        raise DesignError(
+            f"objective: must be one of {list(OBJECTIVES)}, got {objective!r:.40}",
+            argument="objective",
+        )
+    if objective == "gap" and (exact is True or method != "exact"):
+        raise DesignError(
+            "method: objective='gap' builds on the least-order decoupling basis "
+            f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
+            argument="method",
+        )
+    if objective == "decoupling" and models is not None:
+        raise DesignError(
+            "models: several models are designed for with objective='gap'", argument="models"
+        )
+    return objective
 
 
 def _row_poles(poles: Any, rows: int) -> list[Any]:
@@ -426,6 +491,9 @@ def design_bank(
     common_poles: bool = False,
     residual_dim: int | Sequence[int] | None = None,
     exact: bool = False,
+    objective: str | None = None,
+    regularization: float | None = None,
+    models: Sequence[Plant] | None = None,
 ) -> ResidualBank:
     """Design one residual generator per row of a structure matrix.
 
@@ -453,6 +521,20 @@ def design_bank(
         Exact / parametric design: returns an
         :class:`~geomfdi.generators.exact.ExactResidualBank` (see
         :func:`geomfdi.synthesis.exact.design.design_bank_exact`).
+    objective, regularization
+        As in :func:`design_residual_generator`: with ``"gap"`` (default for a plant with
+        noise inputs) every row is an approximate FDI row (Varga 2017, §5.5): it decouples
+        the faults of its structure row exactly and maximises its gap;
+        ``bank.info["gaps"]`` lists the gap per row.
+    models : list of Plant, optional
+        Several models of the same dimensions (operating points, parameter corners);
+        ``plant`` is the nominal one (put first in the family when it is not in the
+        list).  Exact decoupling is used where it holds on every model; otherwise each row
+        maximises its worst-case gap
+        over the models, the leaking inputs counting as noise
+        (:mod:`geomfdi.synthesis.approximate.multimodel`).  ``g.info["model_gaps"]`` (and
+        ``bank.info["model_gaps"]``) hold the gap per model of the family, and
+        ``"nominal_model_gaps"`` those of the gap design on the nominal plant alone.
 
     Returns
     -------
@@ -469,6 +551,20 @@ def design_bank(
         ``bank.info["closest_gaps"]``: that gap per row (``g.info["rank_decisions"]``
         has where it was taken).
     """
+    if _objective(objective, plant, models, exact, method) == "gap":
+        from geomfdi.synthesis.approximate.bank import gap_bank
+
+        bank = gap_bank(
+            _coerce_plant(plant),
+            _coerce_faults(faults),
+            structure,
+            poles=poles,
+            residual_dim=residual_dim,
+            regularization=regularization,
+            models=models,
+        )
+        _warn_inseparable(bank.requested, bank.faults)
+        return bank
     dims_given = np.atleast_1d(np.asarray(residual_dim, dtype=object)).tolist()
     if exact and any(v is not None and v != 1 for v in dims_given):
         raise DesignError(
