@@ -60,7 +60,7 @@ def build_library(header: str, source: str) -> Path:
     Parameters
     ----------
     header, source : str
-        The texts of :func:`geomfdi.deployment.codegen.c.c_source` (prefix ``gfmon``).
+        The texts of :func:`geomfdi.deployment.codegen._c_text.c_source` (prefix ``gfmon``).
 
     Returns
     -------
@@ -126,8 +126,8 @@ def compiled_paths(monitor: Any) -> tuple[Any, Any] | None:
     path, the decisions equal (the residuals to rounding: the C loops sum in another
     order).
     """
-    from geomfdi.deployment.codegen._spec import code_spec
-    from geomfdi.deployment.codegen.c import c_source
+    from geomfdi.deployment.codegen._c_text import c_source
+    from geomfdi.deployment.codegen._spec import monitor_spec
 
     if monitor.bank.dt <= 0:
         warnings.warn(
@@ -138,7 +138,7 @@ def compiled_paths(monitor: Any) -> tuple[Any, Any] | None:
         )
         return None
     try:
-        header, source = c_source(code_spec(monitor), _NAME)
+        header, source = c_source(monitor_spec(monitor), _NAME)
         dll = _load(build_library(header, source))
     except (GeomFDIError, OSError) as exc:
         warnings.warn(f"{exc}; using the numpy path", RuntimeWarning, stacklevel=3)

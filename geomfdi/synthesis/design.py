@@ -296,7 +296,7 @@ def design_residual_generator(
     >>> g2.n_outputs, g2.info["row_orders"]
     (2, [1, 1])
     """
-    if _objective(objective, plant, models, exact, method) == "gap":
+    if _objective(objective, plant, models, exact, method, regularization) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_residual_generator
 
         return gap_residual_generator(
@@ -379,10 +379,18 @@ OBJECTIVES = ("decoupling", "gap")
 
 
 def _objective(
-    objective: Any, plant: Any, models: Any = None, exact: bool = False, method: Any = "exact"
+    objective: Any, plant: Any, models: Any, exact: Any, method: Any, regularization: Any
 ) -> str:
     """``objective`` checked; ``None``: ``"gap"`` for a plant with noise inputs (unless an
-    exact-decoupling construction was asked for: ``exact=True`` or another ``method``)."""
+    exact-decoupling construction was asked for: ``exact=True`` or another ``method``).
+    ``method``, ``exact``, ``models``, ``regularization`` checked first (named errors)."""
+    method = _check_method(method)
+    exact = as_bool(exact, "exact")
+    if models is not None:
+        from geomfdi.synthesis.approximate.bank import check_models
+
+        check_models(models, None)
+    as_float(regularization, "regularization", minimum=0.0, allow_none=True)
     if objective is None:
         if exact is True or method != "exact":
             return "decoupling"
@@ -551,7 +559,7 @@ def design_bank(
         ``bank.info["closest_gaps"]``: that gap per row (``g.info["rank_decisions"]``
         has where it was taken).
     """
-    if _objective(objective, plant, models, exact, method) == "gap":
+    if _objective(objective, plant, models, exact, method, regularization) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_bank
 
         bank = gap_bank(

@@ -43,7 +43,7 @@ import numpy as np
 
 from geomfdi.errors import GeomFDIError, NotDiscreteError
 
-__all__ = ["CodeSpec", "code_spec", "check_name", "check_out_dir", "signal_macros"]
+__all__ = ["CodeSpec", "monitor_spec", "check_name", "check_out_dir", "signal_macros"]
 
 
 @dataclass(frozen=True)
@@ -146,33 +146,11 @@ def check_out_dir(out_dir: Any) -> Path:
     return path
 
 
-def code_spec(
-    source: Any,
-    *,
-    threshold: Any = None,
-    persistence: Any = None,
-    initial: Any = "steady",
-) -> CodeSpec:
-    """The :class:`CodeSpec` of a :class:`~geomfdi.Monitor` or a discrete bank.
-
-    A monitor carries its own threshold, persistence and start-up rule; for a bank they
-    are given here (as for :class:`~geomfdi.Monitor`).
+def monitor_spec(mon: Any) -> CodeSpec:
+    """The :class:`CodeSpec` of a monitor record: its compiled ``program``, ``bank``,
+    ``thresholds``, ``persistence`` and ``initial`` (a :class:`~geomfdi.Monitor` passes
+    itself; :func:`geomfdi.deployment.codegen._source.code_spec` builds one from a bank).
     """
-    from geomfdi.deployment.monitor import Monitor
-
-    if isinstance(source, Monitor):
-        mon = source
-    else:
-        from geomfdi.deployment.program import as_bank
-
-        bank = as_bank(source)
-        if bank.dt <= 0:
-            raise NotDiscreteError(
-                "bank: code is generated for discrete banks only; sample this continuous "
-                "bank first with bank.discretize(dt) (or design on a discrete plant)",
-                argument="bank",
-            )
-        mon = Monitor(bank, threshold=threshold, persistence=persistence, initial=initial)
     if mon.bank.dt <= 0:
         raise NotDiscreteError(
             "monitor: code is generated for discrete banks only; build the monitor on "

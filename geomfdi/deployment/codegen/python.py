@@ -19,11 +19,11 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi.deployment.codegen._source import code_spec
 from geomfdi.deployment.codegen._spec import (
     CodeSpec,
     check_name,
     check_out_dir,
-    code_spec,
     signal_macros,
 )
 from geomfdi.deployment.program import SAMPLE_LIMIT
