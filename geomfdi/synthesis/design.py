@@ -52,6 +52,7 @@ from geomfdi.synthesis.construction import (
     checked_margin,
     checked_poles,
 )
+from geomfdi.synthesis.front import METHODS, _check_method, _objective
 from geomfdi.synthesis.least_order.search import plant_scale
 from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
 from geomfdi.synthesis.rank_decisions import attach, close_note, record_design, summarise
@@ -64,16 +65,6 @@ __all__ = [
     "METHODS",
     "FD_GAIN_TOL",
 ]
-
-METHODS = ("exact", "full", "paper", "mvw")
-
-
-def _check_method(method: Any) -> str:
-    if not isinstance(method, str) or method not in METHODS:
-        raise DesignError(
-            f"method: must be one of {list(METHODS)}, got {method!r:.40}", argument="method"
-        )
-    return str(method)
 
 
 def _design_row(
@@ -373,47 +364,6 @@ def design_residual_generator(
         )
     attach(g, rec, "the residual")
     return g
-
-
-OBJECTIVES = ("decoupling", "gap")
-
-
-def _objective(
-    objective: Any, plant: Any, models: Any, exact: Any, method: Any, regularization: Any
-) -> str:
-    """``objective`` checked; ``None``: ``"gap"`` for a plant with noise inputs (unless an
-    exact-decoupling construction was asked for: ``exact=True`` or another ``method``).
-    ``method``, ``exact``, ``models``, ``regularization`` checked first (named errors)."""
-    method = _check_method(method)
-    exact = as_bool(exact, "exact")
-    if models is not None:
-        from geomfdi.synthesis.approximate.bank import check_models
-
-        check_models(models, None)
-    as_float(regularization, "regularization", minimum=0.0, allow_none=True)
-    if objective is None:
-        if exact is True or method != "exact":
-            return "decoupling"
-        nw = getattr(plant, "nw", 0)
-        if models is not None:
-            return "gap"
-        return "gap" if isinstance(nw, int) and nw > 0 else "decoupling"
-    if not isinstance(objective, str) or objective not in OBJECTIVES:
-        raise DesignError(
-            f"objective: must be one of {list(OBJECTIVES)}, got {objective!r:.40}",
-            argument="objective",
-        )
-    if objective == "gap" and (exact is True or method != "exact"):
-        raise DesignError(
-            "method: objective='gap' builds on the least-order decoupling basis "
-            f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
-            argument="method",
-        )
-    if objective == "decoupling" and models is not None:
-        raise DesignError(
-            "models: several models are designed for with objective='gap'", argument="models"
-        )
-    return objective
 
 
 def _row_poles(poles: Any, rows: int) -> list[Any]:
