@@ -463,3 +463,19 @@ def test_campaign_roc_approximate_beats_exact():
         roc = camp.run().roc(0.15)
         pd[name] = [roc.pd_at(far) for far in (0.05, 0.1, 0.2)]
     assert all(a > e + 0.1 for a, e in zip(pd["approximate"], pd["exact"], strict=True))
+
+
+def test_a_gap_bank_of_a_named_plant_binds_named_faults_and_keeps_the_operating_point():
+    A, B, C = [[-1.0, 0.0], [1.0, -2.0]], [[1.0], [0.0]], np.eye(2)
+    kw = dict(Bw=[[0.1], [0.2]], Dw=[[0.05], [0.0]])
+    p = gf.Plant(A, B, C, **kw, outputs=["h1", "h2"], inputs=["Q"], x_op=[1.0, 0.5],
+                 u_op=[1.0], y_op=[1.0, 0.5])  # fmt: skip
+    by_name = gf.design_bank(p, [gf.SensorFault("h1"), gf.SensorFault("h2")], np.eye(2))
+    by_index = gf.design_bank(p, [gf.SensorFault(0), gf.SensorFault(1)], np.eye(2))
+    assert by_name.info["objective"] == "gap"
+    assert by_name.structure.tolist() == by_index.structure.tolist()
+    for g, h in zip(by_name.generators, by_index.generators, strict=True):
+        np.testing.assert_allclose(g.H, h.H)
+    sig = by_name.info["signals"]  # what deployment and the nonlinear simulation read
+    assert sig["outputs"] == ["h1", "h2"] and list(sig["y_op"]) == [1.0, 0.5]
+    assert list(sig["x_op"]) == [1.0, 0.5] and list(sig["u_op"]) == [1.0]

@@ -291,8 +291,8 @@ def design_residual_generator(
         from geomfdi.synthesis.approximate.bank import gap_residual_generator
 
         return gap_residual_generator(
-            _coerce_plant(plant),
-            _coerce_faults(faults),
+            (gp := _coerce_plant(plant)),
+            bind_faults(gp, _coerce_faults(faults)),
             target,
             decouple=decouple,
             poles=None if poles is None else checked_poles(poles),
@@ -513,8 +513,8 @@ def design_bank(
         from geomfdi.synthesis.approximate.bank import gap_bank
 
         bank = gap_bank(
-            _coerce_plant(plant),
-            _coerce_faults(faults),
+            (gp := _coerce_plant(plant)),
+            bind_faults(gp, _coerce_faults(faults)),
             structure,
             poles=poles,
             residual_dim=residual_dim,

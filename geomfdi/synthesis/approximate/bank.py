@@ -202,6 +202,7 @@ def gap_bank(
         "objective": "gap",
         "gaps": [None if g is None else g.info["gap"] for g in gens],
         "total_order": sum(g.order for g in gens if g is not None),
+        "signals": plant.signal_info(),  # names and operating point for deployment
     }
     if models is not None:
         info["model_gaps"] = [None if g is None else g.info["model_gaps"] for g in gens]
