@@ -149,7 +149,8 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     stack: list[str] = []
     on: set[str] = set()
     found: list[list[str]] = []
-    sys.setrecursionlimit(max(sys.getrecursionlimit(), 10_000))
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(limit, 10_000))  # restored below: other tests see the default
 
     def strong(v: str) -> None:
         index[v] = low[v] = len(index)
@@ -172,9 +173,12 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
             if len(comp) > 1:
                 found.append(sorted(comp))
 
-    for v in graph:
-        if v not in index:
-            strong(v)
+    try:
+        for v in graph:
+            if v not in index:
+                strong(v)
+    finally:
+        sys.setrecursionlimit(limit)
     return found
 
 

@@ -260,6 +260,27 @@ def _write(path: str | Path, fmt: str, payload: dict[str, Any]) -> Path:
     return path
 
 
+#: Deepest nesting of lists and objects a bank or monitor file may hold (a written file
+#: stays far below it).
+MAX_DEPTH = 64
+
+
+def _too_deep(doc: Any) -> bool:
+    """Whether ``doc`` nests lists / dicts more than :data:`MAX_DEPTH` levels (no recursion)."""
+    level: list[Any] = [doc]
+    for _ in range(MAX_DEPTH):
+        level = [
+            v
+            for x in level
+            if isinstance(x, dict | list)
+            for v in (x.values() if isinstance(x, dict) else x)
+            if isinstance(v, dict | list)
+        ]
+        if not level:
+            return False
+    return True
+
+
 def _read(path: str | Path, fmt: str) -> dict[str, Any]:
     path = Path(path)
     where = str(path)
@@ -287,6 +308,11 @@ def _read(path: str | Path, fmt: str) -> dict[str, Any]:
             f"{exc.colno}: {exc.msg})",
             path=where,
         ) from exc
+    if _too_deep(doc):  # whatever the interpreter's recursion limit
+        raise BankFileError(
+            f"{where}: not a geomfdi file (JSON nested more than {MAX_DEPTH} levels deep)",
+            path=where,
+        )
     if not isinstance(doc, dict) or "format" not in doc:
         raise BankFileError(f"{where}: not a geomfdi file (no 'format' entry)", path=where)
     if doc["format"] != fmt:

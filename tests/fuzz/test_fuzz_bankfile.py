@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import copy
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -105,6 +106,22 @@ def test_deeply_nested_info_with_a_valid_checksum(tmp_path: Path) -> None:
         pytest.skip("json refuses to write the nesting")
     with pytest.raises(BankFileError):
         gf.load_bank(path)
+
+
+def test_deep_nesting_is_refused_whatever_the_recursion_limit(tmp_path: Path) -> None:
+    doc = _doc(tmp_path)
+    nested: object = 1.0
+    for _ in range(200):  # json writes and reads this at the default limit
+        nested = [nested]
+    doc["payload"]["info"] = {"deep": nested}
+    path = _write(tmp_path, doc)
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(limit, 20_000))
+    try:
+        with pytest.raises(BankFileError, match="nested"):
+            gf.load_bank(path)
+    finally:
+        sys.setrecursionlimit(limit)
 
 
 def test_the_unedited_files_load(tmp_path: Path) -> None:
