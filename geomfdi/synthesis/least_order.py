@@ -94,16 +94,22 @@ _GOLD = 0.6180339887498949
 
 
 def plant_scale(A: np.ndarray, dt: float) -> float:
-    """The plant's frequency scale ω for the default spectrum.
+    """The plant's frequency scale ω for the default spectrum: its own time scale.
 
-    Continuous: the spectral radius of A (its fastest mode); ``‖A‖₂`` if that is 0 and
-    1 if ``A = 0``.  Discrete: ``1`` (the unit circle sets the scale).
+    Continuous: the geometric mean of the moduli of A's non-zero eigenvalues
+    (``exp(mean(log|λ_i|))`` over ``|λ_i| > 1e-8 ρ``, ρ the spectral radius), so that a
+    slow plant gets slow residual poles and a stiff one (fast actuators next to slow
+    rigid-body modes) gets poles in the middle of its time scales rather than at its
+    fastest mode; ``‖A‖₂`` if every eigenvalue is 0 and 1 if ``A = 0``.  Discrete: ``1``
+    (the unit circle sets the scale).  Scaling time (``A → c A``) scales ω by c.
     """
     if dt > 0 or A.size == 0:
         return 1.0
-    rho = float(np.max(np.abs(np.linalg.eigvals(A))))
+    mod = np.abs(np.linalg.eigvals(A))
+    rho = float(np.max(mod))
     if rho > 1e-12 * max(_norm2(A), 1e-300):
-        return rho
+        mod = mod[mod > 1e-8 * rho]
+        return float(np.exp(np.mean(np.log(mod))))
     nA = _norm2(A)
     return nA if nA > 0 else 1.0
 
@@ -128,6 +134,18 @@ def default_pole_sequence(count: int, omega: float, dt: float) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ parity space
+def _fresh(st: Staircase, nu: int) -> int:
+    """Vectors of degree ν in a minimal polynomial basis of the parity space.
+
+    The degree-ν space holds the multiples ``a(s) v(s)`` of the degree-(ν − 1) space
+    (dimension ``2 d_{ν−1} − d_{ν−2}``); the rest, ``d_ν − 2 d_{ν−1} + d_{ν−2}``, are new
+    minimal-basis vectors (their degrees are the observability indices of the quotient,
+    Varga 2017, Section 10.4).  A degree with none sees no target its predecessor misses.
+    """
+    dims = [st.parity_dim(v) if v >= 0 else 0 for v in (nu, nu - 1, nu - 2)]
+    return dims[0] - 2 * dims[1] + dims[2]
+
+
 def _blocks(Qm: Quotient, poles: np.ndarray) -> tuple[list[np.ndarray], list[tuple[str, int]]]:
     """Real row blocks of the degree-ν parity condition, each normalised to unit norm.
 
@@ -476,6 +494,16 @@ def least_order_row(
         if dim == 0:  # the staircase says: no residual of this degree
             history.append({"order": nu, "dim": 0, "rank": ranks[-1], "gap": np.inf})
             unseen_at[nu] = list(range(nt))
+            nu += 1
+            continue
+        if nu > min_order and nu - 1 in unseen_at and _fresh(st, nu) == 0:
+            # no minimal-basis vector of degree ν: the space is the polynomial multiples
+            # of the degree-(ν − 1) one and sees exactly the targets that one sees; what
+            # a basis computed here would add is rounding
+            history.append({"order": nu, "dim": dim, "rank": ranks[-1], "gap": np.inf})
+            unseen_at[nu] = list(unseen_at[nu - 1])
+            if nu >= top:
+                raise infeasible(unseen_at[nu])
             nu += 1
             continue
         if nu > NU_PF_MAX and user is None:
