@@ -49,10 +49,10 @@ from geomfdi.synthesis.least_order import (
     _realise,
     _unnormalise,
     default_pole_sequence,
-    quotient_model,
     realise_on_plant,
     validate_poles,
 )
+from geomfdi.synthesis.quotient import adaptive_quotient_model
 from geomfdi.synthesis.realization import minimal_realization
 
 __all__ = ["build_multirow", "check_residual_dim", "ResidualDimError"]
@@ -90,7 +90,7 @@ def _quotient(
     Bw = np.hstack([plant.Bd / d[:, None], *[sigs[j][0] / d[:, None] for j in decouple]])
     Dw = np.hstack([plant.Dd, *[sigs[j][1] for j in decouple]])
     tg = [(sigs[j][0] / d[:, None], sigs[j][1]) for j in target]
-    return quotient_model(Ab, Bb, Cb, plant.D, Bw, Dw, tg)
+    return adaptive_quotient_model(Ab, Bb, Cb, plant.D, Bw, Dw, tg)
 
 
 def _y_rows(mats: dict[str, np.ndarray], points: np.ndarray) -> np.ndarray:
