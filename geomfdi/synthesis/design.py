@@ -14,8 +14,9 @@ transforms of Hou, Wen & Chen (2011) and Massoumnia, Verghese & Willsky (1989) o
 construction.
 
 Defaults relative to the plant: the default poles of a least-order row are distinct, real
-and geometrically spread over ``[−10ω, −ω/10]`` (continuous; ω the spectral radius of A,
-see :func:`geomfdi.synthesis.least_order.plant_scale`) or ``[0.001, 0.93]`` (discrete).
+and geometrically spread over ``[−10ω, −ω/10]`` (continuous; ω the plant's time scale, the
+geometric mean of the moduli of A's non-zero eigenvalues, see
+:func:`geomfdi.synthesis.least_order.plant_scale`) or ``[0.001, 0.93]`` (discrete).
 A row is reported ``"weak"`` when the DC gain from a target is below ``FD_GAIN_TOL``
 times the largest gain from any fault over frequency (strong detectability), never
 ``"ok"``.
@@ -69,6 +70,18 @@ def _check_method(method: Any) -> str:
     return str(method)
 
 
+STRENGTHS = ("strong", "weak")
+
+
+def _check_strength(strength: Any) -> str:
+    if not isinstance(strength, str) or strength not in STRENGTHS:
+        raise DesignError(
+            f"strength: must be one of {list(STRENGTHS)}, got {strength!r:.40}",
+            argument="strength",
+        )
+    return str(strength)
+
+
 def _design_row(
     plant: Plant,
     faults: list[Fault],
@@ -85,6 +98,7 @@ def _design_row(
     omega: float,
     prefix: bool = False,
     residual_dim: int = 1,
+    strength: str = "strong",
 ) -> ResidualGenerator:
     """One row: least order for ``"exact"`` (full-quotient fallback on numerical failure).
 
@@ -134,6 +148,7 @@ def _design_row(
             row=row,
             factor=factor,
             prefix=prefix,
+            strengthen=strength == "strong",
         )
     except _NumericalDesignError as exc:
         first = str(exc)
@@ -177,6 +192,7 @@ def design_residual_generator(
     minimal: bool = True,
     residual_dim: int | None = None,
     exact: bool = False,
+    strength: str = "strong",
 ) -> ResidualGenerator:
     """Design one residual generator that sees ``target`` and ignores ``decouple``.
 
@@ -193,9 +209,9 @@ def design_residual_generator(
         ``method="exact"``: poles of the scalar least-order residual, distinct and stable
         (closed under conjugation); a row of order ν uses the first ν (fewer raise a
         :class:`DesignError` naming the order).  Default: distinct real poles spread
-        geometrically over ``[−10ω, −ω/10]`` (continuous, ω the plant's spectral radius)
-        or ``[0.001, 0.93]`` (discrete).  Other methods: the spectrum of the quotient
-        observer (its order).
+        geometrically over ``[−10ω, −ω/10]`` (continuous, ω the plant's time scale:
+        :func:`geomfdi.synthesis.least_order.plant_scale`) or ``[0.001, 0.93]``
+        (discrete).  Other methods: the spectrum of the quotient observer (its order).
     method : {"exact", "full", "paper", "mvw"}
         ``"exact"``: least-order scalar residual (exact decoupling, no output filter).
         ``"full"``: full-quotient observer with the output filter of the exact
@@ -221,6 +237,12 @@ def design_residual_generator(
         decoupled signals); asking for more raises :class:`DesignError` with
         ``argument="residual_dim"``.  With ``poles``, every row of order ν uses the
         first ν of that list (give at least the largest row order).
+    strength : {"strong", "weak"}
+        ``"strong"`` (default): a least-order row that sees a target only weakly (DC
+        gain below ``FD_GAIN_TOL`` of its largest fault gain, faults at their reference
+        sizes) is replaced by the first strong row of higher order (up to 3 degrees
+        above), stated in ``g.info["least_order"]`` (``raised_from``) and in a bank's
+        diagnostic; ``"weak"``: the least-order row itself, reported weak.
     exact : bool
         Run the construction in exact arithmetic (rationals, or rational functions of the
         parameters of a parametric plant) and return an
@@ -270,6 +292,7 @@ def design_residual_generator(
     >>> g2.n_outputs, g2.info["row_orders"]
     (2, [1, 1])
     """
+    strength = _check_strength(strength)
     rdim = check_residual_dim(residual_dim)
     if rdim > 1 and (exact or method != "exact"):
         raise DesignError(
@@ -331,8 +354,11 @@ def design_residual_generator(
             factor,
             omega,
             residual_dim=rdim,
+            strength=strength,
         )
     attach(g, rec, "the residual")
+    if "target_strength" not in g.info and rdim == 1 and "dc_gain" in g.info:
+        g.info["weak_targets"] = weak_targets(g, plant, sigs, factor, omega, tgt)
     return g
 
 
@@ -401,6 +427,7 @@ def design_bank(
     common_poles: bool = False,
     residual_dim: int | Sequence[int] | None = None,
     exact: bool = False,
+    strength: str = "strong",
 ) -> ResidualBank:
     """Design one residual generator per row of a structure matrix.
 
@@ -424,6 +451,8 @@ def design_bank(
         row or one per row (``None`` entries: 1).  Default 1, scalar residuals; see
         :func:`design_residual_generator`.  A row that cannot have that many independent
         components is missing, its diagnostic names ``residual_dim`` and the maximum.
+    strength : {"strong", "weak"}
+        As in :func:`design_residual_generator`.
     exact : bool
         Exact / parametric design: returns an
         :class:`~geomfdi.synthesis.exact_generator.ExactResidualBank` (see
@@ -444,6 +473,7 @@ def design_bank(
         ``bank.info["closest_gaps"]``: that gap per row (``g.info["rank_decisions"]``
         has where it was taken).
     """
+    strength = _check_strength(strength)
     dims_given = np.atleast_1d(np.asarray(residual_dim, dtype=object)).tolist()
     if exact and any(v is not None and v != 1 for v in dims_given):
         raise DesignError(
@@ -531,6 +561,7 @@ def design_bank(
                     omega,
                     common_poles,
                     residual_dim=dims[r],
+                    strength=strength,
                 )
         except NotIsolableError as exc:
             gens.append(None)
@@ -547,7 +578,11 @@ def design_bank(
                 and per_row[r] is not None
                 and not isinstance(exc, _NumericalDesignError)
             ):
-                raise  # the user's poles are wrong for this row
+                msg = str(exc)  # the user's poles are wrong for this row: say which
+                raise DesignError(
+                    msg if f"row {r}" in msg else f"poles: row {r}: {msg.removeprefix('poles: ')}",
+                    argument="poles",
+                ) from None
             gens.append(None)
             close = close_note(summarise(rec))
             diags.append(
@@ -598,6 +633,12 @@ def design_bank(
             and cert.get("delivered_order", g.order) != cert.get("order")
         ):
             notes.append(f"not least order: {cert.get('statement', '')}")
+        if isinstance(cert, dict) and "raised_from" in cert:
+            notes.append(
+                f"raised for strength: order {g.order} delivered, the least-order row (order "
+                f"{cert['raised_from']}) sees faults {cert.get('weak_at_least', [])} weakly "
+                "(strength='weak' gives it)"
+            )
         if close:
             notes.append(close)
         diags.append("; ".join(notes) if notes else "ok")
