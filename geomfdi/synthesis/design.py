@@ -608,7 +608,8 @@ def design_bank(
                 notes.append(
                     "weak: DC gain from fault "
                     + ", ".join(map(str, small))
-                    + f" below {FD_GAIN_TOL:g} of the residual's largest fault gain"
+                    + f" below {FD_GAIN_TOL:g} of the residual's largest fault gain (faults at"
+                    " their reference sizes)"
                 )
         if leaks and method == "paper":
             dc = g.info["dc_gain"]
