@@ -53,7 +53,12 @@ from geomfdi.synthesis.parity_onb import (
     realise_onb,
     spectral_pole_set,
 )
-from geomfdi.synthesis.poles import _check_poles, validate_poles
+from geomfdi.synthesis.poles import (
+    _check_poles,
+    default_pole_sequence,
+    plant_scale,
+    validate_poles,
+)
 from geomfdi.synthesis.quotient import Quotient, quotient_model
 from geomfdi.tolerance import rank_decision
 
@@ -89,48 +94,6 @@ partial-fraction basis (a margin of 100 over ``SEE_TOL``)."""
 ONB_GAP_MIN = 1e6
 """Singular-value gap of a high-degree parity space (orthonormal basis) above which a
 target it misses counts as unseen at that degree (for the least-order certificate)."""
-
-_GOLD = 0.6180339887498949
-
-
-def plant_scale(A: np.ndarray, dt: float) -> float:
-    """The plant's frequency scale ω for the default spectrum: its own time scale.
-
-    Continuous: the geometric mean of the moduli of A's non-zero eigenvalues
-    (``exp(mean(log|λ_i|))`` over ``|λ_i| > 1e-8 ρ``, ρ the spectral radius), so that a
-    slow plant gets slow residual poles and a stiff one (fast actuators next to slow
-    rigid-body modes) gets poles in the middle of its time scales rather than at its
-    fastest mode; ``‖A‖₂`` if every eigenvalue is 0 and 1 if ``A = 0``.  Discrete: ``1``
-    (the unit circle sets the scale).  Scaling time (``A → c A``) scales ω by c.
-    """
-    if dt > 0 or A.size == 0:
-        return 1.0
-    mod = np.abs(np.linalg.eigvals(A))
-    rho = float(np.max(mod))
-    if rho > 1e-12 * max(_norm2(A), 1e-300):
-        mod = mod[mod > 1e-8 * rho]
-        return float(np.exp(np.mean(np.log(mod))))
-    nA = _norm2(A)
-    return nA if nA > 0 else 1.0
-
-
-def default_pole_sequence(count: int, omega: float, dt: float) -> np.ndarray:
-    """Distinct real stable poles, geometrically spread: the default generator spectrum.
-
-    Continuous: ``λ_i = −ω · 10^{2 ({i φ} − 1/2)}`` ({·}: fractional part, φ the golden
-    ratio conjugate), i.e. in ``[−10ω, −ω/10]``; discrete:
-    ``z_i = exp(−0.7 ω · 10^{2 ({i φ} − 1/2)})``, i.e. in ``[0.001, 0.93]`` for the
-    default ω = 1.  Every prefix is spread over the interval (a low-discrepancy
-    sequence).  A wide geometric spread keeps the partial-fraction
-    (rational Krylov) basis of the parity space well conditioned: clustered poles make
-    its coefficients large and cancelling.
-    """
-    i = np.arange(1, count + 1)
-    frac = np.mod(i * _GOLD, 1.0)
-    spread = 10.0 ** (2.0 * (frac - 0.5))
-    if dt > 0:
-        return np.exp(-0.7 * omega * spread)
-    return -omega * spread
 
 
 # ------------------------------------------------------------------ parity space
