@@ -288,6 +288,7 @@ def _finish(
         "W_dim": Qm.S.W.dim,
         "W_history": Qm.S.W.history,
         "min_gap": Qm.S.min_gap,
+        "S_rtol": Qm.rtol,
         "quotient_order": Qm.k,
         "full_order": Qm.k,
         "design_n": Qm.n_aug,
