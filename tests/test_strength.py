@@ -121,6 +121,10 @@ def test_default_poles_follow_the_plant_time_scale():
     ac = gf.flight_actuator_case_study().plant
     mod = np.abs(np.linalg.eigvals(ac.A))
     assert 0.05 * mod.max() < plant_scale(ac.A, 0.0) < mod.max()
+    # an unstable plant: never slower than its fastest unstable mode (here 1 + √2, while
+    # the geometric mean of |λ| = 1, 1 ± √2 is 1)
+    seed = np.array([[1.0, 1, 1], [0, 1, 0], [2, 0, 1]])
+    assert plant_scale(seed, 0.0) == pytest.approx(1 + np.sqrt(2))
 
 
 def test_per_row_poles_and_a_list_that_does_not_fit_names_the_row():

@@ -15,7 +15,8 @@ construction.
 
 Defaults relative to the plant: the default poles of a least-order row are distinct, real
 and geometrically spread over ``[−10ω, −ω/10]`` (continuous; ω the plant's time scale, the
-geometric mean of the moduli of A's non-zero eigenvalues, see
+geometric mean of the moduli of A's non-zero eigenvalues, at least its fastest unstable
+one, see
 :func:`geomfdi.synthesis.least_order.plant_scale`) or ``[0.001, 0.93]`` (discrete).
 A row is reported ``"weak"`` when the DC gain from a target is below ``FD_GAIN_TOL``
 times the largest gain from any fault over frequency (strong detectability), never

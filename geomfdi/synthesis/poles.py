@@ -23,19 +23,24 @@ def plant_scale(A: np.ndarray, dt: float) -> float:
     """The plant's frequency scale ω for the default spectrum: its own time scale.
 
     Continuous: the geometric mean of the moduli of A's non-zero eigenvalues
-    (``exp(mean(log|λ_i|))`` over ``|λ_i| > 1e-8 ρ``, ρ the spectral radius), so that a
-    slow plant gets slow residual poles and a stiff one (fast actuators next to slow
-    rigid-body modes) gets poles in the middle of its time scales rather than at its
-    fastest mode; ``‖A‖₂`` if every eigenvalue is 0 and 1 if ``A = 0``.  Discrete: ``1``
-    (the unit circle sets the scale).  Scaling time (``A → c A``) scales ω by c.
+    (``exp(mean(log|λ_i|))`` over ``|λ_i| > 1e-8 ρ``, ρ the spectral radius), and at least
+    the modulus of its fastest unstable eigenvalue (``Re λ > 0``: the residual must not be
+    slower than the drift it has to cancel).  A slow plant gets slow residual poles, a
+    stiff one (fast actuators next to slow rigid-body modes) poles in the middle of its
+    time scales rather than at its fastest mode; ``‖A‖₂`` if every eigenvalue is 0 and 1
+    if ``A = 0``.  Discrete: ``1`` (the unit circle sets the scale).  Scaling time
+    (``A → c A``, c > 0) scales ω by c.
     """
     if dt > 0 or A.size == 0:
         return 1.0
-    mod = np.abs(np.linalg.eigvals(A))
+    lam = np.linalg.eigvals(A)
+    mod = np.abs(lam)
     rho = float(np.max(mod))
     if rho > 1e-12 * max(_norm2(A), 1e-300):
-        mod = mod[mod > 1e-8 * rho]
-        return float(np.exp(np.mean(np.log(mod))))
+        keep = mod > 1e-8 * rho
+        mean = float(np.exp(np.mean(np.log(mod[keep]))))
+        unstable = mod[keep & (lam.real > 1e-8 * rho)]
+        return max(mean, float(np.max(unstable, initial=0.0)))
     nA = _norm2(A)
     return nA if nA > 0 else 1.0
 
