@@ -39,7 +39,7 @@ except ImportError:  # running from a source checkout that is not installed
 def per_sample_diagnose(
     Z: np.ndarray, V: np.ndarray, sigma: float, threshold: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Straightforward per-sample GLT, as one would write it from seed 000 eq. 2-5."""
+    """Straightforward per-sample GLT, as written from Zhang, Chen & Liu (2005), eq. 2-5."""
     m = V.shape[1]
     detected = np.zeros(Z.shape[0], dtype=bool)
     isolated = np.full(Z.shape[0], -1)

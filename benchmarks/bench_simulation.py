@@ -1,6 +1,7 @@
 """``gf.simulate`` against ``control.forced_response`` on the same composite system.
 
-The scenario is the closed loop of seed 001 (state feedback ``u = v - K x``) with a bias
+The scenario is the closed loop of Hou, Wen & Chen (2011) (state feedback ``u = v - K x``)
+with a bias
 fault on sensor 0 at 40 % of the horizon, observed by a bank of ``nb`` residual
 generators (the three hand-built paper generators, padded with random stable third-order
 generators for larger banks).  The bias ramps up over 0.5 s, so that both simulators see
@@ -61,7 +62,7 @@ P_PAPER = np.array([[0.0, 1, 0], [-2, 2, 1], [-3, 3, 1]])
 
 
 def make_bank(nb: int, seed: int = 0) -> gf.ResidualBank:
-    """The three paper generators (seed 001, F = -2) plus random ones.
+    """The three paper generators (Hou, Wen & Chen 2011, F = -2) plus random ones.
 
     A random generator of order 3 picks a stable ``F``, a ``P`` (3 x 3) and ``M``, then
     ``E = (F P - P A) C^-1``, ``G = P B``, ``H = M P C^-1``: it satisfies the identities

@@ -1,6 +1,6 @@
 """ROC and P_d-versus-fault-size figures of two Monte-Carlo campaigns.
 
-* Seed 001 (Hou, Wen & Chen 2011, section 4; closed loop ``u = v - K x``) with its exact
+* Hou, Wen & Chen (2011, section 4; closed loop ``u = v - K x``) with its exact
   bank of three residuals, measurement noise of standard deviation 0.01 on every sensor, a
   bias on each sensor at 8 s, evaluated by the windowed chi-square test (0.1 s window,
   analytic threshold at a per-window false-alarm probability of 1e-4); the same bias on

@@ -1,6 +1,6 @@
 """Six gyros on a dodecahedron: Qin & Niu 1999's soft-fault experiment as correct-isolation rates.
 
-Seed 004 (Qin-Niu 1999) puts six single-axis gyros along the face normals of a regular
+Qin & Niu (1999) puts six single-axis gyros along the face normals of a regular
 dodecahedron and reports, in its Tables 1-4, which gyros the maxima of the single-fault
 function D_j and the two-fault functions D+_ij, D-_ij point at for
 
@@ -85,7 +85,7 @@ def drift_delays(pf: gf.ParityFDI, pfa: float, rng: np.random.Generator) -> dict
 
 
 def main(argv: Sequence[str] | None = None) -> dict:
-    ap = argparse.ArgumentParser(description="Seed 004 dodecahedron experiment")
+    ap = argparse.ArgumentParser(description="Qin & Niu (1999) dodecahedron experiment")
     ap.add_argument("--out", type=Path, default=Path("."), help="output directory for PNGs")
     ap.add_argument("--runs", type=int, default=20000, help="Monte-Carlo runs per case")
     ap.add_argument("--sigma", type=float, nargs="+", default=[0.0005, 0.001, 0.002], help="deg/h")

@@ -1,4 +1,5 @@
-"""Seed 001: the paper's residual bank against the exact one, gain fault on sensor 0 at 8 s
+"""Hou, Wen & Chen (2011): the paper's residual bank against the exact one, gain fault on
+sensor 0 at 8 s
 (the paper's sensor 1; geomfdi numbers sensors from 0).
 
 Closed loop u = v - K x with the numbers of Hou, Wen, Chen (2011), section 4.  Both banks

@@ -8,16 +8,21 @@ Use as ``import geomfdi as gf``. The package follows the data path of a design::
 
     geomfdi.model          plants and faults
     geomfdi.geometry       subspaces, W*, S* (numeric and exact)
-    geomfdi.synthesis      transforms, construction, generators and banks
+    geomfdi.generators     residual generators and banks, bank files, sampling
+    geomfdi.synthesis      design front end, least-order rows, exact design
     geomfdi.verification   numeric and symbolic proofs on the physical plant
     geomfdi.simulation     fault signals, LTI core, closed loop
     geomfdi.evaluation     thresholds, alarms, isolation
+    geomfdi.deployment     recorded and live evaluation, generated code
+    geomfdi.campaign       Monte-Carlo campaigns
     geomfdi.parity         redundant sensors (parity space)
     geomfdi.diagnosability KL and directional indices
     geomfdi.monitoring     AR-model innovation monitoring
     geomfdi.io             model files and the command line
     geomfdi.data           test models (a 32-state aircraft)
     geomfdi.plotting       figures
+
+The layers and what each may import: ``docs/architecture.md``.
 
 Public names are loaded on first use (``gf.design_bank`` imports the synthesis
 subpackage, not the simulator), so ``import geomfdi`` stays cheap.
@@ -28,7 +33,12 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+from geomfdi._moved import install as _moved_install
+
 __version__ = "0.1.0"
+
+# old module paths (``geomfdi.synthesis.generator``, ...) import with a DeprecationWarning
+_moved_install()
 
 # public name -> module that defines it
 _NAMES: dict[str, str] = {}
@@ -66,6 +76,7 @@ _register(
     "StackedWindow",
 )
 _register("geomfdi.diagnosability.tables", "diagnosability_table")
+_register("geomfdi.errors", "IsolabilityWarning")
 _register(
     "geomfdi.evaluation.covariance",
     "ResidualNoiseModel",
@@ -168,14 +179,26 @@ _register(
     "geomfdi.synthesis.design", "design_bank", "design_residual_generator", "design_sensor_bank"
 )
 _register(
-    "geomfdi.synthesis.exact_generator",
+    "geomfdi.generators.exact",
     "ExactResidualBank",
     "ExactResidualGenerator",
     "ExceptionalCondition",
 )
-_register("geomfdi.synthesis.generator", "ResidualBank", "ResidualGenerator")
-_register("geomfdi.synthesis.realization", "minimal_realization", "reachable_subspace")
-_register("geomfdi.synthesis.transforms", "pseudo_actuator_model")
+_register("geomfdi.generators.generator", "ResidualBank", "ResidualGenerator")
+_register("geomfdi.generators.realization", "minimal_realization", "reachable_subspace")
+_register("geomfdi.synthesis.sensor_transforms", "pseudo_actuator_model")
+_register(
+    "geomfdi.synthesis.specification.isolability",
+    "IsolabilityReport",
+    "isolability_analysis",
+)
+_register("geomfdi.synthesis.specification.orders", "structure_orders")
+_register(
+    "geomfdi.synthesis.specification.signatures",
+    "AchievableSignatures",
+    "achievable_signatures",
+    "achievable_structures",
+)
 _register("geomfdi.tolerance", "CloseRankWarning", "set_rtol")
 _register("geomfdi.verification.numeric", "VerificationReport", "verify")
 _register("geomfdi.verification.symbolic", "SymbolicReport", "verify_symbolic")
@@ -193,6 +216,7 @@ _MODULES: dict[str, str] = {
     "model": "geomfdi.model",
     "geometry": "geomfdi.geometry",
     "synthesis": "geomfdi.synthesis",
+    "generators": "geomfdi.generators",
     "data": "geomfdi.data",
     "verification": "geomfdi.verification",
     "simulation": "geomfdi.simulation",
@@ -205,9 +229,9 @@ _MODULES: dict[str, str] = {
     "subspace": "geomfdi.geometry.subspace",
     "conditioned_invariant": "geomfdi.geometry.conditioned_invariant",
     "unobservability": "geomfdi.geometry.unobservability",
-    "transforms": "geomfdi.synthesis.transforms",
-    "generator": "geomfdi.synthesis.generator",
-    "realization": "geomfdi.synthesis.realization",
+    "transforms": "geomfdi.synthesis.sensor_transforms",
+    "generator": "geomfdi.generators.generator",
+    "realization": "geomfdi.generators.realization",
     "fault_signals": "geomfdi.simulation.signals",
     "parity_configs": "geomfdi.parity.configs",
     "armonitor": "geomfdi.monitoring.ar",
@@ -269,6 +293,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         StackedWindow,
     )  # noqa: F401
     from geomfdi.diagnosability.tables import diagnosability_table  # noqa: F401
+    from geomfdi.errors import IsolabilityWarning  # noqa: F401
     from geomfdi.evaluation.covariance import (
         ResidualNoiseModel,
         residual_noise_model,
@@ -358,14 +383,24 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     )  # noqa: F401
     from geomfdi.simulation.simulate import simulate  # noqa: F401
     from geomfdi.synthesis.design import design_bank, design_residual_generator, design_sensor_bank  # noqa: F401
-    from geomfdi.synthesis.exact_generator import (
+    from geomfdi.generators.exact import (
         ExactResidualBank,
         ExactResidualGenerator,
         ExceptionalCondition,
     )  # noqa: F401
-    from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator  # noqa: F401
-    from geomfdi.synthesis.realization import minimal_realization, reachable_subspace  # noqa: F401
-    from geomfdi.synthesis.transforms import pseudo_actuator_model  # noqa: F401
+    from geomfdi.generators.generator import ResidualBank, ResidualGenerator  # noqa: F401
+    from geomfdi.generators.realization import minimal_realization, reachable_subspace  # noqa: F401
+    from geomfdi.synthesis.sensor_transforms import pseudo_actuator_model  # noqa: F401
+    from geomfdi.synthesis.specification.isolability import (  # noqa: F401
+        IsolabilityReport,
+        isolability_analysis,
+    )
+    from geomfdi.synthesis.specification.orders import structure_orders  # noqa: F401
+    from geomfdi.synthesis.specification.signatures import (  # noqa: F401
+        AchievableSignatures,
+        achievable_signatures,
+        achievable_structures,
+    )
     from geomfdi.tolerance import CloseRankWarning, set_rtol  # noqa: F401
     from geomfdi.verification.numeric import VerificationReport, verify  # noqa: F401
     from geomfdi.verification.symbolic import SymbolicReport, verify_symbolic  # noqa: F401

@@ -21,6 +21,7 @@ __all__ = [
     "BankFileError",
     "SchemaVersionError",
     "ResourceLimitError",
+    "IsolabilityWarning",
 ]
 
 
@@ -129,3 +130,13 @@ class ResourceLimitError(GeomFDIError):
         super().__init__(message, argument=argument)
         self.limit = limit
         self.estimate = estimate
+
+
+# ------------------------------------------------------------------------------- warnings
+class IsolabilityWarning(UserWarning):
+    """A requested structure matrix cannot tell two faults apart (identical columns).
+
+    Issued by :func:`geomfdi.design_bank` before the design; see
+    :func:`geomfdi.isolability_analysis` and the user guide, *Choosing a structure*
+    (``docs/guide/choosing-a-structure.md``).
+    """

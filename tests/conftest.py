@@ -28,7 +28,7 @@ settings.load_profile("ci" if os.environ.get("CI") else "default")
 
 @pytest.fixture
 def seed001():
-    """The example of seed 001, §4 (Hou-Wen-Chen 2011)."""
+    """The example of Hou, Wen & Chen (2011), §4."""
     import geomfdi as gf
 
     A = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]

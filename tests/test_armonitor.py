@@ -1,4 +1,4 @@
-"""AR-model innovation monitor (seed 003, math.md §8, issue 7)."""
+"""AR-model innovation monitor (Jin, Ding & Cong; docs/theory/ar-monitoring.md)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from geomfdi.errors import GeomFDIError, NonFiniteError, RankDeficientError, Sha
 from geomfdi.monitoring._kernels import _moving_sums
 
 ROOT = Path(__file__).resolve().parents[1]
-PAPER_AR = [-0.3]  # coloured innovations reproducing the paper's mu = -0.31 (seed 003)
+PAPER_AR = [-0.3]  # coloured innovations reproducing the paper's mu = -0.31 (Jin, Ding & Cong)
 
 
 def lstsq_phi(w: np.ndarray, n: int) -> np.ndarray:

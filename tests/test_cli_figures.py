@@ -40,7 +40,7 @@ def _run_driver(out: Path, *extra: str) -> dict:
 
 
 def test_run_loads_neither_scipy_signal_nor_stats(tmp_path: Path) -> None:
-    """The seed-001 run (pole placement, simulation, exact proof) without scipy.signal
+    """The Hou-Wen-Chen example run (pole placement, simulation, exact proof) without scipy.signal
     (about 0.6 s to import) or scipy.stats; the figures are drawn in another process,
     so the main process does not load matplotlib either."""
     res = _run_driver(tmp_path / "plots")

@@ -298,7 +298,7 @@ def test_multiple_fault_hypotheses():
 
 
 def test_persistence_removes_the_coincidental_isolation_of_three_simultaneous_faults():
-    """Three simultaneous sensor-gain faults of seed 001 (Hou, Wen & Chen 2011, sec. 4).
+    """Three simultaneous sensor-gain faults of Hou, Wen & Chen (2011, sec. 4).
 
     Every residual alarms at the onset; afterwards the gain faults' effects pass through
     zero with the closed-loop outputs they multiply, so single residuals alarm alone for

@@ -1,4 +1,7 @@
-"""Quantitative diagnosability (seed 002, math.md §7): tables, conventions, null-space paths."""
+"""Quantitative diagnosability (Li, Wang & Liu 2015; docs/theory/diagnosability.md).
+
+Tables, conventions, null-space paths.
+"""
 
 from __future__ import annotations
 
@@ -18,7 +21,7 @@ from geomfdi.errors import DesignError, GeomFDIError, RankDeficientError, ShapeE
 PATHS = ("structured", "direct")
 THETA = [1.0, 1.0, 1.0]
 
-# Table 1 of seed 002 (KL): rows f1..f4, columns FD, f1..f4
+# Table 1 of Li, Wang & Liu (2015) (KL): rows f1..f4, columns FD, f1..f4
 TABLE1 = np.array(
     [
         [0.1613, 0, 0, 0.1087, 0.0549],
@@ -27,7 +30,7 @@ TABLE1 = np.array(
         [1.0717, 1.0000, 1.0000, 0.1087, 0],
     ]
 )
-# Table 2 of seed 002 (directional)
+# Table 2 of Li, Wang & Liu (2015) (directional)
 TABLE2 = np.array(
     [
         [0.9789, 0, 0, 0.1800, 0.1687],
@@ -121,7 +124,7 @@ def simulate(dm: gf.WindowModel, runs: int, rng, fault=None, theta=None, *, nois
 def test_table1_kl_reproduced(path):
     tab = model23(path).table(THETA, "kl")
     np.testing.assert_allclose(tab.values, TABLE1, atol=5e-5, rtol=0)
-    # the exact fractions of reference.md
+    # the exact fractions of the paper
     np.testing.assert_allclose(
         tab.detectability, [5 / 31, 5 / 31, 284 / 279, 299 / 279], rtol=1e-12
     )
@@ -133,7 +136,7 @@ def test_table1_kl_reproduced(path):
 @pytest.mark.parametrize("path", PATHS)
 def test_table2_directional_reproduced(path):
     tab = model23(path).table(THETA, "directional")
-    # the paper prints 0.0614 for FI(f3, f4); the value is 0.06134 (reference.md)
+    # the paper prints 0.0614 for FI(f3, f4); the value is 0.06134
     np.testing.assert_allclose(tab.values, TABLE2, atol=1e-4, rtol=0)
     assert tab.isolability[2, 3] == pytest.approx(0.06134, abs=1e-5)
     others = np.ones_like(TABLE2, dtype=bool)
@@ -227,7 +230,8 @@ def test_satellite_tables_3_and_4(path):
 
 
 def test_flaw_directional_fd_of_undetectable_fault():
-    """math.md §7: q = 0 gives 1/((2 pi)^(-d/2) + 1), not 0; P_D gives alpha, index 0."""
+    """docs/theory/diagnosability.md:
+    q = 0 gives 1/((2 pi)^(-d/2) + 1), not 0; P_D gives alpha, index 0."""
     for dm, i, theta in ((satellite(), 0, [0.1] * 4), (model23(), 0, [0.0, 1.0, 1.0])):
         d = dm.residual_dim
         assert np.allclose(dm.fault_vector(i, theta), 0.0, atol=1e-12)

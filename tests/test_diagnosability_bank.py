@@ -1,4 +1,4 @@
-"""Diagnosability of designed residual banks (seed 001 plant of Hou, Wen & Chen 2011)."""
+"""Diagnosability of designed residual banks (the plant of Hou, Wen & Chen 2011)."""
 
 from __future__ import annotations
 

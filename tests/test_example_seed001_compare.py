@@ -1,4 +1,4 @@
-"""The side-by-side seed 001 example reproduces reference.md and writes its figure."""
+"""The side-by-side Hou-Wen-Chen example reproduces the paper and writes its figure."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ def test_seed001_compare_reproduces_reference(tmp_path):
     peaks = _load().run(tmp_path)
     paper = next(v for k, v in peaks.items() if k.startswith("paper"))
     exact = next(v for k, v in peaks.items() if k.startswith("exact"))
-    # reference.md: max |r| on [8, 20] s for the paper design = (.145, .213, .319)
+    # the paper: max |r| on [8, 20] s for the paper design = (.145, .213, .319)
     np.testing.assert_allclose(paper, [0.145, 0.213, 0.319], rtol=0.02)
     # the exact design: r2 = r3 = 0 (rounding level), r1 sees the fault
     assert exact[0] > 0.06

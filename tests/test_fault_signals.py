@@ -1,4 +1,4 @@
-"""Sensor fault signals: y_i = eta(t) y_i0 + lambda(t) (seed 001, eq. 3-5)."""
+"""Sensor fault signals: y_i = eta(t) y_i0 + lambda(t) (Hou, Wen & Chen 2011, eq. 3-5)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """W* (Algorithm 1), S* (Algorithm 2), friends and the tolerance policy.
 
-The reference facts come from reference.md ("Seed 001 example").  The property-based tests
+The reference facts come from the example of Hou, Wen & Chen (2011), §4.  The property-based tests
 draw small integer systems with q < n (so Ker C is non-trivial) and check each result
 against constructions that do not use the algorithm under test: exact Krylov spans in
 sympy, ``scipy.linalg.orth`` / ``null_space`` iterations written here, and the defining
@@ -126,13 +126,13 @@ def integer_systems(draw, max_n: int = 6):
     return A.astype(float), C.astype(float), L.astype(float)
 
 
-# ------------------------------------------------------------------ seed 001 example
+# ------------------------------------------------------------------ Hou-Wen-Chen example
 A001 = np.array([[1, 1, 1], [0, 1, 0], [2, 0, 1]], dtype=float)
 C001 = np.array([[0, 1, 0], [0, 0, 1], [1, 0, 2]], dtype=float)
 
 
 def seed001_signatures() -> tuple[np.ndarray, np.ndarray]:
-    """f_i solving C f_i = e_i and L_i = -A f_i (seed 001, paper method)."""
+    """f_i solving C f_i = e_i and L_i = -A f_i (Hou, Wen & Chen 2011, paper method)."""
     F = np.linalg.solve(C001, np.eye(3))
     return F, -A001 @ F
 
@@ -175,7 +175,7 @@ def test_seed001_measurement_map():
     assert H.shape == (1, 3)
     assert np.allclose(H @ H.T, 1.0)
     assert gf.kernel(H @ C001) == S + gf.kernel(C001)
-    # p_1 ∝ (0, 1, 0) (reference.md): the row H C annihilates S
+    # p_1 ∝ (0, 1, 0) (the paper): the row H C annihilates S
     assert max_angle((H @ C001).T, np.array([[0.0], [1.0], [0.0]])) < 1e-12
 
 

@@ -50,7 +50,7 @@ SYSTEMS = {
         ),
         np.ones((5, 1)),
     ),
-    # unstable mode (the seed 001 plant, open loop)
+    # unstable mode (the Hou-Wen-Chen plant, open loop)
     "unstable": (
         np.array([[1.0, 1, 1], [0, 1, 0], [2, 0, 1]]),
         np.array([[1.0, 0, 1], [0, 1, 1], [0, 1, 0]]),

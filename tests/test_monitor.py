@@ -301,7 +301,7 @@ def test_monitor_reports_multiple_and_restores_the_held_pattern() -> None:
 
 
 def test_saved_rule_and_legacy_monitor_files(bank: gf.ResidualBank, tmp_path) -> None:
-    from geomfdi.synthesis.bankfile import _checksum
+    from geomfdi.generators.bankfile import _checksum
 
     Y, U = _data(3, 3, 900, seed=8)
     rule = gf.Persistence(2, 3, reset=9)

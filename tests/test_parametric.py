@@ -12,7 +12,8 @@ from geomfdi.synthesis.design import FD_GAIN_TOL
 
 k, m = sp.symbols("k m", positive=True)
 s = sp.Symbol("s")
-# seed 001's example with two entries made parameters (k = 2, m = 2 is the paper's plant)
+# the Hou-Wen-Chen (2011) example with two entries made parameters
+# (k = 2, m = 2 is the paper's plant)
 A = sp.Matrix([[1, 1, 1], [0, 1, 0], [k, 0, 1]])
 B = sp.Matrix([[1, 0, 1], [0, 1, 1], [0, 1, 0]])
 C = sp.Matrix([[0, 1, 0], [0, 0, 1], [1, 0, m]])

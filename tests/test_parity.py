@@ -1,4 +1,4 @@
-"""Parity-space FDI (seeds 000 and 004): parity matrix, GLT, OPT, two-fault statistics."""
+"""Parity-space FDI (Zhang, Chen & Liu 2005; Qin & Niu 1999): parity matrix, GLT, OPT, pairs."""
 
 from __future__ import annotations
 
@@ -32,7 +32,8 @@ def dodeca():
 
 # --------------------------------------------------------------------------- configurations
 def test_dodecahedron_reference_facts():
-    """reference.md, Seeds 000/004: H^T H = 2I, w_ii = 1/2, all pairwise |cos| = 1/sqrt5."""
+    """Zhang, Chen & Liu 2005; Qin & Niu 1999:
+    H^T H = 2I, w_ii = 1/2, all pairwise |cos| = 1/sqrt5."""
     H = gf.parity.dodecahedron()
     assert H.shape == (6, 3)
     np.testing.assert_allclose(H.T @ H, 2 * np.eye(3), atol=1e-14)
@@ -258,7 +259,7 @@ def test_state_does_not_enter_the_statistics(dodeca):
 
 
 def test_thresholds():
-    assert gf.parity.chi2_threshold(1e-4, 1) == pytest.approx(15.1367, abs=1e-4)  # reference.md
+    assert gf.parity.chi2_threshold(1e-4, 1) == pytest.approx(15.1367, abs=1e-4)  # chi-square table
     assert gf.parity.chi2_threshold(0.05, 3) == pytest.approx(stats.chi2.ppf(0.95, 3))
     assert gf.parity.normal_threshold(0.05) == pytest.approx(1.959964, abs=1e-6)
     assert gf.parity.opt_false_alarm_bound(0.05, 3) == pytest.approx(1 - 0.95**3)
@@ -332,7 +333,7 @@ def test_general_opt_solves_the_rayleigh_quotient_of_eq_7():
     Z = rng.standard_normal((4000, 7)) @ F.T * 0.5
     d = pf.opt_statistics(Z)
     np.testing.assert_allclose(d.std(axis=0), 1.0, atol=0.05)
-    # with F != I the OPT and GLT isolation functions differ (seed 000, conclusion)
+    # with F != I the OPT and GLT isolation functions differ (Zhang, Chen & Liu 2005, conclusion)
     assert not np.allclose(d[:5] ** 2, pf.isolation_statistics(Z[:5]), rtol=1e-3)
     # but the corrected OPT detection function is still FD_GLT (noise-whitened)
     np.testing.assert_allclose(
@@ -472,7 +473,7 @@ def test_reduction_identity_with_unequal_noise():
         np.testing.assert_allclose(red.detection_statistic(Z[:, keep]), fd - glr[:, c], rtol=1e-9)
 
 
-# --------------------------------------------------------------------------- seed 004 tables
+# --------------------------------------------------------------------------- Qin & Niu tables
 T1 = {  # Table 1 (1-based): gyro -> (pair indicated by max D+, pair indicated by max D-)
     1: ((3, 5), (1, 5)),
     2: ((2, 3), (1, 6)),
@@ -509,7 +510,7 @@ def _maximisers(values, pairs=False):
 
 
 def test_seed_004_tables_are_reproduced_noise_free():
-    """The indications reported in seed 004's Tables 1-4 are maximisers of our statistics.
+    """The indications reported in Qin & Niu's (1999) Tables 1-4 are maximisers of our statistics.
 
     The configuration is symmetric, so maxima are often tied; every reported pair must be
     among the tied maximisers.  Table 3/4 list the gyros indicated by D_j over the run:
@@ -547,7 +548,7 @@ def test_equal_size_pairs_on_the_dodecahedron_are_confounded():
     """For every pair (i, j) and sign, V_i +/- V_j is parallel to V_k +/- V_l for exactly
     one disjoint pair (k, l): equal-size faults on (i, j) and on (k, l), plus a change of
     x, give identical measurements.  This exact equivalence caps the correct-isolation
-    rate of any parity test on the equal-size cases of seed 004's Tables 3-4."""
+    rate of any parity test on the equal-size cases of Qin & Niu's (1999) Tables 3-4."""
     pf = gf.ParityFDI(gf.parity.dodecahedron())
     V = pf.V
 

@@ -1,4 +1,7 @@
-"""Monte-Carlo behaviour of the parity-space tests (seed 000 Theorem 1, seed 004 experiment)."""
+"""Monte-Carlo behaviour of the parity-space tests.
+
+Zhang, Chen & Liu (2005), Theorem 1; the experiment of Qin & Niu (1999).
+"""
 
 from __future__ import annotations
 
@@ -139,7 +142,7 @@ def test_seed_004_experiment_small_run():
         assert 0.42 < summ[kind][glr]["mean"] < 0.58  # a coin flip between the two pairs
         assert summ[kind][glr]["min"] > 0.3
     # the single-fault function points at a true gyro for 6 of 15 same-sign pairs and
-    # 9 of 15 opposite-sign pairs (seed 004 Tables 3-4): the search follows it
+    # 9 of 15 opposite-sign pairs (Qin & Niu 1999, Tables 3-4): the search follows it
     search = "paper search (Qin-Niu)"
     assert summ[same][search]["mean"] == pytest.approx(6 / 15, abs=0.02)
     assert summ[opposite][search]["mean"] == pytest.approx(9 / 15, abs=0.02)

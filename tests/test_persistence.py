@@ -12,7 +12,7 @@ from deploy_banks import DT, A, B, C, sampled_bank, seed_bank
 
 import geomfdi as gf
 from geomfdi.errors import BankFileError, GeomFDIError, SchemaVersionError
-from geomfdi.synthesis.bankfile import SCHEMA, _checksum
+from geomfdi.generators.bankfile import SCHEMA, _checksum
 
 
 def _hexes(a: np.ndarray) -> list[str]:

@@ -1,4 +1,4 @@
-"""Pole placement by the Schur method (geomfdi.synthesis.placement)."""
+"""Pole placement by the Schur method (geomfdi.synthesis.least_order.placement)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import geomfdi as gf
-from geomfdi.synthesis.placement import place_poles
+from geomfdi.synthesis.least_order.placement import place_poles
 
 
 def _miss(A, B, K, poles):

@@ -1,4 +1,4 @@
-"""gf.simulate on the seed 001 example (reference.md, "Seed 001 example")."""
+"""gf.simulate on the Hou-Wen-Chen example (Hou, Wen & Chen 2011, §4)."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ def v_ext(t):
 
 
 def paper_generator(plant, j):
-    """Seed 001's residual j with F = -2, M = 1, row P = p_j (built by hand, C invertible):
+    """The Hou-Wen-Chen residual j with F = -2, M = 1, row P = p_j (built by hand, C invertible):
     F P = P A + E C and M P = H C hold by construction."""
     A, B, C = plant.A, plant.B, plant.C
     Ci = np.linalg.inv(C)

@@ -29,7 +29,7 @@ TINY = 3e4  # bytes: chunks of a few dozen samples
 
 
 def setup(vector: bool = False, dt: float = 0.0):
-    """Seed 001's plant and three generators ``F P = P A + E C``, ``M P = H C`` (continuous),
+    """The Hou-Wen-Chen plant and three generators ``F P = P A + E C``, ``M P = H C`` (continuous),
     or a stable discrete plant with the same construction (``dt > 0``)."""
     Ap = A if dt == 0 else 0.3 * A / max(abs(np.linalg.eigvals(A)))
     plant = gf.Plant(Ap, B, C, dt=dt)
@@ -235,7 +235,7 @@ def test_held_pattern_episode_across_every_chunk_boundary():
 
 
 def test_seed001_three_faults_multiple_chunked():
-    """The seed-001 scenario of three simultaneous sensor-gain faults (Hou, Wen & Chen
+    """The scenario of three simultaneous sensor-gain faults (Hou, Wen & Chen
     2011, sec. 4) under the held-pattern rule: in chunks of a few dozen samples the
     decisions are MULTIPLE with the hypothesis (0, 1, 2), as on the whole record, in
     simulate and in a summary-only batch."""

@@ -43,7 +43,7 @@ def _scaled(plant, scales):
 
 @pytest.mark.slow
 def test_healthy_residual_equals_lsim_in_scaled_coordinates():
-    # seed 001's plant in T = diag(1e-4, 1, 1e4) (the bank designed there is not the
+    # the Hou-Wen-Chen (2011) plant in T = diag(1e-4, 1, 1e4) (the bank designed there is not the
     # unscaled one), and random plants in diag(10^k), k in [-6, 6]: whatever the bank,
     # the simulated residual is the true one, from the initial state simulate reports
     rng = np.random.default_rng(5)

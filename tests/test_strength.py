@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import geomfdi as gf
-from geomfdi.synthesis.least_order import plant_scale
+from geomfdi.synthesis.least_order.poles import plant_scale
 from geomfdi.synthesis.strength import reference_sizes
 
 

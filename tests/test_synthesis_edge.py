@@ -218,7 +218,7 @@ def test_discrete_poles_must_be_inside_unit_circle():
 # ---------------------------------------------------------------- discrete time
 @pytest.fixture(scope="module")
 def sampled():
-    """Seed 001's plant sampled with dt = 0.1 (two eigenvalues outside the unit circle)."""
+    """The Hou-Wen-Chen plant sampled with dt = 0.1 (two eigenvalues outside the unit circle)."""
     import scipy.linalg
 
     dt = 0.1

@@ -9,11 +9,11 @@ from test_synthesis_least_order import leak_angle
 import geomfdi as gf
 from geomfdi.model.faults import fault_matrices
 from geomfdi.synthesis.build import _quotient
-from geomfdi.synthesis.injection import mirror_rule
-from geomfdi.synthesis.least_order import plant_scale
-from geomfdi.synthesis.orthonormal import orthonormal_row
-from geomfdi.synthesis.quotient_observer import quotient_observer_row
-from geomfdi.synthesis.rational_basis import output_normal_basis
+from geomfdi.synthesis.least_order.injection import mirror_rule
+from geomfdi.synthesis.least_order.orthonormal_row import orthonormal_row
+from geomfdi.synthesis.least_order.quotient_observer import quotient_observer_row
+from geomfdi.synthesis.least_order.rational_basis import output_normal_basis
+from geomfdi.synthesis.least_order.search import plant_scale
 
 
 def _match(a, b):
@@ -86,7 +86,7 @@ def test_orthonormal_row_is_the_quotient_observer_in_other_coordinates():
     assert Qm.rho == 1 and Qm.k == 16
     # the spectral radius as scale: the regime where the injection is accurate
     om = float(np.max(np.abs(np.linalg.eigvals(Qm.A0))))
-    from geomfdi.synthesis.least_order import realise_on_plant
+    from geomfdi.synthesis.least_order.search import realise_on_plant
 
     a = realise_on_plant(
         Qm, orthonormal_row(Qm, p.D, omega=om, dt=0.0, relax=1.0, certificate={}), p.D
@@ -161,8 +161,8 @@ def test_phase_equispaced_frequencies_make_the_fit_orthogonal(dt):
     # 80 poles clustered as a lightly damped chain's (dense near the top frequency): the
     # weighted sampled basis is orthogonal up to scale (condition ~1), so the coefficients
     # of the fit are as accurate as the data
-    from geomfdi.synthesis.orthonormal import POINTS_PER_POLE
-    from geomfdi.synthesis.rational_basis import phase_frequencies as _frequencies
+    from geomfdi.synthesis.least_order.orthonormal_row import POINTS_PER_POLE
+    from geomfdi.synthesis.least_order.rational_basis import phase_frequencies as _frequencies
 
     om = 2 * np.sin(np.arange(1, 41) * np.pi / 81)
     poles = np.concatenate([-0.05 + 1j * om, -0.05 - 1j * om])
@@ -182,7 +182,7 @@ def test_high_degree_parity_basis_matches_the_brute_force_least_order(monkeypatc
     # decoupling holds and every target is seen (check_row's independent checks)
     from test_synthesis_least_order import check_row, random_problem
 
-    import geomfdi.synthesis.least_order as lo
+    import geomfdi.synthesis.least_order.search as lo
 
     monkeypatch.setattr(lo, "NU_PF_MAX", 0)
     orders, onb = [], 0

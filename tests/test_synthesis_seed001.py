@@ -1,6 +1,6 @@
-"""Seed 001 (Hou–Wen–Chen 2011, §4): the per-sensor residual bank, reproduced.
+"""Hou, Wen & Chen (2011), §4: the per-sensor residual bank, reproduced.
 
-Facts checked against ``reference.md`` ("Seed 001 example"): the paper method's
+Facts checked against the example of Hou, Wen & Chen (2011), §4: the paper method's
 transfers (r1 exact, r2 and r3 leaking with zero DC gain), the MVW method isolating only
 sensor 1, the exact method isolating all three with zero leakage (numerically and
 symbolically), r1 reading only y1 and u, the residual orders, and the construction
@@ -22,7 +22,7 @@ B = [[1, 0, 1], [0, 1, 1], [0, 1, 0]]
 C = [[0, 1, 0], [0, 0, 1], [1, 0, 2]]
 
 s = sp.Symbol("s")
-# reference.md: transfers from (m1, m2, m3) to (r1, r2, r3), up to one factor per row
+# the paper: transfers from (m1, m2, m3) to (r1, r2, r3), up to one factor per row
 REFERENCE = sp.Matrix(
     [
         [-(s - 1) / (s + 2), 0, 0],

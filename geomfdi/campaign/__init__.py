@@ -3,6 +3,10 @@
 * :mod:`~geomfdi.campaign.spec` -- :class:`Scenario`, :class:`Uncertainty`.
 * :mod:`~geomfdi.campaign.runner` -- :class:`Campaign` (blocks, executors, seeds).
 * :mod:`~geomfdi.campaign.result` -- :class:`CampaignResult` (table, summary, curves).
+
+Layer: above simulation and evaluation.  It may import :mod:`geomfdi.model`,
+:mod:`geomfdi.simulation`, :mod:`geomfdi.evaluation`, :mod:`geomfdi.io` (scenario files)
+and, inside functions, :mod:`geomfdi.plotting`; never the synthesis.
 """
 
 from geomfdi.campaign.result import CampaignResult

@@ -7,6 +7,8 @@
   faults: ``gf.three_tank_model()``.
 * :mod:`~geomfdi.data.flight_actuators` -- the flight-actuator case study of Varga (2017),
   chapter 8 (data of FaultDetectionTools.jl, MIT licence): ``gf.flight_actuator_case_study()``.
+
+Layer: beside the model.  It may import :mod:`geomfdi.model` and the base modules only.
 """
 
 from geomfdi.data.aircraft import aircraft_model

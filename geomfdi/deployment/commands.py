@@ -208,7 +208,7 @@ def codegen_files(
     continuous) in ``lang`` (``"c"`` or ``"python"``) to ``out``."""
     from geomfdi.deployment import codegen
     from geomfdi.errors import NotDiscreteError
-    from geomfdi.synthesis.discretize import discretize_bank
+    from geomfdi.generators.discretize import discretize_bank
 
     if bank.dt <= 0:
         if dt is None:

@@ -32,7 +32,7 @@ from geomfdi.deployment.program import Program, as_bank, build_program, check_in
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.evaluation.decision import AMBIGUOUS, MULTIPLE, NO_ALARM, UNEXPLAINED
 from geomfdi.evaluation.persistence import Persistence
-from geomfdi.synthesis.bankfile import _enc_float, _write, bank_to_dict, encode
+from geomfdi.generators.bankfile import _enc_float, _write, bank_to_dict, encode
 
 __all__ = ["Monitor", "MonitorStep", "MonitorOutput"]
 

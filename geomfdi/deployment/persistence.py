@@ -1,5 +1,5 @@
 """Loading banks and monitors from their versioned JSON files (``gf.load_bank``,
-``gf.load_monitor``); the schema and the writers are in :mod:`geomfdi.synthesis.bankfile`.
+``gf.load_monitor``); the schema and the writers are in :mod:`geomfdi.generators.bankfile`.
 
 Every problem with a file raises :class:`~geomfdi.errors.BankFileError` naming the file
 and what is wrong; a file from a newer schema raises its subclass
@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import BankFileError, GeomFDIError
-from geomfdi.synthesis.bankfile import (
+from geomfdi.generators.bankfile import (
     _BANK_KEYS,
     _GEN_KEYS,
     SCHEMA,
@@ -30,7 +30,7 @@ from geomfdi.synthesis.bankfile import (
     fault_from_dict,
     save_bank,
 )
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 
 __all__ = [
     "SCHEMA",

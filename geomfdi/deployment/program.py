@@ -41,7 +41,7 @@ from geomfdi.deployment._lti import (
     schur_form,
 )
 from geomfdi.errors import GeomFDIError, ShapeError
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 
 __all__ = ["Program", "build_program", "as_bank", "check_initial", "initial_state", "run_program"]
 

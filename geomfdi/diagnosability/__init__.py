@@ -9,6 +9,9 @@
 * figures in :mod:`geomfdi.plotting.diagnosability`.
 
 See the user guide, *Theory: diagnosability* (``docs/theory/diagnosability.md``).
+
+Layer: a side branch on the model.  It may import :mod:`geomfdi.model`, the base
+modules and, inside functions, :mod:`geomfdi.plotting`.
 """
 
 from geomfdi.diagnosability.bank import (

@@ -6,6 +6,9 @@
 * :mod:`~geomfdi.evaluation.covariance` -- residual noise covariance (Stein equation).
 * :mod:`~geomfdi.evaluation.statistics` -- windowed chi-square, CUSUM, GLR tests.
 * :mod:`~geomfdi.evaluation.roc` -- ROC curves and binomial intervals.
+
+Layer: beside simulation, on residuals as arrays.  It may import :mod:`geomfdi.model`
+and the base modules; never generators, synthesis or simulation.
 """
 
 from geomfdi.evaluation.covariance import (

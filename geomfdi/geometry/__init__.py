@@ -7,6 +7,9 @@
 * :mod:`~geomfdi.geometry.unobservability` -- S*, the minimal unobservability subspace
   (Algorithm 2).
 * :mod:`~geomfdi.geometry.exact` -- the same algorithms in exact rational arithmetic (sympy).
+
+Layer: directly on the base modules (``errors``, ``tolerance``, ``_validation``); it
+imports no other subpackage.
 """
 
 from geomfdi.geometry.conditioned_invariant import (

@@ -1,9 +1,9 @@
-"""W*: the minimal (C, A)-conditioned invariant containing L (seed 001, Algorithm 1).
+"""W*: the minimal (C, A)-conditioned invariant containing L (Hou, Wen & Chen 2011, Algorithm 1).
 
 A subspace W is (C, A)-*conditioned invariant* when ``A (W ∩ Ker C) ⊆ W``; equivalently
 there is an output injection D (a *friend* of W) with ``(A + D C) W ⊆ W``.  The
 intersection of all conditioned invariants containing L is again one, W*, computed by
-(seed 001, eq. 14)::
+(Hou, Wen & Chen 2011, eq. 14)::
 
     Z_0 = L,    Z_k = L + A (Z_{k-1} ∩ Ker C),    stop when dim Z_k stops growing.
 """
@@ -147,7 +147,7 @@ def min_conditioned_invariant(A: Any, C: Any, L: Any, *, exact: bool = False) ->
 
     Notes
     -----
-    Seed 001, Algorithm 1 (eq. 14)::
+    Hou, Wen & Chen 2011, Algorithm 1 (eq. 14)::
 
         Z_0 = L,   Z_k = L + A (Z_{k-1} ∩ Ker C)
 
@@ -199,7 +199,7 @@ def min_conditioned_invariant(A: Any, C: Any, L: Any, *, exact: bool = False) ->
 
 
 def is_conditioned_invariant(A: Any, C: Any, W: Any) -> bool:
-    """True when ``A (W ∩ Ker C) ⊆ W`` (Definition 2 of seed 001)."""
+    """True when ``A (W ∩ Ker C) ⊆ W`` (Definition 2 of Hou, Wen & Chen 2011)."""
     A, C = _check_AC(A, C)
     W = _as_subspace(W, A.shape[0], "W")
     return _maps_into(A, intersect_kernel(W, C).basis, W.basis, "A (W ∩ Ker C) ⊆ W")
@@ -218,7 +218,7 @@ def _maps_into(M: np.ndarray, X: np.ndarray, Y: np.ndarray, what: str) -> bool:
 
 
 def friend(A: Any, C: Any, S: Any) -> np.ndarray:
-    """One output injection D0 with ``(A + D0 C) S ⊆ S`` (math.md §4).
+    """One output injection D0 with ``(A + D0 C) S ⊆ S`` (Hou, Wen & Chen 2011, §3.4).
 
     ``D0 = −Q Qᵀ A S (C S)⁺`` with Q an orthonormal basis of S^⊥; it exists iff S is
     (C, A)-conditioned invariant (then ``Qᵀ (A + D0 C) S = Qᵀ A S (I − (CS)⁺ CS) = 0``).

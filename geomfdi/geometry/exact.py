@@ -261,7 +261,9 @@ def _symbolic(*values: Any) -> bool:
 
 
 def min_conditioned_invariant(A: Any, C: Any, L: Any) -> ExactSubspace:
-    """W* in exact arithmetic: ``Z_0 = L, Z_k = L + A(Z_{k-1} ∩ Ker C)`` (seed 001, eq. 14).
+    """W* in exact arithmetic: ``Z_0 = L, Z_k = L + A(Z_{k-1} ∩ Ker C)``.
+
+    Hou, Wen & Chen (2011), eq. 14.
 
     With symbols in the data: generic W* over the rational functions of the parameters,
     with ``exceptional`` (module docstring).
@@ -291,7 +293,7 @@ def min_unobservability_subspace(A: Any, C: Any, L: Any) -> ExactSubspace:
 
     Examples
     --------
-    Seed 001, §4: S* of the signatures ``L_2, L_3`` is spanned by e1 and e3.
+    Hou, Wen & Chen 2011, §4: S* of the signatures ``L_2, L_3`` is spanned by e1 and e3.
 
     >>> import geomfdi as gf
     >>> A = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]

@@ -6,7 +6,7 @@ of rational functions of the parameters: every rank is the **generic** rank, the
 all parameter values except those on an algebraic set.  Each elimination records its pivots;
 the irreducible factors of their numerators and denominators are the candidates for that
 **exceptional set** (where a pivot vanishes a rank may drop).  Candidates are confirmed by
-the callers (see :mod:`geomfdi.synthesis.exact_design`), who redo the computation on the
+the callers (see :mod:`geomfdi.synthesis.exact.design`), who redo the computation on the
 specialised family.
 
 Arithmetic uses sympy's sparse polynomial fields (``QQ.frac_field``): far faster than

@@ -1,4 +1,4 @@
-"""Subspace algebra on orthonormal bases (math.md §3).
+"""Subspace algebra on orthonormal bases (``docs/theory/geometric-approach.md``).
 
 Every subspace of R^n is stored as an orthonormal basis (n x k) obtained from an SVD.
 Each operation is a small function, in the manner of the Basile–Marro toolbox
@@ -256,7 +256,7 @@ def intersect_kernel(S: Subspace, C: np.ndarray) -> Subspace:
 
 
 def preimage_in_kernel(A: np.ndarray, S: Subspace, C: np.ndarray) -> Subspace:
-    """``A⁻¹(S) ∩ Ker C`` = null([Q_⊥ᵀ A / ||A||; C / ||C||]) (math.md §3)."""
+    """``A⁻¹(S) ∩ Ker C`` = null([Q_⊥ᵀ A / ||A||; C / ||C||]) ."""
     n = A.shape[0]
     Qp = S.complement().basis
     na, nc = _norm2(A) or 1.0, _norm2(C) or 1.0

@@ -1,14 +1,14 @@
-"""S*: the minimal unobservability subspace containing L (seed 001, Algorithm 2).
+"""S*: the minimal unobservability subspace containing L (Hou, Wen & Chen 2011, Algorithm 2).
 
 An *unobservability subspace* (UOS) of (C, A) is ``S = <Ker HC | A + DC>``, the largest
 ``(A + DC)``-invariant subspace in ``Ker HC`` for some output injection D and
-measurement mixing H (seed 001, Definition 3).  The minimal one containing L is
-(seed 001, eq. 15, with the typo "S* = Z_{k+1}" corrected to the limit)::
+measurement mixing H (Hou, Wen & Chen 2011, Definition 3).  The minimal one containing L is
+(Hou, Wen & Chen 2011, eq. 15, with the typo "S* = Z_{k+1}" corrected to the limit)::
 
     Z_0 = R^n,    Z_k = W* + (A⁻¹ Z_{k-1}) ∩ Ker C,    stop when dim Z_k stops shrinking
 
 with W* from :func:`geomfdi.min_conditioned_invariant`.  The residual generator of a
-fault j decoupled from L exists iff ``Im L_j ⊄ S*`` (math.md §3).
+fault j decoupled from L exists iff ``Im L_j ⊄ S*`` (``docs/theory/geometric-approach.md``).
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ def min_unobservability_subspace(
 
     Notes
     -----
-    Seed 001, Algorithm 2 (eq. 15)::
+    Hou, Wen & Chen 2011, Algorithm 2 (eq. 15)::
 
         Z_0 = R^n,   Z_k = W* + (A⁻¹ Z_{k-1}) ∩ Ker C
 
@@ -160,7 +160,7 @@ def _project_out(Y: np.ndarray, W: np.ndarray) -> np.ndarray:
 def measurement_map(C: Any, S: Any) -> np.ndarray:
     """H with ``Ker(H C) = Ker C + S``: rows = orthonormal basis of ``Im C ⊖ C S``.
 
-    (seed 001, step 3.4 (2)①; math.md §4).  May have zero rows (then no residual exists).
+    (Hou, Wen & Chen 2011, step 3.4 (2)①).  May have zero rows (then no residual exists).
     """
     C = as_matrix(C, "C", vector_as="row")
     S = _as_subspace(S, C.shape[1], "S")
@@ -179,7 +179,7 @@ def max_invariant_in(A: Any, K: Subspace, *, scale: float | None = None) -> Subs
         V_0 = K^⊥,   V_{k+1} = K^⊥ + Aᵀ V_k,   <K | A> = V_∞^⊥
 
     since ``(A⁻¹ V)^⊥ = Aᵀ V^⊥``.  Only images are formed, and each sum is rank-decided on
-    ``[Q_{K^⊥}, Aᵀ Q_V / ||A||]`` (the un-normalised product, math.md §3).  The primal
+    ``[Q_{K^⊥}, Aᵀ Q_V / ||A||]`` (the un-normalised product).  The primal
     recursion ``V_{k+1} = K ∩ A⁻¹ V_k`` amplifies rounding by ``1 / σ_min`` of the
     restricted map and loses invariant directions when A is nearly singular.
 
@@ -215,7 +215,7 @@ def unobservable_subspace(A: Any, C: Any) -> Subspace:
 def is_unobservability_subspace(A: Any, C: Any, S: Any) -> bool:
     """True when S is a (C, A)-unobservability subspace.
 
-    Checked from Definition 3 of seed 001 directly: S must be conditioned invariant;
+    Checked from Definition 3 of Hou, Wen & Chen 2011 directly: S must be conditioned invariant;
     with a friend D0 and H from :func:`measurement_map`, S must equal the largest
     ``(A + D0 C)``-invariant subspace in ``Ker(H C)``.
 

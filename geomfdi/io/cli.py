@@ -46,9 +46,9 @@ from geomfdi.io.figures import (
 )
 
 if TYPE_CHECKING:
+    from geomfdi.generators.generator import ResidualBank
     from geomfdi.io.modelfile import ModelSpec
     from geomfdi.model.plant import Plant
-    from geomfdi.synthesis.generator import ResidualBank
 
 # The model file reader, the report and the design stack are imported where they are
 # used: ``geomfdi run`` starts its figure worker first, which then loads matplotlib

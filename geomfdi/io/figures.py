@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:  # (not loaded: the figure worker starts before the design stack)
-    from geomfdi.synthesis.generator import ResidualBank
+    from geomfdi.generators.generator import ResidualBank
 
 __all__ = ["decimate_minmax", "FIGURE_DPI", "FIGURE_COLUMNS"]
 

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.synthesis.generator import ResidualBank
+from geomfdi.generators.generator import ResidualBank
 
 
 def _bank_json(bank: ResidualBank) -> dict[str, Any]:

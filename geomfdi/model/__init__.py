@@ -2,6 +2,10 @@
 
 * :mod:`~geomfdi.model.plant` -- :class:`Plant` (A, B, C, D, disturbances, sampling period).
 * :mod:`~geomfdi.model.faults` -- :class:`SensorFault`, :class:`ActuatorFault`, :class:`Fault`.
+
+Layer: the bottom (after the base modules).  It may import :mod:`geomfdi.geometry`
+and :mod:`geomfdi.generators` only inside functions (parametric plants substitute their
+parameters with the helpers there).
 """
 
 from geomfdi.model.faults import ActuatorFault, Fault, SensorFault, fault_matrices

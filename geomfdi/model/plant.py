@@ -1,4 +1,7 @@
-"""The plant model: ``x' = A x + B u + Bd d``, ``y = C x + D u + Dd d`` (math.md §1)."""
+"""The plant model: ``x' = A x + B u + Bd d``, ``y = C x + D u + Dd d``.
+
+The model of Hou, Wen & Chen (2011), §2, with the disturbance and feedthrough terms.
+"""
 
 from __future__ import annotations
 
@@ -46,6 +49,8 @@ class Plant:
     Parameters
     ----------
     A : array_like, (n, n)
+        ``np.zeros((0, 0))`` for a static plant (n = 0, ``C`` of shape (q, 0)), accepted by
+        the structure analyses (:func:`~geomfdi.achievable_structures`).
     B : array_like, (n, m) or None
         ``None`` means no known input (``m = 0``).
     C : array_like, (q, n)
@@ -95,11 +100,22 @@ class Plant:
         if _has_symbols(A, B, C, D, Bd, Dd):
             self._init_parametric(A, B, C, D, Bd, Dd, dt)
             return
-        self.A = as_matrix(A, "A", square=True)
+        self.A = as_matrix(A, "A", square=True, allow_empty=True)
         n = self.A.shape[0]
         if C is None:
             raise GeomFDIError("C: the output matrix is required", argument="C")
-        self.C = as_matrix(C, "C", cols=n, vector_as="row")
+        # a static plant (n = 0, ``A = np.zeros((0, 0))``) has C of shape (q, 0)
+        if n == 0 and np.shape(C)[-1:] != (0,):
+            raise ShapeError(
+                f"A: must not be empty when C has columns (a static plant has C of shape "
+                f"(q, 0)), got A of shape {self.A.shape}",
+                argument="A",
+            )
+        self.C = as_matrix(C, "C", cols=n, vector_as="row", allow_empty=n == 0)
+        if self.C.shape[0] == 0:
+            raise ShapeError(
+                f"C: must have at least one row, got shape {self.C.shape}", argument="C"
+            )
         q = self.C.shape[0]
         if B is None:
             self.B = np.zeros((n, 0))
@@ -182,7 +198,7 @@ class Plant:
         """
         if not self.is_parametric:
             return self
-        from geomfdi.synthesis.exact_generator import _subs_values
+        from geomfdi.generators.exact import _subs_values
 
         vals = _subs_values(self.parameters, values)
         out = []
@@ -352,7 +368,19 @@ def _require_numeric(plant: Plant, name: str) -> None:
         )
 
 
-def as_plant(plant: Any, name: str = "plant", *, parametric: bool = False) -> Plant:
+def _require_states(plant: Plant, name: str, static: bool) -> Plant:
+    if plant.n == 0 and not static:
+        raise GeomFDIError(
+            f"{name}: a static plant (n = 0) is accepted by the structure analyses "
+            "(achievable_structures, structure_orders, isolability_analysis) only",
+            argument=name,
+        )
+    return plant
+
+
+def as_plant(
+    plant: Any, name: str = "plant", *, parametric: bool = False, static: bool = False
+) -> Plant:
     """Return ``plant`` as a :class:`Plant`; a python-control ``StateSpace`` is converted.
 
     Every public function that takes a plant accepts either form (the ``StateSpace`` inputs
@@ -361,21 +389,24 @@ def as_plant(plant: Any, name: str = "plant", *, parametric: bool = False) -> Pl
 
     ``parametric=True`` also accepts a plant with symbolic parameters (for the exact
     functions); otherwise such a plant is refused with a message asking for ``subs``.
+    ``static=True`` also accepts a static plant (n = 0; the structure analyses such as
+    :func:`~geomfdi.achievable_structures`); otherwise it is refused.
 
     Raises
     ------
     GeomFDIError
-        Naming ``name`` when ``plant`` is neither (or is parametric where numbers are needed).
+        Naming ``name`` when ``plant`` is neither (or is parametric where numbers are needed,
+        or static where states are needed).
     """
     if isinstance(plant, Plant):
         if not parametric:
             _require_numeric(plant, name)
-        return plant
+        return _require_states(plant, name, static)
     if type(plant).__module__.split(".")[0] == "control":
         import control
 
         if isinstance(plant, control.StateSpace):
-            return Plant.from_statespace(plant)
+            return _require_states(Plant.from_statespace(plant), name, static)
     raise GeomFDIError(
         f"{name}: expected a gf.Plant or control.StateSpace, got {type(plant).__name__}",
         argument=name,

@@ -10,6 +10,10 @@ baselines on the same innovations (chi-square, CUSUM, GLR of the mean, joint T^2
 * the figure in :mod:`geomfdi.plotting.monitoring`.
 
 See the user guide, *Theory: AR monitoring* (``docs/theory/ar-monitoring.md``).
+
+Layer: a side branch on innovations as arrays.  It may import the base modules,
+:mod:`geomfdi.simulation` (Kalman-filter innovations of a plant) and, inside functions,
+:mod:`geomfdi.plotting`.
 """
 
 from geomfdi.monitoring.baselines import (

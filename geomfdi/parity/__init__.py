@@ -4,11 +4,15 @@
 * :mod:`~geomfdi.parity.glt`, :mod:`~geomfdi.parity.opt`, :mod:`~geomfdi.parity.multiple`
   -- the statistics; :mod:`~geomfdi.parity.decision` -- per-sample decisions;
 * :mod:`~geomfdi.parity.capability` -- isolation capability of a configuration;
-* :mod:`~geomfdi.parity.montecarlo`, :mod:`~geomfdi.parity.seed004` -- Monte-Carlo rates;
+* :mod:`~geomfdi.parity.montecarlo`, :mod:`~geomfdi.parity.dodecahedron_experiment` --
+  Monte-Carlo rates (the dodecahedron experiment of Qin & Niu 1999);
 * :mod:`~geomfdi.parity.configs` -- sensor configurations (dodecahedron, cones, ...);
 * figures in :mod:`geomfdi.plotting.parity`.
 
 See the user guide, *Theory: parity space* (``docs/theory/parity-space.md``).
+
+Layer: a side branch on measurements as arrays.  It may import the base modules and,
+inside functions, :mod:`geomfdi.plotting`.
 """
 
 from geomfdi.parity.configs import (
@@ -23,6 +27,7 @@ from geomfdi.parity.configs import (
     tetrahedron,
 )
 from geomfdi.parity.decision import METHODS
+from geomfdi.parity.dodecahedron_experiment import seed004_experiment
 from geomfdi.parity.estimation import FaultEstimate, StateEstimate, estimate_faults, estimate_state
 from geomfdi.parity.model import ParityFDI
 from geomfdi.parity.montecarlo import (
@@ -41,7 +46,6 @@ from geomfdi.parity.results import (
     RateEstimate,
     Seed004Result,
 )
-from geomfdi.parity.seed004 import seed004_experiment
 from geomfdi.parity.sequential import (
     SEQUENTIAL_METHODS,
     calibrate_sequential,

@@ -3,13 +3,14 @@
 The implementation is split by concept: :mod:`~geomfdi.parity.model` (the
 :class:`ParityFDI` object), :mod:`~geomfdi.parity.glt`, :mod:`~geomfdi.parity.opt`,
 :mod:`~geomfdi.parity.multiple`, :mod:`~geomfdi.parity.decision`,
-:mod:`~geomfdi.parity.montecarlo`, :mod:`~geomfdi.parity.seed004`,
+:mod:`~geomfdi.parity.montecarlo`, :mod:`~geomfdi.parity.dodecahedron_experiment`,
 :mod:`~geomfdi.parity.results`, :mod:`~geomfdi.parity.thresholds`, and the figures in
 :mod:`geomfdi.plotting.parity`.
 """
 
 from geomfdi.parity.configs import MAGIC_HALF_ANGLE, cone, dodecahedron, tetrahedron
 from geomfdi.parity.decision import METHODS
+from geomfdi.parity.dodecahedron_experiment import seed004_experiment
 from geomfdi.parity.model import ParityFDI
 from geomfdi.parity.montecarlo import (
     correct_isolation_rate,
@@ -25,7 +26,6 @@ from geomfdi.parity.results import (
     RateEstimate,
     Seed004Result,
 )
-from geomfdi.parity.seed004 import seed004_experiment
 from geomfdi.parity.thresholds import chi2_threshold, normal_threshold, opt_false_alarm_bound
 from geomfdi.plotting.parity import plot_rates
 

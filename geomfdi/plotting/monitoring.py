@@ -5,7 +5,7 @@ See the user guide, *Theory: AR monitoring* (``docs/theory/ar-monitoring.md``).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -16,13 +16,23 @@ if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from geomfdi.monitoring.results import ARMonitorResult
-
 __all__ = ["plot_ar_monitor"]
 
 
+class ARMonitorResultLike(Protocol):
+    """What the figure reads of an :class:`~geomfdi.monitoring.results.ARMonitorResult`
+    (the result calls this function from its ``plot`` method; this module does not import
+    the result's module back)."""
+
+    statistic: np.ndarray
+    alarm: np.ndarray
+    valid: np.ndarray
+    restarted: np.ndarray
+    threshold: float
+
+
 def plot_ar_monitor(
-    result: ARMonitorResult,
+    result: ARMonitorResultLike,
     *,
     time: Any = None,
     row: int = 0,

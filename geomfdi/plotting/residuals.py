@@ -176,7 +176,7 @@ def plot_structure(
     """
     from matplotlib.patches import Rectangle
 
-    from geomfdi.synthesis.generator import ResidualBank
+    from geomfdi.generators.generator import ResidualBank
 
     if isinstance(structure, ResidualBank):
         bank = structure

@@ -13,6 +13,10 @@
 * :mod:`~geomfdi.simulation.simulate`, :mod:`~geomfdi.simulation.batch`,
   :mod:`~geomfdi.simulation.results` -- ``simulate``, ``simulate_batch`` and their results.
 * :mod:`~geomfdi.simulation.calibration` -- thresholds from noise-only simulations.
+
+Layer: above :mod:`geomfdi.generators`.  It may import :mod:`geomfdi.model`,
+:mod:`geomfdi.generators`, :mod:`geomfdi.evaluation` and, inside functions,
+:mod:`geomfdi.plotting`; never the synthesis.
 """
 
 from geomfdi.simulation.batch import simulate_batch

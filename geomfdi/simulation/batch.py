@@ -14,6 +14,7 @@ from geomfdi.evaluation.decision import (
     as_threshold,
 )
 from geomfdi.evaluation.persistence import as_persistence
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.limits import check_allocation, check_runs
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.context import (
@@ -40,7 +41,6 @@ from geomfdi.simulation.simulate import (
     noise_window,
 )
 from geomfdi.simulation.streaming import DecisionStream, RunSummary, chunk_plan, time_chunks
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
 
 @limit_blas_threads

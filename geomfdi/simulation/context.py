@@ -18,11 +18,11 @@ import scipy.linalg
 
 from geomfdi._validation import as_bool, as_choice, as_matrix, as_real_array
 from geomfdi.errors import GeomFDIError, NonFiniteError, ShapeError
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.discretization import HOLDS, Discretization, discretize, uniform_step
 from geomfdi.simulation.noise import Noise
 from geomfdi.simulation.schedule import FaultSchedule, input_channels
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
 
 @dataclass

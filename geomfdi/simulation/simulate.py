@@ -128,6 +128,7 @@ from geomfdi.evaluation.decision import (
     detection_events,
 )
 from geomfdi.evaluation.persistence import as_persistence
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.closed_loop import FeedbackRuns, split_actuator_faults
 from geomfdi.simulation.context import (
@@ -149,7 +150,6 @@ from geomfdi.simulation.results import (
 from geomfdi.simulation.schedule import FaultSchedule, fault_schedule, structure_columns
 from geomfdi.simulation.signals import FaultSignal
 from geomfdi.simulation.streaming import DecisionStream, chunk_plan, time_chunks
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
 
 def noise_streams(ctx: Context, rngs: list[np.random.Generator | None]) -> list[NoiseStream] | None:

@@ -8,19 +8,19 @@ Steps for a row that must see ``target`` and ignore ``decouple`` (and every dist
    runs on ``(D⁻¹ A D, D⁻¹ [B Bd Bf], C D)``; the delivered generator reads y and u
    only and needs no change (``info["P"]`` is mapped back).
 2. **Quotient** by S* of the model with decoupled feedthrough made states
-   (:func:`geomfdi.synthesis.least_order.quotient_model`).
-3. **Least-order row** (:func:`geomfdi.synthesis.least_order.least_order_row`), with
+   (:func:`geomfdi.synthesis.least_order.search.quotient_model`).
+3. **Least-order row** (:func:`geomfdi.synthesis.least_order.search.least_order_row`), with
    the certificate in ``info["least_order"]``.
 4. **Realisation**, tried in turn until one passes the checks: the partial-fraction
    functional observer (default poles scaled by ``RETRY_SCALES``) and the quotient
    observer with a Riccati stability-degree injection
-   (:mod:`geomfdi.synthesis.quotient_observer`, degrees relaxed by
-   :data:`geomfdi.synthesis.injection.RELAX`); a row of least order k > ``INJECT_FIRST``
+   (:mod:`geomfdi.synthesis.least_order.quotient_observer`, degrees relaxed by
+   :data:`geomfdi.synthesis.least_order.injection.RELAX`); a row of least order k > ``INJECT_FIRST``
    (the whole quotient) tries the quotient observer first.  ``info["realisation"]`` names
    the one delivered; a delivered order above the least order is stated in
    ``info["least_order"]["statement"]``.
 5. **Checks** on the physical (unbalanced) plant: relative gain from every fault
-   (:mod:`geomfdi.synthesis.gains`); a decoupled signal above the leakage angle
+   (:mod:`geomfdi.generators.gains`); a decoupled signal above the leakage angle
    ``ANGLE_TOL`` or a construction identity above ``IDENTITY_TOL`` makes the attempt a
    numerical failure.
 6. **Strong detectability**: a least-order row that sees a target with a DC gain below
@@ -36,14 +36,17 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import NotIsolableError
+from geomfdi.generators.gains import LEAK_TOL, Composite, PlantFactor, _gains, frequency_gains
+from geomfdi.generators.generator import ResidualGenerator
 from geomfdi.geometry.balancing import state_scaling
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.construction import IDENTITY_TOL, _NumericalDesignError
-from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, _gains, frequency_gains
-from geomfdi.synthesis.generator import ResidualGenerator
-from geomfdi.synthesis.injection import RELAX
-from geomfdi.synthesis.least_order import (
+from geomfdi.synthesis.least_order.injection import RELAX
+from geomfdi.synthesis.least_order.orthonormal_row import orthonormal_row
+from geomfdi.synthesis.least_order.quotient import adaptive_quotient_model
+from geomfdi.synthesis.least_order.quotient_observer import quotient_observer_row
+from geomfdi.synthesis.least_order.search import (
     NU_PF_MAX,
     LeastOrderRow,
     Quotient,
@@ -52,9 +55,6 @@ from geomfdi.synthesis.least_order import (
     parity_basis_row,
     realise_on_plant,
 )
-from geomfdi.synthesis.orthonormal import orthonormal_row
-from geomfdi.synthesis.quotient import adaptive_quotient_model
-from geomfdi.synthesis.quotient_observer import quotient_observer_row
 from geomfdi.synthesis.strength import reference_sizes, strength_frequencies
 from geomfdi.tolerance import get_rtol
 
@@ -430,7 +430,7 @@ def build_least_order(
     functional observer with the default poles scaled by ``RETRY_SCALES`` (the parity
     space and the order do not depend on the poles; the conditioning of the basis
     does), and the quotient observer with the Riccati injection at the stability degrees
-    relaxed by :data:`geomfdi.synthesis.injection.RELAX`.  The first that passes the
+    relaxed by :data:`geomfdi.synthesis.least_order.injection.RELAX`.  The first that passes the
     checks on the physical plant is delivered; ``info["realisation"]`` names it and
     ``info["least_order"]`` states the least order and the delivered one.
 

@@ -1,12 +1,12 @@
 """The full-quotient observer: (F, E, G, M, H, K) from S* (Hou, Wen & Chen 2011, §3.4).
 
 This is the construction behind ``method="full"``, ``"paper"`` and ``"mvw"``; the default
-least-order rows are in :mod:`geomfdi.synthesis.least_order`.  See the user guide,
+least-order rows are in :mod:`geomfdi.synthesis.least_order.search`.  See the user guide,
 *Theory: the geometric approach* (``docs/theory/geometric-approach.md``).
 
 For a residual that must see the faults ``target`` and ignore ``decouple`` (and every
 disturbance), with S = S*(Σ_{i∈decouple} Im L_i + Im L_d) on the design model of
-:mod:`geomfdi.synthesis.transforms`, Q an orthonormal basis of S^⊥ and P = Qᵀ::
+:mod:`geomfdi.synthesis.sensor_transforms`, Q an orthonormal basis of S^⊥ and P = Qᵀ::
 
     D0 = −Q Qᵀ A S (C S)⁺              P (A + D0 C) S = 0
     H  = orthonormal rows of Im C ⊖ C S  Ker H C = Ker C + S
@@ -18,7 +18,7 @@ giving ``w' = F w − E y + G u, r = M w − H y + K u`` with the identities
 ``F P = P A + E C``, ``M P = H C`` checked on every design, so that ``e = w − P x``
 obeys ``e' = F e − P L m`` and ``r = M e``.
 
-Beyond the construction of math.md §4:
+Beyond the construction of Hou, Wen & Chen 2011 (§3.4, eq. 17–23):
 
 * **Parity rows.**  With redundant sensors (rank C < q, e.g. a zero or a repeated row
   of C) a target's direct output part can be read by static relations ``N y``,
@@ -48,16 +48,16 @@ import scipy.linalg
 
 from geomfdi._validation import as_positive, as_sequence_of
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError
+from geomfdi.generators.gains import LEAK_TOL, PlantFactor, fault_gains
+from geomfdi.generators.generator import ResidualGenerator
+from geomfdi.generators.realization import minimal_realization, reachable_subspace
 from geomfdi.geometry.subspace import Subspace, _norm2, pinv
 from geomfdi.geometry.unobservability import measurement_map, min_unobservability_subspace
 from geomfdi.model.faults import Fault
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.synthesis.gains import LEAK_TOL, PlantFactor, fault_gains
-from geomfdi.synthesis.generator import ResidualGenerator
-from geomfdi.synthesis.least_order import validate_poles
-from geomfdi.synthesis.placement import place_poles
-from geomfdi.synthesis.realization import minimal_realization, reachable_subspace
-from geomfdi.synthesis.transforms import DesignModel, pseudo_actuator_model
+from geomfdi.synthesis.least_order.placement import place_poles
+from geomfdi.synthesis.least_order.search import validate_poles
+from geomfdi.synthesis.sensor_transforms import DesignModel, pseudo_actuator_model
 from geomfdi.tolerance import rank_decision
 
 __all__ = ["build_full", "default_margin", "IDENTITY_TOL"]
@@ -205,7 +205,7 @@ def _place(
     coordinates only moves eig(T22) and keeps eig(T11).  Default: T22's eigenvalues are
     mirrored across the margin (:func:`_mirror_gain`, the minimum-norm choice; far
     better conditioned than pushing them onto the margin line).  Requested poles: the
-    Schur method of :func:`geomfdi.synthesis.placement.place_poles` on the whole
+    Schur method of :func:`geomfdi.synthesis.least_order.placement.place_poles` on the whole
     quotient.  The computed spectrum is checked afterwards; a placement that misses it
     (a high-order quotient observed through few outputs is intrinsically
     ill-conditioned) raises.
@@ -331,11 +331,11 @@ def _construct(
     A, B, C, Du = model.A, model.B, model.C, model.Du
     Q = S.complement().basis
     P = Q.T
-    # D0 = −Q Qᵀ A S (C S)⁺ (math.md §4).  Whether S is conditioned invariant is judged
-    # by the identity P (A + D0 C) S = 0 checked below, relative to the data's norms,
-    # not by the subspace-membership test of ``friend``, whose rank decision on
-    # A (S ∩ Ker C) can be close for large n although S* itself was decided with a
-    # wide gap.
+    # D0 = −Q Qᵀ A S (C S)⁺ (``docs/theory/geometric-approach.md``).  Whether S is
+    # conditioned invariant is judged by the identity P (A + D0 C) S = 0 checked below,
+    # relative to the data's norms, not by the subspace-membership test of ``friend``,
+    # whose rank decision on A (S ∩ Ker C) can be close for large n although S* itself
+    # was decided with a wide gap.
     if S.dim < model.n:
         Sb = S.basis
         D0 = -Q @ (Q.T @ A @ Sb @ pinv(C @ Sb, _norm2(C), what="(C S)⁺"))
@@ -677,7 +677,8 @@ def build_full(
             why = [
                 f"fault {j}: not seen by the paper-method residual: its transfer is "
                 f"identically zero on the physical model (relative gain {gains[j]:.2g}), "
-                "although the pseudo-actuator model sees it (math.md Erratum 2)"
+                "although the pseudo-actuator model sees it (Hou, Wen & Chen 2011, erratum 2 "
+                "in docs/theory/errata.md)"
                 for j in unseen
             ]
         else:

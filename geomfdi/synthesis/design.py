@@ -4,7 +4,7 @@ See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.m
 *Theory: the geometric approach* (``docs/theory/geometric-approach.md``).
 
 ``method="exact"`` (default) delivers, per row, one **scalar residual of least order**
-(:mod:`geomfdi.synthesis.least_order`, :mod:`geomfdi.synthesis.build`): order 0 (a static
+(:mod:`geomfdi.synthesis.least_order.search`, :mod:`geomfdi.synthesis.build`): order 0 (a static
 parity relation) where redundant sensors allow it, otherwise the smallest order of any
 proper residual that sees every target and ignores the rest, with a certificate.
 ``method="full"`` keeps the full-quotient observer of the geometric construction (the
@@ -16,8 +16,8 @@ construction.
 Defaults relative to the plant: the default poles of a least-order row are distinct, real
 and geometrically spread over ``[−10ω, −ω/10]`` (continuous; ω the plant's time scale, the
 geometric mean of the moduli of A's non-zero eigenvalues, at least its fastest unstable
-one, see
-:func:`geomfdi.synthesis.least_order.plant_scale`) or ``[0.001, 0.93]`` (discrete).
+one, see :func:`geomfdi.synthesis.least_order.poles.plant_scale`) or ``[0.001, 0.93]``
+(discrete).
 A row is reported ``"weak"`` when the DC gain from a target is below ``FD_GAIN_TOL``
 times the largest gain from any fault over frequency (strong detectability), never
 ``"ok"``.
@@ -25,6 +25,7 @@ times the largest gain from any fault over frequency (strong detectability), nev
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -32,7 +33,16 @@ import numpy as np
 
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_bool, as_float, as_indices, as_real_array
-from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError, ShapeError
+from geomfdi.errors import (
+    DesignError,
+    GeomFDIError,
+    IsolabilityWarning,
+    NotIsolableError,
+    ShapeError,
+)
+from geomfdi.generators.gains import LEAK_TOL, PlantFactor
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator
+from geomfdi.generators.realization import minimal_realization
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.build import FD_GAIN_TOL, build_least_order, check_angles, weak_targets
@@ -44,13 +54,10 @@ from geomfdi.synthesis.construction import (
     checked_margin,
     checked_poles,
 )
-from geomfdi.synthesis.decisions import attach, close_note, record_design, summarise
-from geomfdi.synthesis.gains import LEAK_TOL, PlantFactor
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
-from geomfdi.synthesis.least_order import plant_scale
+from geomfdi.synthesis.least_order.poles import plant_scale
 from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
-from geomfdi.synthesis.realization import minimal_realization
-from geomfdi.synthesis.transforms import default_filter_pole, pseudo_actuator_model
+from geomfdi.synthesis.rank_decisions import attach, close_note, record_design, summarise
+from geomfdi.synthesis.sensor_transforms import default_filter_pole, pseudo_actuator_model
 
 __all__ = [
     "design_residual_generator",
@@ -211,13 +218,13 @@ def design_residual_generator(
         (closed under conjugation); a row of order ν uses the first ν (fewer raise a
         :class:`DesignError` naming the order).  Default: distinct real poles spread
         geometrically over ``[−10ω, −ω/10]`` (continuous, ω the plant's time scale:
-        :func:`geomfdi.synthesis.least_order.plant_scale`) or ``[0.001, 0.93]``
+        :func:`geomfdi.synthesis.least_order.poles.plant_scale`) or ``[0.001, 0.93]``
         (discrete).  Other methods: the spectrum of the quotient observer (its order).
     method : {"exact", "full", "paper", "mvw"}
         ``"exact"``: least-order scalar residual (exact decoupling, no output filter).
         ``"full"``: full-quotient observer with the output filter of the exact
         sensor-fault transform.  ``"paper"``, ``"mvw"``: the full-quotient observer on
-        those transforms (:mod:`geomfdi.synthesis.transforms`).
+        those transforms (:mod:`geomfdi.synthesis.sensor_transforms`).
     filter_pole : float, optional
         ``a`` of the output filter (``"full"``).
     margin : float, optional
@@ -247,8 +254,8 @@ def design_residual_generator(
     exact : bool
         Run the construction in exact arithmetic (rationals, or rational functions of the
         parameters of a parametric plant) and return an
-        :class:`~geomfdi.synthesis.exact_generator.ExactResidualGenerator`; see
-        :func:`geomfdi.synthesis.exact_design.design_bank_exact` (``margin`` and
+        :class:`~geomfdi.generators.exact.ExactResidualGenerator`; see
+        :func:`geomfdi.synthesis.exact.design.design_bank_exact` (``margin`` and
         ``minimal`` do not apply).
 
     Returns
@@ -301,9 +308,9 @@ def design_residual_generator(
             f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
             argument="residual_dim",
         )
-    # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
+    # --- exact / parametric design (geomfdi.synthesis.exact.design) ---
     if exact:
-        from geomfdi.synthesis.exact_design import exact_dispatch
+        from geomfdi.synthesis.exact.design import exact_dispatch
 
         return exact_dispatch(
             "residual",
@@ -414,6 +421,24 @@ def _joint_order(gens: list[ResidualGenerator | None]) -> int:
     return minimal_realization(F, B, C, np.zeros((len(present), q + m))).A.shape[0]
 
 
+def _warn_inseparable(req: np.ndarray, faults: Sequence[Fault]) -> None:
+    """:class:`~geomfdi.errors.IsolabilityWarning` when a structure of several rows gives
+    two requested faults identical columns (no residual of the bank separates them)."""
+    if req.shape[0] < 2:
+        return  # one row: fault detection, not isolation
+    from geomfdi.synthesis.specification.isolability import identical_columns
+
+    groups = identical_columns(req, [j for j in range(req.shape[1]) if req[:, j].any()])
+    if groups:
+        text = "; ".join(", ".join(f"{j} ({faults[j].name!r})" for j in g) for g in groups)
+        warnings.warn(
+            f"structure: identical columns for faults {text}: the bank cannot tell them "
+            "apart (gf.isolability_analysis suggests a structure that can)",
+            IsolabilityWarning,
+            stacklevel=4,  # the caller of design_bank (behind its BLAS-limit wrapper)
+        )
+
+
 @limit_blas_threads
 def design_bank(
     plant: Plant,
@@ -456,8 +481,8 @@ def design_bank(
         As in :func:`design_residual_generator`.
     exact : bool
         Exact / parametric design: returns an
-        :class:`~geomfdi.synthesis.exact_generator.ExactResidualBank` (see
-        :func:`geomfdi.synthesis.exact_design.design_bank_exact`).
+        :class:`~geomfdi.generators.exact.ExactResidualBank` (see
+        :func:`geomfdi.synthesis.exact.design.design_bank_exact`).
 
     Returns
     -------
@@ -482,9 +507,9 @@ def design_bank(
             "(method='exact', exact=False), not by the exact-arithmetic design",
             argument="residual_dim",
         )
-    # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
+    # --- exact / parametric design (geomfdi.synthesis.exact.design) ---
     if exact:
-        from geomfdi.synthesis.exact_design import exact_dispatch
+        from geomfdi.synthesis.exact.design import exact_dispatch
 
         return exact_dispatch(
             "bank",
@@ -513,6 +538,7 @@ def design_bank(
     if not np.all((S == 0) | (S == 1)):
         raise GeomFDIError("structure: entries must be 0 or 1", argument="structure")
     req = S.astype(bool)
+    _warn_inseparable(req, faults)
     dims = _row_dims(residual_dim, req.shape[0])
     if max(dims, default=1) > 1 and (exact or method != "exact"):
         raise DesignError(
@@ -692,9 +718,9 @@ def design_sensor_bank(
     >>> gf.design_sensor_bank(p, method="mvw").isolable.tolist()
     [True, False, False]
     """
-    # --- exact / parametric design (geomfdi.synthesis.exact_design) ---
+    # --- exact / parametric design (geomfdi.synthesis.exact.design) ---
     if exact:
-        from geomfdi.synthesis.exact_design import exact_dispatch
+        from geomfdi.synthesis.exact.design import exact_dispatch
 
         return exact_dispatch(
             "sensor", plant, None, poles=poles, method=method, filter_pole=filter_pole

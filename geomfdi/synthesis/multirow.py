@@ -32,14 +32,16 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import DesignError
+from geomfdi.generators.gains import LEAK_TOL, Composite, PlantFactor, _gains
+from geomfdi.generators.generator import ResidualGenerator
+from geomfdi.generators.realization import minimal_realization
 from geomfdi.geometry.balancing import state_scaling
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.build import build_least_order, check_angles
 from geomfdi.synthesis.construction import IDENTITY_TOL, _NumericalDesignError
-from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, _gains
-from geomfdi.synthesis.generator import ResidualGenerator
-from geomfdi.synthesis.least_order import (
+from geomfdi.synthesis.least_order.quotient import adaptive_quotient_model
+from geomfdi.synthesis.least_order.search import (
     SEE_TOL,
     LeastOrderRow,
     Quotient,
@@ -52,8 +54,6 @@ from geomfdi.synthesis.least_order import (
     realise_on_plant,
     validate_poles,
 )
-from geomfdi.synthesis.quotient import adaptive_quotient_model
-from geomfdi.synthesis.realization import minimal_realization
 
 __all__ = ["build_multirow", "check_residual_dim", "ResidualDimError"]
 

@@ -18,7 +18,7 @@ the residual, so a badly scaled realisation cannot hide a leak; a design fails a
 **Stability**: the generator's poles are stable and the plant's unstable invariant
 eigenvalues are unobservable from r (``‖G_y(μ) C v‖ / (‖G_y(μ)‖ ‖C v‖)`` = 0 for every
 unstable eigenpair (μ, v), i.e. the residue of the pole μ vanishes).
-**Targets**: the relative gain of :mod:`geomfdi.synthesis.gains` (random points, with
+**Targets**: the relative gain of :mod:`geomfdi.generators.gains` (random points, with
 the orthonormal Krylov test as second opinion).  :func:`verify_symbolic` converts the
 delivered matrices exactly (binary floats are rationals) and proves the zeros.
 """
@@ -34,10 +34,10 @@ import numpy as np
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_choice, as_float, as_sequence_of
 from geomfdi.errors import GeomFDIError
+from geomfdi.generators.gains import LEAK_TOL, Composite, PlantFactor, _gains, fault_gains
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.synthesis.gains import LEAK_TOL, Composite, PlantFactor, _gains, fault_gains
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
 VERIFY_TOL = 1e-9
 """Largest leakage angle accepted by :func:`verify`."""

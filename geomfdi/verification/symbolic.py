@@ -22,7 +22,7 @@ coefficient, the cancellation the construction promises, left over by floating-p
 rounding (the largest such ``ρ`` is reported); ``ρ > rtol``: a genuine transfer.  A
 residual with several components (a row block) sees a target when any component does.
 
-Generators of an exact design (:func:`geomfdi.synthesis.exact_design.design_bank_exact`,
+Generators of an exact design (:func:`geomfdi.synthesis.exact.design.design_bank_exact`,
 rationals or rational functions of parameters) are checked in exact arithmetic over the
 field of rational functions: there every zero is structural.
 
@@ -41,10 +41,10 @@ import numpy as np
 
 from geomfdi._validation import as_int, as_positive, as_sequence_of
 from geomfdi.errors import GeomFDIError
+from geomfdi.generators.exact import ExactResidualBank, ExactResidualGenerator
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.synthesis.exact_generator import ExactResidualBank, ExactResidualGenerator
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
 
 __all__ = ["SymbolicReport", "verify_symbolic", "SYMBOLIC_MAX_ORDER", "ROUNDING_RTOL"]
 

@@ -4,6 +4,8 @@ Both emit the per-sample algorithm of :class:`geomfdi.Monitor` for a discrete ba
 monitor built on one): C99 with static storage and no ``malloc``, or a single module
 that needs numpy only.  See the user guide, *Theory: residual evaluation*
 (``docs/theory/evaluation.md``).
+
+Layer: part of :mod:`geomfdi.deployment`; it may import what deployment may.
 """
 
 from geomfdi.deployment.codegen.c import c

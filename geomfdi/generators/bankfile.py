@@ -32,15 +32,13 @@ import hashlib
 import json
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from geomfdi.errors import BankFileError, GeomFDIError, SchemaVersionError
+from geomfdi.generators.interfaces import BankLike
 from geomfdi.model.faults import ActuatorFault, Fault, SensorFault
-
-if TYPE_CHECKING:  # pragma: no cover
-    from geomfdi.synthesis.generator import ResidualBank
 
 __all__ = ["SCHEMA", "bank_to_dict", "save_bank"]
 
@@ -203,7 +201,7 @@ _BANK_KEYS = {
 }
 
 
-def bank_to_dict(bank: ResidualBank) -> dict[str, Any]:
+def bank_to_dict(bank: BankLike) -> dict[str, Any]:
     """The payload of a bank file (every field of the bank, generators included)."""
     gens = []
     for g in bank.generators:
@@ -322,6 +320,6 @@ def _read(path: str | Path, fmt: str) -> dict[str, Any]:
     return doc["payload"]
 
 
-def save_bank(bank: ResidualBank, path: str | Path) -> Path:
+def save_bank(bank: BankLike, path: str | Path) -> Path:
     """Write ``bank`` to ``path`` (JSON, schema :data:`SCHEMA`); returns the path."""
     return _write(path, "geomfdi.bank", bank_to_dict(bank))

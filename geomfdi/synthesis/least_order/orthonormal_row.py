@@ -7,7 +7,7 @@ A row that reads one measurement combination (``ρ = 1``: e.g. a residual of a
 sensor-fault bank that may use one sensor only) needs the whole decoupled quotient
 ``(A0, M)``: its least order is ``k``.  The minimum-energy observer moves the
 eigenvalues outside the stability degree to their mirror images
-(:func:`geomfdi.synthesis.injection.mirror_rule`) and, for one output, that fixes the
+(:func:`geomfdi.synthesis.least_order.injection.mirror_rule`) and, for one output, that fixes the
 residual's transfer from ``[y; u]`` up to scale::
 
     Q(s) = f(s) [H − M (sI − A0)⁻¹ B_qy,  −H D_u − M (sI − A0)⁻¹ B_qu],
@@ -57,11 +57,11 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from geomfdi.synthesis.gains import _tri_solve_many
-from geomfdi.synthesis.injection import mirror_rule
-from geomfdi.synthesis.least_order import LeastOrderRow
-from geomfdi.synthesis.quotient import Quotient
-from geomfdi.synthesis.rational_basis import output_normal_basis, phase_frequencies
+from geomfdi.generators.gains import _tri_solve_many
+from geomfdi.synthesis.least_order.injection import mirror_rule
+from geomfdi.synthesis.least_order.quotient import Quotient
+from geomfdi.synthesis.least_order.rational_basis import output_normal_basis, phase_frequencies
+from geomfdi.synthesis.least_order.search import LeastOrderRow
 
 __all__ = ["orthonormal_row", "POINTS_PER_POLE", "SPREAD_MAX"]
 
@@ -77,7 +77,7 @@ def _resolvent_rows(T: np.ndarray, left: np.ndarray, pts: np.ndarray) -> np.ndar
     """``left (s I − T)⁻¹`` for an upper triangular complex T at every point (rows).
 
     Transposed and index-reversed, ``J Tᵀ J`` is upper triangular again: one batched back
-    substitution over all points (:func:`geomfdi.synthesis.gains._tri_solve_many`).
+    substitution over all points (:func:`geomfdi.generators.gains._tri_solve_many`).
     """
     Tr = T.T[::-1, ::-1]
     X = _tri_solve_many(Tr, pts, left.T[::-1, :])  # (P, k, rows)
@@ -95,7 +95,7 @@ def orthonormal_row(
 ) -> LeastOrderRow:
     """The single-output quotient row realised in the orthonormal basis (module Notes).
 
-    Returns a :class:`~geomfdi.synthesis.least_order.LeastOrderRow` whose ``direct``
+    Returns a :class:`~geomfdi.synthesis.least_order.search.LeastOrderRow` whose ``direct``
     holds the generator's ``(E, G)`` reading ``y`` and ``u``, and ``identities`` the
     relative least-squares misfit.
 

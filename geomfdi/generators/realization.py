@@ -1,8 +1,8 @@
 """Reachable / unobservable subspaces and minimal realizations (orthonormal Krylov).
 
-Used to deliver residual generators without redundant states (math.md §2: the filter
-states of the exact transform are removed where they are unobservable or unreachable)
-and to test transfers for being identically zero.
+Used to deliver residual generators without redundant states (the filter states of the
+exact transform of ``docs/theory/sensor-fault-transforms.md`` are removed where they are
+unobservable or unreachable) and to test transfers for being identically zero.
 """
 
 from __future__ import annotations

@@ -98,9 +98,10 @@ def quotient_model(
     La[:n, : Ws.shape[1]] = Ws
     La[n:, Ws.shape[1] :] = np.eye(na)
     Ba = np.vstack([B, np.zeros((na, B.shape[1]))])
-    S = min_unobservability_subspace(Aa, Ca, La)
+    # a static model (no state, no decoupled feedthrough) has S* = 0 and no quotient state
+    S = min_unobservability_subspace(Aa, Ca, La) if n + na else None
     nC, nA = max(_norm2(Ca), 1e-300), _norm2(Aa)
-    if S.dim:
+    if S is not None and S.dim:
         Sb = S.basis
         CS = Ca @ Sb
         Q = S.complement().basis

@@ -1,13 +1,15 @@
-"""Sensor fault → pseudo-actuator fault: the three transforms of math.md §2.
+"""Sensor fault → pseudo-actuator fault: the three transforms of
+``docs/theory/sensor-fault-transforms.md``.
 
 The geometric algorithms act on state-side signatures ``L``.  A fault with an output
 part ``Df`` (sensor faults, general faults, disturbances with ``Dd``) must first be
 moved into the state equation:
 
-``"paper"`` (seed 001, eq. 7–10)
+``"paper"`` (Hou, Wen & Chen 2011, eq. 7–10)
     solve ``C f = Df`` (minimum-norm f; refuse when ``Df ∉ Im C``), ``L = Bf − A f``
     (discrete time: ``L = Bf − (A − I) f``, the same steady-state argument for
-    ``x[k+1]``).  Decouples only constant faults in steady state (math.md Erratum 2).
+    ``x[k+1]``).  Decouples only constant faults in steady state (erratum 2 of Hou, Wen &
+    Chen 2011 in ``docs/theory/errata.md``).
 ``"mvw"`` (Massoumnia–Verghese–Willsky 1989)
     two columns per component ``[Bf − A f, f]`` (the signal and its derivative; in
     discrete time its next sample): exact but conservative.
@@ -18,8 +20,8 @@ moved into the state equation:
     filter becomes part of the generator) and the output part of a fault becomes the
     actuator signature ``[Bf; a Df_F]``.  The other channels R are read raw, so a
     target fault's output part on them stays a direct feedthrough ``Df_R``.  Filtering
-    only F keeps the delivered order minimal (e.g. order 1 for sensor 1 of seed 001's
-    example).
+    only F keeps the delivered order minimal (e.g. order 1 for sensor 1 of the example of
+    Hou, Wen & Chen 2011).
 """
 
 from __future__ import annotations
@@ -147,7 +149,9 @@ def pseudo_actuator_model(
     decouple: Any = None,
     filter_pole: float | None = None,
 ) -> DesignModel:
-    """Move the output part of faults into the state equation (math.md §2).
+    """Move the output part of faults into the state equation.
+
+    See ``docs/theory/sensor-fault-transforms.md``.
 
     Parameters
     ----------

@@ -17,22 +17,23 @@ residual evaluation* (``docs/theory/evaluation.md``).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from geomfdi._validation import as_positive
 from geomfdi.errors import GeomFDIError
+from geomfdi.generators.interfaces import BankLike, GeneratorLike
 
 __all__ = ["METHODS", "discretize_generator", "discretize_bank"]
 
 METHODS = ("zoh", "tustin")
 
-if TYPE_CHECKING:  # pragma: no cover
-    from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
+Gen = TypeVar("Gen", bound=GeneratorLike)
+Bank = TypeVar("Bank", bound=BankLike)
 
 
-def discretize_generator(g: ResidualGenerator, dt: float, method: str = "zoh") -> ResidualGenerator:
+def discretize_generator(g: Gen, dt: float, method: str = "zoh") -> Gen:
     """One continuous generator sampled at ``dt`` (module docstring).
 
     The target, decoupled faults, method and info are kept; ``info["sampled"]`` records
@@ -67,7 +68,7 @@ def discretize_generator(g: ResidualGenerator, dt: float, method: str = "zoh") -
     )
 
 
-def discretize_bank(bank: ResidualBank, dt: Any, method: str = "zoh") -> ResidualBank:
+def discretize_bank(bank: Bank, dt: Any, method: str = "zoh") -> Bank:
     """A discrete :class:`ResidualBank` sampled at ``dt`` with ``method``.
 
     Parameters

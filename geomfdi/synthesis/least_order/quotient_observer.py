@@ -3,8 +3,8 @@
 See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.md``).
 
 With a stabilising injection ``L`` of the quotient ``(A0, M)``
-(:func:`geomfdi.synthesis.injection.stabilising_injection`) and a direction
-``w ∈ R^{1×ρ}``, the functional observer of :mod:`geomfdi.synthesis.least_order` with::
+(:func:`geomfdi.synthesis.least_order.injection.stabilising_injection`) and a direction
+``w ∈ R^{1×ρ}``, the functional observer of :mod:`geomfdi.synthesis.least_order.search` with::
 
     T = I,   Λ = A0 − L M,   G_s = L,   c = −w M,   h = w
 
@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.synthesis.injection import stabilising_injection
-from geomfdi.synthesis.least_order import (
+from geomfdi.synthesis.least_order.injection import stabilising_injection
+from geomfdi.synthesis.least_order.search import (
     LeastOrderRow,
     Quotient,
     _maxmin_direction,

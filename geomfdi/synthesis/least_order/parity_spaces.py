@@ -8,8 +8,9 @@ A scalar row of degree ν is a functional observer ``(Λ, G_s, T, c, h)`` of the
 
     T A0 − Λ T = G_s M,        c T + h M = 0
 
-(:mod:`geomfdi.synthesis.least_order`).  Fix ``(Λ, c)``: a real output-normal pair
-(:func:`geomfdi.synthesis.orthonormal.output_normal_basis`) with ν stable poles.  Then T is
+(:mod:`geomfdi.synthesis.least_order.search`).  Fix ``(Λ, c)``: a real output-normal pair
+(:func:`geomfdi.synthesis.least_order.rational_basis.output_normal_basis`) with ν stable
+poles.  Then T is
 linear in ``G_s`` and the rows of degree ν are the left null space of the linear map::
 
     (G_s, h)  ↦  c T(G_s) + h M          (ν ρ + ρ unknowns, k equations).
@@ -35,7 +36,7 @@ import scipy.linalg as sla
 from scipy.linalg import lapack
 
 from geomfdi.geometry.subspace import _norm2
-from geomfdi.synthesis.rational_basis import output_normal_basis
+from geomfdi.synthesis.least_order.rational_basis import output_normal_basis
 
 __all__ = ["onb_parity_space", "realise_onb", "spectral_pole_set", "clear_of_spectrum"]
 
@@ -164,7 +165,8 @@ def spectral_pole_set(A0: np.ndarray, nu: int, omega: float, dt: float) -> np.nd
 
     Every eigenvalue λ of A0 gets a damped copy at its frequency: continuous
     ``−(|Re λ| + 2α) + i Im λ`` with ``α = SDEG · ω`` (the stability degree of
-    :func:`geomfdi.synthesis.injection.mirror_rule`), discrete ``0.9 min(|λ|, 1/|λ|) λ/|λ|``
+    :func:`geomfdi.synthesis.least_order.injection.mirror_rule`),
+    discrete ``0.9 min(|λ|, 1/|λ|) λ/|λ|``
     (at least 0.05); never an eigenvalue of A0.  The copies are sorted by frequency and ν of
     them taken evenly (conjugate pairs kept whole; an odd ν gets a real copy, or ``−ω``
     / 0.5).  A basis whose poles follow the quotient's dynamics represents its rows with

@@ -1,8 +1,8 @@
 """Exact residual generators: matrices of rationals or rational functions of parameters.
 
 The objects returned by ``gf.design_bank(..., exact=True)``.  They are data objects; the
-numeric counterparts (:class:`~geomfdi.synthesis.generator.ResidualGenerator`,
-:class:`~geomfdi.synthesis.generator.ResidualBank`) are obtained with :meth:`subs`.
+numeric counterparts (:class:`~geomfdi.generators.generator.ResidualGenerator`,
+:class:`~geomfdi.generators.generator.ResidualBank`) are obtained with :meth:`subs`.
 
 See the user guide, *Theory: verification* (``docs/theory/verification.md``), section
 "Parametric plants".
@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import DesignError, GeomFDIError
-from geomfdi.synthesis.generator import ResidualBank, ResidualGenerator
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 
 __all__ = ["ExactResidualGenerator", "ExactResidualBank", "ExceptionalCondition"]
 
@@ -105,7 +105,7 @@ class ExactResidualGenerator:
     """A residual generator ``(F, E, G, M, H, K)`` with exact (sympy) matrices.
 
     ``w' = F w − E y + G u``, ``r = M w − H y + K u`` (as
-    :class:`~geomfdi.synthesis.generator.ResidualGenerator`), entries rationals or
+    :class:`~geomfdi.generators.generator.ResidualGenerator`), entries rationals or
     rational functions of :attr:`parameters`.  ``info`` holds the generic dimensions
     (``S_dim``, ``S_history``, ``W_history``, ``quotient_order``), the poles and the
     conditions found for this row.
@@ -208,7 +208,7 @@ class ExactResidualBank:
         return [c for c in self.exceptional if c.expr.subs(vals) == 0]
 
     def subs(self, values: dict[Any, Any]) -> ResidualBank:
-        """The numeric :class:`~geomfdi.synthesis.generator.ResidualBank` at ``values``.
+        """The numeric :class:`~geomfdi.generators.generator.ResidualBank` at ``values``.
 
         Raises
         ------

@@ -1,11 +1,11 @@
-"""Residual generators and banks: the objects the synthesis delivers (math.md §4).
+"""Residual generators and banks: the objects the synthesis delivers (Hou, Wen & Chen 2011, §3.4).
 
 A generator reads the **measured** output ``y`` and the known input ``u``::
 
     w' = F w - E y + G u          (w[k+1] = ... when dt > 0)
     r  = M w - H y + K u
 
-(sign convention of seed 001, eq. 23).
+(sign convention of Hou, Wen & Chen 2011, eq. 23).
 """
 
 from __future__ import annotations
@@ -140,8 +140,8 @@ class ResidualGenerator:
             ``"dc"``: unit DC gain from the target fault on the physical model.
             ``"markov"``: unit first non-zero Markov parameter of the target's transfer
             on the design model, ``−H Df_j`` or ``−M F^k (P L_j + E Df_j)`` — the
-            normalisation of seed 001's example (M = 1 and ``p_j L_j = ±1`` for its rows
-            p_1 = (0,1,0), p_2 = (−2,2,1), p_3 = (−3,3,1)).
+            normalisation of the example of Hou, Wen & Chen 2011 (M = 1 and
+            ``p_j L_j = ±1`` for its rows p_1 = (0,1,0), p_2 = (−2,2,1), p_3 = (−3,3,1)).
         """
         kind = as_choice(kind, "kind", ("dc", "markov"))
         if not self.target:
@@ -259,7 +259,7 @@ class ResidualBank:
 
     @property
     def residual_index_sets(self) -> list[set[int]]:
-        """``Omega_i`` of seed 001, Definition 4: the residuals that see fault i."""
+        """``Omega_i`` of Hou, Wen & Chen 2011, Definition 4: the residuals that see fault i."""
         return [set(np.flatnonzero(self.structure[:, j]).tolist()) for j in range(self.n_faults)]
 
     @property
@@ -309,15 +309,15 @@ class ResidualBank:
     # ------------------------------------------- sampling and saving
     def discretize(self, dt: float, method: str = "zoh") -> ResidualBank:
         """The bank sampled at ``dt`` (``"zoh"`` or ``"tustin"``), keeping its faults,
-        structure, diagnostics and info; see :func:`geomfdi.synthesis.discretize.discretize_bank`.
+        structure, diagnostics and info; see :func:`geomfdi.generators.discretize.discretize_bank`.
         """
-        from geomfdi.synthesis.discretize import discretize_bank
+        from geomfdi.generators.discretize import discretize_bank
 
         return discretize_bank(self, dt, method)
 
     def save(self, path: Any) -> Any:
         """Write the bank to a versioned JSON file (read back with ``gf.load_bank``)."""
-        from geomfdi.synthesis.bankfile import save_bank
+        from geomfdi.generators.bankfile import save_bank
 
         return save_bank(self, path)
 

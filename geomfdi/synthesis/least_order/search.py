@@ -3,7 +3,7 @@
 See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.md``).
 
 **Quotient.**  The decoupled quotient ``(A0, M)`` of the row, with its inputs
-``B_qy, B_qu`` and targets, comes from :mod:`geomfdi.synthesis.quotient` (S*, decoupled
+``B_qy, B_qu`` and targets, comes from :mod:`geomfdi.synthesis.least_order.quotient` (S*, decoupled
 feedthrough made states, so that static rows come out of order 0).
 
 **Degree-ν parity space by resolvents.**  For distinct stable poles λ_1 … λ_ν not in
@@ -34,7 +34,7 @@ taken with that dimension, degrees with an empty space are skipped, and the sear
 at the largest observability index.  Above ``NU_PF_MAX`` the partial-fraction basis is
 not used: only the top degree is decided, on the quotient's own target transfers
 (:func:`quotient_target_gains`), and the row is returned unrealised (``F is None``) for
-the quotient-observer realisation of :mod:`geomfdi.synthesis.quotient_observer`.
+the quotient-observer realisation of :mod:`geomfdi.synthesis.least_order.quotient_observer`.
 """
 
 from __future__ import annotations
@@ -47,19 +47,19 @@ import numpy as np
 from geomfdi.errors import DesignError
 from geomfdi.geometry.staircase import Staircase, observer_staircase
 from geomfdi.geometry.subspace import _norm2
-from geomfdi.synthesis.parity_onb import (
+from geomfdi.synthesis.least_order.parity_spaces import (
     clear_of_spectrum,
     onb_parity_space,
     realise_onb,
     spectral_pole_set,
 )
-from geomfdi.synthesis.poles import (
+from geomfdi.synthesis.least_order.poles import (
     _check_poles,
     default_pole_sequence,
     plant_scale,
     validate_poles,
 )
-from geomfdi.synthesis.quotient import Quotient, quotient_model
+from geomfdi.synthesis.least_order.quotient import Quotient, quotient_model
 from geomfdi.tolerance import rank_decision
 
 __all__ = [
@@ -331,12 +331,13 @@ class LeastOrderRow:
     certificate: dict[str, Any]
     direct: dict[str, Any] | None = None
     """A realisation reading y and u directly (no ``(G_s, T)``): ``E``, ``G`` and its
-    ``identities`` (:mod:`geomfdi.synthesis.orthonormal`)."""
+    ``identities`` (:mod:`geomfdi.synthesis.least_order.orthonormal_row`)."""
 
     @property
     def realised(self) -> bool:
         """False when the degree search ended above ``NU_PF_MAX``: the row is to be
-        realised as the quotient observer (:mod:`geomfdi.synthesis.quotient_observer`)."""
+        realised as the quotient observer
+        (:mod:`geomfdi.synthesis.least_order.quotient_observer`)."""
         return self.F is not None
 
 
@@ -471,7 +472,7 @@ def least_order_row(
             continue
         if nu > NU_PF_MAX and user is None:
             # a row of one output combination at its top degree is the whole quotient:
-            # realised by geomfdi.synthesis.orthonormal, not as a parity vector
+            # realised by geomfdi.synthesis.least_order.orthonormal_row, not as a parity vector
             onb = _onb_degree(Qm, nu, dim, omega, dt) if Qm.rho > 1 or nu < top else None
             if onb is not None:
                 space, cand = onb
@@ -607,7 +608,8 @@ def _onb_spectral(
 def _onb_degree(
     Qm: Quotient, nu: int, dim: int, omega: float, dt: float
 ) -> tuple[dict[str, Any], np.ndarray] | None:
-    """The degree-ν space in the orthonormal basis (:mod:`geomfdi.synthesis.parity_onb`)
+    """The degree-ν space in the orthonormal basis
+    (:mod:`geomfdi.synthesis.least_order.parity_spaces`)
     with poles on the quotient's frequencies (:func:`spectral_pole_set`); a space that
     misses a target is computed again with the default pole sequence, and a target
     counts as missed only when both miss it.  ``None`` when it cannot be computed (then
@@ -715,7 +717,7 @@ def _onb_row(
 
 def parity_basis_row(Qm: Quotient, lo: LeastOrderRow, *, omega: float, dt: float) -> LeastOrderRow:
     """The least-order row ``lo`` (found in partial fractions) realised again in the
-    orthonormal parity basis of :mod:`geomfdi.synthesis.parity_onb`.
+    orthonormal parity basis of :mod:`geomfdi.synthesis.least_order.parity_spaces`.
 
     Used when the partial-fraction realisation fails its checks on the plant: the same
     degree, a well-conditioned basis, instead of the quotient observer of order k.

@@ -21,12 +21,12 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from geomfdi.generators.generator import ResidualGenerator
+from geomfdi.generators.realization import reachable_subspace
 from geomfdi.geometry.balancing import state_scaling
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant
-from geomfdi.synthesis.generator import ResidualGenerator
-from geomfdi.synthesis.realization import reachable_subspace
 
 __all__ = ["LEAK_TOL", "fault_gains", "PlantFactor", "Composite"]
 
@@ -430,7 +430,8 @@ def _boundary_points(
     The leakage angle is measured on the stability boundary, i.e. on the frequency
     response that a residual shows in time: off the boundary a residual that moves many
     unstable eigenvalues through one output is exponentially small (its ``f(s)`` of
-    :mod:`geomfdi.synthesis.orthonormal` is ``Π (s − λ) / (s − μ)``), so rounding of any
+    :mod:`~geomfdi.synthesis.least_order.orthonormal_row`
+    is ``Π (s − λ) / (s − μ)``), so rounding of any
     realisation would read as a large angle there while the response is exact.
     """
     rng = np.random.default_rng(seed)

@@ -47,15 +47,15 @@ import sympy as sp
 from sympy.polys.matrices import DomainMatrix
 
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError
-from geomfdi.geometry import parametric as pm
-from geomfdi.model.faults import Fault, SensorFault, fault_matrices
-from geomfdi.model.plant import Plant, as_plant
-from geomfdi.synthesis.construction import design_dims
-from geomfdi.synthesis.exact_generator import (
+from geomfdi.generators.exact import (
     ExactResidualBank,
     ExactResidualGenerator,
     ExceptionalCondition,
 )
+from geomfdi.geometry import parametric as pm
+from geomfdi.model.faults import Fault, SensorFault, fault_matrices
+from geomfdi.model.plant import Plant, as_plant
+from geomfdi.synthesis.construction import design_dims
 
 __all__ = ["design_bank_exact", "design_sensor_bank_exact", "default_exact_poles"]
 
@@ -557,7 +557,7 @@ def design_bank_exact(
     if plant.n + plant.q > MAX_EXACT_ORDER:
         raise DesignError(
             f"plant: the exact design is limited to n + q ≤ {MAX_EXACT_ORDER} "
-            f"(geomfdi.synthesis.exact_design.MAX_EXACT_ORDER), got n = {plant.n}, q = {plant.q}",
+            f"(geomfdi.synthesis.exact.design.MAX_EXACT_ORDER), got n = {plant.n}, q = {plant.q}",
             argument="plant",
         )
     a = (
