@@ -465,6 +465,8 @@ def design_bank(
         ``structure[r, j] = 1``: residual r must see fault j; 0: must ignore it.
     poles : sequence or list of sequences, optional
         One pole list used for every row, or one per row (``None`` entries: default).
+        A list that does not fit its row (e.g. fewer poles than the row's least order)
+        raises :class:`DesignError` with ``argument="poles"`` naming the row.
     method, filter_pole, margin, minimal
         As in :func:`design_residual_generator`.
     common_poles : bool
