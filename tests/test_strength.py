@@ -127,7 +127,7 @@ def test_default_poles_follow_the_plant_time_scale():
     assert plant_scale(seed, 0.0) == pytest.approx(1 + np.sqrt(2))
 
 
-@pytest.mark.filterwarnings("ignore:structure\\: identical columns")
+@pytest.mark.filterwarnings("ignore::geomfdi.errors.IsolabilityWarning")  # two rows: expected
 def test_per_row_poles_and_a_list_that_does_not_fit_names_the_row():
     cs = gf.flight_actuator_case_study()
     S = cs.structure[[3, 5]]  # least orders 6 and 4
