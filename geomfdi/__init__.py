@@ -10,7 +10,8 @@ Use as ``import geomfdi as gf``. The package follows the data path of a design::
     geomfdi.geometry       subspaces, W*, S* (numeric and exact)
     geomfdi.generators     residual generators and banks, bank files, sampling
     geomfdi.synthesis      design front end, least-order rows, exact design
-    geomfdi.verification   numeric and symbolic proofs on the physical plant
+    geomfdi.verification   numeric and symbolic proofs on the physical plant; H∞ norms and
+                           the fault-to-noise gap
     geomfdi.simulation     fault signals, LTI core, closed loop
     geomfdi.evaluation     thresholds, alarms, isolation
     geomfdi.deployment     recorded and live evaluation, generated code
@@ -84,6 +85,7 @@ _register(
     "residual_noise_models",
 )
 _register("geomfdi.evaluation.decision", "FaultEvent", "Threshold", "isolate", "fault_hypotheses")
+_register("geomfdi.evaluation.gap_threshold", "GapThreshold", "gap_threshold")
 _register("geomfdi.evaluation.metrics", "DetectionMetrics")
 _register("geomfdi.evaluation.persistence", "Persistence")
 _register("geomfdi.evaluation.roc", "roc_curve", "wilson_interval")
@@ -200,6 +202,16 @@ _register(
     "achievable_structures",
 )
 _register("geomfdi.tolerance", "CloseRankWarning", "set_rtol")
+_register("geomfdi.verification.gap", "FaultToNoiseGap", "fault_to_noise_gap")
+_register(
+    "geomfdi.verification.norms",
+    "HinfNorm",
+    "HminusIndex",
+    "UnstableSystemError",
+    "hinf_norm",
+    "hminus_index",
+    "peak_gain",
+)
 _register("geomfdi.verification.numeric", "VerificationReport", "verify")
 _register("geomfdi.verification.symbolic", "SymbolicReport", "verify_symbolic")
 
@@ -305,6 +317,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         fault_hypotheses,
         isolate,
     )
+    from geomfdi.evaluation.gap_threshold import GapThreshold, gap_threshold  # noqa: F401
     from geomfdi.evaluation.metrics import DetectionMetrics  # noqa: F401
     from geomfdi.evaluation.persistence import Persistence  # noqa: F401
     from geomfdi.evaluation.roc import roc_curve, wilson_interval  # noqa: F401
@@ -402,5 +415,14 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         achievable_structures,
     )
     from geomfdi.tolerance import CloseRankWarning, set_rtol  # noqa: F401
+    from geomfdi.verification.gap import FaultToNoiseGap, fault_to_noise_gap  # noqa: F401
+    from geomfdi.verification.norms import (  # noqa: F401
+        HinfNorm,
+        HminusIndex,
+        UnstableSystemError,
+        hinf_norm,
+        hminus_index,
+        peak_gain,
+    )
     from geomfdi.verification.numeric import VerificationReport, verify  # noqa: F401
     from geomfdi.verification.symbolic import SymbolicReport, verify_symbolic  # noqa: F401

@@ -46,7 +46,7 @@ def test_cusum_and_sprt_match_their_recursions(pf):
 
     Z = np.random.default_rng(0).standard_normal((2, 25, 6)) * 2.0
     Z[:, 12:, 3] += 3.0
-    inc = _llr(pf, Z, 0.5)
+    inc = _llr(pf.data, Z, 0.5)
     assert np.allclose(cusum_statistic(pf, Z, 0.5, 7)[0], _brute_cusum(inc, 7), atol=1e-12)
     assert np.allclose(window_sprt_statistic(pf, Z, 0.5, 0.1, 7)[0], _brute_sprt(inc, 7, 0.1))
 
@@ -74,7 +74,7 @@ def test_wald_sprt_matches_its_recursion_and_boundaries(pf):
     assert A == pytest.approx(np.log(0.9 / 0.01)) and B == pytest.approx(np.log(0.1 / 0.99))
     Z = np.random.default_rng(3).standard_normal((3, 60, 6)) * 2.0
     Z[:, 30:, 1] += 2.0
-    inc = _llr(pf, Z, 0.5)
+    inc = _llr(pf.data, Z, 0.5)
     stat, alarm, best = sprt_run(inc, A, B)
     ref_stat, ref_alarm = _brute_wald(inc, A, B)
     assert np.allclose(stat, ref_stat) and (alarm == ref_alarm).all()

@@ -68,6 +68,37 @@ case("Plant-B-rows", lambda: gf.Plant(A3, np.ones((2, 1)), C3), ShapeError, "B")
 case("Plant-B-nan", lambda: gf.Plant(A3, [[NAN], [0], [0]], C3), NonFiniteError, "B")
 case("Plant-B-complex", lambda: gf.Plant(A3, [[1j], [0], [0]], C3), ComplexInputError, "B")
 case("Plant-C-missing", lambda: gf.Plant(A3, None), GeomFDIError, "C")
+case("Plant-Bw-rows", lambda: gf.Plant(A3, None, C3, Bw=np.ones((2, 1))), ShapeError, "Bw")
+case("Plant-Dw-nan", lambda: gf.Plant(A3, None, C3, Dw=[[NAN], [0], [0]]), NonFiniteError, "Dw")
+case(
+    "Plant-Dw-width",
+    lambda: gf.Plant(A3, None, C3, Bw=np.ones((3, 1)), Dw=np.ones((3, 2))),
+    ShapeError,
+    "Dw",
+)
+case("hinf_norm-A-nan", lambda: gf.hinf_norm(with_entry(A3, NAN), E1, C3), NonFiniteError, "A")
+case("hinf_norm-dt", lambda: gf.hinf_norm(-np.eye(3), E1, C3, dt=-1.0), GeomFDIError, "dt")
+case("hinf_norm-tol", lambda: gf.hinf_norm(-np.eye(3), E1, C3, tol=0.5), GeomFDIError, "tol")
+case(
+    "hminus_index-measure",
+    lambda: gf.hminus_index(-np.eye(3), E1, C3, measure="rows"),
+    GeomFDIError,
+    "measure",
+)
+case(
+    "hminus_index-frequencies",
+    lambda: gf.hminus_index(-np.eye(3), E1, C3, frequencies=[-1.0]),
+    GeomFDIError,
+    "frequencies",
+)
+case(
+    "hminus_index-columns",
+    lambda: gf.hminus_index(-np.eye(3), E1, C3, columns=[[5]]),
+    ShapeError,
+    "columns",
+)
+case("gap_threshold-delta", lambda: gf.gap_threshold(None, -1.0), GeomFDIError, "delta")
+case("gap_threshold-gap", lambda: gf.gap_threshold(object(), 1.0), GeomFDIError, "gap")
 case("Plant-C-cols", lambda: gf.Plant(A3, None, np.ones((2, 2))), ShapeError, "C")
 case("Plant-C-empty", lambda: gf.Plant(A3, None, np.zeros((0, 3))), ShapeError, "C")
 case("Plant-C-inf", lambda: gf.Plant(A3, None, with_entry(C3, INF)), NonFiniteError, "C")

@@ -111,7 +111,9 @@ class Uncertainty:
     matrices: tuple[str, ...] = ("A", "B")
     models: list[Any] | None = None
     seed: int = 0
-    _allowed: tuple[str, ...] = field(default=("A", "B", "C", "D", "Bd", "Dd"), repr=False)
+    _allowed: tuple[str, ...] = field(
+        default=("A", "B", "C", "D", "Bd", "Dd", "Bw", "Dw"), repr=False
+    )
 
     def __post_init__(self) -> None:
         as_positive(self.relative, "relative", strict=False)
@@ -148,7 +150,7 @@ class Uncertainty:
         for i in range(self.samples):
             rng = np.random.default_rng(root.spawn(self.samples)[i])
             mats = {}
-            for mname in ("A", "B", "C", "D", "Bd", "Dd"):
+            for mname in ("A", "B", "C", "D", "Bd", "Dd", "Bw", "Dw"):
                 M = np.array(getattr(nominal, mname), dtype=float)
                 if mname in self.matrices and M.size:
                     M = M * (1.0 + self.relative * rng.uniform(-1.0, 1.0, M.shape))
@@ -161,6 +163,8 @@ class Uncertainty:
                     mats["D"] if nominal.m else None,
                     Bd=mats["Bd"] if nominal.nd else None,
                     Dd=mats["Dd"] if nominal.nd else None,
+                    Bw=mats["Bw"] if nominal.nw else None,
+                    Dw=mats["Dw"] if nominal.nw else None,
                     dt=nominal.dt,
                 )
             )

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
+from geomfdi._validation import as_bool, as_real_array
 from geomfdi.deployment.decide import as_persistence, threshold_values
 from geomfdi.deployment.online import (
     MonitorOutput,
@@ -28,8 +29,15 @@ from geomfdi.deployment.online import (
     make_feed,
     make_step,
 )
-from geomfdi.deployment.program import Program, as_bank, build_program, check_initial, restart_rule
-from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.deployment.program import (
+    SAMPLE_LIMIT,
+    Program,
+    as_bank,
+    build_program,
+    check_initial,
+    restart_rule,
+)
+from geomfdi.errors import GeomFDIError, NonFiniteError, ShapeError
 from geomfdi.evaluation.decision import AMBIGUOUS, MULTIPLE, NO_ALARM, UNEXPLAINED
 from geomfdi.evaluation.persistence import Persistence
 from geomfdi.generators.bankfile import _enc_float, _write, bank_to_dict, encode
@@ -80,7 +88,7 @@ class Monitor:
         self.dt = self.program.dt
         self.thresholds = threshold_values(threshold, self.program.n_rows, self.program.present)
         self.persistence = as_persistence(persistence)
-        self.isolation = bool(isolation)
+        self.isolation = as_bool(isolation, "isolation")
         self.initial = check_initial(initial, self.program)
         self._restart = restart_rule(self.program, self.initial)
         self.reset()
@@ -105,8 +113,15 @@ class Monitor:
 
     def step(self, y: Any, u: Any = None) -> MonitorStep:
         """One sample ``y`` (q,), ``u`` (m,): residual per bank row, confirmed alarms and
-        the isolation decision.  A sample with a non-finite entry gives ``nan`` residuals,
-        no alarm, and restarts the generators at the next valid sample."""
+        the isolation decision.
+
+        A sample is *missing* when an entry is ``nan``, infinite or beyond
+        :data:`~geomfdi.deployment.program.SAMPLE_LIMIT` (``1e150``) in magnitude, or
+        when its update overflows (an unstable bank): it gives ``nan`` residuals and no
+        raw alarm, leaves the generator state as it was and restarts the generators at
+        the next valid sample.  :meth:`feed`, :func:`geomfdi.evaluate` and the generated
+        C and Python code apply the same rule.  Complex or text samples are refused.
+        """
         return self._step(y, u)
 
     @limit_blas_threads
@@ -182,9 +197,15 @@ def set_state(state: MonitorState, program: Any, persistence: Any, value: Any) -
             f"state: expected the keys {sorted(need | _RULE_STATE)}", argument="state"
         )
     held, quiet, decisions = _rule_state(value, program, persistence)
-    xi = np.asarray(value["xi"], dtype=float)
-    last = np.asarray(value["last_sample"], dtype=float)
-    ring = np.asarray(value["ring"])
+    xi = _state_vector(value["xi"], "xi")
+    last = _state_vector(value["last_sample"], "last_sample")
+    if last.size and not np.abs(last).max() <= SAMPLE_LIMIT:
+        raise NonFiniteError(
+            f"state: last_sample has an entry beyond {SAMPLE_LIMIT:g} in magnitude "
+            "(such a sample is missing and never stored)",
+            argument="state",
+        )
+    ring = _state_bits(value["ring"], "ring")
     if xi.shape != (program.nw,) or last.shape != (program.nz,):
         raise ShapeError(
             f"state: xi must have {program.nw} and last_sample {program.nz} entries",
@@ -197,7 +218,7 @@ def set_state(state: MonitorState, program: Any, persistence: Any, value: Any) -
         )
     pending = value["pending"]
     if pending is not None and not isinstance(pending, str):
-        pending = np.asarray(pending, dtype=float)
+        pending = _state_vector(pending, "pending")
         if pending.shape != (program.nw,):
             raise ShapeError(
                 f"state: pending state must have {program.nw} entries", argument="state"
@@ -217,12 +238,35 @@ def set_state(state: MonitorState, program: Any, persistence: Any, value: Any) -
     state.samples = samples
 
 
+def _state_vector(value: Any, key: str) -> np.ndarray:
+    """A numeric entry of a state: real and finite (named errors, ``argument="state"``).
+
+    A state never holds ``nan``: a missing sample leaves the generator state as it was
+    and sets the pending start-up rule instead, so a ``nan`` in a state can only come
+    from outside, and it would silence the monitor for good (every later sample would
+    look missing).  It is refused, like ``inf``.
+    """
+    try:
+        return as_real_array(value, f"state.{key}")
+    except GeomFDIError as exc:
+        exc.argument = "state"
+        raise
+
+
+def _state_bits(value: Any, key: str) -> np.ndarray:
+    """A 0/1 array entry of a state (its shape is checked by the caller)."""
+    try:
+        return np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"state: {key} must be an array of 0/1 ({exc})", argument="state") from exc
+
+
 def _rule_state(value: dict[str, Any], program: Any, persistence: Any) -> tuple:
     """``held``, ``quiet``, ``decisions`` of a state dict, checked (defaults when absent)."""
     rows, n = program.n_rows, persistence.n
     if "held" not in value:
         return np.zeros(rows, dtype=bool), 0, [NO_ALARM] * (n - 1)
-    held = np.asarray(value["held"])
+    held = _state_bits(value["held"], "held")
     if held.shape != (rows,) or not np.isin(held, (0, 1)).all():
         raise ShapeError(f"state: held must be {rows} values 0 or 1", argument="state")
     quiet = value["quiet"]

@@ -37,8 +37,8 @@ from geomfdi.deployment.decide import (
     settle,
     settle_one,
 )
-from geomfdi.deployment.program import Program, initial_state, run_program
-from geomfdi.errors import ShapeError
+from geomfdi.deployment.program import SAMPLE_LIMIT, Program, initial_state, run_program
+from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.evaluation.decision import NO_ALARM, isolate
 from geomfdi.evaluation.persistence import Persistence
 
@@ -152,10 +152,29 @@ def _signal(value: Any, size: int, name: str) -> None:
         if size:
             raise ShapeError(f"{name}: expected {size} values, got None", argument=name)
         return
-    if np.ndim(value) != 1 or len(value) != size:
-        raise ShapeError(
-            f"{name}: expected {size} values, got shape {np.shape(value)}", argument=name
-        )
+    try:
+        shape = f"shape {np.shape(value)}"
+        ok = np.ndim(value) == 1 and len(value) == size
+    except (TypeError, ValueError):  # ragged or not a sequence
+        shape, ok = f"a ragged or unreadable {type(value).__name__}", False
+    if not ok:
+        raise ShapeError(f"{name}: expected {size} values, got {shape}", argument=name)
+
+
+def _real_sample(y: Any, u: Any, m: int, nw: int) -> np.ndarray:
+    """``[xi-slot; y; u]`` for a sample that is not already real floats: booleans and
+    integers are read as numbers, complex values and text are refused (named)."""
+    from geomfdi._validation import as_real_array
+
+    parts = [np.zeros(nw)]
+    for name, value in (("y", y), ("u", u if m else [])):
+        try:
+            parts.append(as_real_array(value, name, allow_nonfinite=True).reshape(-1))
+        except GeomFDIError:
+            raise
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ShapeError(f"{name}: cannot read the sample ({exc})", argument=name) from exc
+    return np.concatenate(parts)
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:
@@ -175,8 +194,10 @@ def make_step(
 
     One fused product per sample: ``res = Phi [xi; z]`` with rows ``[A B]`` (next
     state), ``[C D]`` and ``[-C -D]`` (the residual rows and their negatives, so that
-    ``|r| > threshold`` is one comparison).  A sample is missing when ``v . v`` is not
-    finite (a ``nan`` or an infinite entry).  The raw alarm pattern, its k-of-n counts
+    ``|r| > threshold`` is one comparison).  A sample is missing when an entry of ``z``
+    is not finite or beyond :data:`~geomfdi.deployment.program.SAMPLE_LIMIT` in
+    magnitude, or when ``Phi v`` overflows (``(Phi v) . 0`` is ``nan``); the state is then
+    not advanced and the start-up rule is pending.  The raw alarm pattern, its k-of-n counts
     and the pattern decision are looked up in caches keyed by the packed pattern; the
     held pattern and the settling of decisions (:mod:`geomfdi.deployment.decide`) are
     integer operations on bit codes.
@@ -208,7 +229,9 @@ def make_step(
     conf_cache: dict[int, tuple[np.ndarray, int]] = {}
     dec_cache: dict[int, int] = {}
     nan_rows = np.full(rows, np.nan)
-    concatenate, isfinite = np.concatenate, math.isfinite
+    concatenate, isfinite, abs_, float64 = np.concatenate, math.isfinite, np.abs, np.float64
+    limit = SAMPLE_LIMIT
+    zeros_out = np.zeros(n_out)
     empty = np.zeros(0)
     row_bits = [1 << i for i in range(rows)]
 
@@ -259,24 +282,28 @@ def make_step(
     zero_entry = (0, _read_only(np.zeros(rows, dtype=bool)), 0)
 
     def step(y: Any, u: Any = None) -> MonitorStep:
-        if len(y) != q:
+        if not hasattr(y, "__len__") or len(y) != q:
             _signal(y, q, "y")
-        if m and (u is None or len(u) != m):
+        if m and (not hasattr(u, "__len__") or len(u) != m):
             _signal(u, m, "u")
         try:
             v = concatenate((state.xi, y, u if m else empty))
         except (ValueError, TypeError) as exc:
             raise ShapeError(f"y, u: cannot read the sample ({exc})", argument="y") from exc
+        if v.dtype != float64:
+            v = _real_sample(y, u, m, nw)
         state.samples += 1
-        if not isfinite(v.dot(v)):  # a missing sample: flagged, state not advanced
-            state.pending = restart
-            conf, code = confirmed(zero_entry)
-            return MonitorStep(nan_rows.copy(), conf, code)
-        state.last = v[nw:]
+        z = v[nw:]
+        # missing: an entry not finite or out of range (max of a nan is nan)
+        if not abs_(z).max(initial=0.0) <= limit:
+            return missing()
         if state.pending is not None:
-            v[:nw] = initial_state(program, state.pending, v[nw:])
+            v[:nw] = initial_state(program, state.pending, z)
             state.pending = None
         res = Phi.dot(v)
+        if not isfinite(res.dot(zeros_out)):  # an overflow (x * 0 is nan for inf / nan)
+            return missing()
+        state.last = z
         state.xi = res[:nw]
         if fast:
             r = res[nw : nw + rows]
@@ -293,7 +320,31 @@ def make_step(
         conf, code = confirmed(entry)
         return MonitorStep(r, conf, code)
 
+    def missing() -> MonitorStep:
+        """A missing sample: flagged, state not advanced, restart at the next one."""
+        state.pending = restart
+        conf, code = confirmed(zero_entry)
+        return MonitorStep(nan_rows.copy(), conf, code)
+
+    if _may_overflow(program, Phi):  # an unstable or huge bank: overflow is expected
+        plain = step
+
+        def step(y: Any, u: Any = None) -> MonitorStep:
+            with np.errstate(over="ignore", invalid="ignore"):
+                return plain(y, u)
+
     return step
+
+
+def _may_overflow(program: Program, Phi: np.ndarray) -> bool:
+    """Whether the update of a valid sample can overflow: an unstable bank (spectral
+    radius of ``A`` at least 1), or products beyond ``1e250`` for samples and states
+    at :data:`~geomfdi.deployment.program.SAMPLE_LIMIT`."""
+    if not Phi.size:
+        return False
+    if np.abs(Phi).sum(axis=1).max() > 1e100:
+        return True
+    return bool(program.nw and np.abs(np.linalg.eigvals(program.A)).max() >= 1.0)
 
 
 def _chunk(value: Any, rows: int, name: str, L: int | None = None) -> np.ndarray:

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from geomfdi._validation import as_vector
+from geomfdi._validation import as_float, as_vector
 from geomfdi.deployment._lti import (
     LiftedMaps,
     discretize_hold,
@@ -43,7 +43,23 @@ from geomfdi.deployment._lti import (
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 
-__all__ = ["Program", "build_program", "as_bank", "check_initial", "initial_state", "run_program"]
+__all__ = [
+    "SAMPLE_LIMIT",
+    "Program",
+    "build_program",
+    "as_bank",
+    "check_initial",
+    "initial_state",
+    "run_program",
+    "sample_valid",
+]
+
+#: Largest magnitude of a sample entry that is evaluated: a sample with an entry that is
+#: not finite or larger than this (in magnitude) is *missing*.  Products of such samples
+#: with the matrices of a bank stay far from overflow (``1e150 ** 2 = 1e300``), so every
+#: deployment path (:class:`geomfdi.Monitor` step and chunk, :func:`geomfdi.evaluate`, the
+#: generated C and Python) takes the same decisions on out-of-range data.
+SAMPLE_LIMIT = 1e150
 
 
 def as_bank(bank: Any) -> ResidualBank:
@@ -94,7 +110,8 @@ class Program:
         generator).
     lifted : LiftedMaps or None
         The lifted form on blocks of samples in those coordinates, used by the loop-free
-        recursion of :func:`run_program`.
+        recursion of :func:`run_program`; ``None`` when it overflows (an unstable bank:
+        then the recursion runs sample by sample, :func:`run_plain`).
     """
 
     A: np.ndarray
@@ -147,9 +164,10 @@ class Program:
             if b - a == 1:
                 out[i] = comp[a]
             else:  # sequential sum of squares, the order of the generated code
-                acc = comp[a] * comp[a]
-                for c in range(a + 1, b):
-                    acc = acc + comp[c] * comp[c]
+                with np.errstate(over="ignore"):  # beyond float range: +inf, an alarm
+                    acc = comp[a] * comp[a]
+                    for c in range(a + 1, b):
+                        acc = acc + comp[c] * comp[c]
                 out[i] = np.sqrt(acc)
         return out
 
@@ -200,6 +218,8 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
     F, Bz, M, Dz = _stack(gens)
     nw, nz = F.shape[0], q + m
     bdt = float(bank.dt)
+    if dt is not None:
+        dt = as_float(dt, "dt")
     if bdt > 0:
         if dt is not None and abs(float(dt) - bdt) > 1e-6 * bdt:
             raise GeomFDIError(
@@ -231,6 +251,8 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
         steady = np.zeros((0, nz))
     rows: list[tuple[int, int] | None] = []
     basis, lifted = _lifted_form(A, B, C, D, gens) if nw else (None, None)
+    if lifted is not None and not _finite_maps(lifted):
+        lifted = None  # an unstable or huge bank: run sample by sample (run_plain)
     o = 0
     for g in bank.generators:
         if g is None:
@@ -256,6 +278,12 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
     )
 
 
+def _finite_maps(maps: LiftedMaps) -> bool:
+    """Every matrix of the lifted form finite (powers of an unstable ``T`` overflow)."""
+    parts = [maps.powers, maps.Hz, maps.Gam, maps.Psi, *maps.doubling]
+    return all(np.isfinite(a).all() for a in parts)
+
+
 def _lifted_form(
     A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, gens: list[ResidualGenerator]
 ) -> tuple[np.ndarray, LiftedMaps]:
@@ -278,7 +306,8 @@ def _lifted_form(
     T = scipy.linalg.block_diag(*Ts)
     Z = scipy.linalg.block_diag(*Zs)
     M = lift_factor(A.shape[0], C.shape[0], B.shape[1])
-    return Z, lifted_maps(A, B, C, D, T, Z, M, np.array(stops, dtype=int))
+    with np.errstate(over="ignore", invalid="ignore"):  # checked by _finite_maps
+        return Z, lifted_maps(A, B, C, D, T, Z, M, np.array(stops, dtype=int))
 
 
 INITIAL = ("zero", "steady")
@@ -299,7 +328,7 @@ def check_initial(initial: Any, program: Program) -> Any:
                 argument="initial",
             )
         return initial
-    return as_vector(initial, "initial", length=program.nw).copy()
+    return as_vector(initial, "initial", length=program.nw, allow_empty=not program.nw).copy()
 
 
 def initial_state(program: Program, initial: Any, z0: np.ndarray) -> np.ndarray:
@@ -324,6 +353,22 @@ def restart_rule(program: Program, initial: Any) -> str:
     return "steady" if program.steady is not None else "zero"
 
 
+def sample_valid(Z: np.ndarray) -> np.ndarray:
+    """Per column of ``Z`` (``(nz, L)``): every entry finite and at most
+    :data:`SAMPLE_LIMIT` in magnitude (``False``: a missing sample)."""
+    return (np.abs(Z) <= SAMPLE_LIMIT).all(axis=0)
+
+
+def _in_range(Z: np.ndarray) -> bool:
+    """Every entry of ``Z`` valid (no temporary array: ``max``/``min`` propagate nan)."""
+    return Z.size == 0 or bool(Z.max() <= SAMPLE_LIMIT and Z.min() >= -SAMPLE_LIMIT)
+
+
+def _finite(a: np.ndarray) -> bool:
+    """Every entry of ``a`` finite (``max``/``min`` propagate nan; no temporary)."""
+    return a.size == 0 or bool(np.isfinite(a.max()) and np.isfinite(a.min()))
+
+
 def run_program(
     program: Program, Z: np.ndarray, xi: np.ndarray, pending: Any, restart: str
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
@@ -333,7 +378,8 @@ def run_program(
     ----------
     program : Program
     Z : ndarray, (nz, L)
-        ``[y; u]`` per sample; a column with a non-finite entry is a *missing* sample.
+        ``[y; u]`` per sample; a column with an entry that is not finite or beyond
+        :data:`SAMPLE_LIMIT` in magnitude is a *missing* sample.
     xi : ndarray, (nw,)
         State before the first sample (ignored while ``pending`` is set).
     pending : None, str or ndarray
@@ -352,20 +398,46 @@ def run_program(
         State after the last sample.
     pending : None or rule
         Set when the record ends on missing samples (or was empty and still pending).
+
+    Notes
+    -----
+    A generator state or residual component that overflows (only an unstable bank or
+    one of gain beyond ``1e150`` can get there from valid samples) makes that sample
+    missing too, and the next sample restarts the generators: the chunk is then run
+    sample by sample (:func:`run_plain`), the rule of the per-sample step.
     """
     L = Z.shape[1]
-    # a finite sum proves every entry finite (cheap); otherwise the exact per-sample test
-    every = bool(np.isfinite(Z.sum()))
-    valid = np.ones(L, dtype=bool) if every else np.isfinite(Z).all(axis=0)
+    # a bounded maximum and minimum prove every entry valid (cheap); else the exact test
+    every = _in_range(Z)
+    valid = np.ones(L, dtype=bool) if every else sample_valid(Z)
     every = every or bool(valid.all())
     comp = np.empty((program.nc, L)) if every else np.full((program.nc, L), np.nan)
     if L == 0:
         return comp, valid, xi, pending
+    if program.nw and program.lifted is None:
+        return run_plain(program, Z, xi, pending, restart)
     if every:
         segments = [(0, L)]
     else:
         edges = np.flatnonzero(np.diff(np.concatenate(([0], valid.astype(np.int8), [0]))))
         segments = list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is handled below
+        return _run_segments(program, Z, xi, pending, restart, comp, valid, segments)
+
+
+def _run_segments(
+    program: Program,
+    Z: np.ndarray,
+    xi: np.ndarray,
+    pending: Any,
+    restart: str,
+    comp: np.ndarray,
+    valid: np.ndarray,
+    segments: list[tuple[int, int]],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
+    """The lifted recursion over each segment of valid samples (:func:`run_program`)."""
+    L = Z.shape[1]
+    xi0, pending0 = xi, pending
     xi = np.array(xi, dtype=float)
     for s, e in segments:
         if s > 0:  # missing samples before this segment
@@ -381,6 +453,41 @@ def run_program(
             xi = (Zu @ se).real
         else:
             comp[:, s:e] = program.D @ Zs
-    if not valid[-1]:
+        if not (_finite(comp[:, s:e]) and _finite(xi)):
+            return run_plain(program, Z, xi0, pending0, restart)  # an overflow
+    if not valid[L - 1]:
+        pending = restart
+    return comp, valid, xi, pending
+
+
+def run_plain(
+    program: Program, Z: np.ndarray, xi: np.ndarray, pending: Any, restart: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
+    """:func:`run_program` sample by sample (for a bank whose state overflows).
+
+    Sample ``k`` is missing when its entries are out of range (:func:`sample_valid`) or
+    when ``c[k] = C xi + D z`` or the next state ``A xi + B z`` has a non-finite entry;
+    either way the state is not advanced and the next valid sample restarts it.
+    """
+    L = Z.shape[1]
+    valid = sample_valid(Z)
+    comp = np.full((program.nc, L), np.nan)
+    xi = np.array(xi, dtype=float)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in np.flatnonzero(valid).tolist():
+            z = Z[:, k]
+            if k > 0 and not valid[k - 1]:
+                pending = restart
+            if pending is not None:
+                xi = initial_state(program, pending, z)
+                pending = None
+            c = program.C @ xi + program.D @ z
+            nxt = program.A @ xi + program.B @ z
+            if np.isfinite(c).all() and np.isfinite(nxt).all():
+                comp[:, k], xi = c, nxt
+            else:
+                valid[k] = False
+                pending = restart
+    if L and not valid[-1]:
         pending = restart
     return comp, valid, xi, pending

@@ -16,7 +16,8 @@ generators' poles.  ``"zero"`` starts at ``w = 0`` (a transient of the size of t
 healthy output, decaying with the same poles); an explicit vector gives the generator
 states (all existing generators stacked in row order).
 
-*Missing samples.*  A sample with a non-finite ``y`` or ``u`` entry is *masked*: its
+*Missing samples.*  A sample with a ``y`` or ``u`` entry that is not finite or beyond
+``1e150`` in magnitude (:data:`~geomfdi.deployment.program.SAMPLE_LIMIT`) is *masked*: its
 residuals are ``nan``, it never alarms, and the recursion is not run through it; the
 next valid sample restarts the generators (``"steady"``, or ``"zero"`` when
 ``initial="zero"``).  The masked windows are listed in ``result.gaps``.

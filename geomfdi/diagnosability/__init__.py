@@ -1,7 +1,8 @@
 """Quantitative diagnosability: KL-divergence, directional-similarity and probability indices.
 
 * :mod:`~geomfdi.diagnosability.model` -- :class:`WindowModel`, the window model object;
-* :mod:`~geomfdi.diagnosability.stacking` -- stacked window, ``N_H``, whitened fault maps;
+* :mod:`~geomfdi.diagnosability.stacking` -- stacked window, ``N_H``, whitened fault maps
+  (the functions take the model's frozen ``WindowData`` record, never the object);
 * :mod:`~geomfdi.diagnosability.indices` -- the indices of one fault or pair;
 * :mod:`~geomfdi.diagnosability.tables` -- the paper-like tables;
 * :mod:`~geomfdi.diagnosability.applicability` -- Theorems 1-2 of Li, Wang & Liu (2015);

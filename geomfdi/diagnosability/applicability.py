@@ -16,12 +16,12 @@ from geomfdi.diagnosability.tables import _profiles
 from geomfdi.tolerance import get_rtol, rank_decision
 
 if TYPE_CHECKING:
-    from geomfdi.diagnosability.model import WindowModel
+    from geomfdi.diagnosability._records import WindowData
 
 __all__ = ["applicability"]
 
 
-def applicability(model: WindowModel, theta: Any = None) -> ApplicabilityReport:
+def applicability(model: WindowData, theta: Any = None) -> ApplicabilityReport:
     """Theorems 1-2 of Li, Wang & Liu (2015) as a report (when the KL indices apply).
 
     Parameters

@@ -23,7 +23,7 @@ from geomfdi.errors import GeomFDIError
 from geomfdi.tolerance import rank_decision
 
 if TYPE_CHECKING:
-    from geomfdi.diagnosability.model import CosineConvention, NullSpaceMethod, WindowModel
+    from geomfdi.diagnosability._records import CosineConvention, NullSpaceMethod, WindowData
 
 __all__ = [
     "kl_detectability",
@@ -52,7 +52,9 @@ def _half_square(x: np.ndarray, scale: float) -> float:
     return value
 
 
-def kl_detectability(model, i: int, theta: Any, *, method: NullSpaceMethod | None = None) -> float:
+def kl_detectability(
+    model: WindowData, i: int, theta: Any, *, method: NullSpaceMethod | None = None
+) -> float:
     """KL detectability ``FD(f_i) = 1/2 ||q_i||^2`` (Li, Wang & Liu (2015), eq. 8, upper).
 
     Parameters
@@ -75,13 +77,13 @@ def kl_detectability(model, i: int, theta: Any, *, method: NullSpaceMethod | Non
     Eriksson, Frisk & Krysander (2013) convention: the residual is whitened after the
     projection, ``q_i = Gamma N_H F_i theta`` .  Reproduces Table 1.
     """
-    i = model._fault(i)
-    q, _, scale = _q(model, i, model._theta(theta), method)
+    i = model.fault_index(i)
+    q, _, scale = _q(model, i, model.profile(theta), method)
     return _half_square(q, scale)
 
 
 def kl_isolability(
-    model: WindowModel, i: int, j: int, theta: Any, *, method: NullSpaceMethod | None = None
+    model: WindowData, i: int, j: int, theta: Any, *, method: NullSpaceMethod | None = None
 ) -> float:
     """KL isolability ``FI(f_i, f_j) = 1/2 ||N_{Gamma N_H F_j} q_i||^2`` (eq. 8, lower).
 
@@ -104,15 +106,15 @@ def kl_isolability(
     the one of Eriksson, Frisk & Krysander (2013) and reproduces Table 1 exactly.  The
     projection uses the rank of ``Gamma N_H F_j`` decided by :mod:`geomfdi.tolerance`.
     """
-    i = model._fault(i)
-    j = model._fault(j, "j")
-    q, tol, scale = _q(model, i, model._theta(theta), method)
+    i = model.fault_index(i)
+    j = model.fault_index(j, "j")
+    q, tol, scale = _q(model, i, model.profile(theta), method)
     res, _ = _complement_residual(model, q, j, method, tol)
     return _half_square(res, scale)
 
 
 def directional_detectability(
-    model: WindowModel, i: int, theta: Any, *, method: NullSpaceMethod | None = None
+    model: WindowData, i: int, theta: Any, *, method: NullSpaceMethod | None = None
 ) -> float:
     """Directional detectability ``FD(f_i) = 1/(p(q_i) + 1)`` (Li, Wang & Liu (2015), eq. 17).
 
@@ -131,15 +133,15 @@ def directional_detectability(
     :meth:`probabilistic_detectability` for an index that is 0 exactly when the fault
     is undetectable.
     """
-    i = model._fault(i)
-    q, _, scale = _q(model, i, model._theta(theta), method)
+    i = model.fault_index(i)
+    q, _, scale = _q(model, i, model.profile(theta), method)
     d = q.size
     log_p = -0.5 * d * math.log(2.0 * math.pi) - 0.5 * _scaled_square(q, scale)
     return 1.0 / (math.exp(log_p) + 1.0)
 
 
 def directional_isolability(
-    model: WindowModel,
+    model: WindowData,
     i: int,
     j: int,
     theta: Any,
@@ -183,13 +185,13 @@ def directional_isolability(
     to keep nearly collinear pairs accurate; collinearity is a rank decision of
     :mod:`geomfdi.tolerance`.
     """
-    i = model._fault(i)
-    j = model._fault(j, "j")
+    i = model.fault_index(i)
+    j = model.fault_index(j, "j")
     kappa = float(as_positive(kappa, "kappa"))
     if not isinstance(cosine, str) or cosine not in _COSINES:
         raise GeomFDIError(f"cosine: must be one of {_COSINES}, got {cosine!r}", argument="cosine")
-    theta = model._theta(theta)
-    theta_j = theta if theta_j is None else model._theta(theta_j, "theta_j")
+    theta = model.profile(theta)
+    theta_j = theta if theta_j is None else model.profile(theta_j, "theta_j")
     qi, tol_i, _ = _q(model, i, theta, method)
     qj, tol_j, _ = _q(model, j, theta_j, method)
     ni, nj = float(np.linalg.norm(qi)), float(np.linalg.norm(qj))
@@ -203,7 +205,7 @@ def directional_isolability(
 
 
 def detection_probability(
-    model: WindowModel,
+    model: WindowData,
     i: int,
     theta: Any,
     alpha: float = 0.01,
@@ -222,14 +224,14 @@ def detection_probability(
     float
         In ``[alpha, 1)``; equals ``alpha`` for an undetectable fault.
     """
-    i = model._fault(i)
+    i = model.fault_index(i)
     alpha = as_probability(alpha, "alpha")
-    q, _, scale = _q(model, i, model._theta(theta), method)
+    q, _, scale = _q(model, i, model.profile(theta), method)
     return _chi2_power(q.size, _scaled_square(q, scale), alpha)
 
 
 def isolation_probability(
-    model: WindowModel,
+    model: WindowData,
     i: int,
     j: int,
     theta: Any,
@@ -253,16 +255,16 @@ def isolation_probability(
         ``lambda = 0`` and when ``d_j = 0`` (no test exists; the randomised level-alpha
         test is the best one).
     """
-    i = model._fault(i)
-    j = model._fault(j, "j")
+    i = model.fault_index(i)
+    j = model.fault_index(j, "j")
     alpha = as_probability(alpha, "alpha")
-    q, tol, scale = _q(model, i, model._theta(theta), method)
+    q, tol, scale = _q(model, i, model.profile(theta), method)
     res, dof = _complement_residual(model, q, j, method, tol)
     return _chi2_power(dof, _scaled_square(res, scale), alpha)
 
 
 def probabilistic_detectability(
-    model: WindowModel,
+    model: WindowData,
     i: int,
     theta: Any,
     alpha: float = 0.01,
@@ -272,12 +274,12 @@ def probabilistic_detectability(
     """``(P_D - alpha) / (1 - alpha)``: 0 exactly for an undetectable fault, -> 1 as
     ``||q_i||`` grows (see :meth:`detection_probability`)."""
     alpha = as_probability(alpha, "alpha")
-    pd = model.detection_probability(i, theta, alpha, method=method)
+    pd = detection_probability(model, i, theta, alpha, method=method)
     return max(pd - alpha, 0.0) / (1.0 - alpha)
 
 
 def probabilistic_isolability(
-    model: WindowModel,
+    model: WindowData,
     i: int,
     j: int,
     theta: Any,
@@ -288,7 +290,7 @@ def probabilistic_isolability(
     """``(P_I - alpha) / (1 - alpha)`` of :meth:`isolation_probability`; 0 when ``f_i``
     cannot be told from ``f_j``."""
     alpha = as_probability(alpha, "alpha")
-    pi = model.isolation_probability(i, j, theta, alpha, method=method)
+    pi = isolation_probability(model, i, j, theta, alpha, method=method)
     return max(pi - alpha, 0.0) / (1.0 - alpha)
 
 

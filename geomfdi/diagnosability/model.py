@@ -14,24 +14,29 @@ diagnosability* (``docs/theory/diagnosability.md``).
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import (
-    as_index,
     as_int,
     as_labels,
     as_matrix,
     as_sequence_of,
-    as_vector,
 )
 from geomfdi.diagnosability import applicability as _applicability
 from geomfdi.diagnosability import indices as _indices
 from geomfdi.diagnosability import stacking as _stacking
 from geomfdi.diagnosability import tables as _tables
 from geomfdi.diagnosability._linalg import _as_channel, _as_covariance
+from geomfdi.diagnosability._records import NULLSPACE_METHODS as _NULLSPACE_METHODS
+from geomfdi.diagnosability._records import (
+    CosineConvention,
+    NullSpaceMethod,
+    TableMethod,
+    WindowData,
+)
 from geomfdi.diagnosability.results import (
     ApplicabilityReport,
     DiagnosabilityTable,
@@ -41,12 +46,6 @@ from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.limits import check_allocation
 
 __all__ = ["WindowModel"]
-
-NullSpaceMethod = Literal["structured", "direct"]
-CosineConvention = Literal["absolute", "signed"]
-TableMethod = Literal["kl", "directional", "probability", "probability_index"]
-
-_NULLSPACE_METHODS = ("structured", "direct")
 
 
 class WindowModel:
@@ -210,8 +209,28 @@ class WindowModel:
             arr.setflags(write=False)
         self.Qw.setflags(write=False)
         self.Rv.setflags(write=False)
-        self._cache: dict[str, Any] = {}
-        self._rank_O: int | None = None
+        self._data = WindowData(
+            A=self.A,
+            B=self.B,
+            C=self.C,
+            D=self.D,
+            Bf=self.Bf,
+            Df=self.Df,
+            Bw=self.Bw,
+            Dv=self.Dv,
+            Dw=self.Dw,
+            Qw=self.Qw,
+            Rv=self.Rv,
+            window=self.window,
+            fault_names=self.fault_names,
+            nullspace=self.nullspace,
+        )
+
+    @property
+    def data(self) -> WindowData:
+        """The model's matrices as a frozen ``WindowData`` record: what the stacking,
+        index and table functions take."""
+        return self._data
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -232,10 +251,9 @@ class WindowModel:
     @property
     def residual_dim(self) -> int:
         """``d = m s - rank O_s``: the dimension of the left null space of ``H``."""
-        if self._rank_O is None:
-            _stacking._observability_null(self)
-        assert self._rank_O is not None
-        return self.m * self.window - self._rank_O
+        if "rank_O" not in self._data.cache:
+            _stacking._observability_null(self._data)
+        return self.m * self.window - self._data.cache["rank_O"]
 
     def __repr__(self) -> str:
         return (
@@ -243,65 +261,50 @@ class WindowModel:
             f"nullspace={self.nullspace!r})"
         )
 
-    def _method(self, method: str | None) -> str:
-        if method is None:
-            return self.nullspace
-        if not isinstance(method, str) or method not in _NULLSPACE_METHODS:
-            raise GeomFDIError(
-                f"method: must be one of {_NULLSPACE_METHODS}, got {method!r}", argument="method"
-            )
-        return method
-
-    def _fault(self, i: Any, name: str = "i") -> int:
-        return as_index(i, name, self.p)
-
-    def _theta(self, theta: Any, name: str = "theta") -> np.ndarray:
-        return as_vector(theta, name, length=self.window)
-
-    # stacking, indices and reports: thin delegations to the module functions
+    # stacking, indices and reports: the model passes its record to the module functions
     def stacked(self) -> StackedWindow:
         """The matrices ``L, H, F, E`` of eq. (2); see :func:`.stacking.stacked`."""
-        return _stacking.stacked(self)
+        return _stacking.stacked(self._data)
 
     def observability_matrix(self) -> np.ndarray:
         """Extended observability matrix ``O_s = [C; C A; ...; C A^{s-1}]``."""
-        return _stacking.observability_matrix(self)
+        return _stacking.observability_matrix(self._data)
 
     def left_null_basis(self, method: NullSpaceMethod | None = None) -> np.ndarray:
         """Orthonormal ``N_H`` (rows); see :func:`.stacking.left_null_basis`."""
-        return _stacking.left_null_basis(self, method)
+        return _stacking.left_null_basis(self._data, method)
 
     def residual_generator(self, *, method: NullSpaceMethod | None = None) -> np.ndarray:
         """Whitened parity residual ``R = Gamma N_H L`` (:func:`.stacking.residual_generator`)."""
-        return _stacking.residual_generator(self, method=method)
+        return _stacking.residual_generator(self._data, method=method)
 
     def fault_matrix(self, i: int, *, method: NullSpaceMethod | None = None) -> np.ndarray:
         """``Phi_i = Gamma N_H F_i`` (d x s); see :func:`.stacking.fault_matrix`."""
-        return _stacking.fault_matrix(self, i, method=method)
+        return _stacking.fault_matrix(self._data, i, method=method)
 
     def fault_vector(
         self, i: int, theta: Any, *, method: NullSpaceMethod | None = None
     ) -> np.ndarray:
         """``q_i = Gamma N_H F_i theta``; see :func:`.stacking.fault_vector`."""
-        return _stacking.fault_vector(self, i, theta, method=method)
+        return _stacking.fault_vector(self._data, i, theta, method=method)
 
     def kl_detectability(
         self, i: int, theta: Any, *, method: NullSpaceMethod | None = None
     ) -> float:
         """KL detectability ``1/2 ||q_i||^2``; see :func:`.indices.kl_detectability`."""
-        return _indices.kl_detectability(self, i, theta, method=method)
+        return _indices.kl_detectability(self._data, i, theta, method=method)
 
     def kl_isolability(
         self, i: int, j: int, theta: Any, *, method: NullSpaceMethod | None = None
     ) -> float:
         """KL isolability of ``f_i`` from ``f_j``; see :func:`.indices.kl_isolability`."""
-        return _indices.kl_isolability(self, i, j, theta, method=method)
+        return _indices.kl_isolability(self._data, i, j, theta, method=method)
 
     def directional_detectability(
         self, i: int, theta: Any, *, method: NullSpaceMethod | None = None
     ) -> float:
         """Li-Wang-Liu eq. (17); see :func:`.indices.directional_detectability`."""
-        return _indices.directional_detectability(self, i, theta, method=method)
+        return _indices.directional_detectability(self._data, i, theta, method=method)
 
     def directional_isolability(
         self,
@@ -316,14 +319,14 @@ class WindowModel:
     ) -> float:
         """Li-Wang-Liu eq. (22); see :func:`.indices.directional_isolability`."""
         return _indices.directional_isolability(
-            self, i, j, theta, kappa, theta_j=theta_j, cosine=cosine, method=method
+            self._data, i, j, theta, kappa, theta_j=theta_j, cosine=cosine, method=method
         )
 
     def detection_probability(
         self, i: int, theta: Any, alpha: float = 0.01, *, method: NullSpaceMethod | None = None
     ) -> float:
         """``P_D`` of the chi-square test; see :func:`.indices.detection_probability`."""
-        return _indices.detection_probability(self, i, theta, alpha, method=method)
+        return _indices.detection_probability(self._data, i, theta, alpha, method=method)
 
     def isolation_probability(
         self,
@@ -335,13 +338,13 @@ class WindowModel:
         method: NullSpaceMethod | None = None,
     ) -> float:
         """``P_I`` of ``f_i`` against ``f_j``; see :func:`.indices.isolation_probability`."""
-        return _indices.isolation_probability(self, i, j, theta, alpha, method=method)
+        return _indices.isolation_probability(self._data, i, j, theta, alpha, method=method)
 
     def probabilistic_detectability(
         self, i: int, theta: Any, alpha: float = 0.01, *, method: NullSpaceMethod | None = None
     ) -> float:
         """``(P_D - alpha) / (1 - alpha)``; see :func:`.indices.probabilistic_detectability`."""
-        return _indices.probabilistic_detectability(self, i, theta, alpha, method=method)
+        return _indices.probabilistic_detectability(self._data, i, theta, alpha, method=method)
 
     def probabilistic_isolability(
         self,
@@ -353,7 +356,7 @@ class WindowModel:
         method: NullSpaceMethod | None = None,
     ) -> float:
         """``(P_I - alpha) / (1 - alpha)``; see :func:`.indices.probabilistic_isolability`."""
-        return _indices.probabilistic_isolability(self, i, j, theta, alpha, method=method)
+        return _indices.probabilistic_isolability(self._data, i, j, theta, alpha, method=method)
 
     @limit_blas_threads
     def table(self, theta: Any, method: TableMethod = "kl", **options: Any) -> DiagnosabilityTable:
@@ -362,4 +365,4 @@ class WindowModel:
 
     def applicability(self, theta: Any = None) -> ApplicabilityReport:
         """Theorems 1-2 of Li, Wang & Liu (2015); see :func:`.applicability.applicability`."""
-        return _applicability.applicability(self, theta)
+        return _applicability.applicability(self._data, theta)

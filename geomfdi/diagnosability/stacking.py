@@ -24,7 +24,7 @@ from geomfdi.errors import DesignError
 from geomfdi.tolerance import get_rtol, rank_decision
 
 if TYPE_CHECKING:
-    from geomfdi.diagnosability.model import NullSpaceMethod, WindowModel
+    from geomfdi.diagnosability._records import NullSpaceMethod, WindowData
 
 __all__ = [
     "stacked",
@@ -50,7 +50,7 @@ class _Reduced:
     images: dict[int, np.ndarray] = field(default_factory=dict)  # orthonormal bases of Im Phi_j
 
 
-def stacked(model: WindowModel) -> StackedWindow:
+def stacked(model: WindowData) -> StackedWindow:
     """The matrices ``L, H, F, E`` of eq. (2) and the covariance of ``e_s``."""
     n, m, s = model.n, model.m, model.window
     nu = model.B.shape[1]
@@ -77,12 +77,12 @@ def stacked(model: WindowModel) -> StackedWindow:
     return StackedWindow(L=L, H=H, F=F, E=E, Sigma=Sigma)
 
 
-def observability_matrix(model: WindowModel) -> np.ndarray:
+def observability_matrix(model: WindowData) -> np.ndarray:
     """Extended observability matrix ``O_s = [C; C A; ...; C A^{s-1}]``."""
     return _markov(model, np.eye(model.n)).reshape(model.m * model.window, model.n)
 
 
-def _markov(model: WindowModel, X: np.ndarray) -> np.ndarray:
+def _markov(model: WindowData, X: np.ndarray) -> np.ndarray:
     """``[C X, C A X, ..., C A^{s-1} X]`` as an ``(s, m, cols)`` array."""
     out = np.empty((model.window, model.m, X.shape[1]))
     Y = X
@@ -93,7 +93,7 @@ def _markov(model: WindowModel, X: np.ndarray) -> np.ndarray:
     return out
 
 
-def _toeplitz(model: WindowModel, Bx: np.ndarray, Dx: np.ndarray) -> np.ndarray:
+def _toeplitz(model: WindowData, Bx: np.ndarray, Dx: np.ndarray) -> np.ndarray:
     """Block-Toeplitz map of a channel ``(Bx, Dx)`` over the window: ``D, CB, CAB, ...``."""
     s = model.window
     markov = np.zeros((s, model.m, Bx.shape[1]))
@@ -103,10 +103,10 @@ def _toeplitz(model: WindowModel, Bx: np.ndarray, Dx: np.ndarray) -> np.ndarray:
     return _block_toeplitz(markov)
 
 
-def _observability_null(model: WindowModel) -> np.ndarray:
-    O = model.observability_matrix()
+def _observability_null(model: WindowData) -> np.ndarray:
+    O = observability_matrix(model)
     N_O, rank = _left_null_rows(O, "extended observability matrix O_s")
-    model._rank_O = rank
+    model.cache["rank_O"] = rank
     if N_O.shape[0] == 0:
         raise DesignError(
             f"window: a window of {model.window} samples gives no parity relation "
@@ -116,7 +116,7 @@ def _observability_null(model: WindowModel) -> np.ndarray:
     return N_O
 
 
-def left_null_basis(model: WindowModel, method: NullSpaceMethod | None = None) -> np.ndarray:
+def left_null_basis(model: WindowData, method: NullSpaceMethod | None = None) -> np.ndarray:
     """Orthonormal basis ``N_H`` (rows) of the left null space of the stacked ``H``.
 
     Parameters
@@ -129,10 +129,10 @@ def left_null_basis(model: WindowModel, method: NullSpaceMethod | None = None) -
     -------
     ndarray, (d, (n + m) s)
     """
-    method = model._method(method)
+    method = model.nullspace_method(method)
     if method == "direct":
-        N, rank = _left_null_rows(model.stacked().H, "stacked H")
-        model._rank_O = rank - model.n * model.window
+        N, rank = _left_null_rows(stacked(model).H, "stacked H")
+        model.cache["rank_O"] = rank - model.n * model.window
         if N.shape[0] == 0:
             _observability_null(model)  # raises the DesignError
         return N
@@ -147,13 +147,13 @@ def left_null_basis(model: WindowModel, method: NullSpaceMethod | None = None) -
     return Q.T
 
 
-def _reduced(model: WindowModel, method: str | None = None) -> _Reduced:
-    method = model._method(method)
-    if method in model._cache:
-        return model._cache[method]
+def _reduced(model: WindowData, method: str | None = None) -> _Reduced:
+    method = model.nullspace_method(method)
+    if method in model.cache:
+        return model.cache[method]
     p, s = model.p, model.window
     if method == "direct":
-        N = model.left_null_basis("direct")
+        N = left_null_basis(model, "direct")
         Nx, Ny = N[:, : model.n * s], N[:, model.n * s :]
         NF = _times_kron(Nx, model.Bf) + _times_kron(Ny, model.Df)
         NW = _times_kron(Nx, model.Bw) + _times_kron(Ny, model.Dw)
@@ -178,11 +178,11 @@ def _reduced(model: WindowModel, method: str | None = None) -> _Reduced:
         scales=float(np.linalg.norm(Gamma, 2)) * f_norms,
         method=method,
     )
-    model._cache[method] = red
+    model.cache[method] = red
     return red
 
 
-def residual_generator(model: WindowModel, *, method: NullSpaceMethod | None = None) -> np.ndarray:
+def residual_generator(model: WindowData, *, method: NullSpaceMethod | None = None) -> np.ndarray:
     """The whitened parity residual over the window, ``R = Gamma N_H L`` (eq. 3).
 
     ``r = R z_s`` with ``z_s = [y(k-s+1); ...; y(k); u(k-s+1); ...; u(k)]`` does not
@@ -195,31 +195,31 @@ def residual_generator(model: WindowModel, *, method: NullSpaceMethod | None = N
     """
     red = _reduced(model, method)
     if red.method == "direct":
-        return red.gamma @ (red.basis @ model.stacked().L)
+        return red.gamma @ (red.basis @ stacked(model).L)
     Tu = _toeplitz(model, model.B, model.D)
     return red.gamma @ np.hstack([red.basis, -(red.basis @ Tu)])
 
 
-def fault_matrix(
-    model: WindowModel, i: int, *, method: NullSpaceMethod | None = None
-) -> np.ndarray:
+def fault_matrix(model: WindowData, i: int, *, method: NullSpaceMethod | None = None) -> np.ndarray:
     """``Phi_i = Gamma N_H F_i`` (``d x s``): whitened map from the profile of ``f_i``.
 
     Defined up to a left orthogonal factor (the choice of basis ``N_H``).
     """
-    i = model._fault(i)
+    i = model.fault_index(i)
     return _reduced(model, method).phi[:, i :: model.p].copy()
 
 
-def fault_vector(model, i: int, theta: Any, *, method: NullSpaceMethod | None = None) -> np.ndarray:
+def fault_vector(
+    model: WindowData, i: int, theta: Any, *, method: NullSpaceMethod | None = None
+) -> np.ndarray:
     """``q_i = Gamma N_H F_i theta`` for the profile ``theta`` (length ``window``)."""
-    i = model._fault(i)
-    theta = model._theta(theta)
+    i = model.fault_index(i)
+    theta = model.profile(theta)
     return _reduced(model, method).phi[:, i :: model.p] @ theta
 
 
 def _q(
-    model: WindowModel, i: int, theta: np.ndarray, method: str | None
+    model: WindowData, i: int, theta: np.ndarray, method: str | None
 ) -> tuple[np.ndarray, float, float]:
     """``q_i = scale * q_unit`` for the profile ``theta``: ``(q_unit, zero_tol, scale)``.
 
@@ -250,7 +250,7 @@ def _scaled_square(x: np.ndarray, scale: float) -> float:
 
 
 def _complement_residual(
-    model: WindowModel, q: np.ndarray, j: int, method: str | None, tol: float
+    model: WindowData, q: np.ndarray, j: int, method: str | None, tol: float
 ) -> tuple[np.ndarray, int]:
     """``N_{Phi_j} q`` (component outside ``Im Phi_j``; zero below ``tol``) and
     ``d - rank Phi_j``."""

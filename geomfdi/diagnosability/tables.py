@@ -5,23 +5,29 @@ See the user guide, *Theory: diagnosability* (``docs/theory/diagnosability.md``)
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_int, as_positive, as_probability, as_real_array, as_vector
+from geomfdi.diagnosability import indices as _indices
+from geomfdi.diagnosability._records import WindowData
 from geomfdi.diagnosability.indices import _COSINES
 from geomfdi.diagnosability.results import DiagnosabilityTable
 from geomfdi.errors import GeomFDIError, ShapeError
 
 if TYPE_CHECKING:
-    from geomfdi.diagnosability.model import (
-        CosineConvention,
-        NullSpaceMethod,
-        TableMethod,
-        WindowModel,
-    )
+    from geomfdi.diagnosability._records import CosineConvention, NullSpaceMethod, TableMethod
+
+
+class WindowModelLike(Protocol):
+    """What :func:`diagnosability_table` reads of a
+    :class:`~geomfdi.diagnosability.model.WindowModel`: its record."""
+
+    @property
+    def data(self) -> WindowData: ...
+
 
 __all__ = ["diagnosability_table"]
 
@@ -45,7 +51,7 @@ def _profiles(theta: Any, p: int, s: int, name: str = "theta") -> np.ndarray:
 # --------------------------------------------------------------------------- tables
 @limit_blas_threads
 def diagnosability_table(
-    model: WindowModel,
+    model: WindowModelLike,
     theta: Any,
     method: TableMethod = "kl",
     *,
@@ -87,17 +93,31 @@ def diagnosability_table(
     ----------
     Li, Wang & Liu (2015), Tables 1-4; Eriksson, Frisk, Krysander, Automatica 49(6), 2013.
     """
-    if not hasattr(model, "fault_names") or not hasattr(model, "left_null_basis"):
+    data = getattr(model, "data", None)
+    if not isinstance(data, WindowData):
         raise GeomFDIError(
             f"model: expected a WindowModel, got {type(model).__name__}", argument="model"
         )
+    return _table(data, theta, method, kappa, cosine, alpha, nullspace, digits)
+
+
+def _table(
+    model: WindowData,
+    theta: Any,
+    method: str,
+    kappa: float,
+    cosine: str,
+    alpha: float,
+    nullspace: str | None,
+    digits: int,
+) -> DiagnosabilityTable:
     if not isinstance(method, str) or method not in _TABLE_METHODS:
         raise GeomFDIError(
             f"method: must be one of {_TABLE_METHODS}, got {method!r}", argument="method"
         )
     p, s = model.p, model.window
     thetas = _profiles(theta, p, s)
-    ns = model._method(nullspace)
+    ns = model.nullspace_method(nullspace)
     digits = as_int(digits, "digits", minimum=0, maximum=30)
     kappa, alpha = as_positive(kappa, "kappa"), as_probability(alpha, "alpha")
     if not isinstance(cosine, str) or cosine not in _COSINES:
@@ -108,34 +128,34 @@ def diagnosability_table(
     opts: dict[str, Any] = {"nullspace": ns}
     if method == "kl":
         for i in range(p):
-            vals[i, 0] = model.kl_detectability(i, thetas[i], method=ns)
+            vals[i, 0] = _indices.kl_detectability(model, i, thetas[i], method=ns)
             for j in range(p):
-                vals[i, 1 + j] = model.kl_isolability(i, j, thetas[i], method=ns)
+                vals[i, 1 + j] = _indices.kl_isolability(model, i, j, thetas[i], method=ns)
     elif method == "directional":
         opts.update(kappa=float(as_positive(kappa, "kappa")), cosine=cosine)
         for i in range(p):
-            vals[i, 0] = model.directional_detectability(i, thetas[i], method=ns)
+            vals[i, 0] = _indices.directional_detectability(model, i, thetas[i], method=ns)
             for j in range(p):
-                vals[i, 1 + j] = model.directional_isolability(
-                    i, j, thetas[i], kappa, theta_j=thetas[j], cosine=cosine, method=ns
+                vals[i, 1 + j] = _indices.directional_isolability(
+                    model, i, j, thetas[i], kappa, theta_j=thetas[j], cosine=cosine, method=ns
                 )
     else:
         alpha = as_probability(alpha, "alpha")
         opts["alpha"] = alpha
         det = (
-            model.detection_probability
+            _indices.detection_probability
             if method == "probability"
-            else model.probabilistic_detectability
+            else _indices.probabilistic_detectability
         )
         iso = (
-            model.isolation_probability
+            _indices.isolation_probability
             if method == "probability"
-            else model.probabilistic_isolability
+            else _indices.probabilistic_isolability
         )
         for i in range(p):
-            vals[i, 0] = det(i, thetas[i], alpha, method=ns)
+            vals[i, 0] = det(model, i, thetas[i], alpha, method=ns)
             for j in range(p):
-                vals[i, 1 + j] = iso(i, j, thetas[i], alpha, method=ns)
+                vals[i, 1 + j] = iso(model, i, j, thetas[i], alpha, method=ns)
     text = _format_table(vals, model.fault_names, digits)
     return DiagnosabilityTable(
         values=vals, method=method, fault_names=model.fault_names, options=opts, text=text

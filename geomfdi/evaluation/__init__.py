@@ -4,6 +4,7 @@
 * :mod:`~geomfdi.evaluation.persistence` -- k-of-n confirmation, held patterns, decisions.
 * :mod:`~geomfdi.evaluation.metrics` -- FAR, MDR, delays, isolation outcomes.
 * :mod:`~geomfdi.evaluation.covariance` -- residual noise covariance (Stein equation).
+* :mod:`~geomfdi.evaluation.gap_threshold` -- thresholds from the fault-to-noise gap.
 * :mod:`~geomfdi.evaluation.statistics` -- windowed chi-square, CUSUM, GLR tests.
 * :mod:`~geomfdi.evaluation.roc` -- ROC curves and binomial intervals.
 
@@ -17,6 +18,7 @@ from geomfdi.evaluation.covariance import (
     residual_noise_models,
 )
 from geomfdi.evaluation.decision import FaultEvent, Threshold, fault_hypotheses, isolate
+from geomfdi.evaluation.gap_threshold import GapThreshold, gap_threshold
 from geomfdi.evaluation.metrics import DetectionMetrics
 from geomfdi.evaluation.persistence import Persistence
 from geomfdi.evaluation.roc import RocCurve, roc_curve, wilson_interval
@@ -44,6 +46,8 @@ __all__ = [
     "fault_hypotheses",
     "Persistence",
     "DetectionMetrics",
+    "GapThreshold",
+    "gap_threshold",
     "ResidualNoiseModel",
     "residual_noise_model",
     "residual_noise_models",

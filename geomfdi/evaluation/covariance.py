@@ -2,8 +2,10 @@
 
 A residual generator ``(F, E, G, M, H, K)`` on a plant ``(A, B, C, D)`` with state feedback
 ``u = u_ext - K_c x`` (or open loop) sees measurement noise ``v = L_v z_v`` on ``y`` and
-process noise ``w = L_w z_w`` through ``B_w`` (:class:`geomfdi.Noise`).  The noise part of
-the residual obeys (continuous time; the same with ``x[k+1]`` for discrete plants)::
+process noise ``w = L_w z_w`` through ``B_w`` (:class:`geomfdi.Noise`; the plant's own noise
+inputs ``Noise(inputs=...)`` join ``w``, entering also the readings through ``D_w``).  The
+noise part of the residual obeys (continuous time; the same with ``x[k+1]`` for discrete
+plants; ``v`` stands for ``v + D_w w``)::
 
     x'  = A_cl x + B_w w,             A_cl = A - B K_c,   C_cl = C - D K_c
     w_g' = F w_g + Sigma x - E v,     Sigma = -E C_cl - G K_c
@@ -160,16 +162,22 @@ def residual_noise_model(
     from geomfdi.model.plant import as_plant
 
     plant = as_plant(plant)
-    if noise is None:
+    if not all(hasattr(generator, k) for k in ("F", "E", "G", "M", "H", "K")):
+        raise GeomFDIError(
+            f"generator: expected a ResidualGenerator, got {type(generator).__name__}",
+            argument="generator",
+        )
+    if not callable(getattr(noise, "factors", None)):  # a Noise (simulation layer)
         raise GeomFDIError(
             "noise: a Noise with measurement or process noise is needed", argument="noise"
         )
-    Lv, Bw, Lw = noise.factors(plant)
+    Lv = noise.factors(plant)[0]
+    Bw, Dw, Lw = noise.input_channels(plant)
     if Lv is None and Lw is None:
         raise GeomFDIError(
             "noise: neither measurement nor process noise is given", argument="noise"
         )
-    if hold not in ("foh", "zoh"):
+    if not isinstance(hold, str) or hold not in ("foh", "zoh"):
         raise GeomFDIError(f"hold: must be 'foh' or 'zoh', got {hold!r}", argument="hold")
     n, m, q = plant.n, plant.m, plant.q
     if controller is None:
@@ -194,6 +202,7 @@ def residual_noise_model(
     nz_v = q if Lv is not None else 0
     Lv_ = Lv if Lv is not None else np.zeros((q, 0))
     BwLw = Bw @ Lw if Lw is not None else np.zeros((n, 0))
+    DwLw = Dw @ Lw if Lw is not None else np.zeros((q, 0))
     nw = g.F.shape[0]
     Pi = None
     try:
@@ -206,13 +215,13 @@ def residual_noise_model(
         reduced = np.linalg.norm(g.M @ Pi + Nx) <= _DECOUPLED * scale
     if reduced:
         Ac = g.F
-        Bn = np.hstack([-g.E @ Lv_, -Pi @ BwLw])
+        Bn = np.hstack([-g.E @ Lv_, -Pi @ BwLw - g.E @ DwLw])
         Cs = g.M
     else:
         Ac = np.block([[A_cl, np.zeros((n, nw))], [Sigma, g.F]])
-        Bn = np.block([[np.zeros((n, nz_v)), BwLw], [-g.E @ Lv_, np.zeros((nw, BwLw.shape[1]))]])
+        Bn = np.block([[np.zeros((n, nz_v)), BwLw], [-g.E @ Lv_, -g.E @ DwLw]])
         Cs = np.hstack([Nx, g.M])
-    Ds = np.hstack([-g.H @ Lv_, np.zeros((g.H.shape[0], BwLw.shape[1]))])
+    Ds = np.hstack([-g.H @ Lv_, -g.H @ DwLw])
     if not _is_stable(Ac, discrete):
         what = "F" if reduced else "the composite plant-generator loop"
         raise GeomFDIError(

@@ -398,7 +398,12 @@ def fault_hypotheses(
 
     p = as_bool_array(pattern, "pattern")
     S = as_bool_array(structure, "structure")
-    if S.ndim != 2 or p.shape != (S.shape[0],):
+    if S.ndim != 2:
+        raise ShapeError(
+            f"structure: expected (n_residuals, n_faults), got shape {S.shape}",
+            argument="structure",
+        )
+    if p.shape != (S.shape[0],):
         raise ShapeError(
             f"pattern: expected ({S.shape[0]},) for a structure of shape {S.shape}, got {p.shape}",
             argument="pattern",

@@ -101,6 +101,11 @@ def held_pattern(alarms: Any, reset: int | None = None) -> np.ndarray:
 #: "No such sample yet" in the episode state of :func:`held_pattern_carry`.
 _NEVER = np.iinfo(np.int64).min // 4
 
+#: Largest confirmation window ``n`` (and ``k``) of a rule, in samples: a monitor keeps
+#: the last ``n`` alarm patterns and decisions (and generated C code a static ring of
+#: them), so a window of ``10**9`` samples would need gigabytes before the first one.
+MAX_WINDOW = 1_000_000
+
 
 def held_pattern_carry(
     alarms: Any, reset: int | None = None, state: tuple[np.ndarray, ...] | None = None
@@ -223,7 +228,7 @@ class Persistence:
     ----------
     k, n : int
         An alarm (decision) holds at sample ``j`` when the raw one held for at least ``k``
-        of the ``n`` samples ending at ``j``; ``1 <= k <= n``.
+        of the ``n`` samples ending at ``j``; ``1 <= k <= n <= MAX_WINDOW`` (``10**6``).
     latch : bool, default True
         Decide from the pattern held over the alarm episode (module docstring);
         ``False``: from the momentary pattern of confirmed alarms.
@@ -248,8 +253,8 @@ class Persistence:
     reset: int | None = None
 
     def __post_init__(self) -> None:
-        k = as_int(self.k, "persistence.k", minimum=1)
-        n = as_int(self.n, "persistence.n", minimum=1)
+        k = as_int(self.k, "persistence.k", minimum=1, maximum=MAX_WINDOW)
+        n = as_int(self.n, "persistence.n", minimum=1, maximum=MAX_WINDOW)
         if k > n:
             raise GeomFDIError(
                 f"persistence: k={k} of n={n} samples needs k <= n", argument="persistence"
@@ -258,7 +263,8 @@ class Persistence:
         object.__setattr__(self, "n", n)
         object.__setattr__(self, "latch", as_bool(self.latch, "persistence.latch"))
         if self.reset is not None:
-            object.__setattr__(self, "reset", as_int(self.reset, "persistence.reset", minimum=1))
+            reset = as_int(self.reset, "persistence.reset", minimum=1, maximum=2**31 - 1)
+            object.__setattr__(self, "reset", reset)
 
     @classmethod
     def from_duration(cls, duration: float, dt: float, **kwargs: Any) -> Persistence:

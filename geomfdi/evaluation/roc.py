@@ -72,8 +72,8 @@ def wilson_interval(successes: Any, trials: Any, confidence: float = 0.95) -> tu
     from scipy.stats import norm
 
     conf = as_probability(confidence, "confidence")
-    k = np.asarray(successes, dtype=float)
-    n = np.asarray(trials, dtype=float)
+    k = as_real_array(successes, "successes")
+    n = as_real_array(trials, "trials")
     if np.any(n <= 0) or np.any(k < 0) or np.any(k > n):
         raise GeomFDIError(
             "successes, trials: need 0 <= successes <= trials, trials > 0", argument="trials"

@@ -34,12 +34,20 @@ See the user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_int, as_positive, as_probability, as_real_array
+from geomfdi._validation import (
+    as_bool,
+    as_float,
+    as_int,
+    as_positive,
+    as_probability,
+    as_real_array,
+)
 from geomfdi.errors import GeomFDIError, ShapeError
 
 __all__ = [
@@ -86,7 +94,10 @@ def windowed_sum_of_squares(residuals: Any, window: int) -> np.ndarray:
     full window the sum covers the available samples (never more often above a
     full-window threshold than a full window).
     """
-    r = _rows(residuals) if np.ndim(residuals) >= 2 else as_real_array(residuals, "residuals")
+    r = as_real_array(residuals, "residuals")
+    if r.ndim == 0:
+        raise ShapeError("residuals: expected samples along the last axis, got a scalar",
+                         argument="residuals")  # fmt: skip
     L = as_int(window, "window", minimum=1)
     c = np.cumsum(r * r, axis=-1)
     out = c.copy()
@@ -234,6 +245,7 @@ def cusum(x: Any, drift: float, two_sided: bool = True) -> np.ndarray:
     """
     a = as_real_array(x, "x")
     nu = as_positive(drift, "drift", strict=False)
+    two_sided = as_bool(two_sided, "two_sided")
 
     def one(z: np.ndarray) -> np.ndarray:
         S = np.cumsum(z - nu, axis=-1)
@@ -252,11 +264,17 @@ def cusum_arl(threshold: float, drift: float, shift: float = 0.0) -> float:
     CUSUM has about half of it.
     """
     h = as_positive(threshold, "threshold", strict=False)
-    mu = float(shift) - as_positive(drift, "drift", strict=False)
+    mu = as_float(shift, "shift") - as_positive(drift, "drift", strict=False)
     b = h + 1.166
     if abs(mu) < 1e-12:
         return b * b
-    return float((np.exp(-2 * mu * b) + 2 * mu * b - 1) / (2 * mu * mu))
+    if -2 * mu * b > 700:  # exp overflows: no float holds the run length
+        raise GeomFDIError(
+            f"threshold, drift: a run length beyond 1e300 samples (threshold {h:g}, drift "
+            f"{mu - as_float(shift, 'shift'):g}); the data are unit-variance",
+            argument="threshold",
+        )
+    return float((math.exp(-2 * mu * b) + 2 * mu * b - 1) / (2 * mu * mu))
 
 
 # =========================================================================== GLR
@@ -289,6 +307,19 @@ def glr(residuals: Any, variances: Any) -> np.ndarray:
     """
     r = as_real_array(residuals, "residuals")
     V = as_real_array(variances, "variances")
+    if r.ndim == 0:
+        raise ShapeError("residuals: expected samples along the last axis, got a scalar",
+                         argument="residuals")  # fmt: skip
+    if V.ndim not in (1, 2) or V.shape[-1] == 0:
+        raise ShapeError(
+            f"variances: expected (L,) or (n_residuals, L), got shape {V.shape}",
+            argument="variances",
+        )
+    if V.ndim == 2 and (r.ndim < 2 or r.shape[-2] != V.shape[0]):
+        raise ShapeError(
+            f"variances: {V.shape[0]} rows for residuals of shape {r.shape}",
+            argument="variances",
+        )
     if np.any(V <= 0):
         raise GeomFDIError("variances: must be > 0", argument="variances")
     L = V.shape[-1]

@@ -100,6 +100,45 @@ def exact_scalar(x: Any, name: str) -> sp.Expr:
     return _exact_entry(x, name)
 
 
+#: Largest degree of an exact entry in its parameters (numerator plus denominator, as
+#: written, before any expansion).  Exact elimination multiplies these degrees: an entry
+#: of degree 32 already takes tens of seconds, ``k**100000`` would exhaust the memory.
+MAX_EXACT_DEGREE = 32
+
+
+def degree_bound(x: sp.Basic) -> int:
+    """An upper bound of the total degree (numerator plus denominator) of the rational
+    function ``x``, read from the expression tree without expanding it: a symbol has
+    degree 1, a sum the largest degree of its terms, a product the sum, an integer power
+    ``b**n`` ``|n|`` times the degree of ``b``."""
+    if not x.free_symbols:
+        return 0
+    if x.is_Symbol:
+        return 1
+    if x.is_Pow and x.exp.is_Integer:
+        return abs(int(x.exp)) * degree_bound(x.base)
+    if x.is_Add:
+        return max(degree_bound(a) for a in x.args)
+    # a product (and anything else a rational function is made of): degrees add up
+    return sum(degree_bound(a) for a in x.args)
+
+
+def check_degree(x: sp.Basic, name: str) -> None:
+    """Refuse an exact entry above :data:`MAX_EXACT_DEGREE` before any work is done."""
+    deg = degree_bound(x)
+    if deg > MAX_EXACT_DEGREE:
+        from geomfdi.errors import ResourceLimitError
+
+        raise ResourceLimitError(
+            f"{name}: an entry has degree {deg} in the parameters; exact and parametric "
+            f"design are limited to degree {MAX_EXACT_DEGREE} per entry "
+            "(geomfdi.geometry.parametric.MAX_EXACT_DEGREE): the elimination multiplies "
+            "degrees and would not finish",
+            limit="max_exact_degree",
+            argument=name,
+        )
+
+
 def _exact_entry(x: Any, name: str) -> sp.Expr:
     if isinstance(x, sp.Basic):
         if x.is_Float:
@@ -117,6 +156,7 @@ def _exact_entry(x: Any, name: str) -> sp.Expr:
                 f"got {x}",
                 argument=name,
             )
+        check_degree(x, name)
         return sp.sympify(x)
     if isinstance(x, bool | str | bytes) or x is None:
         raise GeomFDIError(f"{name}: entries must be numbers or symbols, got {x!r}", argument=name)

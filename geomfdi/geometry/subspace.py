@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from geomfdi._validation import as_matrix, as_positive
+from geomfdi._validation import as_int, as_matrix, as_positive
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.tolerance import rank_decision
 
@@ -37,6 +37,14 @@ __all__ = [
     "extend_basis",
     "split_kernel",
 ]
+
+#: Largest dimension of a space built from a bare size (an ``n x n`` basis of 8 GiB).
+MAX_SPACE_DIM = 32_768
+
+
+def _space_dim(n: Any) -> int:
+    """``n`` of ``Subspace.full(n)`` / ``zero(n)``: an integer in ``0 .. MAX_SPACE_DIM``."""
+    return as_int(n, "n", minimum=0, maximum=MAX_SPACE_DIM)
 
 
 def _norm2(M: np.ndarray) -> float:
@@ -108,21 +116,37 @@ class Subspace:
     # ------------------------------------------------------------ builders
     @classmethod
     def from_orthonormal(cls, Q: np.ndarray) -> Subspace:
-        """Wrap an (already orthonormal) basis without any rank decision."""
+        """Wrap an (already orthonormal) basis without any rank decision.
+
+        ``Q`` must be a finite real ``(n, k)`` matrix with ``k <= n`` (checked; its
+        orthonormality is the caller's promise)."""
+        ready = (
+            isinstance(Q, np.ndarray)
+            and Q.dtype == np.float64
+            and Q.ndim == 2
+            and bool(np.isfinite(Q).all())
+        )
+        arr = Q if ready else as_matrix(Q, "Q", allow_empty=True)
+        if arr.shape[1] > arr.shape[0]:
+            raise ShapeError(
+                f"Q: an orthonormal basis has at most as many columns as rows, got shape "
+                f"{arr.shape}",
+                argument="Q",
+            )
         obj = cls.__new__(cls)
-        obj.basis = np.asarray(Q, dtype=float)
-        obj.n = obj.basis.shape[0]
+        obj.basis = arr
+        obj.n = arr.shape[0]
         return obj
 
     @classmethod
     def full(cls, n: int) -> Subspace:
         """The whole space R^n."""
-        return cls.from_orthonormal(np.eye(n))
+        return cls.from_orthonormal(np.eye(_space_dim(n)))
 
     @classmethod
     def zero(cls, n: int) -> Subspace:
         """The zero subspace of R^n."""
-        return cls.from_orthonormal(np.zeros((n, 0)))
+        return cls.from_orthonormal(np.zeros((_space_dim(n), 0)))
 
     # --------------------------------------------------------------- sizes
     @property

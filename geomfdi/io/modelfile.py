@@ -4,7 +4,8 @@ A model file has four parts (sensor and input indices are 0-based)::
 
     name = "Hou, Wen & Chen 2011, section 4"
 
-    [plant]                      # A, C required; B, D, Bd, Dd optional; dt = 0 (continuous)
+    [plant]                      # A, C required; B, D, Bd, Dd, Bw, Dw optional; dt = 0
+                                 #   (continuous); Bw, Dw: noise inputs (not decoupled)
     A = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]
     B = [[1, 0, 1], [0, 1, 1], [0, 1, 0]]
     C = [[0, 1, 0], [0, 0, 1], [1, 0, 2]]
@@ -31,8 +32,9 @@ A model file has four parts (sensor and input indices are 0-based)::
     K = [[5, -1.5, 3], [2, 0, 2], [-2, 2.5, -2]]   # state feedback u = u(t) - K x
     threshold = 0.06             # number, list per residual, or {false_alarm_rate, runs}
     window = [8.0, 20.0]         # where the report measures max |r|
-    [simulation.noise]           # optional: measurement, process (std: one number or
-    measurement = 0.001          # one per sensor / state), seed (integer >= 0)
+    [simulation.noise]           # optional: measurement, process, inputs (std: one number
+    measurement = 0.001          # or one per sensor / state / noise input of Bw, Dw),
+                                 # seed (integer >= 0)
     seed = 1
 
     [[scenario]]                 # optional per scenario: noise (table), d (list)
@@ -98,7 +100,7 @@ _FLOAT_MAX = float(np.finfo(float).max)
 
 # "campaign" is read by geomfdi.campaign.config (``geomfdi campaign``), not here
 _TOP = {"name", "description", "plant", "design", "simulation", "scenario", "campaign"}
-_PLANT = {"A", "B", "C", "D", "Bd", "Dd", "dt"}
+_PLANT = {"A", "B", "C", "D", "Bd", "Dd", "Bw", "Dw", "dt"}
 _DESIGN = {
     "methods",
     "poles",
@@ -116,7 +118,7 @@ _DESIGN = {
 }
 _METHOD = {"poles", "normalize", "filter_pole", "margin", "residual_dim", "common_poles"}
 _SIM = {"t_end", "step", "x0", "u", "d", "K", "threshold", "window", "noise", "t_start"}
-_NOISE = {"measurement", "process", "seed"}
+_NOISE = {"measurement", "process", "inputs", "seed"}
 _SCEN = {"name", "faults", "noise", "d"}
 _FAULT_KEYS = {
     "gain": {"type", "sensor", "start", "gain", "bias", "end"},
@@ -293,9 +295,12 @@ def _plant(ctx: _Ctx, table: Any) -> Plant:
     Bd = ctx.matrix(t["Bd"], "plant.Bd", (n, None)) if "Bd" in t else None
     kd = None if Bd is None else Bd.shape[1]
     Dd = ctx.matrix(t["Dd"], "plant.Dd", (q, kd)) if "Dd" in t else None
+    Bw = ctx.matrix(t["Bw"], "plant.Bw", (n, None)) if "Bw" in t else None
+    kw = None if Bw is None else Bw.shape[1]
+    Dw = ctx.matrix(t["Dw"], "plant.Dw", (q, kw)) if "Dw" in t else None
     dt = ctx.number(t.get("dt", 0.0), "plant.dt")
     try:
-        return Plant(A, B, C, D, Bd=Bd, Dd=Dd, dt=dt)
+        return Plant(A, B, C, D, Bd=Bd, Dd=Dd, Bw=Bw, Dw=Dw, dt=dt)
     except GeomFDIError as exc:
         raise ctx.err("plant", str(exc)) from exc
 
@@ -473,7 +478,9 @@ def _fault_signal(ctx: _Ctx, item: Any, where: str, q: int, t: np.ndarray) -> An
 def _noise(ctx: _Ctx, table: Any, where: str, plant: Plant) -> dict[str, Any]:
     t = ctx.keys(table, _NOISE, where)
     out: dict[str, Any] = {}
-    for key, dim in (("measurement", plant.q), ("process", plant.n)):
+    if "inputs" in t and plant.nw == 0:
+        raise ctx.err(f"{where}.inputs", "the plant has no noise inputs (no Bw or Dw)")
+    for key, dim in (("measurement", plant.q), ("process", plant.n), ("inputs", plant.nw)):
         if key in t:
             v = t[key]
             out[key] = (
@@ -599,11 +606,11 @@ def parse_model(data: dict[str, Any], source: str = "<model>") -> ModelSpec:
         if isinstance(spec.threshold, dict) and not any(
             np.any(np.asarray(v) > 0)
             for k, v in (spec.noise or {}).items()
-            if k in ("measurement", "process")
+            if k in ("measurement", "process", "inputs")
         ):
             raise ctx.err(
                 "simulation.threshold",
-                "a calibrated threshold needs non-zero measurement or process noise in "
+                "a calibrated threshold needs non-zero measurement, process or input noise in "
                 "[simulation.noise]",
             )
     scen = data.get("scenario", [])

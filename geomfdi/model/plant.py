@@ -1,6 +1,8 @@
-"""The plant model: ``x' = A x + B u + Bd d``, ``y = C x + D u + Dd d``.
+"""The plant model: ``x' = A x + B u + Bd d + Bw w``, ``y = C x + D u + Dd d + Dw w``.
 
-The model of Hou, Wen & Chen (2011), §2, with the disturbance and feedthrough terms.
+The model of Hou, Wen & Chen (2011), §2, with the disturbance and feedthrough terms, and
+the noise inputs ``w`` of Varga (2017), §2.2 (attenuated, not decoupled; see the user
+guide, *Theory: approximate synthesis*, ``docs/theory/approximate-synthesis.md``).
 """
 
 from __future__ import annotations
@@ -34,17 +36,19 @@ def _as_dt(dt: Any) -> float:
 
 
 class Plant:
-    """A linear time-invariant plant with known inputs and disturbances.
+    """A linear time-invariant plant with known inputs, disturbances and noise inputs.
 
     Continuous time (``dt = 0``)::
 
-        x' = A x + B u + Bd d,      y = C x + D u + Dd d
+        x' = A x + B u + Bd d + Bw w,      y = C x + D u + Dd d + Dw w
 
     or discrete time (``dt > 0``, python-control convention)::
 
-        x[k+1] = A x[k] + B u[k] + Bd d[k],   y[k] = C x[k] + D u[k] + Dd d[k]
+        x[k+1] = A x[k] + B u[k] + Bd d[k] + Bw w[k],   y[k] = C x[k] + D u[k] + Dd d[k] + Dw w[k]
 
-    Disturbances ``d`` are always decoupled by the residual generators, never diagnosed.
+    Disturbances ``d`` are always decoupled exactly by the residual generators, never
+    diagnosed.  Noise inputs ``w`` are not decoupled: their effect on a residual is
+    attenuated and measured by the H∞ norm ``‖R_w‖∞`` (:func:`geomfdi.fault_to_noise_gap`).
 
     Parameters
     ----------
@@ -58,6 +62,10 @@ class Plant:
         Feedthrough; zero by default.
     Bd, Dd : array_like, optional
         Disturbance channels, (n, nd) and (q, nd).  Either may be omitted (zero).
+    Bw, Dw : array_like, optional
+        Noise-input channels, (n, nw) and (q, nw) (Varga 2017, §2.2: the noise inputs of
+        the approximate problems).  Either may be omitted (zero); none by default
+        (``nw = 0``).
     dt : float
         0 for continuous time, the sampling period for discrete time.  Positional as the
         5th argument, as in python-control's ``ss(A, B, C, D, dt)``.  A scalar 4th
@@ -95,10 +103,12 @@ class Plant:
         *,
         Bd: Any = None,
         Dd: Any = None,
+        Bw: Any = None,
+        Dw: Any = None,
     ) -> None:
         self.parameters: tuple[Any, ...] = ()
-        if _has_symbols(A, B, C, D, Bd, Dd):
-            self._init_parametric(A, B, C, D, Bd, Dd, dt)
+        if _has_symbols(A, B, C, D, Bd, Dd, Bw, Dw):
+            self._init_parametric(A, B, C, D, Bd, Dd, dt, Bw, Dw)
             return
         self.A = as_matrix(A, "A", square=True, allow_empty=True)
         n = self.A.shape[0]
@@ -127,25 +137,13 @@ class Plant:
         else:
             _check_scalar_d(D, q, m)
             self.D = as_matrix(D, "D", rows=q, cols=m, allow_empty=True)
-        nd = 0
-        if Bd is not None:
-            Bd = as_matrix(Bd, "Bd", rows=n, allow_empty=True, vector_as="column")
-            nd = Bd.shape[1]
-        if Dd is not None:
-            Dd = as_matrix(Dd, "Dd", rows=q, allow_empty=True, vector_as="column")
-            if Bd is not None and Dd.shape[1] != nd:
-                raise ShapeError(
-                    f"Dd: expected {nd} columns (as many as Bd), got shape {Dd.shape}",
-                    argument="Dd",
-                )
-            nd = Dd.shape[1]
-        self.Bd = Bd if Bd is not None else np.zeros((n, nd))
-        self.Dd = Dd if Dd is not None else np.zeros((q, nd))
+        self.Bd, self.Dd = _channel_pair(Bd, Dd, n, q, "Bd", "Dd")
+        self.Bw, self.Dw = _channel_pair(Bw, Dw, n, q, "Bw", "Dw")
         self.dt = _as_dt(dt)
-        for arr in (self.A, self.B, self.C, self.D, self.Bd, self.Dd):
+        for arr in (self.A, self.B, self.C, self.D, self.Bd, self.Dd, self.Bw, self.Dw):
             arr.setflags(write=False)
 
-    def _init_parametric(self, A, B, C, D, Bd, Dd, dt) -> None:
+    def _init_parametric(self, A, B, C, D, Bd, Dd, dt, Bw=None, Dw=None) -> None:
         from geomfdi.geometry.parametric import as_exact_matrix
 
         self.A = as_exact_matrix(A, "A")
@@ -163,23 +161,11 @@ class Plant:
         else:
             _check_scalar_d(D, q, m)
         self.D = as_exact_matrix(D, "D", rows=q, cols=m)
-        nd = 0 if Bd is None and Dd is None else None
-        self.Bd = None if Bd is None else as_exact_matrix(Bd, "Bd", rows=n)
-        self.Dd = None if Dd is None else as_exact_matrix(Dd, "Dd", rows=q)
-        if nd is None:
-            nd = (self.Bd if self.Bd is not None else self.Dd).cols
-        if self.Bd is None:
-            self.Bd = as_exact_matrix(np.zeros((n, nd)), "Bd", rows=n, cols=nd)
-        if self.Dd is None:
-            self.Dd = as_exact_matrix(np.zeros((q, nd)), "Dd", rows=q, cols=nd)
-        if self.Dd.cols != self.Bd.cols:
-            raise ShapeError(
-                f"Dd: expected {self.Bd.cols} columns (as many as Bd), got shape {self.Dd.shape}",
-                argument="Dd",
-            )
+        self.Bd, self.Dd = _exact_channel_pair(Bd, Dd, n, q, "Bd", "Dd")
+        self.Bw, self.Dw = _exact_channel_pair(Bw, Dw, n, q, "Bw", "Dw")
         self.dt = _as_dt(dt)
         syms: set[Any] = set()
-        for M in (self.A, self.B, self.C, self.D, self.Bd, self.Dd):
+        for M in (self.A, self.B, self.C, self.D, self.Bd, self.Dd, self.Bw, self.Dw):
             syms |= M.free_symbols
         self.parameters = tuple(sorted(syms, key=lambda s: s.name))
 
@@ -202,14 +188,14 @@ class Plant:
 
         vals = _subs_values(self.parameters, values)
         out = []
-        for name in ("A", "B", "C", "D", "Bd", "Dd"):
+        for name in ("A", "B", "C", "D", "Bd", "Dd", "Bw", "Dw"):
             M = getattr(self, name)
             X = M.subs(vals) if M.rows and M.cols else M
             if any(not x.is_finite for x in X):
                 raise GeomFDIError(f"values: {name} is undefined at {values}", argument="values")
             out.append(np.array(X.evalf(30).tolist(), dtype=float).reshape(M.shape))
-        A, B, C, D, Bd, Dd = out
-        return Plant(A, B, C, D, self.dt, Bd=Bd, Dd=Dd)
+        A, B, C, D, Bd, Dd, Bw, Dw = out
+        return Plant(A, B, C, D, self.dt, Bd=Bd, Dd=Dd, Bw=Bw, Dw=Dw)
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -233,21 +219,28 @@ class Plant:
         return self.Bd.shape[1]
 
     @property
+    def nw(self) -> int:
+        """Number of noise inputs (attenuated, not decoupled)."""
+        return self.Bw.shape[1]
+
+    @property
     def is_discrete(self) -> bool:
         """True for a discrete-time plant (``dt > 0``)."""
         return self.dt > 0
 
     # ------------------------------------------------------------ conversion
     @classmethod
-    def from_statespace(cls, sys: Any, *, n_disturbances: int = 0) -> Plant:
+    def from_statespace(cls, sys: Any, *, n_disturbances: int = 0, n_noise: int = 0) -> Plant:
         """Build a plant from a python-control ``StateSpace``.
 
         Parameters
         ----------
         sys : control.StateSpace
-            Its inputs are ``[u; d]``.
+            Its inputs are ``[u; d; w]``.
         n_disturbances : int
-            How many of the *last* inputs are disturbances (default 0).
+            How many inputs before the noise inputs are disturbances (default 0).
+        n_noise : int
+            How many of the *last* inputs are noise inputs ``w`` (default 0).
         """
         import control
 
@@ -266,31 +259,42 @@ class Plant:
             )
         B = np.asarray(sys.B, dtype=float)
         D = np.asarray(sys.D, dtype=float)
-        k = as_int(n_disturbances, "n_disturbances", minimum=0)
-        if k > B.shape[1]:
+        kw = as_int(n_noise, "n_noise", minimum=0)
+        if kw > B.shape[1]:
             raise GeomFDIError(
-                f"n_disturbances: must be in 0..{B.shape[1]}, got {n_disturbances}",
+                f"n_noise: must be in 0..{B.shape[1]}, got {n_noise}", argument="n_noise"
+            )
+        k = as_int(n_disturbances, "n_disturbances", minimum=0)
+        if k > B.shape[1] - kw:
+            raise GeomFDIError(
+                f"n_disturbances: must be in 0..{B.shape[1] - kw}, got {n_disturbances}",
                 argument="n_disturbances",
             )
-        mu = B.shape[1] - k
+        mu, md = B.shape[1] - k - kw, B.shape[1] - kw
         return cls(
             sys.A,
             B[:, :mu],
             sys.C,
             D[:, :mu],
-            Bd=B[:, mu:] if k else None,
-            Dd=D[:, mu:] if k else None,
+            Bd=B[:, mu:md] if k else None,
+            Dd=D[:, mu:md] if k else None,
+            Bw=B[:, md:] if kw else None,
+            Dw=D[:, md:] if kw else None,
             dt=dt,
         )
 
     def to_statespace(self) -> Any:
-        """The plant as a python-control ``StateSpace`` with inputs ``[u; d]``."""
+        """The plant as a python-control ``StateSpace`` with inputs ``[u; d; w]``."""
         import control
 
         _require_numeric(self, "plant")
-        B = np.hstack([self.B, self.Bd])
-        D = np.hstack([self.D, self.Dd])
-        names_in = [f"u[{i}]" for i in range(self.m)] + [f"d[{i}]" for i in range(self.nd)]
+        B = np.hstack([self.B, self.Bd, self.Bw])
+        D = np.hstack([self.D, self.Dd, self.Dw])
+        names_in = (
+            [f"u[{i}]" for i in range(self.m)]
+            + [f"d[{i}]" for i in range(self.nd)]
+            + [f"w[{i}]" for i in range(self.nw)]
+        )
         return control.ss(
             np.array(self.A),
             B,
@@ -305,7 +309,49 @@ class Plant:
     def __repr__(self) -> str:
         kind = f"dt={self.dt:g}" if self.is_discrete else "continuous"
         par = f", parameters={list(self.parameters)}" if self.parameters else ""
-        return f"Plant(n={self.n}, m={self.m}, q={self.q}, nd={self.nd}, {kind}{par})"
+        nw = f", nw={self.nw}" if self.nw else ""
+        return f"Plant(n={self.n}, m={self.m}, q={self.q}, nd={self.nd}{nw}, {kind}{par})"
+
+
+def _channel_pair(
+    Bx: Any, Dx: Any, n: int, q: int, bname: str, dname: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """An input channel ``(Bx (n, k), Dx (q, k))``; an omitted half is zero of the other's width."""
+    k = 0
+    if Bx is not None:
+        Bx = as_matrix(Bx, bname, rows=n, allow_empty=True, vector_as="column")
+        k = Bx.shape[1]
+    if Dx is not None:
+        Dx = as_matrix(Dx, dname, rows=q, allow_empty=True, vector_as="column")
+        if Bx is not None and Dx.shape[1] != k:
+            raise ShapeError(
+                f"{dname}: expected {k} columns (as many as {bname}), got shape {Dx.shape}",
+                argument=dname,
+            )
+        k = Dx.shape[1]
+    return (
+        Bx if Bx is not None else np.zeros((n, k)),
+        Dx if Dx is not None else np.zeros((q, k)),
+    )
+
+
+def _exact_channel_pair(Bx: Any, Dx: Any, n: int, q: int, bname: str, dname: str) -> tuple:
+    """:func:`_channel_pair` for a parametric plant (sympy matrices)."""
+    from geomfdi.geometry.parametric import as_exact_matrix
+
+    Bm = None if Bx is None else as_exact_matrix(Bx, bname, rows=n)
+    Dm = None if Dx is None else as_exact_matrix(Dx, dname, rows=q)
+    k = 0 if Bm is None and Dm is None else (Bm if Bm is not None else Dm).cols
+    if Bm is None:
+        Bm = as_exact_matrix(np.zeros((n, k)), bname, rows=n, cols=k)
+    if Dm is None:
+        Dm = as_exact_matrix(np.zeros((q, k)), dname, rows=q, cols=k)
+    if Dm.cols != Bm.cols:
+        raise ShapeError(
+            f"{dname}: expected {Bm.cols} columns (as many as {bname}), got shape {Dm.shape}",
+            argument=dname,
+        )
+    return Bm, Dm
 
 
 def _has_symbols(*values: Any) -> bool:

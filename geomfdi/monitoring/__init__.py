@@ -3,7 +3,8 @@ baselines on the same innovations (chi-square, CUSUM, GLR of the mean, joint T^2
 
 * :mod:`~geomfdi.monitoring.monitor` -- :class:`ARMonitor`;
 * :mod:`~geomfdi.monitoring.training`, :mod:`~geomfdi.monitoring.batch`,
-  :mod:`~geomfdi.monitoring.streaming` -- its training, batch and streaming functions;
+  :mod:`~geomfdi.monitoring.streaming` -- its training, batch and streaming functions
+  (they take the monitor's settings and null model as frozen records, never the object);
 * :mod:`~geomfdi.monitoring.baselines` -- innovation tests and alarm latching;
 * :mod:`~geomfdi.monitoring.kalman` -- innovations of a Kalman filter in the loop;
 * :mod:`~geomfdi.monitoring.innovations` -- synthetic innovation sequences;

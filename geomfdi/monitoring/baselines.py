@@ -361,9 +361,12 @@ def latch_alarms(alarm: Any, hold: int | None = None) -> np.ndarray:
         statistic has died out, at the price of also holding false alarms and alarms of
         faults that have ended.
     """
-    a = np.asarray(alarm)
-    if a.dtype != bool:
-        raise GeomFDIError("alarm: expected a boolean array", argument="alarm")
+    try:
+        a = np.asarray(alarm) if not isinstance(alarm, bool | np.bool_) else None
+    except ValueError:  # ragged
+        a = None
+    if a is None or a.dtype != bool or a.ndim not in (1, 2):
+        raise GeomFDIError("alarm: expected a boolean array (L,) or (B, L)", argument="alarm")
     if hold is None:
         return np.logical_or.accumulate(a, axis=-1)
     hold = as_int(hold, "hold", minimum=0)

@@ -6,17 +6,15 @@ See the user guide, *Theory: AR monitoring* (``docs/theory/ar-monitoring.md``).
 from __future__ import annotations
 
 import warnings
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from geomfdi._validation import as_real_array
 from geomfdi.errors import ShapeError
 from geomfdi.monitoring._kernels import _normal_equations, _run_lengths, _solve
+from geomfdi.monitoring._records import ARNull, ARSettings
 from geomfdi.monitoring.results import ARMonitorResult, ARMonitorWarning
-
-if TYPE_CHECKING:
-    from geomfdi.monitoring.monitor import ARMonitor
 
 __all__ = ["run"]
 
@@ -43,11 +41,15 @@ def _as_stream(value: Any, name: str) -> np.ndarray:
 # --------------------------------------------------------------------------------------
 
 
-def run(mon: ARMonitor, stream: Any) -> ARMonitorResult:
+def run(cfg: ARSettings, null: ARNull, stream: Any) -> ARMonitorResult:
     """Monitor a whole stream (or a batch of streams) from a fresh state.
 
     Parameters
     ----------
+    cfg : ARSettings
+        Settings of the monitor.
+    null : ARNull
+        Its learnt ``mu``, ``delta`` and stored normal innovations.
     stream : array_like, (L,) or (B, L)
         Innovations; non-finite samples are allowed and reported (see Notes of
         :class:`ARMonitor`).  Rows of a 2-D array are independent streams.
@@ -65,12 +67,11 @@ def run(mon: ARMonitor, stream: Any) -> ARMonitorResult:
     vectorised chunks that start small after each restart and double while no
     restart occurs; only the restart decisions are sequential.
     """
-    mon._require_fit()
     x = _as_stream(stream, "stream")
     one = x.ndim == 1
     X = x[None, :] if one else x
     B, L = X.shape
-    n = mon.order
+    n = cfg.order
     stat = np.full((B, L), np.nan)
     phi = np.full((B, L, n), np.nan)
     valid = np.zeros((B, L), dtype=bool)
@@ -78,12 +79,12 @@ def run(mon: ARMonitor, stream: Any) -> ARMonitorResult:
     sing = np.zeros((B, L), dtype=bool)
     restarted = np.zeros((B, L), dtype=bool)
     outs = (stat, phi, valid, nonfin, sing, restarted)
-    if mon.reset_after is None:
-        _run_rows(mon, X, outs, slice(None))
+    if cfg.reset_after is None:
+        _run_rows(cfg, null, X, outs, slice(None))
     else:
         for i in range(B):
-            _run_rows(mon, X[i : i + 1], outs, slice(i, i + 1))
-    alarm = valid & (np.where(valid, stat, 0.0) > mon.threshold)
+            _run_rows(cfg, null, X[i : i + 1], outs, slice(i, i + 1))
+    alarm = valid & (np.where(valid, stat, 0.0) > cfg.threshold)
     bad_in = ~np.isfinite(X)
     if np.any(bad_in) or np.any(sing):
         msg = []
@@ -111,31 +112,31 @@ def run(mon: ARMonitor, stream: Any) -> ARMonitorResult:
         restarted=restarted,
         nonfinite=nonfin,
         singular=sing,
-        threshold=mon.threshold,
+        threshold=cfg.threshold,
         info={
-            "mu": mon.mu,
-            "delta": mon.delta,
+            "mu": null.mu,
+            "delta": null.delta,
             "order": n,
-            "window": mon.window,
-            "coefficient": mon.coefficient,
-            "pfa": mon.pfa,
-            "reset_after": mon.reset_after,
-            "reset_keep": mon.reset_keep,
-            "prefill": mon.prefill,
+            "window": cfg.window,
+            "coefficient": cfg.coefficient,
+            "pfa": cfg.pfa,
+            "reset_after": cfg.reset_after,
+            "reset_keep": cfg.reset_keep,
+            "prefill": cfg.prefill,
             "restarts": int(restarted.sum()),
         },
     )
 
 
 def _segment(
-    mon: ARMonitor, hist: np.ndarray, xs: np.ndarray
+    cfg: ARSettings, hist: np.ndarray, xs: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
     """Coefficients for the epochs of ``xs`` given the ``hist`` samples before them.
 
     Returns ``phi (B, c', n)``, ``nonfinite``, ``singular`` (B, c') for the epochs
     ``c - c' .. c - 1`` of the segment whose window is full, and ``c - c'``.
     """
-    m, n = mon.window, mon.order
+    m, n = cfg.window, cfg.order
     z = np.concatenate([hist, xs], axis=-1)
     h, c = hist.shape[-1], xs.shape[-1]
     first = max(m - 1 - h, 0)
@@ -147,12 +148,12 @@ def _segment(
     return phi, bad, sing, first
 
 
-def _run_rows(mon: ARMonitor, X: np.ndarray, outs: tuple, rows: slice) -> None:
+def _run_rows(cfg: ARSettings, null: ARNull, X: np.ndarray, outs: tuple, rows: slice) -> None:
     stat, phi_o, valid, nonfin, sing_o, restarted = outs
-    m, k, r = mon.window, mon.reset_after, mon.reset_keep
+    m, k, r = cfg.window, cfg.reset_after, cfg.reset_keep
     B, L = X.shape
-    normal = np.broadcast_to(mon.normal, (B, m - 1))
-    hist = normal.copy() if mon.prefill else np.zeros((B, 0))
+    normal = np.broadcast_to(null.normal, (B, m - 1))
+    hist = normal.copy() if cfg.prefill else np.zeros((B, 0))
     c_min = max(4 * (k or 1), 64)
     size = max(_CHUNK_MAX // B, 4 * m) if k is None else c_min  # bounds the memory
     counter = 0
@@ -160,10 +161,10 @@ def _run_rows(mon: ARMonitor, X: np.ndarray, outs: tuple, rows: slice) -> None:
     while t < L:
         c = min(size, L - t)
         xs = X[:, t : t + c]
-        phi, bad, sing, first = _segment(mon, hist, xs)
-        lam = mon.statistic_of(phi)
+        phi, bad, sing, first = _segment(cfg, hist, xs)
+        lam = null.statistic(phi, cfg.coefficient)
         ok = ~bad & ~sing
-        alarm = ok & (np.where(ok, lam, 0.0) > mon.threshold)
+        alarm = ok & (np.where(ok, lam, 0.0) > cfg.threshold)
         hit = None
         if k is not None:
             full_alarm = np.zeros(c, dtype=bool)

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_matrix, as_real_array
+from geomfdi._validation import as_matrix, as_real_array, as_vector
 from geomfdi.errors import GeomFDIError, ShapeError
 
 __all__ = ["KalmanInnovations", "kalman_innovations"]
@@ -107,14 +107,14 @@ def kalman_innovations(
     Y = as_real_array(y, "y")
     if Y.ndim == 1 and p == 1:
         Y = Y[:, None]
-    if Y.shape[-1] != p or Y.ndim not in (2, 3):
+    if Y.ndim not in (2, 3) or Y.shape[-1] != p:
         raise ShapeError(f"y: expected (N, {p}) or (R, N, {p}), got {Y.shape}", argument="y")
     # y -> nu is LTI: x_pred(k+1) = A (I - K C) x_pred(k) + A K y(k), nu = y - C x_pred
     Af = Am @ (np.eye(n) - K @ Cm)
     Bf = Am @ K
     u = np.moveaxis(Y, -1, -2)  # (..., p, N)
     N = Y.shape[-2]
-    x_start = None if x0 is None else Am @ as_real_array(x0, "x0").reshape(n)
+    x_start = None if x0 is None else Am @ as_vector(x0, "x0", length=n)
     _, nu = simulate_lti(Af, Bf, -Cm, np.eye(p), u, np.arange(N, dtype=float), x0=x_start, dt=1.0)
     nu = np.moveaxis(nu, -2, -1)
     w, V = np.linalg.eigh(S)

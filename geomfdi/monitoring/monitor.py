@@ -20,13 +20,21 @@ from typing import Any
 import numpy as np
 
 from geomfdi._validation import as_index, as_int, as_probability, as_real_array
-from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.errors import GeomFDIError, ResourceLimitError, ShapeError
 from geomfdi.monitoring import batch as _batch
 from geomfdi.monitoring import streaming as _streaming
 from geomfdi.monitoring import training as _training
+from geomfdi.monitoring._records import ARNull, ARSettings
 from geomfdi.monitoring.results import ARMonitorResult, ARStep
 
 __all__ = ["ARMonitor"]
+
+#: Largest AR order, window (samples) and their product (the entries of one window's
+#: regression, 8 bytes each) an :class:`ARMonitor` accepts: checked before anything is
+#: allocated, so ``ARMonitor(order=10**9, window=10**10)`` is refused, not attempted.
+MAX_ORDER = 1_000
+MAX_WINDOW = 10_000_000
+MAX_WINDOW_ENTRIES = 100_000_000
 
 
 class ARMonitor:
@@ -146,8 +154,16 @@ class ARMonitor:
         prefill: bool = False,
         refit_every: int | None = None,
     ) -> None:
-        self.order = as_int(order, "order", minimum=1)
-        self.window = as_int(window, "window", minimum=2)
+        self.order = as_int(order, "order", minimum=1, maximum=MAX_ORDER)
+        self.window = as_int(window, "window", minimum=2, maximum=MAX_WINDOW)
+        if self.order * self.window > MAX_WINDOW_ENTRIES:
+            raise ResourceLimitError(
+                f"window: a window of {self.window} samples for AR({self.order}) holds "
+                f"{self.order * self.window:.3g} regression entries (at most "
+                f"{MAX_WINDOW_ENTRIES:.0e}, 800 MB); use a shorter window or a lower order",
+                limit="max_memory",
+                argument="window",
+            )
         if self.order >= self.window:
             raise GeomFDIError(
                 f"order: must be smaller than window = {self.window}, got {self.order}",
@@ -189,6 +205,7 @@ class ARMonitor:
         self.training_model: np.ndarray | None = None
         self._t2_null: dict = {}  # bootstrap T^2 samples of the joint test, per (n_draws, rng)
         self.last: ARStep | None = None
+        self._stream: _streaming.ARStreamState | None = None
         self._state_ready = False
 
     def __repr__(self) -> str:
@@ -218,29 +235,88 @@ class ARMonitor:
                 argument="training",
             )
 
+    def _settings(self) -> ARSettings:
+        return ARSettings(
+            order=self.order,
+            window=self.window,
+            coefficient=self.coefficient,
+            pfa=self.pfa,
+            threshold=self.threshold,
+            reset_after=self.reset_after,
+            reset_keep=self.reset_keep,
+            prefill=self.prefill,
+            refit_every=self.refit_every,
+        )
+
+    def _null(self) -> ARNull:
+        self._require_fit()
+        return ARNull(mu=self.mu, delta=self.delta, normal=self.normal)  # type: ignore[arg-type]
+
     def statistic_of(self, coefficients: Any) -> np.ndarray:
         """``((phi_c - mu) / delta)**2`` for coefficient vectors (..., order)."""
-        self._require_fit()
-        phi = np.asarray(coefficients, dtype=float)
-        return ((phi[..., self.coefficient] - self.mu) / self.delta) ** 2
+        return self._null().statistic(coefficients, self.coefficient)
 
-    # training, batch runs and streaming: thin delegations to the module functions
+    # training, batch runs and streaming: the monitor passes its settings and null model
+    # (small records) to the module functions and keeps their results
     def window_coefficients(self, windows: Any) -> np.ndarray:
         """AR(order) coefficients of each row; see :func:`.training.window_coefficients`."""
-        return _training.window_coefficients(self, windows)
+        return _training.window_coefficients(self.order, windows)
 
     def fit(self, training: Any, *, step: int = 1, normal: Any = None) -> ARMonitor:
-        """Learn ``mu`` and ``delta`` from normal innovations; see :func:`.training.fit`."""
-        return _training.fit(self, training, step=step, normal=normal)
+        """Learn ``mu`` and ``delta`` of ``phi_c`` from fault-free innovations.
+
+        Parameters
+        ----------
+        training : array_like, (N, window) or (L,)
+            ``N >= 2`` normal windows (rows), or one long normal sequence whose windows
+            (every ``step``-th one) are used.  Must be finite.
+        step : int
+            Spacing of the windows taken from a 1-D sequence (1: all sliding windows;
+            ``window``: non-overlapping, independent windows as in the paper).
+        normal : array_like, (window - 1,), optional
+            Normal innovations stored for ``prefill`` and the reset strategy (default: the
+            last ``window - 1`` training samples).
+
+        Returns
+        -------
+        ARMonitor
+            ``self``, trained; see :func:`.training.fit`.
+        """
+        tr = _training.fit(self.order, self.window, self.coefficient, training, step=step)
+        self.mu, self.delta = tr.mu, tr.delta
+        self.training_coefficients = tr.coefficients
+        self.training_model = tr.model
+        self._t2_null.clear()
+        self.set_normal(tr.normal if normal is None else normal)
+        return self
 
     def run(self, stream: Any) -> ARMonitorResult:
         """Monitor whole streams from a fresh state; see :func:`.batch.run`."""
-        return _batch.run(self, stream)
+        return _batch.run(self._settings(), self._null(), stream)
 
     def reset(self) -> None:
-        """Start a new stream (see :func:`.streaming.reset`)."""
-        _streaming.reset(self)
+        """Start a new stream: empty window (or the stored normal data if ``prefill``)."""
+        self._stream = _streaming.reset(self._settings(), self._null())
+        self.last = None
+        self._state_ready = True
 
     def update(self, x: float) -> tuple[float, bool]:
-        """Process one sample, return ``(statistic, alarm)``; see :func:`.streaming.update`."""
-        return _streaming.update(self, x)
+        """Process one sample; return ``(statistic, alarm)``.
+
+        ``statistic`` is NaN when no statistic exists (warm-up, non-finite sample in the
+        window, rank-deficient regressors); the full outcome is in :attr:`last`
+        (:class:`ARStep`).  A non-finite ``x`` is accepted and reported with an
+        :class:`ARMonitorWarning`.  The first call after :meth:`fit` or
+        :meth:`set_normal` starts a new stream (as :meth:`reset`).  See
+        :func:`.streaming.update`.
+        """
+        v = _streaming.as_sample(x)
+        if not self._state_ready:
+            self.reset()
+        lam, alarm, self.last = _streaming.update(
+            self._settings(),
+            self._null(),
+            self._stream,
+            v,  # type: ignore[arg-type]
+        )
+        return lam, alarm

@@ -8,71 +8,86 @@ from __future__ import annotations
 import math
 import numbers
 import warnings
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from geomfdi.errors import ComplexInputError, GeomFDIError
 from geomfdi.monitoring._kernels import _RISK, _dense_gram, _gram, _singular
+from geomfdi.monitoring._records import ARNull, ARSettings
 from geomfdi.monitoring.results import ARMonitorWarning, ARStep
 from geomfdi.tolerance import get_rtol
 
-if TYPE_CHECKING:
-    from geomfdi.monitoring.monitor import ARMonitor
-
-__all__ = ["reset", "update"]
+__all__ = ["ARStreamState", "as_sample", "reset", "update"]
 
 
-def reset(mon: ARMonitor) -> None:
-    """Start a new stream: empty window (or the stored normal data if ``prefill``)."""
-    mon._require_fit()
-    m, n = mon.window, mon.order
-    mon._ring = np.zeros(m + 1)
-    mon._head = 0  # next write position
-    mon._fill = 0  # samples in the window (<= m)
-    mon._nbad = 0
-    mon._dirty = True
-    mon._since_refit = 0
-    mon._removed = 0.0
-    mon._counter = 0
-    mon._epoch = 0
-    mon._was_singular = False
-    mon._lags = np.arange(n + 1)
-    mon._rtol = get_rtol(n)
-    mon._nan_phi = np.full(n, np.nan)
-    mon._nan_phi.flags.writeable = False
-    mon._A = np.zeros((n, n))
-    mon._b = np.zeros(n)
-    mon.last = None
-    if mon.prefill:
-        _load(mon, mon.normal)
-    mon._state_ready = True
+@dataclass(eq=False)
+class ARStreamState:
+    """The window of a stream: a ring buffer of the last ``window`` samples, the normal
+    equations ``A phi = b`` kept by rank-1 updates, and the counters of the reset
+    strategy (changed in place by :func:`update`)."""
+
+    ring: np.ndarray
+    head: int  # next write position
+    fill: int  # samples in the window (<= m)
+    nbad: int
+    dirty: bool
+    since_refit: int
+    removed: float
+    counter: int
+    epoch: int
+    was_singular: bool
+    lags: np.ndarray
+    rtol: float
+    nan_phi: np.ndarray
+    A: np.ndarray
+    b: np.ndarray
 
 
-def _load(mon: ARMonitor, samples: np.ndarray) -> None:
-    m = mon.window
-    mon._ring[:] = 0.0
-    mon._ring[: m - 1] = samples
-    mon._head = m - 1
-    mon._fill = m - 1
-    mon._nbad = int(np.count_nonzero(~np.isfinite(samples)))
-    mon._dirty = True
+def reset(cfg: ARSettings, null: ARNull) -> ARStreamState:
+    """A new stream: empty window (or the stored normal data if ``prefill``)."""
+    m, n = cfg.window, cfg.order
+    nan_phi = np.full(n, np.nan)
+    nan_phi.flags.writeable = False
+    st = ARStreamState(
+        ring=np.zeros(m + 1),
+        head=0,
+        fill=0,
+        nbad=0,
+        dirty=True,
+        since_refit=0,
+        removed=0.0,
+        counter=0,
+        epoch=0,
+        was_singular=False,
+        lags=np.arange(n + 1),
+        rtol=get_rtol(n),
+        nan_phi=nan_phi,
+        A=np.zeros((n, n)),
+        b=np.zeros(n),
+    )
+    if cfg.prefill:
+        _load(st, m, null.normal)
+    return st
 
 
-def _window(mon: ARMonitor) -> np.ndarray:
-    R = mon.window + 1
-    return mon._ring[(mon._head - mon._fill + np.arange(mon._fill)) % R]
+def _load(st: ARStreamState, m: int, samples: np.ndarray) -> None:
+    st.ring[:] = 0.0
+    st.ring[: m - 1] = samples
+    st.head = m - 1
+    st.fill = m - 1
+    st.nbad = int(np.count_nonzero(~np.isfinite(samples)))
+    st.dirty = True
 
 
-def update(mon: ARMonitor, x: float) -> tuple[float, bool]:
-    """Process one sample; return ``(statistic, alarm)``.
+def _window(st: ARStreamState, m: int) -> np.ndarray:
+    R = m + 1
+    return st.ring[(st.head - st.fill + np.arange(st.fill)) % R]
 
-    ``statistic`` is NaN when no statistic exists (warm-up, non-finite sample in the
-    window, rank-deficient regressors); the full outcome is in :attr:`last`
-    (:class:`ARStep`).  A non-finite ``x`` is accepted and reported with an
-    :class:`ARMonitorWarning`.  The first call after :meth:`fit` or
-    :meth:`set_normal` starts a new stream (as :meth:`reset`).
-    """
+
+def as_sample(x: Any) -> float:
+    """One real number as a float (non-finite values are accepted)."""
     if isinstance(x, bool | np.bool_) or not isinstance(x, numbers.Real | np.floating):
         try:
             arr = np.asarray(x)
@@ -87,84 +102,95 @@ def update(mon: ARMonitor, x: float) -> tuple[float, bool]:
         v = float(x)
     except OverflowError as exc:
         raise GeomFDIError("x: a number too large for float64", argument="x") from exc
-    if not mon._state_ready:
-        mon.reset()
-    m, n = mon.window, mon.order
+    return v
+
+
+def update(
+    cfg: ARSettings, null: ARNull, st: ARStreamState, v: float
+) -> tuple[float, bool, ARStep]:
+    """Process one sample ``v`` (see :func:`as_sample`); return ``(statistic, alarm, step)``.
+
+    ``statistic`` is NaN when no statistic exists (warm-up, non-finite sample in the
+    window, rank-deficient regressors); the full outcome is ``step`` (:class:`ARStep`).
+    A non-finite ``v`` is accepted and reported with an :class:`ARMonitorWarning`.
+    ``st`` is advanced in place.
+    """
+    m, n = cfg.window, cfg.order
     R = m + 1
-    was_full = mon._fill == m
-    mon._ring[mon._head] = v
-    mon._head = (mon._head + 1) % R
+    was_full = st.fill == m
+    st.ring[st.head] = v
+    st.head = (st.head + 1) % R
     if was_full:
-        dropped = mon._ring[mon._head]  # X_{t-m}, just left the window
-        mon._nbad -= 0 if math.isfinite(dropped) else 1
+        dropped = st.ring[st.head]  # X_{t-m}, just left the window
+        st.nbad -= 0 if math.isfinite(dropped) else 1
     else:
-        mon._fill += 1
+        st.fill += 1
     if not math.isfinite(v):
-        mon._nbad += 1
+        st.nbad += 1
         warnings.warn(
-            f"x: non-finite sample {v} at epoch {mon._epoch}; the statistics of the next "
+            f"x: non-finite sample {v} at epoch {st.epoch}; the statistics of the next "
             f"{m} epochs are invalid",
             ARMonitorWarning,
             stacklevel=2,
         )
-    phi = mon._nan_phi
+    phi = st.nan_phi
     nonfinite = singular = False
-    if mon._fill < m:
-        mon._dirty = True
-    elif mon._nbad > 0:
+    if st.fill < m:
+        st.dirty = True
+    elif st.nbad > 0:
         nonfinite = True
-        mon._dirty = True
+        st.dirty = True
     else:
-        if mon._dirty or mon._since_refit >= mon.refit_every:
-            mon._A, mon._b = _gram(_window(mon), n)
-            mon._dirty = False
-            mon._since_refit = 0
-            mon._removed = 0.0
+        if st.dirty or st.since_refit >= cfg.refit_every:
+            st.A, st.b = _gram(_window(st, m), n)
+            st.dirty = False
+            st.since_refit = 0
+            st.removed = 0.0
         else:
-            new = mon._ring[(mon._head - 1 - mon._lags) % R]  # X_t .. X_{t-n}
-            old = mon._ring[(mon._head + mon._lags) % R]  # X_{t-m} .. X_{t-m+n}
+            new = st.ring[(st.head - 1 - st.lags) % R]  # X_t .. X_{t-n}
+            old = st.ring[(st.head + st.lags) % R]  # X_{t-m} .. X_{t-m+n}
             r_new, y_new = new[1:], new[0]
             r_old, y_old = old[n - 1 :: -1], old[n]
-            mon._A += r_new[:, None] * r_new - r_old[:, None] * r_old
-            mon._b += r_new * y_new - r_old * y_old
-            mon._since_refit += 1
-            mon._removed += y_old * y_old + r_old @ r_old
-            if mon._removed > _RISK * mon._A.trace():
+            st.A += r_new[:, None] * r_new - r_old[:, None] * r_old
+            st.b += r_new * y_new - r_old * y_old
+            st.since_refit += 1
+            st.removed += y_old * y_old + r_old @ r_old
+            if st.removed > _RISK * st.A.trace():
                 # rows much larger than the window were removed: refit exactly
-                mon._A, mon._b = _gram(_window(mon), n)
-                mon._since_refit = 0
-                mon._removed = 0.0
-        A = mon._A
+                st.A, st.b = _gram(_window(st, m), n)
+                st.since_refit = 0
+                st.removed = 0.0
+        A = st.A
         d = A.diagonal()
         # cheap Gershgorin certificate first; the full rank decision otherwise
-        if (2.0 * d - np.abs(A).sum(axis=1)).min() > mon._rtol * d.sum():
+        if (2.0 * d - np.abs(A).sum(axis=1)).min() > st.rtol * d.sum():
             singular = False
         else:
             singular = bool(_singular(_dense_gram(A[..., None], A[:, :1])[0], n)[0])
         if not singular:
-            phi = np.linalg.solve(A, mon._b)
-    valid = not (nonfinite or singular or mon._fill < m)
-    lam = float(((phi[mon.coefficient] - mon.mu) / mon.delta) ** 2) if valid else math.nan
-    alarm = bool(valid and lam > mon.threshold)
-    if singular and not mon._was_singular:
+            phi = np.linalg.solve(A, st.b)
+    valid = not (nonfinite or singular or st.fill < m)
+    lam = float(((phi[cfg.coefficient] - null.mu) / null.delta) ** 2) if valid else math.nan
+    alarm = bool(valid and lam > cfg.threshold)
+    if singular and not st.was_singular:
         warnings.warn(
-            f"x: window ending at epoch {mon._epoch} has rank-deficient regressors; "
+            f"x: window ending at epoch {st.epoch} has rank-deficient regressors; "
             "no statistic until it has full rank again",
             ARMonitorWarning,
             stacklevel=2,
         )
-    mon._was_singular = singular
+    st.was_singular = singular
     restarted = False
-    mon._counter = mon._counter + 1 if alarm else 0
-    if mon.reset_after is not None and mon._counter >= mon.reset_after:
-        r = mon.reset_keep
-        w = _window(mon)
+    st.counter = st.counter + 1 if alarm else 0
+    if cfg.reset_after is not None and st.counter >= cfg.reset_after:
+        r = cfg.reset_keep
+        w = _window(st, m)
         kept = w[w.size - r :] if r else w[:0]
-        _load(mon, np.concatenate([mon.normal[r:], kept]))
-        mon._counter = 0
+        _load(st, m, np.concatenate([null.normal[r:], kept]))
+        st.counter = 0
         restarted = True
-    mon.last = ARStep(
-        epoch=mon._epoch,
+    step = ARStep(
+        epoch=st.epoch,
         statistic=lam,
         alarm=alarm,
         valid=valid,
@@ -173,5 +199,5 @@ def update(mon: ARMonitor, x: float) -> tuple[float, bool]:
         nonfinite=nonfinite,
         singular=singular,
     )
-    mon._epoch += 1
-    return lam, alarm
+    st.epoch += 1
+    return lam, alarm, step

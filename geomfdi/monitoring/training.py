@@ -5,16 +5,14 @@ See the user guide, *Theory: AR monitoring* (``docs/theory/ar-monitoring.md``).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from geomfdi._validation import as_int, as_real_array, check_nonempty
 from geomfdi.errors import GeomFDIError, RankDeficientError, ShapeError
 from geomfdi.monitoring._kernels import _gram_map, _normal_equations, _rows_fit, _solve
-
-if TYPE_CHECKING:
-    from geomfdi.monitoring.monitor import ARMonitor
+from geomfdi.monitoring._records import ARTraining
 
 __all__ = ["window_coefficients", "fit", "pooled_fit"]
 
@@ -42,11 +40,13 @@ def pooled_fit(training: np.ndarray, order: int) -> np.ndarray:
     return np.linalg.solve(A, b)
 
 
-def window_coefficients(mon: ARMonitor, windows: Any) -> np.ndarray:
+def window_coefficients(order: int, windows: Any) -> np.ndarray:
     """AR(order) least-squares coefficients of each row of ``windows``.
 
     Parameters
     ----------
+    order : int
+        AR order ``n``.
     windows : array_like, (N, L) or (L,)
         Finite samples; each row is one window (``L >= 2 * order``, any length).
 
@@ -61,37 +61,38 @@ def window_coefficients(mon: ARMonitor, windows: Any) -> np.ndarray:
         w = w[None, :]
     if w.ndim != 2:
         raise ShapeError(f"windows: expected 1-D or 2-D, got shape {w.shape}", argument="windows")
-    if w.shape[1] < 2 * mon.order:
+    if w.shape[1] < 2 * order:
         raise GeomFDIError(
-            f"windows: AR({mon.order}) needs rows of at least {2 * mon.order} samples, "
-            f"got {w.shape[1]}",
+            f"windows: AR({order}) needs rows of at least {2 * order} samples, got {w.shape[1]}",
             argument="windows",
         )
-    phi, _ = _rows_fit(w, mon.order)
+    phi, _ = _rows_fit(w, order)
     return phi[0] if one else phi
 
 
-def fit(mon: ARMonitor, training: Any, *, step: int = 1, normal: Any = None) -> ARMonitor:
+def fit(order: int, window: int, coefficient: int, training: Any, *, step: int = 1) -> ARTraining:
     """Learn ``mu`` and ``delta`` of ``phi_c`` from fault-free innovations.
 
     Parameters
     ----------
+    order, window, coefficient : int
+        AR order ``n``, window length ``m`` and the 0-based index ``c`` of the tested
+        coefficient.
     training : array_like, (N, window) or (L,)
         ``N >= 2`` normal windows (rows), or one long normal sequence whose windows
         (every ``step``-th one) are used.  Must be finite.
     step : int
         Spacing of the windows taken from a 1-D sequence (1: all sliding windows;
         ``window``: non-overlapping, independent windows as in the paper).
-    normal : array_like, (window - 1,), optional
-        Normal innovations stored for ``prefill`` and the reset strategy (default: the
-        last ``window - 1`` training samples).
 
     Returns
     -------
-    ARMonitor
-        ``mon``, trained.
+    ARTraining
+        ``mu``, ``delta`` (sample mean and standard deviation of ``phi_c`` over the
+        windows), the coefficients of the windows, the pooled fit (:func:`pooled_fit`) and
+        the last ``window - 1`` training samples (the default stored normal innovations).
     """
-    m, n = mon.window, mon.order
+    m, n = window, order
     tr = as_real_array(training, "training")
     check_nonempty(tr, "training")
     step = as_int(step, "step", minimum=1)
@@ -134,17 +135,12 @@ def fit(mon: ARMonitor, training: Any, *, step: int = 1, normal: Any = None) -> 
             f"AR({n}) regressors (first: {int(np.argmax(sing))})",
             argument="training",
         )
-    c = phi[:, mon.coefficient]
+    c = phi[:, coefficient]
     mu = float(np.mean(c))
     delta = float(np.std(c, ddof=1))
     if not delta > 0:
         raise GeomFDIError(
-            f"training: phi_{mon.coefficient + 1} does not vary over the training windows",
+            f"training: phi_{coefficient + 1} does not vary over the training windows",
             argument="training",
         )
-    mon.mu, mon.delta = mu, delta
-    mon.training_coefficients = phi
-    mon.training_model = pooled_fit(tr, n)
-    mon._t2_null.clear()
-    mon.set_normal(last[-(m - 1) :] if normal is None else normal)
-    return mon
+    return ARTraining(mu, delta, phi, pooled_fit(tr, n), last[-(m - 1) :])

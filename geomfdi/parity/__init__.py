@@ -1,6 +1,9 @@
 """Parity-space FDI for redundant sensors (GLT, optimal parity vectors, two-fault isolation).
 
-* :mod:`~geomfdi.parity.model` -- :class:`ParityFDI`, the model object;
+* :mod:`~geomfdi.parity.model` -- :class:`ParityFDI`, the model object; it passes its
+  frozen ``ParityData`` record (built in ``parity._construction``) to the functions below,
+  which never import the object;
+* :mod:`~geomfdi.parity.diagnosis` -- detection and isolation by any rule;
 * :mod:`~geomfdi.parity.glt`, :mod:`~geomfdi.parity.opt`, :mod:`~geomfdi.parity.multiple`
   -- the statistics; :mod:`~geomfdi.parity.decision` -- per-sample decisions;
 * :mod:`~geomfdi.parity.capability` -- isolation capability of a configuration;

@@ -9,19 +9,17 @@ For sensor ``i`` the standardised isolation residual ``e_i = a_i / sqrt(w_ii)`` 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from geomfdi.errors import GeomFDIError, ShapeError
-
-if TYPE_CHECKING:
-    from geomfdi.parity.model import ParityFDI
+from geomfdi.parity._records import ParityData
 
 __all__: list[str] = []
 
 
-def _series(pf: ParityFDI, Z: Any) -> np.ndarray:
+def _series(pf: ParityData, Z: Any) -> np.ndarray:
     """``Z`` as a float array ``(R, N, m)`` (a single stream gets ``R = 1``)."""
     arr = np.asarray(Z, dtype=float) if not isinstance(Z, np.ndarray) else Z.astype(float)
     if arr.ndim == 2:
@@ -37,14 +35,14 @@ def _series(pf: ParityFDI, Z: Any) -> np.ndarray:
     return arr
 
 
-def _standardised(pf: ParityFDI, X: np.ndarray) -> np.ndarray:
+def _standardised(pf: ParityData, X: np.ndarray) -> np.ndarray:
     """``e_i = a_i / sqrt(w_ii)``, N(0, 1) per hypothesis without fault, (R, N, k)."""
-    return X @ pf._Bn
+    return X @ pf.Bn
 
 
-def _llr(pf: ParityFDI, X: np.ndarray, shift: float) -> np.ndarray:
+def _llr(pf: ParityData, X: np.ndarray, shift: float) -> np.ndarray:
     """Log-likelihood-ratio increments ``+/- nu_i e_i - nu_i^2 / 2``, (R, N, 2k)."""
     E = _standardised(pf, X)
-    nu = shift * np.sqrt(pf._w)
+    nu = shift * np.sqrt(pf.w)
     nu = np.where(pf.detectable, nu, 0.0)
     return np.concatenate([nu * E, -nu * E], axis=-1) - 0.5 * np.concatenate([nu, nu]) ** 2

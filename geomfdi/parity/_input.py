@@ -3,15 +3,13 @@
 from __future__ import annotations
 
 import functools
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from geomfdi._validation import as_real_array
 from geomfdi.errors import GeomFDIError, NonFiniteError, ShapeError
-
-if TYPE_CHECKING:
-    from geomfdi.parity.model import ParityFDI
+from geomfdi.parity._records import ParityData
 
 __all__: list[str] = []
 
@@ -69,7 +67,7 @@ def _guarded(fn: Any) -> Any:
 # the parity-space FDI object
 
 
-def _samples(pf: ParityFDI, Z: Any, *, check: bool = True) -> np.ndarray:
+def _samples(pf: ParityData, Z: Any, *, check: bool = True) -> np.ndarray:
     """``Z`` as a float64 (N, m) array; a 1-D vector is one sample."""
     if isinstance(Z, np.ndarray) and Z.dtype == np.float64:
         arr = Z

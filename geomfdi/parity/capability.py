@@ -10,18 +10,19 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from geomfdi.parity._records import ParityData, as_data
 from geomfdi.parity.configs import axis_cosines
 from geomfdi.parity.multiple import _subset_info
 from geomfdi.parity.results import ConfigurationCapability
 from geomfdi.tolerance import rank_decision
 
 if TYPE_CHECKING:
-    from geomfdi.parity.model import ParityFDI
+    from geomfdi.parity._records import HasParityData
 
 __all__ = ["capability"]
 
 
-def capability(pf: ParityFDI) -> ConfigurationCapability:
+def capability(pf: ParityData | HasParityData) -> ConfigurationCapability:
     """Isolation-capability figures (``w_ii``, angles, GDOP, identifiable pairs).
 
     Returns
@@ -42,8 +43,9 @@ def capability(pf: ParityFDI) -> ConfigurationCapability:
     >>> print(cap.summary().splitlines()[-1])
     pairs confusable with a disjoint pair for some fault sizes: 15/15 (not isolable for those sizes)
     """
-    Om = pf._Omega
-    w = pf._w
+    pf = as_data(pf)
+    Om = pf.Omega
+    w = pf.w
     k = pf.k
     with np.errstate(invalid="ignore", divide="ignore"):
         den = np.sqrt(np.outer(w, w))
@@ -78,7 +80,7 @@ def capability(pf: ParityFDI) -> ConfigurationCapability:
 _MAX_PAIR_QUADS = 200_000
 
 
-def _confusable_pairs(pf: ParityFDI) -> np.ndarray | None:
+def _confusable_pairs(pf: ParityData) -> np.ndarray | None:
     """Pairs {i, j} whose span meets the span of a disjoint pair {k, l} (rank < 4)."""
     k, s = pf.k, pf.s
     out = np.zeros((k, k), dtype=bool)
@@ -90,8 +92,8 @@ def _confusable_pairs(pf: ParityFDI) -> np.ndarray | None:
     quads = np.array(list(itertools.combinations(det, 4)), dtype=np.intp).reshape(-1, 4)
     if 3 * quads.shape[0] > _MAX_PAIR_QUADS:
         return None
-    sv = np.linalg.svd(pf._G[:, quads].transpose(1, 0, 2), compute_uv=False)
-    dep = np.array([rank_decision(x, pf._scaleG, pf.m, warn=False).rank < 4 for x in sv])
+    sv = np.linalg.svd(pf.G[:, quads].transpose(1, 0, 2), compute_uv=False)
+    dep = np.array([rank_decision(x, pf.scaleG, pf.m, warn=False).rank < 4 for x in sv])
     for a, b, c, d in quads[dep]:  # the three ways of splitting {a, b, c, d} into pairs
         for (i, j), (p, q) in (((a, b), (c, d)), ((a, c), (b, d)), ((a, d), (b, c))):
             out[i, j] = out[j, i] = out[p, q] = out[q, p] = True

@@ -13,7 +13,9 @@ import numpy as np
 
 from geomfdi._validation import as_int, as_probability
 from geomfdi.errors import DesignError, GeomFDIError, RankDeficientError
+from geomfdi.parity._construction import reduced_data
 from geomfdi.parity._input import _guarded, _raise_nonfinite_block, _samples
+from geomfdi.parity._records import ParityData, as_data
 from geomfdi.parity.glt import _a, _check_fd, _fd, _fi_from_a
 from geomfdi.parity.multiple import _glr2_from_a, _pairs_from_a, _subset_info
 from geomfdi.parity.opt import _opt_data
@@ -21,7 +23,7 @@ from geomfdi.parity.results import ParityDiagnosis
 from geomfdi.parity.thresholds import chi2_threshold, normal_threshold
 
 if TYPE_CHECKING:
-    from geomfdi.parity.model import ParityFDI
+    pass
 
 __all__ = ["METHODS", "diagnose"]
 
@@ -45,7 +47,7 @@ def _kernel(
     use_bits = bits <= _MAX_LABEL_BITS
     low = np.int64((1 << bits) - 1)
     labels = np.arange(k, dtype=np.int64)[:, None]
-    lut_ext = np.append(pf._lut, -1).astype(np.intp)
+    lut_ext = np.append(pf.lut, -1).astype(np.intp)
     # finiteness: checked on the statistic when every sensor feeds it (an inf/nan
     # reading makes it non-finite), otherwise on the raw chunk
     covered = np.any(Mdet != 0, axis=1) if mode == "chi2" else np.zeros(pf.m, bool)
@@ -90,11 +92,11 @@ def _kernel(
     return stat, det, iso
 
 
-def _single(pf: ParityFDI, Z: np.ndarray, pfa: float, method: str) -> ParityDiagnosis:
+def _single(pf: ParityData, Z: np.ndarray, pfa: float, method: str) -> ParityDiagnosis:
     """One detection + isolation stage (glt, opt, opt-uncorrected)."""
     if method == "glt":
         thr = chi2_threshold(pfa, pf.s)
-        stat, det, iso = _kernel(pf, Z, pf._T.T / pf.sigma, pf._Bn, "chi2", thr)
+        stat, det, iso = _kernel(pf, Z, pf.T.T / pf.sigma, pf.Bn, "chi2", thr)
     elif method == "opt":
         od = _opt_data(pf)
         if od["U"].shape[1] == 0:
@@ -185,6 +187,7 @@ def diagnose(
     ----------
     Zhang, Chen & Liu (2005) §1-§5; Qin & Niu (1999) §2-§5.
     """
+    pf = as_data(pf)
     pfa = as_probability(pfa, "pfa")
     if not isinstance(method, str) or method not in METHODS:
         raise GeomFDIError(
@@ -236,7 +239,7 @@ def _sequential(
     iso = first.isolated
     for i in np.unique(iso[iso >= 0]):
         try:
-            red = pf.reduced(int(i))
+            red = reduced_data(pf, int(i))
         except (DesignError, RankDeficientError):
             continue  # no redundancy left: the search stops here
         rows = np.flatnonzero(iso == i)
@@ -265,7 +268,7 @@ def _detect(pf, Z: np.ndarray, pfa: float) -> tuple[np.ndarray, np.ndarray, floa
     return a, FD, T0, FD >= T0
 
 
-def _search(pf: ParityFDI, Z: np.ndarray, pfa: float, mf: int) -> ParityDiagnosis:
+def _search(pf: ParityData, Z: np.ndarray, pfa: float, mf: int) -> ParityDiagnosis:
     N, s = Z.shape[0], pf.s
     a, FD, T0, det = _detect(pf, Z, pfa)
     FI = _fi_from_a(pf, a)
@@ -278,7 +281,7 @@ def _search(pf: ParityFDI, Z: np.ndarray, pfa: float, mf: int) -> ParityDiagnosi
     else:
         ok1 = np.ones(N, dtype=bool)  # no parity left to test: single fault assumed
     single = det & ok1
-    faults[single, 0] = pf._lut[k1[single]]
+    faults[single, 0] = pf.lut[k1[single]]
     unresolved |= single & (faults[:, 0] < 0)
     pend = np.flatnonzero(det & ~ok1)
     if mf >= 2 and s >= 3 and pend.size:
@@ -320,7 +323,7 @@ def _search(pf: ParityFDI, Z: np.ndarray, pfa: float, mf: int) -> ParityDiagnosi
     return ParityDiagnosis(det, faults, FD, T0, "search", pfa, unresolved)
 
 
-def _glr(pf: ParityFDI, Z: np.ndarray, pfa: float, mf: int) -> ParityDiagnosis:
+def _glr(pf: ParityData, Z: np.ndarray, pfa: float, mf: int) -> ParityDiagnosis:
     N, s = Z.shape[0], pf.s
     a, FD, T0, det = _detect(pf, Z, pfa)
     faults = np.full((N, mf), -1, dtype=np.intp)

@@ -43,7 +43,7 @@ def _equivalent(pf: ParityFDI, f: np.ndarray) -> list[frozenset[int]]:
     alts: list[frozenset[int]] = []
     for kk in (1, 2):
         stats_, subsets = pf.glr_statistics(f, kk)
-        valid = _subset_info(pf, kk)["valid"]
+        valid = _subset_info(pf.data, kk)["valid"]
         for c in np.flatnonzero(valid & (fd - stats_[0] <= 1e-9 * fd)):
             S = frozenset(subsets[c].tolist())
             if not (S >= truth or any(a <= S for a in alts)):

@@ -23,11 +23,12 @@ from scipy import linalg as sla
 from geomfdi._validation import as_indices
 from geomfdi.errors import DesignError, GeomFDIError, RankDeficientError
 from geomfdi.parity._input import _samples
+from geomfdi.parity._records import ParityData, as_data
 from geomfdi.parity.results import ParityDiagnosis
 from geomfdi.tolerance import rank_decision
 
 if TYPE_CHECKING:
-    from geomfdi.parity.model import ParityFDI
+    from geomfdi.parity._records import HasParityData
 
 __all__ = ["FaultEstimate", "StateEstimate", "estimate_faults", "estimate_state"]
 
@@ -70,7 +71,7 @@ class StateEstimate:
     excluded: np.ndarray
 
 
-def estimate_faults(pf: ParityFDI, Z: Any, faults: Any) -> FaultEstimate:
+def estimate_faults(pf: ParityData | HasParityData, Z: Any, faults: Any) -> FaultEstimate:
     """Fault sizes of the hypotheses ``faults`` from the parity vector of ``Z``.
 
     Parameters
@@ -90,23 +91,24 @@ def estimate_faults(pf: ParityFDI, Z: Any, faults: Any) -> FaultEstimate:
         The signatures of the hypotheses are dependent (their sizes are not identifiable
         from the parity vector).
     """
+    pf = as_data(pf)
     S = as_indices(faults, "faults", pf.k)
     Zs = _samples(pf, Z)
-    G = pf._G[:, list(S)]
+    G = pf.G[:, list(S)]
     U, sv, Vt = np.linalg.svd(G, full_matrices=False)
-    if rank_decision(sv, pf._scaleG, pf.m, what="fault signatures", warn=False).rank < len(S):
+    if rank_decision(sv, pf.scaleG, pf.m, what="fault signatures", warn=False).rank < len(S):
         raise RankDeficientError(
             f"faults: the parity signatures of {list(S)} are dependent; their sizes cannot "
             "be told apart",
             argument="faults",
         )
-    q = Zs @ pf._T.T
+    q = Zs @ pf.T.T
     size = ((q @ U) / sv) @ Vt
     cov = pf.sigma**2 * (Vt.T / sv**2) @ Vt
     return FaultEstimate(tuple(S), size, cov)
 
 
-def _wls(pf: ParityFDI, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _wls(pf: ParityData, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Gain ``K`` (n, |keep|) and covariance of the WLS estimate from the rows ``keep``."""
     Hk = pf.H[keep]
     if pf.F is None:
@@ -128,7 +130,7 @@ def _wls(pf: ParityFDI, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return gain, pf.sigma**2 * (Rinv @ Rinv.T)
 
 
-def estimate_state(pf: ParityFDI, Z: Any, exclude: Any = ()) -> StateEstimate:
+def estimate_state(pf: ParityData | HasParityData, Z: Any, exclude: Any = ()) -> StateEstimate:
     """State estimate from the sensors not excluded, with its covariance.
 
     Parameters
@@ -153,6 +155,7 @@ def estimate_state(pf: ParityFDI, Z: Any, exclude: Any = ()) -> StateEstimate:
     >>> np.round(est.x, 1).tolist(), est.excluded[:, 0].tolist()
     ([[1.0, 2.0, 3.0], [1.0, 2.0, 3.0], [1.0, 2.0, 3.0]], [2, 2, 2])
     """
+    pf = as_data(pf)
     if pf.D is not None:
         raise DesignError(
             "exclude: the state estimate after exclusion needs D = I (sensor faults)",

@@ -14,10 +14,14 @@ import numpy as np
 from geomfdi._validation import as_int, as_probability, as_vector
 from geomfdi.errors import GeomFDIError
 from geomfdi.parity._input import _as_rng
+from geomfdi.parity._records import ParityData, as_data
+from geomfdi.parity.diagnosis import diagnose
+from geomfdi.parity.glt import detection_statistic
+from geomfdi.parity.opt import opt_detection_statistic, opt_statistics
 from geomfdi.parity.results import IsolationRates, RateCurve, RateEstimate
 
 if TYPE_CHECKING:
-    from geomfdi.parity.model import ParityFDI
+    from geomfdi.parity._records import HasParityData
 
 __all__ = [
     "simulate",
@@ -29,14 +33,19 @@ __all__ = [
 ]
 
 
-def _fault_vector(pf: ParityFDI, fault: Any) -> np.ndarray:
+def _fault_vector(pf: ParityData, fault: Any) -> np.ndarray:
     if fault is None:
         return np.zeros(pf.k)
     return as_vector(fault, "fault", length=pf.k)
 
 
 def simulate(
-    pf: ParityFDI, n_runs: int, rng: Any = None, *, fault: Any = None, x: Any = None
+    pf: ParityData | HasParityData,
+    n_runs: int,
+    rng: Any = None,
+    *,
+    fault: Any = None,
+    x: Any = None,
 ) -> np.ndarray:
     """Draw ``n_runs`` samples ``Z = H x + D f + sigma F eps``, shape (n_runs, m).
 
@@ -57,6 +66,7 @@ def simulate(
     -------
     Z : ndarray, shape (n_runs, m)
     """
+    pf = as_data(pf)
     n_runs = as_int(n_runs, "n_runs", minimum=0)
     rng = _as_rng(rng)
     f = _fault_vector(pf, fault)
@@ -67,11 +77,11 @@ def simulate(
     q = pf.m if pf.F is None else pf.F.shape[1]
     E = rng.standard_normal((n_runs, q)) * pf.sigma
     noise = E if pf.F is None else E @ pf.F.T
-    return X @ pf.H.T + noise + pf._Dm @ f
+    return X @ pf.H.T + noise + pf.Dm @ f
 
 
 def _mc_counts(
-    pf: ParityFDI,
+    pf: ParityData,
     fault: np.ndarray,
     pfa: float,
     n_runs: int,
@@ -85,7 +95,7 @@ def _mc_counts(
     for start in range(0, n_runs, chunk):
         n = min(chunk, n_runs - start)
         Z = simulate(pf, n, rng, fault=fault)
-        res = pf.diagnose(Z, pfa, method=method, max_faults=max_faults)
+        res = diagnose(pf, Z, pfa, method=method, max_faults=max_faults)
         F = res.faults
         det_n += int(res.detected.sum())
         nf = res.n_faults
@@ -103,7 +113,7 @@ def _mc_counts(
 
 
 def false_alarm_rate(
-    pf: ParityFDI,
+    pf: ParityData | HasParityData,
     pfa: float,
     n_runs: int,
     rng: Any = None,
@@ -133,6 +143,7 @@ def false_alarm_rate(
         ``pfa``; for ``"opt-uncorrected"`` it is at least ``1 - (1 - pfa)^(m-n)``
         (Zhang, Chen & Liu (2005), Theorem 1).
     """
+    pf = as_data(pf)
     pfa = as_probability(pfa, "pfa")
     n_runs = as_int(n_runs, "n_runs", minimum=1)
     chunk = as_int(chunk, "chunk", minimum=1)
@@ -142,7 +153,7 @@ def false_alarm_rate(
 
 
 def correct_isolation_rate(
-    pf: ParityFDI,
+    pf: ParityData | HasParityData,
     fault: Any,
     pfa: float,
     n_runs: int,
@@ -174,6 +185,7 @@ def correct_isolation_rate(
     IsolationRates
         ``correct`` (isolated set == true set), ``detection``, ``partial``.
     """
+    pf = as_data(pf)
     f = _fault_vector(pf, fault)
     pfa = as_probability(pfa, "pfa")
     n_runs = as_int(n_runs, "n_runs", minimum=1)
@@ -200,7 +212,7 @@ def _method_spec(spec: Any) -> tuple[str, str, int | None]:
 
 
 def rates_vs_fault_size(
-    pf: ParityFDI,
+    pf: ParityData | HasParityData,
     direction: Any,
     sizes: Any,
     pfa: float,
@@ -227,6 +239,7 @@ def rates_vs_fault_size(
     -------
     RateCurve
     """
+    pf = as_data(pf)
     d = _fault_vector(pf, direction)
     sz = as_vector(sizes, "sizes")
     rng = _as_rng(rng)
@@ -272,7 +285,7 @@ ROC_STATISTICS = ("glt", "opt", "max-d")
 
 
 def roc_curves(
-    pf: ParityFDI,
+    pf: ParityData | HasParityData,
     fault: Any,
     n_runs: int,
     rng: Any = None,
@@ -303,6 +316,7 @@ def roc_curves(
         (where the uncorrected OPT rule's nominal rate is wrong, Zhang, Chen & Liu 2005,
         Theorem 1).
     """
+    pf = as_data(pf)
     f = _fault_vector(pf, fault)
     n_runs = as_int(n_runs, "n_runs", minimum=10)
     gen = _as_rng(rng)
@@ -314,9 +328,9 @@ def roc_curves(
     Z0 = simulate(pf, n_runs, gen)
     Z1 = simulate(pf, n_runs, gen, fault=f)
     fns = {
-        "glt": pf.detection_statistic,
-        "opt": pf.opt_detection_statistic,
-        "max-d": lambda Z: np.abs(pf.opt_statistics(Z)).max(axis=1),
+        "glt": lambda Z: detection_statistic(pf, Z),
+        "opt": lambda Z: opt_detection_statistic(pf, Z),
+        "max-d": lambda Z: np.abs(opt_statistics(pf, Z)).max(axis=1),
     }
     pd = {}
     for name in statistics:

@@ -17,24 +17,25 @@ import numpy as np
 from geomfdi._validation import as_int
 from geomfdi.errors import GeomFDIError
 from geomfdi.parity._input import _guarded, _samples
+from geomfdi.parity._records import ParityData, as_data
 from geomfdi.parity.glt import _a, _fi_from_a
 from geomfdi.tolerance import get_rtol, rank_decision
 
 if TYPE_CHECKING:
-    from geomfdi.parity.model import ParityFDI
+    from geomfdi.parity._records import HasParityData
 
 __all__ = ["pair_statistics", "two_fault_glr", "glr_statistics"]
 
 
-def _subset_info(pf: ParityFDI, kk: int) -> dict[str, np.ndarray]:
+def _subset_info(pf: ParityData, kk: int) -> dict[str, np.ndarray]:
     """Rank, ambiguity and ``(G_S^T G_S)^+`` for every ``kk``-subset of faults."""
-    if kk in pf._subset_cache:
-        return pf._subset_cache[kk]
+    if kk in pf.subset_cache:
+        return pf.subset_cache[kk]
     if kk == 1:
         info = _single_info(pf)
-        pf._subset_cache[1] = info
+        pf.subset_cache[1] = info
         return info
-    G, k, s = pf._G, pf.k, pf.s
+    G, k, s = pf.G, pf.k, pf.s
     subsets = np.array(list(itertools.combinations(range(k), kk)), dtype=np.intp)
     if subsets.size == 0:
         subsets = subsets.reshape(0, kk)
@@ -43,7 +44,7 @@ def _subset_info(pf: ParityFDI, kk: int) -> dict[str, np.ndarray]:
     GS = G[:, subsets].transpose(1, 0, 2)  # (C, s, kk)
     _, S, Vt = np.linalg.svd(GS, full_matrices=False)
     rank = np.array(
-        [rank_decision(S[c], pf._scaleG, tol_n, warn=False).rank for c in range(C)],
+        [rank_decision(S[c], pf.scaleG, tol_n, warn=False).rank for c in range(C)],
         dtype=np.intp,
     )
     pinv = np.zeros((C, kk, kk))
@@ -68,7 +69,7 @@ def _subset_info(pf: ParityFDI, kk: int) -> dict[str, np.ndarray]:
             axis=2,
         )
         sv = np.linalg.svd(stack, compute_uv=False)
-        ranks = [rank_decision(x, pf._scaleG, tol_n, warn=False).rank for x in sv]
+        ranks = [rank_decision(x, pf.scaleG, tol_n, warn=False).rank for x in sv]
         ambiguous[c] = min(ranks) <= kk
     info = {
         "subsets": subsets,
@@ -77,11 +78,11 @@ def _subset_info(pf: ParityFDI, kk: int) -> dict[str, np.ndarray]:
         "ambiguous": ambiguous,
         "pinv": pinv,
     }
-    pf._subset_cache[kk] = info
+    pf.subset_cache[kk] = info
     return info
 
 
-def _parallel_pairs(pf: ParityFDI) -> np.ndarray:
+def _parallel_pairs(pf: ParityData) -> np.ndarray:
     """``(k, k)`` bool: detectable hypotheses ``i != j`` with parallel signatures.
 
     A pair is screened from the Gram matrix ``G^T G`` (one matrix product): the smallest
@@ -90,7 +91,7 @@ def _parallel_pairs(pf: ParityFDI) -> np.ndarray:
     exact rank decision on the SVD of ``[G_i, G_j]``; this keeps the construction at
     ``O(k^2 (m - n))`` instead of one SVD per pair.
     """
-    G, k = pf._G, pf.k
+    G, k = pf.G, pf.k
     det = pf.detectable
     out = np.zeros((k, k), dtype=bool)
     idx = np.flatnonzero(det)
@@ -102,22 +103,22 @@ def _parallel_pairs(pf: ParityFDI) -> np.ndarray:
     cos = np.clip(np.abs(U.T @ U), 0.0, 1.0)
     sin = np.sqrt(np.maximum(1.0 - cos * cos, 0.0))
     small = np.minimum.outer(norms, norms)
-    tol = get_rtol(pf.m) * pf._scaleG
+    tol = get_rtol(pf.m) * pf.scaleG
     cand = small * np.maximum(sin - 1e-6, 0.0) <= 10.0 * tol
     np.fill_diagonal(cand, False)
     for a, b in zip(*np.nonzero(np.triu(cand)), strict=True):
         sv = np.linalg.svd(Gd[:, [a, b]], compute_uv=False)
-        if rank_decision(sv, pf._scaleG, pf.m, warn=False).rank <= 1:
+        if rank_decision(sv, pf.scaleG, pf.m, warn=False).rank <= 1:
             out[idx[a], idx[b]] = out[idx[b], idx[a]] = True
     return out
 
 
-def _single_info(pf: ParityFDI) -> dict[str, np.ndarray]:
+def _single_info(pf: ParityData) -> dict[str, np.ndarray]:
     """:func:`_subset_info` for single faults, without a per-pair SVD loop."""
     k = pf.k
     valid = pf.detectable.copy()
     pinv = np.zeros((k, 1, 1))
-    pinv[valid, 0, 0] = 1.0 / pf._w[valid]
+    pinv[valid, 0, 0] = 1.0 / pf.w[valid]
     return {
         "subsets": np.arange(k, dtype=np.intp).reshape(k, 1),
         "rank": valid.astype(np.intp),
@@ -127,13 +128,13 @@ def _single_info(pf: ParityFDI) -> dict[str, np.ndarray]:
     }
 
 
-def _pairs_from_a(pf: ParityFDI, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    G = pf._G
+def _pairs_from_a(pf: ParityData, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    G = pf.G
     plus_dir = G[:, :, None] + G[:, None, :]
     minus_dir = G[:, :, None] - G[:, None, :]
     den_p = np.einsum("sij,sij->ij", plus_dir, plus_dir)
     den_m = np.einsum("sij,sij->ij", minus_dir, minus_dir)
-    tol2 = (get_rtol(pf.m) * pf._scaleG) ** 2
+    tol2 = (get_rtol(pf.m) * pf.scaleG) ** 2
     inv_p = np.where(den_p > tol2, 1.0 / np.where(den_p > tol2, den_p, 1.0), 0.0)
     inv_m = np.where(den_m > tol2, 1.0 / np.where(den_m > tol2, den_m, 1.0), 0.0)
     np.fill_diagonal(inv_p, 0.0)
@@ -144,7 +145,7 @@ def _pairs_from_a(pf: ParityFDI, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 
 @_guarded
-def pair_statistics(pf: ParityFDI, Z: Any) -> tuple[np.ndarray, np.ndarray]:
+def pair_statistics(pf: ParityData | HasParityData, Z: Any) -> tuple[np.ndarray, np.ndarray]:
     """Qin & Niu (1999)'s two-fault isolation functions ``(D+, D-)``, each (N, k, k).
 
     ``D+/-_ij = ((V_i +/- V_j)^T p)^2 / (sigma^2 ||V_i +/- V_j||^2)`` is the
@@ -169,11 +170,12 @@ def pair_statistics(pf: ParityFDI, Z: Any) -> tuple[np.ndarray, np.ndarray]:
     ----------
     Qin & Niu (1999), eq. 8-16.
     """
+    pf = as_data(pf)
     Z = _samples(pf, Z)
     return _pairs_from_a(pf, _a(pf, Z))
 
 
-def _glr2_from_a(pf: ParityFDI, a: np.ndarray, fi: np.ndarray) -> np.ndarray:
+def _glr2_from_a(pf: ParityData, a: np.ndarray, fi: np.ndarray) -> np.ndarray:
     info = _subset_info(pf, 2)
     N, k = a.shape
     out = np.zeros((N, k, k))
@@ -192,7 +194,7 @@ def _glr2_from_a(pf: ParityFDI, a: np.ndarray, fi: np.ndarray) -> np.ndarray:
 
 
 @_guarded
-def two_fault_glr(pf: ParityFDI, Z: Any) -> np.ndarray:
+def two_fault_glr(pf: ParityData | HasParityData, Z: Any) -> np.ndarray:
     """Two-fault GLR ``p^T V_S (V_S^T V_S)^{-1} V_S^T p / sigma^2`` for every pair.
 
     Returns
@@ -213,13 +215,16 @@ def two_fault_glr(pf: ParityFDI, Z: Any) -> np.ndarray:
     Generalised likelihood ratio for the two-fault hypothesis ``H_ij`` of Qin & Niu (1999)
     eq. 8 with both sizes free.
     """
+    pf = as_data(pf)
     Z = _samples(pf, Z)
     a = _a(pf, Z)
     return _glr2_from_a(pf, a, _fi_from_a(pf, a))
 
 
 @_guarded
-def glr_statistics(pf: ParityFDI, Z: Any, n_faults: int) -> tuple[np.ndarray, np.ndarray]:
+def glr_statistics(
+    pf: ParityData | HasParityData, Z: Any, n_faults: int
+) -> tuple[np.ndarray, np.ndarray]:
     """k-fault GLR ``p^T V_S (V_S^T V_S)^+ V_S^T p / sigma^2`` for every k-subset ``S``.
 
     Parameters
@@ -236,6 +241,7 @@ def glr_statistics(pf: ParityFDI, Z: Any, n_faults: int) -> tuple[np.ndarray, np
     subsets : ndarray of int, shape (C, k)
         The subsets, in lexicographic order.
     """
+    pf = as_data(pf)
     kk = as_int(n_faults, "n_faults", minimum=1)
     if kk > pf.k:
         raise GeomFDIError(

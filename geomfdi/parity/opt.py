@@ -16,10 +16,11 @@ import numpy as np
 from scipy import linalg as sla
 
 from geomfdi.parity._input import _guarded, _samples
+from geomfdi.parity._records import ParityData, as_data
 from geomfdi.tolerance import rank_decision
 
 if TYPE_CHECKING:
-    from geomfdi.parity.model import ParityFDI
+    from geomfdi.parity._records import HasParityData
 
 __all__ = [
     "opt_vectors",
@@ -30,11 +31,11 @@ __all__ = [
 ]
 
 
-def _opt_data(pf: ParityFDI) -> dict[str, np.ndarray]:
-    if pf._opt is not None:
-        return pf._opt
-    V, Dm = pf.V, pf._Dm
-    Sigma = np.eye(pf.m) if pf._Sigma is None else pf._Sigma
+def _opt_data(pf: ParityData) -> dict[str, np.ndarray]:
+    if pf.opt_cache:
+        return pf.opt_cache
+    V, Dm = pf.V, pf.Dm
+    Sigma = np.eye(pf.m) if pf.Sigma is None else pf.Sigma
     U = V @ Dm  # u_i = V D e_i
     M0 = V @ (Sigma + Dm @ Dm.T) @ V.T
     vecs = np.zeros((pf.m, pf.k))
@@ -65,11 +66,11 @@ def _opt_data(pf: ParityFDI) -> dict[str, np.ndarray]:
         Ubasis = sla.solve_triangular(Lc, Bv.T, lower=True).T
     else:
         Ubasis = np.zeros((pf.m, 0))
-    pf._opt = {"vectors": vecs, "perf": perf, "dmat": dmat, "U": Ubasis}
-    return pf._opt
+    pf.opt_cache.update({"vectors": vecs, "perf": perf, "dmat": dmat, "U": Ubasis})
+    return pf.opt_cache
 
 
-def opt_vectors(pf: ParityFDI) -> np.ndarray:
+def opt_vectors(pf: ParityData | HasParityData) -> np.ndarray:
     """Unit optimal parity vectors ``v_i`` as columns, shape (m, k).
 
     Notes
@@ -90,16 +91,18 @@ def opt_vectors(pf: ParityFDI) -> np.ndarray:
     ``v_i = W_i / sqrt(w_ii)`` (Theorem 3).  An undetectable fault (``u_i = 0``) gets
     the zero vector.
     """
+    pf = as_data(pf)
     return _opt_data(pf)["vectors"].copy()
 
 
-def opt_performance(pf: ParityFDI) -> np.ndarray:
+def opt_performance(pf: ParityData | HasParityData) -> np.ndarray:
     """The maximised OPT index ``S_i = u_i^T M_i^{-1} u_i`` (Zhang, Chen & Liu 2005, eq. 7)."""
+    pf = as_data(pf)
     return _opt_data(pf)["perf"].copy()
 
 
 @_guarded
-def opt_statistics(pf: ParityFDI, Z: Any) -> np.ndarray:
+def opt_statistics(pf: ParityData | HasParityData, Z: Any) -> np.ndarray:
     """Standardised optimal parity residuals ``d_i = v_i^T Z / (sigma ||v_i^T F||)``.
 
     Returns
@@ -112,12 +115,13 @@ def opt_statistics(pf: ParityFDI, Z: Any) -> np.ndarray:
     ----------
     Zhang, Chen & Liu (2005), eq. 9 and Theorem 2.
     """
+    pf = as_data(pf)
     Z = _samples(pf, Z)
     return Z @ _opt_data(pf)["dmat"]
 
 
 @_guarded
-def opt_detection_statistic(pf: ParityFDI, Z: Any) -> np.ndarray:
+def opt_detection_statistic(pf: ParityData | HasParityData, Z: Any) -> np.ndarray:
     """Corrected OPT detection function ``FD_OPT = sum_k (v_0k^T Z / sigma)^2``, (N,).
 
     Notes
@@ -132,11 +136,13 @@ def opt_detection_statistic(pf: ParityFDI, Z: Any) -> np.ndarray:
     ----------
     Zhang, Chen & Liu (2005), eq. 23, 25-26.
     """
+    pf = as_data(pf)
     Z = _samples(pf, Z)
     P = Z @ _opt_data(pf)["U"]
     return np.einsum("ij,ij->i", P, P) / pf.sigma**2
 
 
-def opt_dof(pf: ParityFDI) -> int:
+def opt_dof(pf: ParityData | HasParityData) -> int:
     """Degrees of freedom of :meth:`opt_detection_statistic`."""
+    pf = as_data(pf)
     return int(_opt_data(pf)["U"].shape[1])

@@ -43,11 +43,12 @@ from geomfdi.errors import GeomFDIError
 from geomfdi.parity import sprt as _sprt
 from geomfdi.parity._increments import _llr, _series, _standardised
 from geomfdi.parity._input import _as_rng
+from geomfdi.parity._records import ParityData, as_data
 from geomfdi.parity.results import ParityDiagnosis
 from geomfdi.parity.thresholds import chi2_threshold
 
 if TYPE_CHECKING:
-    from geomfdi.parity.model import ParityFDI
+    from geomfdi.parity._records import HasParityData
 
 __all__ = [
     "SEQUENTIAL_METHODS",
@@ -62,7 +63,9 @@ SEQUENTIAL_METHODS = ("windowed", "cusum", "sprt", "sprt-window")
 """Time-series rules accepted by :meth:`ParityFDI.diagnose`."""
 
 
-def windowed_statistic(pf: ParityFDI, Z: Any, window: int) -> tuple[np.ndarray, np.ndarray]:
+def windowed_statistic(
+    pf: ParityData | HasParityData, Z: Any, window: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Moving-average GLT ``FD_w`` and the isolation functions of the window mean.
 
     Parameters
@@ -82,9 +85,10 @@ def windowed_statistic(pf: ParityFDI, Z: Any, window: int) -> tuple[np.ndarray, 
     fi : ndarray, (R, N, k)
         ``FI_i = E_i(t)^2 / n_t``, ``E`` the windowed sum of ``e_i``.
     """
+    pf = as_data(pf)
     window = as_int(window, "window", minimum=1)
     X = _series(pf, Z)
-    P = X @ (pf._T.T / pf.sigma)
+    P = X @ (pf.T.T / pf.sigma)
     E = _standardised(pf, X)
     n_t = np.minimum(np.arange(1, X.shape[1] + 1), window).astype(float)
     Ps, Es = _moving_sum(P, window), _moving_sum(E, window)
@@ -103,7 +107,7 @@ def _moving_sum(X: np.ndarray, w: int) -> np.ndarray:
 
 
 def cusum_statistic(
-    pf: ParityFDI, Z: Any, shift: float = 0.5, window: int = 100
+    pf: ParityData | HasParityData, Z: Any, shift: float = 0.5, window: int = 100
 ) -> tuple[np.ndarray, np.ndarray]:
     """Window-limited CUSUM per fault hypothesis and sign.
 
@@ -123,6 +127,7 @@ def cusum_statistic(
     best : ndarray of int, (R, N)
         The hypothesis attaining it.
     """
+    pf = as_data(pf)
     from scipy.ndimage import minimum_filter1d
 
     shift = as_positive(shift, "shift")
@@ -141,7 +146,7 @@ def cusum_statistic(
 
 
 def window_sprt_statistic(
-    pf: ParityFDI, Z: Any, shift: float = 0.5, beta: float = 0.1, window: int = 100
+    pf: ParityData | HasParityData, Z: Any, shift: float = 0.5, beta: float = 0.1, window: int = 100
 ) -> tuple[np.ndarray, np.ndarray]:
     """Window-limited restart SPRT: the log-likelihood ratio over the last ``window`` samples.
 
@@ -158,6 +163,7 @@ def window_sprt_statistic(
     stat, best : ndarray, (R, N)
         ``max_{i, +/-}`` of the ratio at ``t`` and the hypothesis attaining it.
     """
+    pf = as_data(pf)
     shift = as_positive(shift, "shift")
     beta = as_probability(beta, "beta")
     window = as_int(window, "window", minimum=1)
@@ -174,14 +180,14 @@ def window_sprt_statistic(
     return np.take_along_axis(S, j[..., None], axis=-1)[..., 0], j % pf.k
 
 
-def _stat(pf: ParityFDI, Z: Any, method: str, opts: dict) -> tuple[np.ndarray, np.ndarray]:
+def _stat(pf: ParityData, Z: Any, method: str, opts: dict) -> tuple[np.ndarray, np.ndarray]:
     if method == "cusum":
         return cusum_statistic(pf, Z, opts["shift"], opts["window"])
     return window_sprt_statistic(pf, Z, opts["shift"], opts["beta"], opts["window"])
 
 
 def calibrate_sequential(
-    pf: ParityFDI,
+    pf: ParityData | HasParityData,
     method: str,
     pfa: float,
     *,
@@ -207,6 +213,7 @@ def calibrate_sequential(
     float
         The threshold ``h``: ``P(stat_t > h) = pfa`` without fault.
     """
+    pf = as_data(pf)
     if method not in ("cusum", "sprt-window"):
         raise GeomFDIError(f"method: 'cusum' or 'sprt-window', got {method!r}", argument="method")
     pfa = as_probability(pfa, "pfa")
@@ -232,7 +239,7 @@ def calibrate_sequential(
     return float(np.quantile(np.concatenate(pool), 1.0 - pfa))
 
 
-def _last_epoch(pf: ParityFDI, Z: np.ndarray, method: str, opts: dict) -> np.ndarray:
+def _last_epoch(pf: ParityData, Z: np.ndarray, method: str, opts: dict) -> np.ndarray:
     """The statistic at the last epoch of each stream of ``Z`` (R, window, m)."""
     inc = _llr(pf, Z, opts["shift"])
     if method == "cusum":
@@ -247,7 +254,7 @@ def _last_epoch(pf: ParityFDI, Z: np.ndarray, method: str, opts: dict) -> np.nda
 
 
 def diagnose_sequential(
-    pf: ParityFDI,
+    pf: ParityData | HasParityData,
     Z: Any,
     pfa: float,
     method: str,
@@ -265,6 +272,7 @@ def diagnose_sequential(
         Arrays of shape ``(N,)`` for one stream or ``(R, N)`` for a batch (``faults``
         ``(..., 1)``); ``threshold`` is exact (windowed) or calibrated (cusum, sprt).
     """
+    pf = as_data(pf)
     pfa = as_probability(pfa, "pfa")
     info: dict = {}
     if method == "windowed":
@@ -280,11 +288,11 @@ def diagnose_sequential(
         }
         if threshold is None:
             key = (method, pfa, opts["shift"], opts["beta"], opts["window"])
-            if key not in pf._sequential_thresholds:
-                pf._sequential_thresholds[key] = calibrate_sequential(
+            if key not in pf.sequential_thresholds:
+                pf.sequential_thresholds[key] = calibrate_sequential(
                     pf, method, pfa, shift=opts["shift"], beta=opts["beta"], window=opts["window"]
                 )
-            thr = pf._sequential_thresholds[key]
+            thr = pf.sequential_thresholds[key]
         else:
             thr = float(threshold)
         stat, best = _stat(pf, Z, method, opts)
@@ -294,11 +302,11 @@ def diagnose_sequential(
         beta = as_probability(beta, "beta")
         if threshold is None:
             key = (method, pfa, shift, beta)
-            if key not in pf._sequential_thresholds:
-                pf._sequential_thresholds[key] = _sprt.calibrate_sprt(
+            if key not in pf.sequential_thresholds:
+                pf.sequential_thresholds[key] = _sprt.calibrate_sprt(
                     pf, pfa, shift=shift, beta=beta
                 )
-            cal = pf._sequential_thresholds[key]
+            cal = pf.sequential_thresholds[key]
             thr, info = cal.upper, cal.as_dict()
         else:
             thr = float(as_positive(threshold, "threshold"))
@@ -309,7 +317,7 @@ def diagnose_sequential(
             f"method: expected one of {', '.join(SEQUENTIAL_METHODS)}, got {method!r}",
             argument="method",
         )
-    iso = np.where(det, pf._lut[best], -1)
+    iso = np.where(det, pf.lut[best], -1)
     one = np.ndim(Z) == 2
     if one:
         det, iso, stat = det[0], iso[0], stat[0]

@@ -39,9 +39,10 @@ from geomfdi._validation import as_int, as_positive, as_probability
 from geomfdi.errors import GeomFDIError
 from geomfdi.parity._increments import _llr, _series
 from geomfdi.parity._input import _as_rng
+from geomfdi.parity._records import ParityData, as_data
 
 if TYPE_CHECKING:
-    from geomfdi.parity.model import ParityFDI
+    from geomfdi.parity._records import HasParityData
 
 __all__ = ["wald_boundaries", "wald_rate", "sprt_run", "calibrate_sprt", "SprtCalibration"]
 
@@ -160,7 +161,7 @@ def _lower_for(upper: float, beta: float) -> float:
 
 
 def calibrate_sprt(
-    pf: ParityFDI,
+    pf: ParityData | HasParityData,
     pfa: float,
     *,
     shift: float = 0.5,
@@ -182,6 +183,7 @@ def calibrate_sprt(
     -------
     SprtCalibration
     """
+    pf = as_data(pf)
     pfa = as_probability(pfa, "pfa")
     shift = as_positive(shift, "shift")
     beta = as_probability(beta, "beta")
@@ -208,7 +210,7 @@ def calibrate_sprt(
             alarms += int(alarm[:, _BURN_IN:].sum())
         return alarms / (n_streams * used)
 
-    nu = shift * float(np.sqrt(np.max(np.where(pf.detectable, pf._w, 0.0))))
+    nu = shift * float(np.sqrt(np.max(np.where(pf.detectable, pf.w, 0.0))))
     K = 2 * int(np.count_nonzero(pf.detectable))
     total = n_streams * used
     if nu <= 0:
@@ -255,7 +257,7 @@ def calibrate_sprt(
 
 
 def sprt_statistic(
-    pf: ParityFDI, Z: Any, upper: float, *, shift: float = 0.5, beta: float = 0.1
+    pf: ParityData | HasParityData, Z: Any, upper: float, *, shift: float = 0.5, beta: float = 0.1
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Repeated Wald SPRT of every fault hypothesis on a time series of readings.
 
@@ -272,6 +274,7 @@ def sprt_statistic(
     stat, alarm, best : ndarray, (R, N)
         See :func:`sprt_run`; ``best`` is the sensor index (sign dropped).
     """
+    pf = as_data(pf)
     shift = as_positive(shift, "shift")
     beta = as_probability(beta, "beta")
     upper = as_positive(upper, "threshold")

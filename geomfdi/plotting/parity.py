@@ -5,15 +5,43 @@ See the user guide, *Theory: parity space* (``docs/theory/parity-space.md``).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from geomfdi.parity.montecarlo import RocCurve
-    from geomfdi.parity.results import RateCurve, Seed004Result
-
 __all__ = ["plot_rates", "plot_seed004", "plot_roc"]
+
+# What the figures read of the parity results (the results call these functions from
+# their ``plot`` methods; this module does not import the results' modules back).
+
+
+class RateCurveLike(Protocol):
+    """The fields of a :class:`~geomfdi.parity.results.RateCurve` the figure reads."""
+
+    sizes: np.ndarray
+    correct: dict[str, np.ndarray]
+    detection: dict[str, np.ndarray]
+    n_runs: int
+    sigma: float
+    pfa: float
+
+
+class Seed004ResultLike(Protocol):
+    """The fields of a :class:`~geomfdi.parity.results.Seed004Result` the figure reads."""
+
+    methods: tuple[str, ...]
+    kinds: tuple[str, ...]
+    sigma: float
+
+    def summary(self) -> dict[str, dict[str, dict[str, float]]]: ...
+
+
+class RocCurveLike(Protocol):
+    """The fields of a :class:`~geomfdi.parity.montecarlo.RocCurve` the figure reads."""
+
+    pfa: np.ndarray
+    pd: dict[str, np.ndarray]
+    n_runs: int
 
 
 def _figure_axes(ax: Any, figsize: tuple[float, float]) -> tuple[Any, Any]:
@@ -25,7 +53,7 @@ def _figure_axes(ax: Any, figsize: tuple[float, float]) -> tuple[Any, Any]:
     return plt.subplots(figsize=figsize)
 
 
-def plot_rates(curve: RateCurve, ax: Any = None) -> Any:
+def plot_rates(curve: RateCurveLike, ax: Any = None) -> Any:
     """Plot correct-isolation (solid) and detection (dashed) rates against fault size.
 
     The correct-isolation curve omits size 0, where "correct" means "no alarm"; the
@@ -64,7 +92,7 @@ def plot_rates(curve: RateCurve, ax: Any = None) -> Any:
     return fig
 
 
-def plot_seed004(result: Seed004Result, ax: Any = None) -> Any:
+def plot_seed004(result: Seed004ResultLike, ax: Any = None) -> Any:
     """Grouped bar chart of the mean correct-isolation rate per family and method.
 
     Parameters
@@ -97,7 +125,7 @@ def plot_seed004(result: Seed004Result, ax: Any = None) -> Any:
     return fig
 
 
-def plot_roc(curve: RocCurve, ax: Any = None) -> Any:
+def plot_roc(curve: RocCurveLike, ax: Any = None) -> Any:
     """Detection rate against the realised false-alarm rate, one line per statistic.
 
     Returns

@@ -62,6 +62,7 @@ def simulate_batch(
     hold: str = "foh",
     consistent_init: bool = True,
     store: str = "residuals",
+    w: Any = None,
     chunk_size: int | None = None,
     persistence: Any = None,
     detection_window: float | None = None,
@@ -71,7 +72,7 @@ def simulate_batch(
 
     Parameters
     ----------
-    plant, bank, t, u, x0, controller, threshold, d, xc0, hold, consistent_init
+    plant, bank, t, u, x0, controller, threshold, d, w, xc0, hold, consistent_init
         As for :func:`simulate`; ``x0`` may also be ``(runs, n)``.
     persistence, detection_window
         The decision rule, as for :func:`simulate`.
@@ -113,7 +114,7 @@ def simulate_batch(
     """
     store = as_choice(store, "store", ("residuals", "all", "summary"))
     plant = as_plant(plant)
-    ctx = prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
+    ctx = prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress, w)
     per_run = (
         not isinstance(faults, FaultSignal)
         and isinstance(faults, Sequence)

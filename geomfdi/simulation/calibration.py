@@ -45,7 +45,7 @@ def calibrate_threshold(
     plant, bank, t
         As for :func:`geomfdi.simulate`.
     noise : Noise
-        Must contain measurement and/or process noise.
+        Must contain measurement, process or noise-input noise.
     false_alarm_rate : float
         Per-sample false-alarm rate ``alpha``.
     runs : int
@@ -61,10 +61,10 @@ def calibrate_threshold(
     -------
     Threshold
     """
-    if getattr(noise, "measurement", None) is None and getattr(noise, "process", None) is None:
+    if all(getattr(noise, k, None) is None for k in ("measurement", "process", "inputs")):
         raise GeomFDIError(
-            "noise: a noise-only calibration needs a geomfdi Noise with measurement or "
-            f"process noise, got {noise!r:.60}",
+            "noise: a noise-only calibration needs a geomfdi Noise with measurement, "
+            f"process or input noise, got {noise!r:.60}",
             argument="noise",
         )
     runs = check_runs(runs)

@@ -88,17 +88,16 @@ class LoopModel:
             )
         Li = np.linalg.inv(Lm)
         Bw = self.ctx.Bw if nwp else np.zeros((n, 0))
+        Dwp = self.ctx.Dwp if self.ctx.Dwp is not None else np.zeros((q, nwp))
         # commanded input u = Ux X + Ue e
         Ux = Li @ np.hstack([Dc @ Dl @ p.C - self.K, Cc])
-        Ue = Li @ np.hstack(
-            [np.eye(m), Dc @ Dl @ p.Dd, np.zeros((m, nwp)), Dc @ Dl, Dc, Dc @ Dl @ p.D]
-        )
+        Ue = Li @ np.hstack([np.eye(m), Dc @ Dl @ p.Dd, Dc @ Dl @ Dwp, Dc @ Dl, Dc, Dc @ Dl @ p.D])
         # applied input u^a = Gamma u + lambda^a
         Uax = Gm @ Ux
         Uae = Gm @ Ue
         Uae[:, -m:] += np.eye(m)
         Y0x = np.hstack([p.C, np.zeros((q, nc))]) + p.D @ Uax
-        Y0e = p.D @ Uae + np.hstack([np.zeros((q, m)), p.Dd, np.zeros((q, nwp + 2 * q + m))])
+        Y0e = p.D @ Uae + np.hstack([np.zeros((q, m)), p.Dd, Dwp, np.zeros((q, 2 * q + m))])
         Ymx = Dl @ Y0x
         Yme = Dl @ Y0e + np.hstack([np.zeros((q, m + nd + nwp)), Dl, np.eye(q), np.zeros((q, m))])
         AX = np.block([[p.A, np.zeros((n, nc))], [np.zeros((nc, n)), Ac]])

@@ -238,6 +238,7 @@ class Context:
     keep_states: bool = False
     info: dict[str, Any] = field(default_factory=dict)
     original: Plant | None = None  # the user's plant (``plant`` is balanced)
+    Dwp: np.ndarray | None = None  # (q, nwp): random noise inputs in the readings
     x_scale: np.ndarray | None = None  # x = diag(x_scale) x_balanced
 
     @property
@@ -310,7 +311,15 @@ def prepare(
     hold: str,
     consistent_init: bool,
     progress: Any,
+    w: Any = None,
 ) -> Context:
+    """Check the inputs of a simulation once.
+
+    The plant's noise inputs ``w`` (``Plant(..., Bw=, Dw=)``) given as a signal ``w``
+    are simulated as further disturbance channels (``Bd' = [Bd, Bw]``, ``d' = [d; w]``);
+    drawn at random (``Noise(inputs=...)``) they join the process-noise channels, with
+    ``Dw`` in the readings (``Dwp``).
+    """
     hold = as_choice(hold, "hold", HOLDS)
     consistent_init = as_bool(consistent_init, "consistent_init")
     progress = None if progress is None else as_bool(progress, "progress")
@@ -327,7 +336,21 @@ def prepare(
         raise GeomFDIError(
             f"noise: expected a geomfdi Noise, got {type(noise).__name__}", argument="noise"
         )
-    Lv, Bw, Lw = noise.factors(plant) if noise is not None else (None, None, None)
+    Lv = noise.factors(plant)[0] if noise is not None else None
+    Bw, Dwp, Lw = noise.input_channels(plant) if noise is not None else (None, None, None)
+    d_all = exogenous_signal(d, t, plant.nd, "d")
+    if w is not None:
+        w_sig = exogenous_signal(w, t, plant.nw, "w")
+        d_all = np.vstack([d_all, w_sig])
+        plant = Plant(
+            plant.A,
+            plant.B,
+            plant.C,
+            plant.D,
+            Bd=np.hstack([plant.Bd, plant.Bw]),
+            Dd=np.hstack([plant.Dd, plant.Dw]),
+            dt=plant.dt,
+        )
     if progress is None:
         progress = sys.stderr.isatty()
     # the state in balanced units (x = diag(xs) x_b): a plant in badly scaled coordinates
@@ -356,7 +379,7 @@ def prepare(
         step,
         hold,
         exogenous_signal(u, t, plant.m, "u"),
-        exogenous_signal(d, t, plant.nd, "d"),
+        d_all,
         Lv,
         Bw,
         Lw,
@@ -370,6 +393,7 @@ def prepare(
         },
         original=original,
         x_scale=xs,
+        Dwp=Dwp,
     )
 
 

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 
 from geomfdi._validation import as_matrix, as_real_array
 from geomfdi.errors import GeomFDIError, ShapeError
@@ -73,6 +74,12 @@ class Noise:
         ``Q`` is ``Q / dt``.
     process_input : (n, k), optional
         ``Bw``; the identity (noise on every state) by default.
+    inputs : float, (nw,) or (nw, nw), optional
+        The plant's own noise inputs ``w`` (``Plant(..., Bw=, Dw=)``: they enter the state
+        through the plant's ``Bw`` and the readings through its ``Dw``), i.i.d. samples
+        with these standard deviation(s) or covariance, interpolated like the process
+        noise.  Drawn after the process noise of each block (rows appended to its draws),
+        so adding them leaves the measurement and process noise of a seed unchanged.
     seed : int, numpy SeedSequence or None
         Seed of :func:`numpy.random.default_rng`.  In :func:`simulate_batch` run ``i``
         uses the ``i``-th child of ``SeedSequence(seed)`` unless seeds are given.  The
@@ -91,6 +98,7 @@ class Noise:
     process: Any = None
     process_input: Any = None
     seed: Any = None
+    inputs: Any = None
 
     def __post_init__(self) -> None:
         check_seed(self.seed, "noise.seed")
@@ -108,6 +116,35 @@ class Noise:
             )
         Lw = _factor(self.process, Bw.shape[1], "noise.process")
         return Lv, (Bw if Lw is not None else None), Lw
+
+    def input_channels(
+        self, plant: Plant
+    ) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+        """``(Bx, Dy, L)``: process noise and the plant's noise inputs together.
+
+        The state is driven by ``Bx L z`` and the readings by ``Dy L z`` (z standard
+        normal): ``Bx = [Bw_process, plant.Bw]``, ``Dy = [0, plant.Dw]``, ``L`` block
+        diagonal; ``(None, None, None)`` when neither is given.
+        """
+        _, Bp, Lp = self.factors(plant)
+        if self.inputs is not None and plant.nw == 0:
+            raise GeomFDIError(
+                "noise.inputs: the plant has no noise inputs (Plant(..., Bw=, Dw=))",
+                argument="noise.inputs",
+            )
+        Li = _factor(self.inputs, plant.nw, "noise.inputs") if plant.nw else None
+        Bx, Dy, Ls = [], [], []
+        if Lp is not None:
+            Bx.append(Bp)
+            Dy.append(np.zeros((plant.q, Bp.shape[1])))
+            Ls.append(Lp)
+        if Li is not None:
+            Bx.append(np.asarray(plant.Bw, dtype=float))
+            Dy.append(np.asarray(plant.Dw, dtype=float))
+            Ls.append(Li)
+        if not Ls:
+            return None, None, None
+        return np.hstack(Bx), np.hstack(Dy), scipy.linalg.block_diag(*Ls)
 
 
 #: Samples per block of noise draws (see :class:`NoiseStream`); part of what a seed means.

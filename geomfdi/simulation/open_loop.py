@@ -75,7 +75,7 @@ class OpenLoopEngine:
         nwp = ctx.nwp
         B_X = np.hstack([p.B, p.Bd] + ([ctx.Bw] if nwp else []))
         Cy0 = p.C - p.D @ K
-        Dy0 = np.hstack([p.D, p.Dd, np.zeros((q, nwp))])
+        Dy0 = np.hstack([p.D, p.Dd, ctx.Dwp if ctx.Dwp is not None else np.zeros((q, nwp))])
         Cu = -K
         Du = np.hstack([np.eye(m), np.zeros((m, nd + nwp))])
         self.ne = ne = m + nd + nwp

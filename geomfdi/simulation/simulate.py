@@ -75,6 +75,9 @@ gain is then exact (stepping uses ``eta(t_k)``).
 *Noise.*  :class:`Noise`: measurement noise ``v`` (i.i.d. per sample) and process noise
 ``w`` (i.i.d. samples entering through ``Bw``, interpolated with the same hold as ``u``
 for continuous plants: for a white-noise intensity ``Q`` use covariance ``Q / dt``).
+The plant's own noise inputs (``Plant(..., Bw=, Dw=)``) are given as a signal ``w=``
+(simulated like ``d``) or drawn at random with ``Noise(inputs=...)`` (like the process
+noise, with ``Dw`` also in the readings).
 The standard-normal draws are made in blocks of 65 536 samples
 (:class:`~geomfdi.simulation.noise.NoiseStream`), so a sample's noise depends only on
 the seed and its index.
@@ -266,6 +269,7 @@ def simulate(
     hold: str = "foh",
     consistent_init: bool = True,
     keep_states: bool = False,
+    w: Any = None,
     persistence: Any = None,
     detection_window: float | None = None,
     progress: bool | None = None,
@@ -304,6 +308,9 @@ def simulate(
         no decision (no alarms).
     d : array_like (nd, N), callable or None
         Disturbance signal (decoupled by design).
+    w : array_like (nw, N), callable or None
+        Signal of the plant's noise inputs (``Plant(..., Bw=, Dw=)``), simulated like
+        ``d`` (``None``: zero).  Random noise inputs: ``Noise(inputs=...)``.
     xc0 : array_like, optional
         Initial controller state (output feedback; zero by default).
     hold : {"foh", "zoh"}
@@ -349,7 +356,7 @@ def simulate(
     """
     keep_states = as_bool(keep_states, "keep_states")
     plant = as_plant(plant)
-    ctx = prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress)
+    ctx = prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress, w)
     ctx.keep_states = keep_states
     sched = fault_schedule(faults, plant)
     x0a = state_vector(x0, plant.n, "x0")

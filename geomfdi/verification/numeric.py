@@ -155,6 +155,43 @@ def _unpack(obj: Any, plant: Plant, faults: Any):
     return gens, faults, req
 
 
+def _row_measures(
+    g: ResidualGenerator,
+    plant: Plant,
+    factor: PlantFactor,
+    faults: Sequence[Fault],
+    sigs: list[tuple[np.ndarray, np.ndarray]],
+    req: np.ndarray,
+    method: str,
+    r: int,
+    gain: np.ndarray,
+    dc: np.ndarray,
+    inp: np.ndarray,
+    unst: np.ndarray,
+    tang: np.ndarray,
+) -> None:
+    """Fault gains, input leakage, unstable-mode angle and target angles of row ``r``
+    (in place)."""
+    comp = Composite(g, plant, factor)
+    gain[r], dc[r] = _gains(comp, sigs, method)
+    for j in np.flatnonzero(req & (gain[r] <= LEAK_TOL)):
+        # a target at rounding level under the random-point measure (a badly scaled
+        # generator): second opinion from the orthonormal Krylov test, as in the design
+        gain[r, j] = max(
+            gain[r, j], fault_gains(g, plant, [faults[j]], method="krylov", factor=factor)[0][0]
+        )
+    ang = comp.angle_gains([(Bf, Df, False) for Bf, Df in sigs])
+    tang[r] = np.where(req, ang, 0.0)
+    gain[r] = np.where(req, gain[r], ang)
+    chans = []
+    if plant.m:
+        chans.append((plant.B, plant.D, True))
+    if plant.nd:
+        chans.append((plant.Bd, plant.Dd, False))
+    inp[r] = float(np.max(comp.angle_gains(chans))) if chans else 0.0
+    unst[r] = comp.unstable_angle(factor)
+
+
 @limit_blas_threads
 def verify(
     bank_or_generator: ResidualBank | ResidualGenerator,
@@ -184,7 +221,10 @@ def verify(
     VerificationReport
         ``leakage`` and ``input_leakage`` are the angle measure (module Notes);
         ``stable[r]``: the generator is stable; ``unstable_leakage[r]``: angle between
-        the residual and the plant's unstable modes (must be 0).
+        the residual and the plant's unstable modes (must be 0).  Any generator gives a
+        report: one whose transfer cannot be evaluated (singular, or beyond float range)
+        gets ``nan`` measures, ``ok = False`` and the reason in ``details``; an unstable
+        one ``stable[r] = False``.
 
     Notes
     -----
@@ -217,6 +257,7 @@ def verify(
     tang = np.zeros((rows, nf))
     idents: list[dict[str, float]] = []
     missing, details = [], []
+    unusable: dict[int, str] = {}  # rows whose measures could not be computed
     factor = PlantFactor(plant)
     sigs = fault_matrices(faults, plant.n, plant.q)
     for r, g in enumerate(gens):
@@ -224,25 +265,21 @@ def verify(
             missing.append(r)
             idents.append({})
             continue
-        comp = Composite(g, plant, factor)
-        gain[r], dc[r] = _gains(comp, sigs, method)
-        for j in np.flatnonzero(req[r] & (gain[r] <= LEAK_TOL)):
-            # a target at rounding level under the random-point measure (a badly scaled
-            # generator): second opinion from the orthonormal Krylov test, as in the design
-            gain[r, j] = max(
-                gain[r, j], fault_gains(g, plant, [faults[j]], method="krylov", factor=factor)[0][0]
-            )
-        ang = comp.angle_gains([(Bf, Df, False) for Bf, Df in sigs])
-        tang[r] = np.where(req[r], ang, 0.0)
-        gain[r] = np.where(req[r], gain[r], ang)
-        chans = []
-        if plant.m:
-            chans.append((plant.B, plant.D, True))
-        if plant.nd:
-            chans.append((plant.Bd, plant.Dd, False))
-        inp[r] = float(np.max(comp.angle_gains(chans))) if chans else 0.0
-        unst[r] = comp.unstable_angle(factor)
-        lam = g.poles
+        try:
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                _row_measures(g, plant, factor, faults, sigs, req[r], method, r,
+                              gain, dc, inp, unst, tang)  # fmt: skip
+        except np.linalg.LinAlgError as exc:  # a generator pole on a plant pole, say
+            gain[r], dc[r], inp[r], unst[r] = np.nan, np.nan, np.nan, np.nan
+            unusable[r] = f"singular transfer ({exc})"
+        if r not in unusable and not (
+            np.isfinite(gain[r]).all() and np.isfinite(inp[r]) and np.isfinite(unst[r])
+        ):
+            unusable[r] = "its transfer overflows (entries too large to evaluate)"
+        try:
+            lam = g.poles
+        except np.linalg.LinAlgError:  # eigenvalues did not converge: not shown stable
+            lam = np.array([np.nan])
         stable[r] = bool(np.all(np.abs(lam) < 1) if plant.dt > 0 else np.all(lam.real < 0))
         idents.append(dict(g.info.get("identities", {})))
     leak = np.where(req, 0.0, gain)
@@ -251,6 +288,9 @@ def verify(
     for r, g in enumerate(gens):
         if g is None:
             continue
+        if r in unusable:
+            ok = False
+            details.append(f"row {r}: not verified: {unusable[r]}")
         for j in range(nf):
             if not req[r, j] and gain[r, j] > tol:
                 ok = False

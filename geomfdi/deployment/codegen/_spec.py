@@ -3,9 +3,10 @@
 Both generators (C and Python) emit exactly the per-sample algorithm of
 :class:`geomfdi.Monitor` (see :mod:`geomfdi.deployment.online`):
 
-1. ``z = [y; u]``; if an entry is not finite the sample is *missing*: residuals ``nan``,
-   a raw alarm pattern of zeros enters the persistence window, and the next valid sample
-   restarts the generators (``restart`` rule);
+1. ``z = [y; u]``; if an entry is not finite or beyond ``SAMPLE_LIMIT`` (``1e150``) in
+   magnitude, or if the update of step 3 overflows, the sample is *missing*: residuals
+   ``nan``, a raw alarm pattern of zeros enters the persistence window, the state is not
+   advanced and the next valid sample restarts the generators (``restart`` rule);
 2. at the first valid sample of a segment ``xi = S z`` (steady), ``-J z`` (zero) or
    ``w0 - J z`` (explicit ``w0``);
 3. ``c = C xi + D z``, ``xi <- A xi + B z``; residual of row ``i`` = ``c[a]`` or
@@ -28,15 +29,19 @@ This is the rule :class:`geomfdi.Persistence` (:mod:`geomfdi.deployment.decide`)
 
 from __future__ import annotations
 
+import keyword
+import os
 import re
+import sys
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from geomfdi.errors import GeomFDIError, NotDiscreteError
 
-__all__ = ["CodeSpec", "code_spec", "check_name"]
+__all__ = ["CodeSpec", "code_spec", "check_name", "check_out_dir"]
 
 
 @dataclass(frozen=True)
@@ -82,13 +87,57 @@ class CodeSpec:
         return self.structure.shape[1]
 
 
+#: Keywords of C (C99 to C23) and Python: never a name of generated code.
+C_KEYWORDS = frozenset(
+    "auto break case char const continue default do double else enum extern float for goto "
+    "if inline int long register restrict return short signed sizeof static struct switch "
+    "typedef union unsigned void volatile while alignas alignof bool constexpr false "
+    "nullptr static_assert thread_local true typeof typeof_unqual".split()
+)
+#: Modules the generated Python imports (a module of that name would shadow them).
+SHADOWED = frozenset({"numpy", "np", "math"})
+
+
 def check_name(name: str) -> str:
-    """A C identifier / Python module name (letters, digits, underscores)."""
-    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+    """A C identifier / Python module name (letters, digits, underscores).
+
+    Refused: keywords of C or Python, names reserved in C (a leading underscore), and
+    module names that the generated Python module would shadow when it is imported
+    from its folder (``numpy``, ``math`` and the other modules of Python's standard
+    library).  Internal names of the generated C carry the prefix ``name_``, so any
+    accepted name (``start``, ``decide``) is free of clashes.
+    """
+    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):
         raise GeomFDIError(
-            f"name: must be an identifier (letters, digits, _), got {name!r}", argument="name"
+            f"name: must be an identifier of letters, digits and _ beginning with a letter, "
+            f"got {name!r:.60}",
+            argument="name",
+        )
+    if len(name) > 64:
+        raise GeomFDIError(f"name: at most 64 characters, got {len(name)}", argument="name")
+    if keyword.iskeyword(name) or keyword.issoftkeyword(name) or name in C_KEYWORDS:
+        raise GeomFDIError(f"name: {name!r} is a keyword of C or Python", argument="name")
+    if name in SHADOWED or name in sys.stdlib_module_names:
+        raise GeomFDIError(
+            f"name: {name!r} would shadow the module of that name when the generated code "
+            "is imported; choose another name (e.g. 'monitor_{name}')",
+            argument="name",
         )
     return name
+
+
+def check_out_dir(out_dir: Any) -> Path:
+    """The output folder: a path (``str`` or path-like), not an existing file."""
+    if not isinstance(out_dir, str | os.PathLike) or not str(out_dir).strip():
+        raise GeomFDIError(
+            f"out_dir: expected a folder path, got {type(out_dir).__name__}", argument="out_dir"
+        )
+    if "\x00" in str(out_dir):
+        raise GeomFDIError("out_dir: the path holds a NUL character", argument="out_dir")
+    path = Path(out_dir)
+    if path.exists() and not path.is_dir():
+        raise GeomFDIError(f"out_dir: {path} exists and is not a folder", argument="out_dir")
+    return path
 
 
 def code_spec(

@@ -24,7 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.deployment.codegen._spec import CodeSpec, check_name, code_spec
+from geomfdi.deployment.codegen._spec import CodeSpec, check_name, check_out_dir, code_spec
+from geomfdi.deployment.program import SAMPLE_LIMIT
 
 __all__ = ["c", "c_source"]
 
@@ -66,8 +67,8 @@ def _state_ranges(spec: CodeSpec) -> tuple[list[tuple[int, int]], list[tuple[int
     return w_rng, c_rng
 
 
-def _decide_c(spec: CodeSpec, P: str) -> str:
-    """``static int decide(const int *p)``: the decision for one pattern."""
+def _decide_c(spec: CodeSpec, P: str, name: str) -> str:
+    """``static int name_decide(const int *p)``: the decision for one pattern."""
     multi = ""
     if spec.multiple:
         multi = f"""
@@ -87,7 +88,7 @@ def _decide_c(spec: CodeSpec, P: str) -> str:
     return {P}_MULTIPLE;"""
     decl = f", inside, cover[{P}_NR]" if spec.multiple else ""
     tail = multi if spec.multiple else f"\n    return {P}_UNEXPLAINED;"
-    return f"""static int decide(const int *p)
+    return f"""static int {name}_decide(const int *p)
 {{
     int i, j, any = 0, found = -1, ncand = 0, match{decl};
     for (i = 0; i < {P}_NR; ++i) any |= p[i];
@@ -107,7 +108,7 @@ def _decide_c(spec: CodeSpec, P: str) -> str:
 """
 
 
-def _pattern_c(spec: CodeSpec, P: str) -> str:
+def _pattern_c(spec: CodeSpec, P: str, name: str) -> str:
     """The held pattern, its decision and the settling (end of ``name_step``)."""
     lines = []
     if spec.latch:
@@ -131,7 +132,7 @@ def _pattern_c(spec: CodeSpec, P: str) -> str:
     else:
         lines.append(f"    for (i = 0; i < {P}_NR; ++i) pattern[i] = alarms[i];")
     if spec.n > 1 and spec.multiple:
-        lines.append(f"""    dec = decide(pattern);
+        lines.append(f"""    dec = {name}_decide(pattern);
     count = 1; /* settling: the same decision for k of the last n samples */
     for (j = 0; j < PN - 1; ++j) count += s->decisions[j] == dec;
     s->decisions[s->dpos] = dec;
@@ -139,7 +140,7 @@ def _pattern_c(spec: CodeSpec, P: str) -> str:
     if ((dec >= 0 || dec == {P}_MULTIPLE) && count < PK) return {P}_UNEXPLAINED;
     return dec;""")
     else:
-        lines.append("    return decide(pattern);")
+        lines.append(f"    return {name}_decide(pattern);")
     return "\n".join(lines)
 
 
@@ -246,6 +247,7 @@ unsigned long {name}_state_size(void);
 #define PK {spec.k}
 #define PENDING_INITIAL {_PENDING[spec.initial]}
 #define PENDING_RESTART {_PENDING[spec.restart]}
+#define SAMPLE_LIMIT {_hex(SAMPLE_LIMIT)} /* {SAMPLE_LIMIT:g}: larger samples are missing */
 
 {tables}
 void {name}_init({name}_state *s)
@@ -266,7 +268,7 @@ void {name}_init({name}_state *s)
     s->samples = 0;
 }}
 
-static void start_state({name}_state *s, const double *z)
+static void {name}_start({name}_state *s, const double *z)
 {{
     int i, j;
     double acc;
@@ -283,7 +285,7 @@ static void start_state({name}_state *s, const double *z)
     s->pending = 0;
 }}
 
-{_decide_c(spec, P)}
+{_decide_c(spec, P, name)}
 int {name}_step({name}_state *s, const double *y, const double *u, double *r, int *alarms)
 {{
     double z[{_alloc(nz)}], c[{_alloc(nc)}], xn[{_alloc(nw)}], acc;
@@ -291,29 +293,33 @@ int {name}_step({name}_state *s, const double *y, const double *u, double *r, in
     int i, j, ok = 1, any = 0{extra_decl};
     for (j = 0; j < {P}_NY; ++j) z[j] = y[j];
     for (j = 0; j < {P}_NU; ++j) z[{P}_NY + j] = u[j];
-    for (j = 0; j < NZ; ++j)
-        if (z[j] - z[j] != 0.0) ok = 0; /* nan or inf: a missing sample */
+    for (j = 0; j < NZ; ++j) /* nan, inf or out of range: a missing sample */
+        if (!(fabs(z[j]) <= SAMPLE_LIMIT)) ok = 0;
     s->samples += 1;
-    if (!ok) {{
-        for (i = 0; i < {P}_NR; ++i) {{
-            r[i] = NAN;
-            raw[i] = 0;
-        }}
-        s->pending = PENDING_RESTART;
-    }} else {{
-        if (s->pending) start_state(s, z);
+    if (ok) {{
+        if (s->pending) {name}_start(s, z);
         for (i = 0; i < NC; ++i) {{
             acc = 0.0;
             for (j = {P}_CW0[i]; j < {P}_CW1[i]; ++j) acc += {P}_C[i * {P}_NW + j] * s->xi[j];
             for (j = 0; j < NZ; ++j) acc += {P}_D[i * NZ + j] * z[j];
             c[i] = acc;
+            if (acc - acc != 0.0) ok = 0; /* an overflow: the sample is missing */
         }}
         for (i = 0; i < {P}_NW; ++i) {{
             acc = 0.0;
             for (j = {P}_AW0[i]; j < {P}_AW1[i]; ++j) acc += {P}_A[i * {P}_NW + j] * s->xi[j];
             for (j = 0; j < NZ; ++j) acc += {P}_B[i * NZ + j] * z[j];
             xn[i] = acc;
+            if (acc - acc != 0.0) ok = 0;
         }}
+    }}
+    if (!ok) {{ /* residuals nan, no raw alarm, restart at the next valid sample */
+        for (i = 0; i < {P}_NR; ++i) {{
+            r[i] = NAN;
+            raw[i] = 0;
+        }}
+        s->pending = PENDING_RESTART;
+    }} else {{
         for (i = 0; i < {P}_NW; ++i) s->xi[i] = xn[i];
 {chr(10).join(rows_code)}
         for (i = 0; i < {P}_NR; ++i) raw[i] = {P}_ACTIVE[i] && fabs(r[i]) > {P}_THR[i];
@@ -325,7 +331,7 @@ int {name}_step({name}_state *s, const double *y, const double *u, double *r, in
         any |= alarms[i];
     }}
     s->pos = (s->pos + 1) % PN;
-{_pattern_c(spec, P)}
+{_pattern_c(spec, P, name)}
 }}
 
 void {name}_run({name}_state *s, long n, const double *Y, const double *U, double *R, int *A,
@@ -377,6 +383,7 @@ def c(
         For a continuous bank (sample it with ``bank.discretize(dt)``).
     """
     name = check_name(name)
+    out_dir = check_out_dir(out_dir)
     spec = code_spec(source, threshold=threshold, persistence=persistence, initial=initial)
     h, src = c_source(spec, name)
     out = Path(out_dir)

@@ -19,7 +19,13 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.deployment.codegen._spec import CodeSpec, check_name, code_spec
+from geomfdi.deployment.codegen._spec import CodeSpec, check_name, check_out_dir, code_spec
+from geomfdi.deployment.program import SAMPLE_LIMIT
+
+
+def _hex(x: float) -> str:
+    return float(x).hex()
+
 
 __all__ = ["python", "python_source"]
 
@@ -71,8 +77,8 @@ Bank: {spec.n_rows} residuals, {spec.nw} generator states, {spec.q} outputs, {sp
 dt = {spec.dt!r}.  Decision: |r_i| > threshold_i, confirmed when {spec.k} of the last
 {spec.n} samples alarm; {_rule_text(spec)}; isolation returns the fault column,
 -1 (no alarm), -2 (unexplained), -3 (ambiguous) or -4 (several faults).  A sample with a
-non-finite entry gives nan residuals, no raw alarm, and restarts the generators at the
-next valid sample.
+non-finite entry or an entry beyond LIMIT in magnitude (or whose update overflows) gives
+nan residuals, no raw alarm, and restarts the generators at the next valid sample.
 """
 
 import math
@@ -100,6 +106,8 @@ STRUCTURE = np.array({spec.structure.astype(int).tolist()!r}, dtype=bool).reshap
     {spec.n_rows}, {spec.n_faults}
 )
 PHI = np.vstack([np.hstack([A, B]), np.hstack([C, D])])
+ZEROS = np.zeros(PHI.shape[0])
+LIMIT = float.fromhex({_hex(SAMPLE_LIMIT)!r})  # {SAMPLE_LIMIT:g}: larger samples are missing
 _DECISIONS = {{}}
 INITIAL, RESTART = {spec.initial!r}, {spec.restart!r}
 
@@ -155,16 +163,22 @@ def step(state, y, u=()):
     v = np.concatenate((state.xi, y, u))
     if v.size != NW + NY + NU:
         raise ValueError("y, u: expected %d and %d values" % (NY, NU))
+    if v.dtype.kind != "f":
+        raise TypeError("y, u: expected real numbers, got %s" % v.dtype)
     state.samples += 1
-    if not math.isfinite(v.dot(v)):  # a missing sample (a non-finite entry in y or u)
+    z = v[NW:]
+    ok = np.abs(z).max(initial=0.0) <= LIMIT  # nan, inf or out of range: a missing sample
+    if ok:
+        if state.pending is not None:
+            _start(state, z)
+            v[:NW] = state.xi
+        res = PHI.dot(v)
+        ok = math.isfinite(res.dot(ZEROS))  # an overflow (x * 0 is nan for inf and nan)
+    if not ok:  # residuals nan, no raw alarm, restart at the next valid sample
         r = np.full(NR, math.nan)
         raw = np.zeros(NR, dtype=bool)
         state.pending = RESTART
     else:
-        if state.pending is not None:
-            _start(state, v[NW:])
-            v[:NW] = state.xi
-        res = PHI.dot(v)
         state.xi = res[:NW]
         c = res[NW:]
 {{ROWS_CODE}}
@@ -206,7 +220,10 @@ def step(state, y, u=()):
 def run(Y, U=None, state=None):
     """Samples Y (N, NY), U (N, NU): residuals (N, NR), alarms (N, NR), decisions (N,)."""
     Y = np.asarray(Y, dtype=float).reshape(-1, NY)
-    U = np.zeros((Y.shape[0], 0)) if U is None else np.asarray(U, dtype=float).reshape(-1, NU)
+    if U is None and NU:
+        raise ValueError("U: the bank reads %d inputs; pass U" % NU)
+    U = np.zeros((Y.shape[0], NU)) if U is None else np.asarray(U, dtype=float)
+    U = U.reshape(Y.shape[0], NU)
     state = init() if state is None else state
     R = np.zeros((Y.shape[0], NR))
     AL = np.zeros((Y.shape[0], NR), dtype=bool)
@@ -229,6 +246,7 @@ def python(
     """Write ``name.py`` for a monitor or a discrete bank (arguments as for
     :func:`geomfdi.codegen.c`); returns its path."""
     name = check_name(name)
+    out_dir = check_out_dir(out_dir)
     spec = code_spec(source, threshold=threshold, persistence=persistence, initial=initial)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
