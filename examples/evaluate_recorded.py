@@ -15,7 +15,7 @@ Usage: ``python examples/evaluate_recorded.py OUT_DIR``
 
 from __future__ import annotations
 
-import sys
+import argparse
 from pathlib import Path
 from typing import Any
 
@@ -115,4 +115,11 @@ def main(out_dir: str) -> Any:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "evaluate_recorded_out")
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument(
+        "out_dir",
+        nargs="?",
+        default="evaluate_recorded_out",
+        help="folder for the CSVs, figures, bank and code (default: %(default)s)",
+    )
+    main(ap.parse_args().out_dir)

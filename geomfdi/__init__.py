@@ -157,6 +157,7 @@ _register("geomfdi.plotting.residuals", "plot_residuals", "plot_structure", "sav
 _register("geomfdi.simulation.batch", "simulate_batch")
 _register("geomfdi.simulation.calibration", "calibrate_threshold")
 _register("geomfdi.simulation.initial_state", "InitialStateWarning")
+_register("geomfdi.simulation.nonlinear", "DivergenceWarning")
 _register(
     "geomfdi.simulation.input_faults",
     "ActuatorBiasFault",
@@ -376,7 +377,8 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi.plotting.residuals import plot_residuals, plot_structure, save_png  # noqa: F401
     from geomfdi.simulation.batch import simulate_batch  # noqa: F401
     from geomfdi.simulation.calibration import calibrate_threshold  # noqa: F401
-    from geomfdi.simulation.initial_state import InitialStateWarning  # noqa: F401
+    from geomfdi.simulation.initial_state import InitialStateWarning
+    from geomfdi.simulation.nonlinear import DivergenceWarning  # noqa: F401
     from geomfdi.simulation.input_faults import (
         ActuatorBiasFault,
         ActuatorGainFault,

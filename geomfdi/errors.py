@@ -7,6 +7,8 @@ Messages name the offending argument and say what was wrong with it.
 
 from __future__ import annotations
 
+import re
+
 __all__ = [
     "GeomFDIError",
     "ShapeError",
@@ -25,6 +27,18 @@ __all__ = [
 ]
 
 
+_NP_SCALAR = re.compile(r"\bnp\.(?:float|int|uint|complex|bool|str)_?\d*\(([^()]*)\)")
+_NP_BOOL = re.compile(r"\bnp\.(True|False)_")
+
+
+def plain_numbers(text: str) -> str:
+    """``text`` with numpy scalar reprs (``np.float64(0.5)``, ``np.True_``) written as the
+    plain numbers (``0.5``, ``True``) a user typed: messages quote values with ``!r``."""
+    if "np." not in text:
+        return text
+    return _NP_BOOL.sub(r"\1", _NP_SCALAR.sub(r"\1", text))
+
+
 class GeomFDIError(ValueError):
     """Base class of all geomfdi input and design errors.
 
@@ -35,7 +49,7 @@ class GeomFDIError(ValueError):
     """
 
     def __init__(self, message: str, *, argument: str | None = None) -> None:
-        super().__init__(message)
+        super().__init__(plain_numbers(message))
         self.argument = argument
 
 

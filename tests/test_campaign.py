@@ -355,3 +355,19 @@ def test_docstring_examples_run():
     for mod in (geomfdi.campaign.spec, geomfdi.campaign.runner):
         result = doctest.testmod(mod, optionflags=doctest.NORMALIZE_WHITESPACE)
         assert result.attempted > 0 and result.failed == 0, mod.__name__
+
+
+def test_size_zero_has_no_delay_and_figures_name_their_scenario(serial):
+    _, res = serial
+    scen = "bias on sensor 0"
+    curve = res.detection_curve(scenario=scen)
+    assert curve.loc[0.0, ["delay_median", "delay_p90"]].isna().all()
+    assert np.isfinite(curve.loc[0.02, "delay_median"])
+    fig = res.plot_detection(scenario=scen)
+    ax1, ax2 = fig.axes
+    (line,) = ax2.get_lines()
+    x, y = line.get_data()
+    assert np.isnan(np.asarray(y)[np.isclose(x, 0.0)]).all()  # no delay drawn at size 0
+    assert ax1.get_title().startswith(scen)
+    assert res.plot_roc([0.02], scenario=scen).axes[0].get_title().startswith(scen)
+    assert "all scenarios" in res.plot_confusion().axes[0].get_title()

@@ -94,3 +94,22 @@ def test_campaign_example_script_saves_the_figures(tmp_path):
     # a large bias on sensor 1 of Hou, Wen & Chen (2011) is always detected
     s = results["seed001"].summary().xs("bank", level="residual")
     assert s.loc[("bias on sensor 1", 0.03), "pd"] == 1.0
+
+
+@pytest.mark.slow
+def test_cli_campaign_from_a_saved_bank_with_progress(tmp_path, capsys):
+    from geomfdi.io.cli import design_all
+    from geomfdi.io.modelfile import load_model
+
+    model = ROOT / "examples" / "discrete_disturbance.toml"
+    bank = next(iter(design_all(load_model(model)).values()))
+    bank.save(tmp_path / "bank.json")
+    args = ["campaign", str(model), "--runs", "2", "--no-plots", "--progress"]
+    assert main([*args, "--out", str(tmp_path / "a"), "--bank", str(tmp_path / "bank.json")]) == 0
+    assert main([*args, "--out", str(tmp_path / "b")]) == 0
+    a = pd.read_csv(tmp_path / "a" / "campaign.csv")
+    b = pd.read_csv(tmp_path / "b" / "campaign.csv")
+    pd.testing.assert_frame_equal(a, b)  # the saved bank is the designed one
+    (tmp_path / "bad.json").write_text("{}")
+    bad = main([*args, "--out", str(tmp_path / "c"), "--bank", str(tmp_path / "bad.json")])
+    assert bad == 2 and "bad.json" in capsys.readouterr().err

@@ -14,6 +14,7 @@ from scipy.signal import cont2discrete
 
 import geomfdi as gf
 from geomfdi.errors import GeomFDIError, ShapeError, TimeGridError
+from geomfdi.evaluation.decision import MULTIPLE
 from geomfdi.io.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -344,7 +345,7 @@ def test_alarm_episodes_match_their_definition() -> None:
     for _ in range(100):
         N, R = int(rng.integers(1, 60)), int(rng.integers(1, 4))
         alarms = rng.random((R, N)) < rng.random()
-        iso = np.where(alarms.any(axis=0), rng.integers(-3, 3, N), -1)
+        iso = np.where(alarms.any(axis=0), rng.integers(-4, 3, N), -1)
         t = np.arange(N) * 0.1
         got = alarm_episodes(t, alarms, iso)
         on = np.r_[False, alarms.any(axis=0), False]
@@ -354,9 +355,34 @@ def test_alarm_episodes_match_their_definition() -> None:
         for ep, s, e in zip(got, starts, stops, strict=True):
             assert (ep.start, ep.stop) == (t[s], t[e - 1])
             assert ep.residuals == tuple(np.flatnonzero(alarms[:, s:e].any(axis=1)).tolist())
-            ok = np.flatnonzero(iso[s:e] >= 0)
-            assert ep.fault == (int(iso[s + ok[0]]) if ok.size else None)
-            assert ep.isolated_at == (t[s + ok[0]] if ok.size else None)
+            ok = np.flatnonzero((iso[s:e] >= 0) | (iso[s:e] == MULTIPLE))
+            assert ep.first_fault == (int(iso[s + ok[0]]) if ok.size else None)
+            assert ep.first_isolated_at == (t[s + ok[0]] if ok.size else None)
+            if not ok.size:
+                assert ep.fault is None and ep.isolated_at is None
+                continue
+            # settled: the decision on most decided samples, the later one on a tie
+            seq = iso[s:e][ok].tolist()
+            best = max(set(seq), key=lambda d: (seq.count(d), max(ok[np.array(seq) == d])))
+            assert ep.fault == best
+            assert ep.isolated_at == t[s + ok[seq.index(best)]]
+            assert ep.share == pytest.approx(seq.count(best) / len(seq))
+
+
+def test_an_episode_reports_its_settled_decision_not_its_first() -> None:
+    """A start-up transient isolates another fault for a few samples; the episode reports
+    the decision the pattern settles on (96 % of the samples), and keeps the first one."""
+    from geomfdi.deployment.recorded import alarm_episodes
+
+    t = np.arange(120) * 0.5
+    alarms = np.zeros((2, 120), dtype=bool)
+    alarms[0, 10:110] = True
+    iso = np.full(120, -1)
+    iso[10:14] = 3  # the level sensor, briefly
+    iso[14:110] = 2  # the leak, from then on
+    (ep,) = alarm_episodes(t, alarms, iso)
+    assert (ep.fault, ep.isolated_at, ep.share) == (2, t[14], pytest.approx(0.96))
+    assert (ep.first_fault, ep.first_isolated_at) == (3, t[10])
 
 
 def _odd_bank() -> gf.ResidualBank:
@@ -416,3 +442,34 @@ def test_lifted_recursion_equals_the_sample_loop(lift: int | None) -> None:
         scale = max(1.0, np.abs(want).max())
         assert np.abs(comp - want).max() <= 1e-12 * scale
         assert np.abs(xi - x).max() <= 1e-12 * max(1.0, np.abs(x).max())
+
+
+def test_cli_saved_bank_per_residual_thresholds_and_progress(
+    tmp_path: Path, dplant: gf.Plant, capsys: pytest.CaptureFixture
+) -> None:
+    """``--bank FILE`` evaluates a saved bank (not the model's design), ``--threshold``
+    takes one value per residual, ``--progress`` reports on stderr."""
+    model = _round_trip_model(tmp_path, dplant)
+    bank = gf.design_bank(dplant, [gf.SensorFault(i) for i in range(3)], np.eye(3, dtype=bool))
+    bank.save(tmp_path / "bank.json")
+    t = np.arange(0.0, 12.0 + DT / 2, DT)
+    u = np.vstack([np.sin(0.5 * t), np.cos(0.3 * t), np.full(t.size, 0.2)])
+    faults = [gf.BiasFault(0, start=4.0, bias=0.1), gf.BiasFault(2, start=8.0, bias=0.1)]
+    sim = gf.simulate(dplant, bank, t, u, controller=K, faults=faults)
+    data = tmp_path / "data.csv"
+    sim.to_frame().to_csv(data, index=False)
+    thr = [0.05, 0.05, 1e9]  # the third residual never alarms
+    out = tmp_path / "out"
+    args = ["evaluate", str(model), str(data), "--out", str(out), "--initial", "zero"]
+    args += ["--bank", str(tmp_path / "bank.json"), "--threshold", *map(str, thr)]
+    assert main([*args, "--progress", "--no-plots"]) == 0
+    err = capsys.readouterr().err
+    assert "loading the bank" in err and "designing" not in err
+    a = np.genfromtxt(out / "alarms.csv", delimiter=",", skip_header=1, dtype=int)
+    ref = gf.evaluate(bank, sim.y, sim.u, t, threshold=thr, initial="zero")
+    np.testing.assert_array_equal(a[:, 1:4].T.astype(bool), ref.alarms)
+    assert a[:, 1].any() and not a[:, 3].any()
+    assert main([*args[:-4], "--threshold", "0.1", "0.2", "--quiet"]) == 2
+    assert "one value or 3" in capsys.readouterr().err
+    code = ["codegen", str(model), "--lang", "python", "--out", str(tmp_path / "py")]
+    assert main([*code, "--bank", str(tmp_path / "bank.json"), "--progress", "--quiet"]) == 0

@@ -134,6 +134,37 @@ def read_campaign(path: str | Path) -> tuple[dict[str, Any], Any]:
     return camp, spec
 
 
+def _scenario(src: Any, f: Any, where: str, spec: Any, sizes: Any, onsets: Any) -> Any:
+    """One campaign fault entry: ``{type, sensor | actuator | fault}`` (indices or names)."""
+    from geomfdi.campaign.spec import Scenario, _SizedFaults
+
+    kind = f.get("type") if isinstance(f, dict) else None
+    if kind not in _SizedFaults.KINDS:
+        raise _err(src, where, f"expected a type among {list(_SizedFaults.KINDS)}")
+    key = "fault" if kind == "additive" else "actuator" if "actuator" in kind else "sensor"
+    if key not in f:
+        raise _err(src, f"{where}.{key}", "missing")
+    ch = f[key]
+    try:
+        if key == "sensor":
+            ch = spec.plant.output_index(ch, f"{where}.sensor")
+        elif key == "actuator":
+            ch = spec.plant.input_index(ch, f"{where}.actuator")
+        else:
+            names = [x.name for x in spec.faults]
+            j = names.index(ch) if isinstance(ch, str) and ch in names else ch
+            if isinstance(j, bool) or not isinstance(j, int) or not 0 <= j < len(spec.faults):
+                raise _err(src, f"{where}.fault", f"a design fault index or one of {names}")
+            ch = spec.faults[j]
+    except GeomFDIError as exc:
+        if isinstance(exc, ModelFileError):
+            raise
+        raise _err(src, where, str(exc)) from exc
+    if kind in ("gain", "bias") and key == "sensor":
+        return Scenario.sensor(kind, ch, sizes, onsets)
+    return Scenario.of_kind(kind, ch, sizes, onsets)
+
+
 def build_campaign(
     camp: dict[str, Any], spec: Any, banks: dict[str, Any], *, runs: int | None = None
 ) -> CampaignConfig:
@@ -143,7 +174,7 @@ def build_campaign(
     overrides ``campaign.runs``.
     """
     from geomfdi.campaign.runner import Campaign
-    from geomfdi.campaign.spec import Scenario, Uncertainty
+    from geomfdi.campaign.spec import Uncertainty
     from geomfdi.evaluation.persistence import Persistence, as_persistence
     from geomfdi.simulation.noise import Noise
 
@@ -161,11 +192,7 @@ def build_campaign(
     faults = camp.get("faults", [{"type": "bias", "sensor": i} for i in range(spec.plant.q)])
     scenarios = []
     for i, f in enumerate(faults):
-        if not isinstance(f, dict) or f.get("type") not in ("bias", "gain") or "sensor" not in f:
-            raise _err(src, f"faults[{i}]", "expected {type = 'bias' | 'gain', sensor = i}")
-        if not 0 <= int(f["sensor"]) < spec.plant.q:
-            raise _err(src, f"faults[{i}].sensor", f"must be in 0..{spec.plant.q - 1}")
-        scenarios.append(Scenario.sensor(f["type"], int(f["sensor"]), sizes, onsets))
+        scenarios.append(_scenario(src, f, f"faults[{i}]", spec, sizes, onsets))
     unc = camp.get("uncertainty")
     uncertainty = None
     if unc is not None:

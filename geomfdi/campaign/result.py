@@ -19,7 +19,8 @@ class CampaignResult:
     """Tidy table of a campaign: one row per run and residual (and ``"bank"``).
 
     Columns: ``run, model, scenario, size, onset, repetition, residual, score_pre,
-    score_post, false_alarm, detected, delay`` and, for a bank (on its ``"bank"`` rows;
+    score_post, false_alarm, detected, delay, diverged`` (a run stopped by
+    :func:`geomfdi.campaign.runner.cut_divergent`) and, for a bank (on its ``"bank"`` rows;
     missing on the residuals' rows), the isolation of the run: ``true_fault`` (a fault
     label, ``"multiple"`` for simultaneous faults, ``"no fault"`` for size 0),
     ``isolated`` (the first decision in the detection window: a fault label,
@@ -68,6 +69,20 @@ class CampaignResult:
                 "delay": cols["delay"].ravel(),
             }
         )
+        if all("diverged" in p for p in parts):  # runs a fault destabilised (runner)
+            div = np.concatenate([p["diverged"] for p in parts])[order]
+            table["diverged"] = np.repeat(div, n)
+            if div.any():
+                import warnings
+
+                from geomfdi.simulation.nonlinear import DivergenceWarning
+
+                warnings.warn(
+                    f"{int(div.sum())} of {div.size} runs diverged; their decisions stop "
+                    "there (column 'diverged')",
+                    DivergenceWarning,
+                    stacklevel=3,
+                )
         table["false_alarm"] = table["score_pre"] > 1.0
         table["detected"] = table["score_post"] > 1.0
         if campaign.structure is not None:
@@ -150,7 +165,17 @@ class CampaignResult:
         """The confusion matrix (row fractions, with counts) as a matplotlib Figure."""
         from geomfdi.plotting.curves import plot_confusion
 
+        what = "isolation" + ("" if size is None else f", size {size:g}")
+        kwargs.setdefault("title", self._title(scenario, what))
         return plot_confusion(self.confusion(scenario=scenario, size=size), **kwargs)
+
+    def _title(self, scenario: str | None, what: str) -> str:
+        """A figure's default title: the scenario (every scenario when ``None``) and what
+        the figure shows."""
+        if scenario is None:
+            names = list(dict.fromkeys(self.table["scenario"].astype(str)))
+            scenario = names[0] if len(names) == 1 else "all scenarios"
+        return f"{scenario}: {what}"
 
     def _select(self, scenario: str | None, residual: str) -> Any:
         if residual not in self.residual_labels:
@@ -183,7 +208,11 @@ class CampaignResult:
         return roc_curve(healthy.to_numpy(), faulty["score_post"].to_numpy(), label)
 
     def detection_curve(self, *, scenario: str | None = None, residual: str = "bank") -> Any:
-        """``pd`` (with bounds) and delays versus fault size (a DataFrame indexed by size)."""
+        """``pd`` (with bounds) and delays versus fault size (a DataFrame indexed by size).
+
+        At size 0 (no fault) ``pd`` is the false-alarm rate of the window and the delays
+        are ``nan``.
+        """
         from geomfdi.evaluation.roc import wilson_interval
 
         tb = self._select(scenario, residual)
@@ -195,6 +224,9 @@ class CampaignResult:
             delay_p90=("delay", lambda s: s.quantile(0.9)),
         )
         out["pd_low"], out["pd_high"] = wilson_interval(out["pd"] * out["runs"], out["runs"])
+        # size 0 is the healthy plant: its alarms are false alarms, not detections with a delay
+        healthy = np.isclose(np.asarray(out.index, dtype=float), 0.0)
+        out.loc[healthy, ["delay_median", "delay_p90"]] = np.nan
         return out
 
     def plot_roc(
@@ -205,6 +237,7 @@ class CampaignResult:
 
         res = ["bank"] if residuals is None else list(residuals)
         curves = [self.roc(z, scenario=scenario, residual=r) for r in res for z in sizes]
+        kwargs.setdefault("title", self._title(scenario, "ROC"))
         return plot_roc(curves, **kwargs)
 
     def plot_detection(
@@ -215,6 +248,7 @@ class CampaignResult:
 
         res = ["bank"] if residuals is None else list(residuals)
         curves = {r: self.detection_curve(scenario=scenario, residual=r) for r in res}
+        kwargs.setdefault("title", self._title(scenario, "detection versus fault size"))
         return plot_detection(curves, **kwargs)
 
 

@@ -243,27 +243,31 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
             # a bank designed on the nominal plant is not decoupled from a perturbed one:
             # expected, and the point of the campaign (its residuals see the inputs)
             warnings.filterwarnings("ignore", message=".*not decoupled.*")
-        res = simulate_batch(
-            job["plants"][block.model],
-            job["bank"],
-            job["t"],
-            job["u"],
-            faults=fault_lists,
-            noise=job["noise"],
-            seeds=seeds,
-            controller=job["controller"],
-            d=job["d"],
-            x0=job["x0"],
-            hold=job["hold"],
-            chunk_size=len(seeds),
-            progress=False,
-        )
+        if job.get("system") is not None:
+            residuals = _nonlinear_runs(job, fault_lists, seeds)
+        else:
+            residuals = simulate_batch(
+                job["plants"][block.model],
+                job["bank"],
+                job["t"],
+                job["u"],
+                faults=fault_lists,
+                noise=job["noise"],
+                seeds=seeds,
+                controller=job["controller"],
+                d=job["d"],
+                x0=job["x0"],
+                hold=job["hold"],
+                chunk_size=len(seeds),
+                progress=False,
+            ).residuals
     test = job["test"]
-    stat = test.statistic(res.residuals)
+    stat, diverged = cut_divergent(test.statistic(residuals), test.thresholds)
     out = evaluate_runs(
         job["t"], stat, test.thresholds, block.onset, job["window"], job["eval_start"]
     )
     out["run"] = block.runs
+    out["diverged"] = diverged
     structure = job["structure"]
     if structure is not None:
         cache: dict[Any, Any] = {}
@@ -286,6 +290,58 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
             )
         )
     return out
+
+
+#: A statistic this many times its threshold (or non-finite) marks a run as diverged.
+DIVERGED_RATIO = 1e6
+
+
+def cut_divergent(statistic: np.ndarray, thresholds: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Runs ``(R, n, N)`` whose statistic turns non-finite or exceeds
+    :data:`DIVERGED_RATIO` times its threshold: from that sample on the statistic is set to
+    0 (no alarm, no decision, no score).  Returns the statistic and ``diverged`` (R,).
+
+    A campaign keeps no plant states, so a run that a fault destabilises is recognised on
+    its residuals (they grow with the state); :func:`geomfdi.simulate` judges the state.
+    """
+    thr = np.asarray(thresholds, dtype=float)
+    lim = np.where(np.isfinite(thr), DIVERGED_RATIO * thr, np.inf)[:, None]
+    bad = ~np.isfinite(statistic) | (np.abs(statistic) > lim)
+    bad = bad.any(axis=-2)  # (R, N)
+    hit = bad.any(axis=-1)
+    if not hit.any():
+        return statistic, hit
+    k = np.where(hit, np.argmax(bad, axis=-1), statistic.shape[-1])
+    after = np.arange(statistic.shape[-1])[None, :] >= k[:, None]
+    return np.where(after[:, None, :], 0.0, statistic), hit
+
+
+def _nonlinear_runs(job: dict[str, Any], fault_lists: list[Any], seeds: list[Any]) -> np.ndarray:
+    """Residuals ``(R, n, N)`` of a block on a nonlinear plant: one
+    :func:`geomfdi.simulation.nonlinear.simulate_nonlinear` run per seed (a Python loop
+    over samples; divergence shows as ``nan`` residuals, caught by :func:`cut_divergent`).
+    """
+    import dataclasses
+
+    from geomfdi.simulation.nonlinear import DivergenceWarning, simulate_nonlinear
+
+    out = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        for faults, seed in zip(fault_lists, seeds, strict=True):
+            res = simulate_nonlinear(
+                job["system"],
+                job["bank"],
+                job["t"],
+                job["u"],
+                faults=faults,
+                x0=job["x0"],
+                d=job["d"],
+                noise=dataclasses.replace(job["noise"], seed=seed),
+                controller=job["controller"],
+            )
+            out.append(res.residuals)
+    return np.stack(out)
 
 
 def _run_task(job: dict[str, Any], blocks: list[_Block]) -> list[dict[str, np.ndarray]]:
@@ -363,8 +419,17 @@ class Campaign:
         from geomfdi.evaluation.persistence import as_persistence
         from geomfdi.model.plant import as_plant
         from geomfdi.simulation.noise import Noise
+        from geomfdi.simulation.nonlinear import design_plant, is_nonlinear
 
-        self.plant = as_plant(plant)
+        #: a python-control nonlinear plant (None: linear); it must pickle for workers
+        self.system = plant if is_nonlinear(plant) else None
+        if self.system is not None and uncertainty is not None:
+            raise GeomFDIError(
+                "uncertainty: not available for a nonlinear plant (perturb its parameters "
+                "and run one campaign per model)",
+                argument="uncertainty",
+            )
+        self.plant = as_plant(plant) if self.system is None else design_plant(plant, bank)
         self.bank = bank
         gens = bank.generators if hasattr(bank, "generators") else [bank]
         self.n_residuals = len(gens)
@@ -396,7 +461,10 @@ class Campaign:
             raise GeomFDIError("test: a test or thresholds are needed", argument="test")
         self.test = _as_test(test, self.n_residuals)
         self.u = _signal_array(u, self.t, self.plant.m, "u")
-        self.d = _signal_array(d, self.t, self.plant.nd, "d")
+        if self.system is None:
+            self.d = _signal_array(d, self.t, self.plant.nd, "d")
+        else:  # the system's other inputs, by name or in order (see simulate_nonlinear)
+            self.d = d
         self.controller = controller
         self.x0 = x0
         first = min(min(s.onsets) for s in self.scenarios)
@@ -452,6 +520,7 @@ class Campaign:
         seed = self.noise.seed
         root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
         return {
+            "system": self.system,
             "plants": self.plants,
             "bank": self.bank,
             "t": self.t,

@@ -35,6 +35,40 @@ class _SensorFaults:
         return [GainFault(self.sensor, start=onset, gain=1.0 + size)]
 
 
+class _SizedFaults:
+    """``(size, onset) -> [fault]`` of one fault kind on one channel (picklable).
+
+    Sensor and actuator ``gain``: ``gain = 1 + size``; ``bias``: ``bias = size``;
+    ``stuck``: held at ``value = size`` (size 0: no fault); ``additive``: the design fault
+    ``fault`` as a step of height ``size`` (size 0: no fault).
+    """
+
+    KINDS = ("gain", "bias", "stuck", "actuator gain", "actuator bias", "actuator stuck",
+             "additive")  # fmt: skip
+
+    def __init__(self, kind: str, channel: Any, fault: Any = None) -> None:
+        self.kind, self.channel, self.fault = kind, channel, fault
+
+    def __call__(self, size: float, onset: float) -> list[Any]:
+        from geomfdi.simulation import input_faults as inf
+        from geomfdi.simulation import signals as sig
+
+        k, c = self.kind, self.channel
+        if k in ("stuck", "actuator stuck", "additive") and size == 0:
+            return []
+        if k == "additive":
+            return [inf.AdditiveFault(self.fault, start=onset, size=size)]
+        if k == "stuck":
+            return [sig.StuckFault(c, start=onset, value=size)]
+        if k == "actuator stuck":
+            return [inf.ActuatorStuckFault(c, start=onset, value=size)]
+        if k == "actuator gain":
+            return [inf.ActuatorGainFault(c, start=onset, gain=1.0 + size)]
+        if k == "actuator bias":
+            return [inf.ActuatorBiasFault(c, start=onset, bias=size)]
+        return _SensorFaults(k, c)(size, onset)
+
+
 @dataclass
 class Scenario:
     """One fault scenario of a campaign, swept over fault sizes and onset times.
@@ -84,6 +118,33 @@ class Scenario:
             raise GeomFDIError(f"kind: must be 'bias' or 'gain', got {kind!r}", argument="kind")
         s = as_int(sensor, "sensor", minimum=0)
         return cls(name or f"{kind} on sensor {s}", _SensorFaults(kind, s), sizes, onsets)
+
+    @classmethod
+    def of_kind(
+        cls,
+        kind: str,
+        channel: Any,
+        sizes: Sequence[float],
+        onsets: Sequence[float],
+        name: str | None = None,
+    ) -> Scenario:
+        """A scenario of any fault kind, swept over ``size`` (picklable, for workers).
+
+        ``kind``: ``"gain"``, ``"bias"``, ``"stuck"`` on sensor ``channel`` (an index or
+        the plant's output name); ``"actuator gain"``, ``"actuator bias"``,
+        ``"actuator stuck"`` on input ``channel``; ``"additive"`` with ``channel`` a design
+        :class:`~geomfdi.Fault` driven by a step of height ``size``.  Gains are
+        ``1 + size``, biases ``size``, stuck values ``size`` (a stuck or additive fault of
+        size 0 is no fault).
+        """
+        if kind not in _SizedFaults.KINDS:
+            raise GeomFDIError(
+                f"kind: one of {list(_SizedFaults.KINDS)}, got {kind!r}", argument="kind"
+            )
+        fault = channel if kind == "additive" else None
+        label = getattr(channel, "name", channel)
+        return cls(name or f"{kind} on {label}", _SizedFaults(kind, channel, fault), sizes,
+                   onsets)  # fmt: skip
 
 
 @dataclass

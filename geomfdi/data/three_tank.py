@@ -30,6 +30,7 @@ S. X. Ding, *Model-based Fault Diagnosis Techniques*, 2nd ed., Springer 2013, §
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -42,6 +43,7 @@ __all__ = [
     "three_tank_rhs",
     "three_tank_operating_point",
     "three_tank_model",
+    "three_tank_system",
     "THREE_TANK_STATES",
     "THREE_TANK_INPUTS",
     "THREE_TANK_OUTPUTS",
@@ -180,3 +182,43 @@ def three_tank_model(
         *(SensorFault(i, name=THREE_TANK_FAULTS[3 + i]) for i in range(3)),
     ]
     return plant, faults
+
+
+def _tank_update(t: float, x: np.ndarray, u: np.ndarray, params: dict) -> np.ndarray:
+    p = params.get("tank") or ThreeTankParameters()
+    return three_tank_rhs(x, u[:2], u[2], params=p)
+
+
+def _tank_output(t: float, x: np.ndarray, u: np.ndarray, params: dict) -> np.ndarray:
+    return np.asarray(x, dtype=float)
+
+
+def three_tank_system(params: ThreeTankParameters | None = None) -> Any:
+    """The nonlinear three-tank system as a python-control ``NonlinearIOSystem``.
+
+    States ``h1, h2, h3`` (m), inputs ``Q1, Q2`` (pump flows, m³/s) and ``leak`` (the leak
+    flow out of tank 3, m³/s; zero when healthy), outputs the three levels (names in
+    :data:`THREE_TANK_OUTPUTS`).  Its functions are module-level (the system pickles, so
+    a campaign may ship it to workers; or rebuild it from this factory).
+
+    Examples
+    --------
+    >>> import numpy as np, geomfdi as gf
+    >>> from geomfdi.data.three_tank import three_tank_operating_point, three_tank_system
+    >>> h, Q = three_tank_operating_point()
+    >>> plant = gf.Plant.linearize(three_tank_system(), h, [*Q, 0.0])
+    >>> plant.inputs, plant.outputs[0], bool(np.allclose(plant.y_op, h))
+    (('Q1', 'Q2', 'leak'), 'level 1', True)
+    """
+    import control
+
+    p = params or ThreeTankParameters()
+    return control.nlsys(
+        _tank_update,
+        _tank_output,
+        inputs=[*THREE_TANK_INPUTS, "leak"],
+        outputs=list(THREE_TANK_OUTPUTS),
+        states=list(THREE_TANK_STATES),
+        params={"tank": p},
+        name="three_tank",
+    )

@@ -1,8 +1,9 @@
 """The ``geomfdi evaluate`` and ``geomfdi codegen`` commands (their work, not their parsing).
 
 ``geomfdi evaluate MODEL.toml DATA.csv --out DIR`` designs the model's bank, reads the
-CSV (a header row naming the columns ``t`` or ``time``, outputs ``y0, y1, ...`` and
-inputs ``u0, ...``; empty or ``nan`` cells are missing samples), runs
+CSV (a header row naming the columns ``t`` or ``time``, the plant's output and input
+names, or outputs ``y0, y1, ...`` and inputs ``u0, ...``; empty or ``nan`` cells are
+missing samples; physical values when the plant has an operating point), runs
 :func:`geomfdi.evaluate` and writes ``residuals.csv``, ``alarms.csv`` (confirmed alarms and
 the isolation decision per sample), ``report.md`` (thresholds, masked windows, alarm
 episodes with isolation) and ``residuals.png``.
@@ -15,6 +16,7 @@ design sampled at ``--dt``.
 from __future__ import annotations
 
 import csv
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -24,8 +26,16 @@ from geomfdi.deployment.decide import as_persistence
 from geomfdi.deployment.recorded import EvaluationResult, channel_columns, evaluate
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.evaluation.persistence import Persistence
+from geomfdi.model.signals import bank_signals
 
-__all__ = ["read_csv", "evaluate_files", "codegen_files", "parse_persistence", "describe_rule"]
+__all__ = [
+    "read_csv",
+    "evaluate_files",
+    "codegen_files",
+    "parse_persistence",
+    "parse_threshold",
+    "describe_rule",
+]
 
 
 def parse_persistence(text: str | None) -> Any:
@@ -50,6 +60,21 @@ def parse_persistence(text: str | None) -> Any:
     )
 
 
+def parse_threshold(values: Sequence[float] | None, rows: int) -> Any:
+    """``--threshold``: ``None``, one value for every residual, or one per residual."""
+    if values is None:
+        return None
+    vals = [float(v) for v in values]
+    if len(vals) == 1:
+        return vals[0]
+    if len(vals) != rows:
+        raise GeomFDIError(
+            f"--threshold: give one value or {rows} (one per residual), got {len(vals)}",
+            argument="threshold",
+        )
+    return vals
+
+
 def describe_rule(rule: Persistence) -> str:
     """A one-line description of a persistence rule (for reports)."""
     if rule.trivial:
@@ -61,8 +86,13 @@ def describe_rule(rule: Persistence) -> str:
     return f"{text}, isolation on the momentary pattern"
 
 
-def read_csv(path: str | Path, q: int, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``t, y (q, N), u (m, N)`` from a CSV with a header row (module docstring)."""
+def read_csv(
+    path: str | Path, q: int, m: int, names: tuple[Any, Any] | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``t, y (q, N), u (m, N)`` from a CSV with a header row (module docstring).
+
+    ``names = (outputs, inputs)``: the plant's signal names, read when the header has
+    them all (else the columns ``y0, ..., u0, ...``)."""
     path = Path(path)
     with path.open(newline="", encoding="utf-8") as fh:
         header = next(csv.reader(fh), None)
@@ -70,6 +100,11 @@ def read_csv(path: str | Path, q: int, m: int) -> tuple[np.ndarray, np.ndarray, 
         raise ShapeError(f"{path}: empty file (expected a header row)", argument="data")
     header = [h.strip() for h in header]
     ys, us = channel_columns(header, "y"), channel_columns(header, "u")
+    if names is not None:
+        if list(names[0]) and set(names[0]) <= set(header):
+            ys = list(names[0])
+        if list(names[1]) and set(names[1]) <= set(header):
+            us = list(names[1])
     tcol = next((c for c in ("t", "time") if c in header), None)
     if tcol is None:
         raise ShapeError(f"{path}: no time column (name it t or time)", argument="data")
@@ -106,6 +141,16 @@ def _fmt(x: float | None) -> str:
     return "-" if x is None else f"{x:.6g}"
 
 
+def _decision(res: EvaluationResult, fault: int | None, at: float | None) -> str:
+    if fault is None:
+        return "-"
+    if fault < 0:  # MULTIPLE: several faults at once
+        k = int(np.searchsorted(res.t, at))
+        sus = np.flatnonzero(res.suspects[:, k])
+        return "several: " + ", ".join(res.fault_labels[j] for j in sus)
+    return res.fault_labels[fault]
+
+
 def _report(res: EvaluationResult, model: str, data: str, method: str) -> str:
     lines = [
         f"# Residual evaluation: {model}",
@@ -127,22 +172,25 @@ def _report(res: EvaluationResult, model: str, data: str, method: str) -> str:
     lines += ["", "## Alarm episodes", ""]
     if res.episodes:
         lines += [
-            "| start | stop | residuals | isolated fault | isolated at |",
-            "|---|---|---|---|---|",
+            "| start | stop | residuals | isolated fault (settled) | share | isolated at "
+            "| first decision |",
+            "|---|---|---|---|---|---|---|",
         ]
         for ep in res.episodes:
-            if ep.fault is None:
-                fault = "-"
-            elif ep.fault < 0:  # MULTIPLE: several faults at once
-                k = int(np.searchsorted(res.t, ep.isolated_at))
-                sus = np.flatnonzero(res.suspects[:, k])
-                fault = "several: " + ", ".join(res.fault_labels[j] for j in sus)
-            else:
-                fault = res.fault_labels[ep.fault]
+            fault = _decision(res, ep.fault, ep.isolated_at)
+            first = _decision(res, ep.first_fault, ep.first_isolated_at)
+            if ep.first_fault is not None:
+                first += f" at {ep.first_isolated_at:g}"
+            share = "-" if ep.fault is None else f"{100 * ep.share:.0f} %"
             rs = ", ".join(res.residual_labels[r] for r in ep.residuals)
             lines.append(
-                f"| {ep.start:g} | {ep.stop:g} | {rs} | {fault} | {_fmt(ep.isolated_at)} |"
+                f"| {ep.start:g} | {ep.stop:g} | {rs} | {fault} | {share} "
+                f"| {_fmt(ep.isolated_at)} | {first} |"
             )
+        lines += [
+            "",
+            "The settled decision is the one held on most of the episode's decided samples.",
+        ]
     else:
         lines.append("none")
     return "\n".join(lines) + "\n"
@@ -167,7 +215,9 @@ def evaluate_files(
     gens = [g for g in bank.generators if g is not None]
     if not gens:
         raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
-    t, y, u = read_csv(data, gens[0].q, gens[0].m)
+    sig = bank_signals(bank)
+    names = (sig["outputs"], sig["inputs"]) if sig["named"] else None
+    t, y, u = read_csv(data, gens[0].q, gens[0].m, names)
     res = evaluate(bank, y, u, t, threshold=threshold, persistence=persistence, initial=initial)
     out.mkdir(parents=True, exist_ok=True)
     _write_table(out / "residuals.csv", ["t", *res.residual_labels], [res.t, *list(res.residuals)])

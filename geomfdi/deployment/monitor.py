@@ -14,6 +14,7 @@ guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``).
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -41,6 +42,7 @@ from geomfdi.errors import GeomFDIError, NonFiniteError, ShapeError
 from geomfdi.evaluation.decision import AMBIGUOUS, MULTIPLE, NO_ALARM, UNEXPLAINED
 from geomfdi.evaluation.persistence import Persistence
 from geomfdi.generators.bankfile import _enc_float, _write, bank_to_dict, encode
+from geomfdi.model.signals import bank_signals
 
 __all__ = ["Monitor", "MonitorStep", "MonitorOutput"]
 
@@ -91,6 +93,11 @@ class Monitor:
         self.isolation = as_bool(isolation, "isolation")
         self.initial = check_initial(initial, self.program)
         self._restart = restart_rule(self.program, self.initial)
+        sig = bank_signals(self.bank)
+        #: output and input names (the plant's), the order of ``y`` and ``u``
+        self.outputs, self.inputs = sig["outputs"], sig["inputs"]
+        self._y_op = sig["y_op"] if np.any(sig["z_op"] != 0) else None
+        self._u_op = sig["u_op"]
         self.reset()
 
     @property
@@ -121,8 +128,27 @@ class Monitor:
         raw alarm, leaves the generator state as it was and restarts the generators at
         the next valid sample.  :meth:`feed`, :func:`geomfdi.evaluate` and the generated
         C and Python code apply the same rule.  Complex or text samples are refused.
+
+        ``y`` may be a mapping ``{name: value}`` holding every output (and then every input
+        unless ``u`` is given) by the plant's names.  Physical values: a bank designed at
+        an operating point subtracts ``y_op`` and ``u_op`` itself.
         """
+        if isinstance(y, Mapping) or self._y_op is not None:
+            y, u = self._deviations(y, u, 1)
         return self._step(y, u)
+
+    def _deviations(self, y: Any, u: Any, ndim: int) -> tuple[Any, Any]:
+        """Named samples in channel order, minus the operating point (errors name the
+        arguments of :meth:`step`, ``y``/``u``, or of :meth:`feed`, ``Y``/``U``)."""
+        if isinstance(y, Mapping):
+            src = y
+            ay, au = ("y", "u") if ndim == 1 else ("Y", "U")
+            y = _by_name(src, self.outputs, ay)
+            if u is None and self.inputs:
+                u = _by_name(src, self.inputs, au)
+        if self._y_op is None:
+            return y, u
+        return _minus(y, self._y_op, ndim), _minus(u, self._u_op, ndim)
 
     @limit_blas_threads
     def feed(self, Y: Any, U: Any = None) -> MonitorOutput:
@@ -130,7 +156,10 @@ class Monitor:
 
         Like the other entry points of geomfdi it runs with the BLAS limited to
         :func:`geomfdi.get_blas_threads` threads (one by default): its products are small.
+        Named and physical samples as for :meth:`step` (a mapping of rows).
         """
+        if isinstance(Y, Mapping) or self._y_op is not None:
+            Y, U = self._deviations(Y, U, 2)
         return self._feed(Y, U)
 
     @property
@@ -157,6 +186,27 @@ class Monitor:
             f"Monitor(rows={self.n_residuals}, order={self.program.nw}, dt={self.dt:g}, "
             f"persistence={p.k}-of-{p.n} latch={p.latch} reset={p.reset}, threshold={thr})"
         )
+
+
+def _minus(x: Any, op: np.ndarray, ndim: int) -> Any:
+    """``x - op`` for real samples; anything else is passed on for the sample checks of
+    :mod:`geomfdi.deployment.online` to judge (complex or text samples are refused)."""
+    if x is None or not len(op):
+        return x
+    arr = np.asarray(x)
+    if arr.dtype.kind not in "fiu":
+        return x
+    return arr - (op if ndim == 1 or arr.ndim == 1 else op[:, None])
+
+
+def _by_name(src: Mapping[str, Any], names: tuple[str, ...], argument: str) -> np.ndarray:
+    missing = [n for n in names if n not in src]
+    if missing:
+        raise ShapeError(
+            f"{argument}: no values for {missing} (the bank reads {list(names)})",
+            argument=argument,
+        )
+    return np.asarray([src[n] for n in names], dtype=float)
 
 
 def _pending_json(pending: Any) -> Any:

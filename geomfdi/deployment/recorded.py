@@ -55,6 +55,7 @@ from geomfdi.evaluation.decision import (
     isolate,
 )
 from geomfdi.evaluation.persistence import Persistence
+from geomfdi.model.signals import bank_signals
 
 __all__ = ["evaluate", "EvaluationResult", "AlarmEpisode", "check_time", "channel_columns"]
 
@@ -140,6 +141,21 @@ def _from_frame(
     return y, u, t
 
 
+def _named_columns(
+    columns: Sequence[str],
+    sig: dict[str, Any],
+    outputs: Sequence[str] | None,
+    inputs: Sequence[str] | None,
+) -> tuple[Sequence[str] | None, Sequence[str] | None]:
+    """The bank's signal names as the columns to read, when the frame has them all."""
+    cols = {str(c) for c in columns}
+    if outputs is None and sig["named"] and set(sig["outputs"]) <= cols:
+        outputs = list(sig["outputs"])
+    if inputs is None and sig["named"] and set(sig["inputs"]) <= cols:
+        inputs = list(sig["inputs"])
+    return outputs, inputs
+
+
 def _signals(y: Any, u: Any, q: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     y = as_real_array(y, "y", allow_nonfinite=True)
     if y.ndim == 1 and q == 1:
@@ -176,10 +192,16 @@ class AlarmEpisode:
     residuals : tuple of int
         Bank rows that alarm during the episode.
     fault : int or None
-        The first isolation decision in the episode: a structure column, or
-        :data:`~geomfdi.evaluation.decision.MULTIPLE` (several faults); ``None``: none.
+        The *settled* isolation decision of the episode: the decision (a structure column,
+        or :data:`~geomfdi.evaluation.decision.MULTIPLE` for several faults) held on most
+        of the episode's decided samples, the later one on a tie; ``None``: no decision.
     isolated_at : float or None
-        When that decision was first reached.
+        When the settled decision was first reached.
+    share : float
+        Fraction of the episode's decided samples that hold the settled decision.
+    first_fault, first_isolated_at : int or None, float or None
+        The first decision of the episode and its time (a start-up transient may
+        point at another fault before the pattern settles).
     """
 
     start: float
@@ -187,6 +209,46 @@ class AlarmEpisode:
     residuals: tuple[int, ...]
     fault: int | None
     isolated_at: float | None
+    share: float = 0.0
+    first_fault: int | None = None
+    first_isolated_at: float | None = None
+
+
+def _settled(starts: np.ndarray, stops: np.ndarray, isolated: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per episode: (found, settled decision, its first sample, share, first decision's
+    sample), grouping the decided samples by (episode, decision) without a sample loop."""
+    n_ep = starts.size
+    hits = np.flatnonzero((isolated >= 0) | (isolated == MULTIPLE))
+    ep = np.searchsorted(starts, hits, side="right") - 1
+    keep = (ep >= 0) & (hits < stops[np.maximum(ep, 0)])
+    hits, ep = hits[keep], ep[keep]
+    found = np.zeros(n_ep, dtype=bool)
+    found[ep] = True
+    dec = np.zeros(n_ep, dtype=np.int64)
+    at = starts.copy()
+    share = np.zeros(n_ep)
+    first = starts.copy()
+    if hits.size == 0:
+        return found, dec, at, share, first
+    first[ep[::-1]] = hits[::-1]  # the earliest decided sample of each episode
+    code = isolated[hits].astype(np.int64) - MULTIPLE  # >= 0
+    key = ep * (int(code.max()) + 1) + code
+    order = np.argsort(key, kind="stable")  # samples stay in time order within a group
+    k_sorted = key[order]
+    grp_start = np.flatnonzero(np.r_[True, k_sorted[1:] != k_sorted[:-1]])
+    grp_stop = np.r_[grp_start[1:], k_sorted.size]
+    g_ep = ep[order][grp_start]
+    g_count = grp_stop - grp_start
+    g_first = hits[order][grp_start]
+    g_last = hits[order][grp_stop - 1]
+    # the largest group per episode, the later one (by its last sample) on a tie
+    best = np.lexsort((g_last, g_count, g_ep))
+    last_of_ep = best[np.r_[g_ep[best][1:] != g_ep[best][:-1], True]]
+    e = g_ep[last_of_ep]
+    dec[e] = code[order][grp_start][last_of_ep] + MULTIPLE
+    at[e] = g_first[last_of_ep]
+    share[e] = g_count[last_of_ep] / np.bincount(ep, minlength=n_ep)[e]
+    return found, dec, at, share, first
 
 
 def alarm_episodes(t: np.ndarray, alarms: np.ndarray, isolated: np.ndarray) -> list[AlarmEpisode]:
@@ -202,19 +264,20 @@ def alarm_episodes(t: np.ndarray, alarms: np.ndarray, isolated: np.ndarray) -> l
     cuts = np.searchsorted(ep, np.arange(starts.size + 1)).tolist()
     row_list = row.tolist()
     rows = [tuple(row_list[cuts[i] : cuts[i + 1]]) for i in range(starts.size)]
-    hits = np.flatnonzero((isolated >= 0) | (isolated == MULTIPLE))
-    first = np.searchsorted(hits, starts)
-    first_k = hits[np.minimum(first, max(hits.size - 1, 0))] if hits.size else starts
-    found = (first < hits.size) & (first_k < stops) if hits.size else np.zeros(starts.size, bool)
-    ts, te, tk = t[starts].tolist(), t[stops - 1].tolist(), t[first_k].tolist()
-    faults = isolated[first_k].tolist()
+    found, dec, at, share, first = _settled(starts, stops, np.asarray(isolated))
+    ts, te = t[starts].tolist(), t[stops - 1].tolist()
+    ta, tf = t[at].tolist(), t[first].tolist()
+    dec_l, share_l, first_l = dec.tolist(), share.tolist(), isolated[first].tolist()
     return [
         AlarmEpisode(
             ts[i],
             te[i],
             rows[i],
-            int(faults[i]) if found[i] else None,
-            tk[i] if found[i] else None,
+            int(dec_l[i]) if found[i] else None,
+            ta[i] if found[i] else None,
+            float(share_l[i]),
+            int(first_l[i]) if found[i] else None,
+            tf[i] if found[i] else None,
         )
         for i in range(starts.size)
     ]
@@ -347,9 +410,12 @@ def evaluate(
         Continuous (sampled with a first-order hold at the grid step) or discrete (its
         ``dt`` must equal the grid step).
     y : array_like (q, N), or pandas.DataFrame
-        Measured outputs.  A DataFrame holds every signal in named columns: outputs
-        ``y0, y1, ...`` (or ``y[0]``, ``y_0``), inputs ``u0, ...`` and time ``t`` /
-        ``time`` unless ``outputs``, ``inputs``, ``time`` name them.
+        Measured outputs.  A DataFrame holds every signal in named columns: the bank's
+        signal names (the plant's ``outputs`` and ``inputs``) when the frame has them,
+        else outputs ``y0, y1, ...`` (or ``y[0]``, ``y_0``), inputs ``u0, ...``; time
+        ``t`` / ``time``; unless ``outputs``, ``inputs``, ``time`` name them.
+        Physical values: a bank designed on a plant with an operating point subtracts
+        ``y_op`` and ``u_op`` itself (``bank.info["signals"]``).
     u : array_like (m, N), optional
         Known inputs (required when the bank reads inputs).
     t : array_like (N,), optional
@@ -404,9 +470,11 @@ def evaluate(
     (3.0, True)
     """
     bank = as_bank(bank)
+    sig = bank_signals(bank)
     if _is_frame(y):
         if u is not None:
             raise GeomFDIError("u: give the inputs as columns of the DataFrame", argument="u")
+        outputs, inputs = _named_columns(y.columns, sig, outputs, inputs)
         y, u, t_frame = _from_frame(y, outputs, inputs, time)
         if t is None:
             t = t_frame
@@ -414,6 +482,9 @@ def evaluate(
     if not gens:
         raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
     y, u = _signals(y, u, gens[0].q, gens[0].m)
+    if np.any(sig["z_op"] != 0):  # physical values: the bank works on deviations
+        y = y - sig["y_op"][:, None]
+        u = u - sig["u_op"][:, None]
     N = y.shape[1]
     if t is not None:
         t, step = check_time(t, N)

@@ -30,7 +30,6 @@ from geomfdi.diagnosability.results import (
     StackedWindow,
 )
 from geomfdi.diagnosability.tables import diagnosability_table
-from geomfdi.plotting.diagnosability import plot_isolability
 
 __all__ = [
     "WindowModel",
@@ -46,3 +45,12 @@ __all__ = [
     "StructuredIsolability",
     "bank_structured_isolability",
 ]
+
+
+def __getattr__(name: str):
+    # the figure lives in the plotting layer, loaded on first use (no cycle with it)
+    if name == "plot_isolability":
+        from geomfdi.plotting.diagnosability import plot_isolability
+
+        return plot_isolability
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

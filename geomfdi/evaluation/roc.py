@@ -68,7 +68,12 @@ def roc_curve(healthy: Any, faulty: Any, label: str = "") -> RocCurve:
 
 
 def wilson_interval(successes: Any, trials: Any, confidence: float = 0.95) -> tuple[Any, Any]:
-    """Wilson score interval of a binomial proportion (elementwise)."""
+    """Wilson score interval of a binomial proportion (elementwise).
+
+    ``(p + z²/2n ± z √(p(1−p)/n + z²/4n²)) / (1 + z²/n)`` with ``p = k/n`` and ``z`` the
+    normal quantile of ``confidence`` (Wilson 1927); the lower bound is exactly 0 for
+    ``k = 0`` and the upper bound exactly 1 for ``k = n``.  Scalars in, floats out.
+    """
     from scipy.stats import norm
 
     conf = as_probability(confidence, "confidence")
@@ -83,4 +88,10 @@ def wilson_interval(successes: Any, trials: Any, confidence: float = 0.95) -> tu
     den = 1 + z * z / n
     mid = (p + z * z / (2 * n)) / den
     half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return mid - half, mid + half
+    # the bounds are exactly 0 at k = 0 and 1 at k = n (mid = half there); rounding in
+    # mid - half would print as 3.5e-18
+    lo = np.where(k == 0, 0.0, np.clip(mid - half, 0.0, 1.0))
+    hi = np.where(k == n, 1.0, np.clip(mid + half, 0.0, 1.0))
+    if lo.ndim == 0:
+        return float(lo), float(hi)
+    return lo, hi

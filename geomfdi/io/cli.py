@@ -490,7 +490,15 @@ def _add_deployment_parsers(sub: Any) -> None:
     for sp in (ev, cg):
         sp.add_argument("--out", type=Path, default=Path.cwd(), help="output directory")
         sp.add_argument("--method", default=None, help="design method (default: the first)")
-        sp.add_argument("--threshold", type=float, default=None, help="override the threshold")
+        sp.add_argument(
+            "--threshold",
+            type=float,
+            nargs="+",
+            default=None,
+            metavar="THR",
+            help="override the threshold: one value, or one per residual",
+        )
+        _bank_and_progress(sp)
         sp.add_argument(
             "--persistence",
             default=None,
@@ -503,19 +511,36 @@ def _add_deployment_parsers(sub: Any) -> None:
         sp.add_argument("--traceback", action="store_true", help="show internal tracebacks")
 
 
+def _bank_and_progress(sp: Any) -> None:
+    sp.add_argument("--bank", type=Path, help="a saved bank (gf.load_bank), not designed")
+    sp.add_argument("--progress", action="store_true", help="report progress on stderr")
+
+
 def _deployment_bank(args: Any) -> tuple[ModelSpec, str, ResidualBank, Any]:
+    from geomfdi.deployment import commands
     from geomfdi.io.modelfile import load_model
 
+    say = _say(bool(getattr(args, "progress", False)))
     spec = load_model(args.model)
-    banks = design_all(spec)
-    method = args.method or next(iter(banks))
-    if method not in banks:
-        raise GeomFDIError(
-            f"--method: {method!r} is not a design of the model file ({sorted(banks)})",
-            argument="method",
-        )
-    bank = banks[method]
-    threshold = args.threshold if args.threshold is not None else _threshold(spec, bank)
+    if getattr(args, "bank", None) is not None:
+        from geomfdi.deployment.persistence import load_bank
+
+        say(f"loading the bank {args.bank}")
+        bank = load_bank(args.bank)
+        method = args.method or f"saved bank {Path(args.bank).name}"
+    else:
+        say("designing the banks")
+        banks = design_all(spec)
+        method = args.method or next(iter(banks))
+        if method not in banks:
+            raise GeomFDIError(
+                f"--method: {method!r} is not a design of the model file ({sorted(banks)})",
+                argument="method",
+            )
+        bank = banks[method]
+    threshold = commands.parse_threshold(args.threshold, bank.n_residuals)
+    if threshold is None:
+        threshold = _threshold(spec, bank)
     return spec, method, bank, threshold
 
 
@@ -584,17 +609,26 @@ def _campaign_parser(sub: Any) -> None:
     )
     sp.add_argument("--workers", type=int, default=2, help="processes or Dask workers")
     sp.add_argument("--scheduler", default=None, help="address of a running Dask scheduler")
+    _bank_and_progress(sp)
     sp.add_argument("--no-plots", action="store_true", help="do not write PNG figures")
     sp.add_argument("--quiet", action="store_true", help="print nothing but errors")
     sp.add_argument("--traceback", action="store_true", help="show internal tracebacks")
 
 
-def load_campaign(path: str | Path, *, runs: int | None = None) -> Any:
-    """Design the banks of a model file and build its ``[campaign]`` (a CampaignConfig)."""
+def load_campaign(
+    path: str | Path, *, runs: int | None = None, bank: str | Path | None = None
+) -> Any:
+    """Design the banks of a model file (or load the saved ``bank`` for the campaign's
+    method) and build its ``[campaign]`` (a CampaignConfig)."""
     from geomfdi.campaign.config import build_campaign, read_campaign
 
     camp, spec = read_campaign(path)
-    return build_campaign(camp, spec, design_all(spec), runs=runs)
+    if bank is None:
+        return build_campaign(camp, spec, design_all(spec), runs=runs)
+    from geomfdi.deployment.persistence import load_bank
+
+    method = str(camp.get("method", "saved"))
+    return build_campaign(camp, spec, {method: load_bank(bank)}, runs=runs)
 
 
 def campaign_command(args: argparse.Namespace) -> int:
@@ -604,8 +638,8 @@ def campaign_command(args: argparse.Namespace) -> int:
     try:
         if args.runs is not None and args.runs < 1:
             raise GeomFDIError("--runs: must be >= 1", argument="runs")
-        cfg = load_campaign(args.model, runs=args.runs)
-        progress = sys.stderr.isatty() and not args.quiet
+        cfg = load_campaign(args.model, runs=args.runs, bank=args.bank)
+        progress = args.progress or (sys.stderr.isatty() and not args.quiet)
         if args.executor == "dask":
             from distributed import Client, LocalCluster
 

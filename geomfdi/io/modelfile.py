@@ -6,13 +6,17 @@ A model file has four parts (sensor and input indices are 0-based)::
 
     [plant]                      # A, C required; B, D, Bd, Dd, Bw, Dw optional; dt = 0
                                  #   (continuous); Bw, Dw: noise inputs (not decoupled)
+                                 # optional: inputs, outputs, states, disturbances, noise
+                                 # (names; faults and recorded-data columns may use them),
+                                 # x_op, u_op, y_op (the operating point)
     A = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]
     B = [[1, 0, 1], [0, 1, 1], [0, 1, 0]]
     C = [[0, 1, 0], [0, 0, 1], [1, 0, 2]]
 
     [design]                     # all optional
     methods = ["paper", "exact"] # designs run side by side (default ["exact"])
-    poles = [-2]                 # quotient spectrum (default: move only what must move)
+    poles = [-2]                 # quotient spectrum (default: move only what must move);
+                                 # a list of lists: one spectrum per row
     normalize = "markov"         # "dc" or "markov" (unit first Markov parameter)
     structure = [[1, 0, 0], ...] # default: identity (one residual per fault)
     residual_dim = 2             # exact method: rows per residual (or a list per row)
@@ -40,8 +44,11 @@ A model file has four parts (sensor and input indices are 0-based)::
     [[scenario]]                 # optional per scenario: noise (table), d (list)
     name = "sensor 0 gain step"
     [[scenario.faults]]
-    type = "gain"                # "gain" (gain, bias), "bias" (bias), "stuck" (value)
-    sensor = 0
+    type = "gain"                # "gain" (gain, bias), "bias" (bias), "stuck" (value);
+    sensor = 0                   # an index or an output name.  Also "actuator gain",
+                                 # "actuator bias", "actuator stuck" (actuator = index or
+                                 # input name) and "additive" (fault = a design fault's
+                                 # index or name; size, slope or signal = expression of t)
     start = 8.0
     gain = 1.5                   # number or expression of t
     bias = 0.02                  # optional: end = time the fault disappears
@@ -100,7 +107,25 @@ _FLOAT_MAX = float(np.finfo(float).max)
 
 # "campaign" is read by geomfdi.campaign.config (``geomfdi campaign``), not here
 _TOP = {"name", "description", "plant", "design", "simulation", "scenario", "campaign"}
-_PLANT = {"A", "B", "C", "D", "Bd", "Dd", "Bw", "Dw", "dt"}
+_PLANT = {
+    "A",
+    "B",
+    "C",
+    "D",
+    "Bd",
+    "Dd",
+    "Bw",
+    "Dw",
+    "dt",
+    "inputs",
+    "outputs",
+    "states",
+    "disturbances",
+    "noise",
+    "x_op",
+    "u_op",
+    "y_op",
+}
 _DESIGN = {
     "methods",
     "poles",
@@ -124,6 +149,10 @@ _FAULT_KEYS = {
     "gain": {"type", "sensor", "start", "gain", "bias", "end"},
     "bias": {"type", "sensor", "start", "bias", "end"},
     "stuck": {"type", "sensor", "start", "value", "end"},
+    "actuator gain": {"type", "actuator", "start", "gain", "bias", "end"},
+    "actuator bias": {"type", "actuator", "start", "bias", "end"},
+    "actuator stuck": {"type", "actuator", "start", "value", "end"},
+    "additive": {"type", "fault", "start", "size", "slope", "signal", "end"},
 }
 
 
@@ -299,10 +328,34 @@ def _plant(ctx: _Ctx, table: Any) -> Plant:
     kw = None if Bw is None else Bw.shape[1]
     Dw = ctx.matrix(t["Dw"], "plant.Dw", (q, kw)) if "Dw" in t else None
     dt = ctx.number(t.get("dt", 0.0), "plant.dt")
+    sig: dict[str, Any] = {}
+    for key in ("inputs", "outputs", "states", "disturbances", "noise"):
+        if key in t:
+            names = t[key]
+            if not isinstance(names, list) or not all(isinstance(v, str) for v in names):
+                raise ctx.err(f"plant.{key}", "expected a list of names (strings)")
+            sig[key] = names
+    for key in ("x_op", "u_op", "y_op"):
+        if key in t:
+            sig[key] = ctx.vector(t[key], f"plant.{key}")
     try:
-        return Plant(A, B, C, D, Bd=Bd, Dd=Dd, Bw=Bw, Dw=Dw, dt=dt)
+        return Plant(A, B, C, D, Bd=Bd, Dd=Dd, Bw=Bw, Dw=Dw, dt=dt, **sig)
     except GeomFDIError as exc:
         raise ctx.err("plant", str(exc)) from exc
+
+
+def _channel(ctx: _Ctx, key: Any, where: str, plant: Plant, kind: str) -> int:
+    """An output or input given by its 0-based index or by the plant's name for it."""
+    names = plant.outputs if kind == "output" else plant.inputs
+    if isinstance(key, str):
+        if key not in names:
+            raise ctx.err(where, f"no {kind} named {key!r} (the {kind}s are {list(names)})")
+        return list(names).index(key)
+    if isinstance(key, bool) or not isinstance(key, int) or not 0 <= key < len(names):
+        raise ctx.err(
+            where, f"expected an {kind} index in 0..{len(names) - 1} or a name, got {key!r}"
+        )
+    return key
 
 
 def _design_faults(ctx: _Ctx, items: Any, plant: Plant) -> list[Fault]:
@@ -316,11 +369,7 @@ def _design_faults(ctx: _Ctx, items: Any, plant: Plant) -> list[Fault]:
         kind = item["type"]
         if kind == "sensor":
             ctx.keys(item, {"type", "sensor", "name"}, where)
-            i = item.get("sensor")
-            if isinstance(i, bool) or not isinstance(i, int) or not 0 <= i < plant.q:
-                raise ctx.err(
-                    f"{where}.sensor", f"expected a sensor index in 0..{plant.q - 1}, got {i!r}"
-                )
+            i = _channel(ctx, item.get("sensor"), f"{where}.sensor", plant, "output")
             out.append(SensorFault(i, name=item.get("name")))
         elif kind == "actuator":
             ctx.keys(item, {"type", "b", "name"}, where)
@@ -405,7 +454,9 @@ def _method_options(ctx: _Ctx, d: dict[str, Any], plant: Plant) -> list[MethodOp
         if norm is not None and norm not in ("dc", "markov"):
             raise ctx.err(f"design.{meth}.normalize", f"expected 'dc' or 'markov', got {norm!r}")
         poles = merged.get("poles")
-        if poles is not None:
+        if isinstance(poles, list) and poles and all(isinstance(p, list) for p in poles):
+            poles = [ctx.vector(p, f"design.{meth}.poles[{r}]") for r, p in enumerate(poles)]
+        elif poles is not None:
             poles = ctx.vector(poles, f"design.{meth}.poles")
         fp = merged.get("filter_pole")
         mg = merged.get("margin")
@@ -423,21 +474,37 @@ def _method_options(ctx: _Ctx, d: dict[str, Any], plant: Plant) -> list[MethodOp
     return out
 
 
-def _fault_signal(ctx: _Ctx, item: Any, where: str, q: int, t: np.ndarray) -> Any:
+def _fault_signal(
+    ctx: _Ctx, item: Any, where: str, plant: Plant, t: np.ndarray, design: list[Fault]
+) -> Any:
+    from geomfdi.simulation import input_faults as inf
     from geomfdi.simulation.signals import BiasFault, GainFault, StuckFault
 
+    kinds = ", ".join(_FAULT_KEYS)
     if not isinstance(item, dict) or "type" not in item:
-        raise ctx.err(where, "each fault needs a 'type' (gain, bias, stuck)")
+        raise ctx.err(where, f"each fault needs a 'type' ({kinds})")
     kind = item["type"]
     if kind not in _FAULT_KEYS:
-        raise ctx.err(f"{where}.type", f"unknown fault type {kind!r} (gain, bias, stuck)")
+        raise ctx.err(f"{where}.type", f"unknown fault type {kind!r} ({kinds})")
     ctx.keys(item, _FAULT_KEYS[kind], where)
-    for req in ("sensor", "start"):
+    chan = "fault" if kind == "additive" else "actuator" if "actuator" in kind else "sensor"
+    for req in (chan, "start"):
         if req not in item:
             raise ctx.err(f"{where}.{req}", "missing")
-    s = item["sensor"]
-    if isinstance(s, bool) or not isinstance(s, int) or not 0 <= s < q:
-        raise ctx.err(f"{where}.sensor", f"expected a sensor index in 0..{q - 1}, got {s!r}")
+    if chan == "sensor":
+        s = _channel(ctx, item["sensor"], f"{where}.sensor", plant, "output")
+    elif chan == "actuator":
+        s = _channel(ctx, item["actuator"], f"{where}.actuator", plant, "input")
+    else:
+        labels = [f.name for f in design]
+        s = item["fault"]
+        if isinstance(s, str) and s in labels:
+            s = labels.index(s)
+        if isinstance(s, bool) or not isinstance(s, int) or not 0 <= s < len(design):
+            raise ctx.err(
+                f"{where}.fault",
+                f"expected a design fault index in 0..{len(design) - 1} or one of {labels}",
+            )
     start = ctx.number(item["start"], f"{where}.start")
     end = None if "end" not in item else ctx.number(item["end"], f"{where}.end")
 
@@ -451,22 +518,31 @@ def _fault_signal(ctx: _Ctx, item: Any, where: str, q: int, t: np.ndarray) -> An
             return f
         return ctx.number(v, f"{where}.{key}")
 
+    def need(key: str) -> None:
+        if key not in item:
+            raise ctx.err(f"{where}.{key}", "missing")
+
+    held = item.get("value")
+    held = None if held is None else ctx.number(held, f"{where}.value")
     try:
-        if kind == "gain":
-            if "gain" not in item:
-                raise ctx.err(f"{where}.gain", "missing")
-            return GainFault(
-                s, start=start, gain=value("gain", 1.0), bias=value("bias", 0.0), end=end
-            )
-        if kind == "bias":
-            if "bias" not in item:
-                raise ctx.err(f"{where}.bias", "missing")
-            return BiasFault(s, start=start, bias=value("bias", 0.0), end=end)
-        held = item.get("value")
-        return StuckFault(
-            s,
+        if kind in ("gain", "actuator gain"):
+            need("gain")
+            cls = GainFault if kind == "gain" else inf.ActuatorGainFault
+            return cls(s, start=start, gain=value("gain", 1.0), bias=value("bias", 0.0), end=end)
+        if kind in ("bias", "actuator bias"):
+            need("bias")
+            cls = BiasFault if kind == "bias" else inf.ActuatorBiasFault
+            return cls(s, start=start, bias=value("bias", 0.0), end=end)
+        if kind in ("stuck", "actuator stuck"):
+            cls = StuckFault if kind == "stuck" else inf.ActuatorStuckFault
+            return cls(s, start=start, value=held, end=end)
+        sig = item.get("signal")
+        return inf.AdditiveFault(
+            design[s],
             start=start,
-            value=None if held is None else ctx.number(held, f"{where}.value"),
+            size=ctx.number(item.get("size", 1.0), f"{where}.size"),
+            slope=ctx.number(item.get("slope", 0.0), f"{where}.slope"),
+            signal=None if sig is None else value("signal", 0.0),
             end=end,
         )
     except ModelFileError:
@@ -625,7 +701,8 @@ def parse_model(data: dict[str, Any], source: str = "<model>") -> ModelSpec:
         if not isinstance(fl, list):
             raise ctx.err(f"{where}.faults", "expected an array of tables")
         sigs = [
-            _fault_signal(ctx, f, f"{where}.faults[{i}]", plant.q, spec.t) for i, f in enumerate(fl)
+            _fault_signal(ctx, f, f"{where}.faults[{i}]", plant, spec.t, spec.faults)
+            for i, f in enumerate(fl)
         ]
         noise = _noise(ctx, sc["noise"], f"{where}.noise", plant) if "noise" in sc else None
         d = None

@@ -18,7 +18,7 @@ import numpy as np
 from geomfdi._validation import as_index, as_matrix, as_name, as_positive
 from geomfdi.errors import GeomFDIError, ShapeError
 
-__all__ = ["Fault", "SensorFault", "ActuatorFault", "fault_matrices"]
+__all__ = ["Fault", "SensorFault", "ActuatorFault", "fault_matrices", "bind_faults"]
 
 
 def _fault_size(size: Any) -> float | None:
@@ -102,27 +102,44 @@ class Fault:
 
 
 class SensorFault(Fault):
-    """Additive fault on sensor (output) ``i`` (0-based): ``Bf = 0``, ``Df = e_i``.
+    """Additive fault on sensor (output) ``i``: ``Bf = 0``, ``Df = e_i``.
 
-    ``size``: reference size in the sensor's units; default: the sensor's scale (the
-    largest effect on output ``i`` of the other faults at their reference sizes, see
+    ``i`` is a 0-based index or an output name of the plant (``SensorFault("level 1")``);
+    a name is resolved when the fault meets the plant (:func:`bind_faults`, done by the
+    design functions), and the fault is then named after the output unless ``name`` is
+    given.  ``size``: reference size in the sensor's units; default: the sensor's scale
+    (the typical effect on output ``i`` of the other faults at their reference sizes, see
     :func:`geomfdi.synthesis.strength.reference_sizes`).
     """
 
-    def __init__(self, i: int, *, name: str | None = None, size: Any = None) -> None:
-        if isinstance(i, bool) or not isinstance(i, int | np.integer) or i < 0:
-            raise GeomFDIError(f"i: sensor index must be an integer >= 0, got {i!r}", argument="i")
-        self.i = int(i)
-        self.name = _fault_name(name, f"sensor {self.i}")
+    def __init__(self, i: int | str, *, name: str | None = None, size: Any = None) -> None:
+        self._given_name = name is not None and name != ""
         self.size = _fault_size(size)
+        if isinstance(i, str):
+            if not i.strip():
+                raise GeomFDIError("i: an output name must not be empty", argument="i")
+            self.i: int | None = None
+            self.output: str | None = i.strip()
+            self.name = _fault_name(name, self.output)
+            self._Bf = None
+            self._Df = None
+            return
+        if isinstance(i, bool) or not isinstance(i, int | np.integer) or i < 0:
+            raise GeomFDIError(
+                f"i: sensor index must be an integer >= 0 or an output name, got {i!r}",
+                argument="i",
+            )
+        self.i = int(i)
+        self.output = None
+        self.name = _fault_name(name, f"sensor {self.i}")
         self._Bf = None
         self._Df = None
 
     def __eq__(self, other: object) -> bool:
-        return isinstance(other, SensorFault) and other.i == self.i
+        return isinstance(other, SensorFault) and other.i == self.i and other.output == self.output
 
     def __hash__(self) -> int:
-        return hash(("SensorFault", self.i))
+        return hash(("SensorFault", self.i, self.output))
 
     @property
     def k(self) -> int:
@@ -131,6 +148,13 @@ class SensorFault(Fault):
     def signatures(
         self, n: int, q: int, *, argument: str = "fault"
     ) -> tuple[np.ndarray, np.ndarray]:
+        if self.i is None:
+            raise GeomFDIError(
+                f"{argument}: the sensor fault on output {self.output!r} is not bound to a "
+                "plant; design with the plant (or gf.bind_faults(plant, faults)) so that its "
+                "name is resolved",
+                argument=argument,
+            )
         as_index(self.i, f"{argument}.i", q)
         Df = np.zeros((q, 1))
         Df[self.i, 0] = 1.0
@@ -141,7 +165,7 @@ class SensorFault(Fault):
         return True
 
     def __repr__(self) -> str:
-        return f"SensorFault({self.i})"
+        return f"SensorFault({self.i if self.i is not None else self.output!r})"
 
 
 class ActuatorFault(Fault):
@@ -181,4 +205,36 @@ def fault_matrices(
                 argument=argument,
             )
         out.append(f.signatures(n, q, argument=f"{argument}[{k}]"))
+    return out
+
+
+def bind_faults(plant: Any, faults: Any, *, argument: str = "faults") -> list[Fault]:
+    """``faults`` with every sensor fault resolved against ``plant``'s output names.
+
+    A :class:`SensorFault` given by output name gets its index; on a plant with named
+    outputs a sensor fault without its own ``name`` is named after its output.  Other
+    faults are returned as they are.  Raises :class:`GeomFDIError` naming the fault for an
+    unknown output name.
+    """
+    if isinstance(faults, Fault):
+        faults = [faults]
+    try:
+        items = list(faults)
+    except TypeError as exc:
+        raise GeomFDIError(
+            f"{argument}: must be a list of SensorFault / ActuatorFault / Fault", argument=argument
+        ) from exc
+    outputs = getattr(plant, "outputs", None)
+    named = bool(getattr(plant, "named", False))
+    out: list[Fault] = []
+    for k, f in enumerate(items):
+        if not isinstance(f, SensorFault) or outputs is None or (f.i is not None and not named):
+            out.append(f)
+            continue
+        i = f.i if f.i is not None else plant.output_index(f.output, f"{argument}[{k}]")
+        if f._given_name or i >= len(outputs):
+            label = f.name
+        else:
+            label = outputs[i]
+        out.append(SensorFault(i, name=label, size=f.size))
     return out

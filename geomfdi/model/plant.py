@@ -1,8 +1,9 @@
 """The plant model: ``x' = A x + B u + Bd d + Bw w``, ``y = C x + D u + Dd d + Dw w``.
 
-The model of Hou, Wen & Chen (2011), §2, with the disturbance and feedthrough terms, and
-the noise inputs ``w`` of Varga (2017), §2.2 (attenuated, not decoupled; see the user
-guide, *Theory: approximate synthesis*, ``docs/theory/approximate-synthesis.md``).
+The model of Hou, Wen & Chen (2011), §2, with the disturbance and feedthrough terms, the
+noise inputs ``w`` of Varga (2017), §2.2 (attenuated, not decoupled; see the user guide,
+*Theory: approximate synthesis*, ``docs/theory/approximate-synthesis.md``), signal names and
+an operating point (user guide, *Physical plants*, ``docs/guide/physical-plants.md``).
 """
 
 from __future__ import annotations
@@ -73,8 +74,23 @@ class Plant:
         is accepted only for one output and one input; otherwise a :class:`ShapeError`
         naming ``D`` explains that the sampling period is written ``dt=``.
 
+    inputs, outputs, states, disturbances, noise : sequence of str, optional
+        Signal names (as python-control's ``inputs=``, ...; defaults ``u0, u1, ...``,
+        ``y0, ...``, ``x0, ...``, ``d0, ...``, ``w0, ...``).  Faults, reports, recorded-data
+        columns, the Monitor and generated code use them.
+    x_op, u_op, y_op : array_like, optional
+        The operating point the linear model is taken at (zero by default): the model
+        holds for ``x - x_op``, ``u - u_op``, ``y - y_op``.  Recorded data, ``gf.evaluate``,
+        the Monitor and generated code then take physical values and subtract
+        ``u_op, y_op``; sensor gain faults scale the physical reading ``y_op + y``.
+
     Notes
     -----
+    **python-control systems.**  A ``StateSpace`` may be given in place of ``A``
+    (``gf.Plant(sys)``): its matrices, sampling period and signal names are taken (all
+    inputs known; see :meth:`from_statespace` for disturbances and noise inputs).  A
+    nonlinear system is linearised by :meth:`linearize`.
+
     **Parametric plants.**  Entries may be sympy expressions in symbols
     (``m = sympy.Symbol("m", positive=True)``): rational functions of the parameters.
     The matrices are then kept as sympy matrices (floats read through their shortest
@@ -105,10 +121,31 @@ class Plant:
         Dd: Any = None,
         Bw: Any = None,
         Dw: Any = None,
+        inputs: Any = None,
+        outputs: Any = None,
+        states: Any = None,
+        disturbances: Any = None,
+        noise: Any = None,
+        x_op: Any = None,
+        u_op: Any = None,
+        y_op: Any = None,
     ) -> None:
         self.parameters: tuple[Any, ...] = ()
+        names = {"inputs": inputs, "outputs": outputs, "states": states}
+        names.update(disturbances=disturbances, noise=noise)
+        if _is_statespace(A):
+            if any(v is not None for v in (B, C, D, Bd, Dd, Bw, Dw)):
+                raise GeomFDIError(
+                    "B: give either a control.StateSpace or the matrices, not both",
+                    argument="B",
+                )
+            A, B, C, D, Bd, Dd, Bw, Dw, dt, found = _statespace_parts(A, 0, 0)
+            names = {k: v if v is not None else found.get(k) for k, v in names.items()}
+        self._op = (x_op, u_op, y_op)
+        self._names = names
         if _has_symbols(A, B, C, D, Bd, Dd, Bw, Dw):
             self._init_parametric(A, B, C, D, Bd, Dd, dt, Bw, Dw)
+            self._init_signals()
             return
         self.A = as_matrix(A, "A", square=True, allow_empty=True)
         n = self.A.shape[0]
@@ -142,6 +179,52 @@ class Plant:
         self.dt = _as_dt(dt)
         for arr in (self.A, self.B, self.C, self.D, self.Bd, self.Dd, self.Bw, self.Dw):
             arr.setflags(write=False)
+        self._init_signals()
+
+    def _init_signals(self) -> None:
+        """Names and operating point (``geomfdi.model.signals``), checked against sizes."""
+        from geomfdi.model.signals import check_names, check_point
+
+        given = self.__dict__.pop("_names")
+        x_op, u_op, y_op = self.__dict__.pop("_op")
+        #: True when names were given (python-control labels count, its defaults do not)
+        self.named = any(v is not None for v in given.values())
+        self.inputs = check_names(given["inputs"], self.m, "inputs")
+        self.outputs = check_names(given["outputs"], self.q, "outputs")
+        self.states = check_names(given["states"], self.n, "states")
+        self.disturbances = check_names(given["disturbances"], self.nd, "disturbances")
+        self.noise = check_names(given["noise"], self.nw, "noise")
+        self.x_op = check_point(x_op, self.n, "x_op")
+        self.u_op = check_point(u_op, self.m, "u_op")
+        self.y_op = check_point(y_op, self.q, "y_op")
+
+    @property
+    def has_operating_point(self) -> bool:
+        """True when ``u_op`` or ``y_op`` is non-zero: recorded data are physical values."""
+        return bool(np.any(self.u_op != 0) or np.any(self.y_op != 0))
+
+    def signal_info(self) -> dict[str, Any]:
+        """Names and operating point as plain lists (stored in a bank's ``info``)."""
+        return {
+            "outputs": list(self.outputs),
+            "inputs": list(self.inputs),
+            "named": self.named,
+            "y_op": self.y_op.tolist(),
+            "u_op": self.u_op.tolist(),
+            "x_op": self.x_op.tolist(),
+        }
+
+    def output_index(self, key: Any, argument: str = "sensor") -> int:
+        """The index of output ``key`` (an index or a name in :attr:`outputs`)."""
+        from geomfdi.model.signals import index_of
+
+        return index_of(key, self.outputs, "output", argument)
+
+    def input_index(self, key: Any, argument: str = "input") -> int:
+        """The index of input ``key`` (an index or a name in :attr:`inputs`)."""
+        from geomfdi.model.signals import index_of
+
+        return index_of(key, self.inputs, "input", argument)
 
     def _init_parametric(self, A, B, C, D, Bd, Dd, dt, Bw=None, Dw=None) -> None:
         from geomfdi.geometry.parametric import as_exact_matrix
@@ -195,7 +278,12 @@ class Plant:
                 raise GeomFDIError(f"values: {name} is undefined at {values}", argument="values")
             out.append(np.array(X.evalf(30).tolist(), dtype=float).reshape(M.shape))
         A, B, C, D, Bd, Dd, Bw, Dw = out
-        return Plant(A, B, C, D, self.dt, Bd=Bd, Dd=Dd, Bw=Bw, Dw=Dw)
+        return Plant(A, B, C, D, self.dt, Bd=Bd, Dd=Dd, Bw=Bw, Dw=Dw, **self._signal_kwargs())
+
+    def _signal_kwargs(self) -> dict[str, Any]:
+        names = ("inputs", "outputs", "states", "disturbances", "noise")
+        kw: dict[str, Any] = {k: getattr(self, k) for k in names} if self.named else {}
+        return {**kw, "x_op": self.x_op, "u_op": self.u_op, "y_op": self.y_op}
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -230,8 +318,10 @@ class Plant:
 
     # ------------------------------------------------------------ conversion
     @classmethod
-    def from_statespace(cls, sys: Any, *, n_disturbances: int = 0, n_noise: int = 0) -> Plant:
-        """Build a plant from a python-control ``StateSpace``.
+    def from_statespace(
+        cls, sys: Any, *, n_disturbances: int = 0, n_noise: int = 0, **signals: Any
+    ) -> Plant:
+        """Build a plant from a python-control ``StateSpace``, keeping its signal names.
 
         Parameters
         ----------
@@ -241,47 +331,77 @@ class Plant:
             How many inputs before the noise inputs are disturbances (default 0).
         n_noise : int
             How many of the *last* inputs are noise inputs ``w`` (default 0).
+        **signals
+            ``inputs``, ``outputs``, ``states``, ``disturbances``, ``noise`` (names replacing
+            the system's labels) and ``x_op``, ``u_op``, ``y_op`` (the operating point).
+        """
+        A, B, C, D, Bd, Dd, Bw, Dw, dt, found = _statespace_parts(sys, n_disturbances, n_noise)
+        kw = {**found, **{k: v for k, v in signals.items() if v is not None}}
+        return cls(A, B, C, D, dt, Bd=Bd, Dd=Dd, Bw=Bw, Dw=Dw, **kw)
+
+    @classmethod
+    def linearize(
+        cls,
+        sys: Any,
+        x_op: Any,
+        u_op: Any = None,
+        *,
+        n_disturbances: int = 0,
+        n_noise: int = 0,
+        params: dict[str, Any] | None = None,
+        **signals: Any,
+    ) -> Plant:
+        """The plant linearised at an operating point of a python-control nonlinear system.
+
+        ``A = ∂f/∂x``, ``B = ∂f/∂u``, ``C = ∂h/∂x``, ``D = ∂h/∂u`` at ``(x_op, u_op)``
+        by :meth:`control.NonlinearIOSystem.linearize` (central differences), names copied
+        from the system, and ``y_op = h(x_op, u_op)``.  The linear model holds for the
+        deviations ``x - x_op``, ``u - u_op``, ``y - y_op``; the operating point is
+        usually an equilibrium (``f(x_op, u_op) = 0``), which is not required.
+
+        Parameters
+        ----------
+        sys : control.NonlinearIOSystem
+            Inputs ``[u; d; w]`` (the last ``n_noise`` are noise inputs, the
+            ``n_disturbances`` before them disturbances).
+        x_op : array_like (n,)
+        u_op : array_like (m + nd + nw,), optional
+            Zero by default.  Only the known inputs' part is kept as :attr:`u_op`.
+        n_disturbances, n_noise : int
+            As in :meth:`from_statespace`.
+        params : dict, optional
+            Parameters passed to the system's functions.
+        **signals
+            Names replacing the system's (as in :meth:`from_statespace`).
+
+        Examples
+        --------
+        >>> import control, numpy as np, geomfdi as gf
+        >>> tank = control.nlsys(lambda t, x, u, p: u - np.sqrt(x), lambda t, x, u, p: x,
+        ...                      inputs=["Q"], outputs=["level"], states=["h"])
+        >>> p = gf.Plant.linearize(tank, [4.0], [2.0])
+        >>> p.A.round(3).tolist(), p.outputs, p.y_op.tolist()
+        ([[-0.25]], ('level',), [4.0])
         """
         import control
 
-        if not isinstance(sys, control.StateSpace):
+        if not isinstance(sys, control.NonlinearIOSystem):
             raise GeomFDIError(
-                f"sys: expected a control.StateSpace, got {type(sys).__name__}", argument="sys"
-            )
-        dt = sys.dt
-        if dt is None:
-            dt = 0
-        if dt is True:
-            raise GeomFDIError(
-                "sys: discrete-time system with unspecified sampling period (dt=True); "
-                "give it a numeric dt",
+                f"sys: expected a control.NonlinearIOSystem, got {type(sys).__name__}",
                 argument="sys",
             )
-        B = np.asarray(sys.B, dtype=float)
-        D = np.asarray(sys.D, dtype=float)
-        kw = as_int(n_noise, "n_noise", minimum=0)
-        if kw > B.shape[1]:
-            raise GeomFDIError(
-                f"n_noise: must be in 0..{B.shape[1]}, got {n_noise}", argument="n_noise"
-            )
-        k = as_int(n_disturbances, "n_disturbances", minimum=0)
-        if k > B.shape[1] - kw:
-            raise GeomFDIError(
-                f"n_disturbances: must be in 0..{B.shape[1] - kw}, got {n_disturbances}",
-                argument="n_disturbances",
-            )
-        mu, md = B.shape[1] - k - kw, B.shape[1] - kw
-        return cls(
-            sys.A,
-            B[:, :mu],
-            sys.C,
-            D[:, :mu],
-            Bd=B[:, mu:md] if k else None,
-            Dd=D[:, mu:md] if k else None,
-            Bw=B[:, md:] if kw else None,
-            Dw=D[:, md:] if kw else None,
-            dt=dt,
-        )
+        x = np.asarray(x_op, dtype=float).reshape(-1)
+        if x.size != sys.nstates:
+            raise ShapeError(f"x_op: expected {sys.nstates} values, got {x.size}", argument="x_op")
+        u = np.zeros(sys.ninputs) if u_op is None else np.asarray(u_op, dtype=float).reshape(-1)
+        if u.size != sys.ninputs:
+            raise ShapeError(f"u_op: expected {sys.ninputs} values, got {u.size}", argument="u_op")
+        lin = sys.linearize(x, u, params=params, copy_names=True)
+        y = np.asarray(sys.output(0.0, x, u, params=params), dtype=float).reshape(-1)
+        A, B, C, D, Bd, Dd, Bw, Dw, dt, found = _statespace_parts(lin, n_disturbances, n_noise)
+        kw = {**found, **{k: v for k, v in signals.items() if v is not None}}
+        op = {"x_op": x, "u_op": u[: B.shape[1]], "y_op": y}
+        return cls(A, B, C, D, dt, Bd=Bd, Dd=Dd, Bw=Bw, Dw=Dw, **op, **kw)
 
     def to_statespace(self) -> Any:
         """The plant as a python-control ``StateSpace`` with inputs ``[u; d; w]``."""
@@ -290,11 +410,16 @@ class Plant:
         _require_numeric(self, "plant")
         B = np.hstack([self.B, self.Bd, self.Bw])
         D = np.hstack([self.D, self.Dd, self.Dw])
-        names_in = (
-            [f"u[{i}]" for i in range(self.m)]
-            + [f"d[{i}]" for i in range(self.nd)]
-            + [f"w[{i}]" for i in range(self.nw)]
-        )
+        if self.named:
+            names_in = [*self.inputs, *self.disturbances, *self.noise]
+            outs, sts = list(self.outputs), list(self.states)
+        else:
+            names_in = (
+                [f"u[{i}]" for i in range(self.m)]
+                + [f"d[{i}]" for i in range(self.nd)]
+                + [f"w[{i}]" for i in range(self.nw)]
+            )
+            outs, sts = [f"y[{i}]" for i in range(self.q)], [f"x[{i}]" for i in range(self.n)]
         return control.ss(
             np.array(self.A),
             B,
@@ -302,8 +427,8 @@ class Plant:
             D,
             self.dt,
             inputs=names_in or None,
-            outputs=[f"y[{i}]" for i in range(self.q)],
-            states=[f"x[{i}]" for i in range(self.n)],
+            outputs=outs,
+            states=sts,
         )
 
     def __repr__(self) -> str:
@@ -352,6 +477,72 @@ def _exact_channel_pair(Bx: Any, Dx: Any, n: int, q: int, bname: str, dname: str
             argument=dname,
         )
     return Bm, Dm
+
+
+def _is_statespace(obj: Any) -> bool:
+    if type(obj).__module__.split(".")[0] != "control":
+        return False
+    import control
+
+    return isinstance(obj, control.StateSpace)
+
+
+def _statespace_parts(sys: Any, n_disturbances: Any, n_noise: Any) -> tuple[Any, ...]:
+    """``A, B, C, D, Bd, Dd, Bw, Dw, dt`` and the signal names of a python-control system
+    with inputs ``[u; d; w]`` (the last ``n_noise`` noise inputs, the ``n_disturbances``
+    before them disturbances)."""
+    import control
+
+    from geomfdi.model.signals import python_control_names
+
+    if not isinstance(sys, control.StateSpace):
+        raise GeomFDIError(
+            f"sys: expected a control.StateSpace, got {type(sys).__name__}", argument="sys"
+        )
+    dt = sys.dt
+    if dt is None:
+        dt = 0
+    if dt is True:
+        raise GeomFDIError(
+            "sys: discrete-time system with unspecified sampling period (dt=True); "
+            "give it a numeric dt",
+            argument="sys",
+        )
+    B = np.asarray(sys.B, dtype=float)
+    D = np.asarray(sys.D, dtype=float)
+    kw = as_int(n_noise, "n_noise", minimum=0)
+    if kw > B.shape[1]:
+        raise GeomFDIError(
+            f"n_noise: must be in 0..{B.shape[1]}, got {n_noise}", argument="n_noise"
+        )
+    k = as_int(n_disturbances, "n_disturbances", minimum=0)
+    if k > B.shape[1] - kw:
+        raise GeomFDIError(
+            f"n_disturbances: must be in 0..{B.shape[1] - kw}, got {n_disturbances}",
+            argument="n_disturbances",
+        )
+    mu, md = B.shape[1] - k - kw, B.shape[1] - kw
+    labels_in = python_control_names(sys.input_labels, "inputs")
+    found = {
+        "inputs": None if labels_in is None else labels_in[:mu],
+        "disturbances": None if labels_in is None or not k else labels_in[mu:md],
+        "noise": None if labels_in is None or not kw else labels_in[md:],
+        "outputs": python_control_names(sys.output_labels, "outputs"),
+        "states": python_control_names(sys.state_labels, "states"),
+    }
+    found = {key: v for key, v in found.items() if v is not None}
+    return (
+        np.asarray(sys.A, dtype=float),
+        B[:, :mu],
+        np.asarray(sys.C, dtype=float),
+        D[:, :mu],
+        B[:, mu:md] if k else None,
+        D[:, mu:md] if k else None,
+        B[:, md:] if kw else None,
+        D[:, md:] if kw else None,
+        dt,
+        found,
+    )
 
 
 def _has_symbols(*values: Any) -> bool:

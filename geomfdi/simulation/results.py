@@ -95,6 +95,28 @@ class SimulationResult:
         """Onset time of each simulated fault that starts on the grid."""
         return [ev.onset for ev in self.events]
 
+    def to_frame(self, *, physical: bool = True) -> Any:
+        """The recorded signals as a pandas DataFrame: ``t``, then the outputs and inputs
+        in columns named after the plant's signals (``y0, ..., u0, ...`` by default).
+
+        ``physical=True`` adds the plant's operating point (``y_op + y``, ``u_op + u``):
+        the values a logger records, which :func:`geomfdi.evaluate`, the Monitor and the
+        generated code read back by name.  Write it with ``frame.to_csv(path,
+        index=False)``.
+        """
+        import pandas as pd
+
+        sig = self.info.get("signals") or {}
+        q, m = self.y.shape[0], self.u.shape[0]
+        outs = sig.get("outputs") or [f"y{i}" for i in range(q)]
+        ins = sig.get("inputs") or [f"u{j}" for j in range(m)]
+        y, u = self.y, self.u
+        if physical:
+            y = y + np.asarray(sig.get("y_op") or np.zeros(q))[:, None]
+            u = u + np.asarray(sig.get("u_op") or np.zeros(m))[:, None]
+        cols = {"t": self.t, **dict(zip(outs, y, strict=True)), **dict(zip(ins, u, strict=True))}
+        return pd.DataFrame(cols)
+
     def max_abs(self, start: float | None = None, stop: float | None = None) -> np.ndarray:
         """``max |r|`` per residual over ``start <= t <= stop`` (bounds optional)."""
         start = as_float(start, "start", allow_none=True)

@@ -66,6 +66,9 @@ def fault_schedule(faults: Any, plant: Plant, *, argument: str = "faults") -> Fa
             raise GeomFDIError(
                 f"{argument}[{k}]: expected {_KINDS}, got {type(f).__name__}", argument=argument
             )
+    from geomfdi.simulation.physical import deviation_faults
+
+    faults = deviation_faults(faults, plant)  # output names; gains on the physical reading
     sensor = validate_faults(
         [f for f in faults if isinstance(f, SensorFaultSignal)], plant.q, argument=argument
     )

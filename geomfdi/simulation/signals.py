@@ -139,7 +139,9 @@ class FaultSignal:
         return f"from t={self.start:g}{end}"
 
 
-def _check_channel(value: Any, name: str) -> int:
+def _check_channel(value: Any, name: str) -> Any:
+    if isinstance(value, str) and value.strip():  # an output name, resolved with the plant
+        return value.strip()
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
         raise GeomFDIError(f"{name}: must be an integer >= 0, got {value!r}", argument=name)
     return int(value)
@@ -150,8 +152,9 @@ class SensorFaultSignal(FaultSignal):
 
     Attributes
     ----------
-    sensor : int
-        Output index (0-based).
+    sensor : int or str
+        Output index (0-based), or the plant's output name (resolved by
+        :func:`geomfdi.simulate` with the plant: :mod:`geomfdi.simulation.physical`).
     start, end : float
         Active for ``start <= t < end`` (``end`` may be ``None``: never ends).
     """

@@ -126,6 +126,7 @@ import numpy as np
 
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_bool
+from geomfdi.errors import GeomFDIError
 from geomfdi.evaluation.decision import (
     as_threshold,
     detection_events,
@@ -153,6 +154,53 @@ from geomfdi.simulation.results import (
 from geomfdi.simulation.schedule import FaultSchedule, fault_schedule, structure_columns
 from geomfdi.simulation.signals import FaultSignal
 from geomfdi.simulation.streaming import DecisionStream, chunk_plan, time_chunks
+
+
+def stop_divergent(
+    t: np.ndarray,
+    x: np.ndarray,
+    faults: Sequence[Any],
+    bound: float | None,
+    res: np.ndarray,
+    alarms: np.ndarray,
+    isolated: np.ndarray,
+    candidates: np.ndarray,
+    suspects: np.ndarray,
+) -> float | None:
+    """Blank the decisions of a diverged run from its first divergent sample (in place).
+
+    Divergence: a non-finite state or ``max |x| > bound`` (default ``1e6 (1 + max |x|)``
+    before the first fault onset).  Returns the time of divergence (``None``: none) and
+    warns with :class:`~geomfdi.simulation.nonlinear.DivergenceWarning`.
+    """
+    import warnings
+
+    from geomfdi.evaluation.decision import NO_ALARM
+    from geomfdi.simulation.nonlinear import DivergenceWarning
+
+    mag = np.max(np.abs(x), axis=0, initial=0.0) if x.shape[0] else np.zeros(t.size)
+    mag = np.where(np.all(np.isfinite(x), axis=0), mag, np.inf)
+    if bound is None:
+        onsets = [f.start for f in faults if getattr(f, "start", None) is not None]
+        k_on = int(np.searchsorted(t, min(onsets))) if onsets else t.size
+        ref = float(np.max(mag[: max(k_on, 1)]))
+        bound = 1e6 * (1.0 + (ref if np.isfinite(ref) else 0.0))
+    hit = np.flatnonzero(mag > bound)
+    if not hit.size:
+        return None
+    k = int(hit[0])
+    res[:, k:] = np.nan
+    alarms[:, k:] = False
+    isolated[k:] = NO_ALARM
+    candidates[:, k:] = False
+    suspects[:, k:] = False
+    warnings.warn(
+        f"the run diverged at t = {t[k]:g} (state non-finite or max |x| > {bound:g}); no "
+        "alarms or decisions after it",
+        DivergenceWarning,
+        stacklevel=3,
+    )
+    return float(t[k])
 
 
 def noise_streams(ctx: Context, rngs: list[np.random.Generator | None]) -> list[NoiseStream] | None:
@@ -273,13 +321,17 @@ def simulate(
     persistence: Any = None,
     detection_window: float | None = None,
     progress: bool | None = None,
+    bound: float | None = None,
 ) -> SimulationResult:
     """Simulate the plant with sensor faults and run the residual bank on its output.
 
     Parameters
     ----------
-    plant : Plant
-        Continuous (``dt = 0``) or discrete.
+    plant : Plant or control.NonlinearIOSystem
+        Continuous (``dt = 0``) or discrete.  A python-control nonlinear system is
+        simulated in physical units with the bank designed on its linearisation
+        (:func:`geomfdi.simulation.nonlinear.simulate_nonlinear`; ``u``, ``x0`` and the
+        results physical, ``d`` the system's other inputs).
     bank : ResidualBank or ResidualGenerator
         The generators, same ``dt`` as the plant.
     t : array_like, (N,)
@@ -310,7 +362,8 @@ def simulate(
         Disturbance signal (decoupled by design).
     w : array_like (nw, N), callable or None
         Signal of the plant's noise inputs (``Plant(..., Bw=, Dw=)``), simulated like
-        ``d`` (``None``: zero).  Random noise inputs: ``Noise(inputs=...)``.
+        ``d`` (``None``: zero).  Random noise inputs: ``Noise(inputs=...)``.  A nonlinear
+        system's noise inputs are among its other inputs, given in ``d``.
     xc0 : array_like, optional
         Initial controller state (output feedback; zero by default).
     hold : {"foh", "zoh"}
@@ -332,6 +385,12 @@ def simulate(
         onset is a false alarm, never a detection.
     progress : bool, optional
         Progress bar for the stepping scheme (default: when stderr is a terminal).
+    bound : float, optional
+        Divergence bound on ``max |x|``: from the first sample where the state is
+        non-finite or beyond it, the run's residuals are ``nan`` and there are no alarms
+        and no decisions; ``res.info["diverged"]`` / ``["diverged_at"]`` say so and a
+        :class:`~geomfdi.simulation.nonlinear.DivergenceWarning` is issued.  Default
+        ``1e6 (1 + max |x|)`` over the samples before the first fault onset.
 
     Returns
     -------
@@ -354,6 +413,30 @@ def simulate(
     >>> bool(res.max_abs(stop=1.99)[0] < 1e-12), res.events[0].detection_delay
     (True, 0.0)
     """
+    from geomfdi.simulation.nonlinear import is_nonlinear, simulate_nonlinear
+
+    if is_nonlinear(plant):  # a python-control nonlinear plant: geomfdi.simulation.nonlinear
+        if w is not None:
+            raise GeomFDIError(
+                "w: a nonlinear system's noise inputs are among its other inputs; give their "
+                "signals in d= (a mapping from input name to signal)",
+                argument="w",
+            )
+        return simulate_nonlinear(
+            plant,
+            bank,
+            t,
+            u,
+            faults=faults,
+            x0=x0,
+            d=d,
+            noise=noise,
+            controller=controller,
+            threshold=threshold,
+            persistence=persistence,
+            detection_window=detection_window,
+            bound=bound,
+        )
     keep_states = as_bool(keep_states, "keep_states")
     plant = as_plant(plant)
     ctx = prepare(plant, bank, t, u, d, noise, controller, hold, consistent_init, progress, w)
@@ -369,6 +452,8 @@ def simulate(
     cols = structure_columns(sched.faults, view.design_faults, plant)
     out = _stream_one(ctx, to_balanced(ctx, x0a), xc0a, rng, sched, thr, rule)
     res, alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws, xc = out
+    diverged_at = stop_divergent(ctx.t, x, sched.faults, bound, res, alarms, isolated,
+                                 candidates, suspects)  # fmt: skip
     events = detection_events(
         ctx.t, alarms, isolated, sched.faults, cols, window=window, suspects=suspects
     )
@@ -394,7 +479,12 @@ def simulate(
         residual_labels=residual_labels_of(view),
         xc=xc,
         w=unbalance_states(view, ctx.info, ws),
-        info=ctx.info,
+        info={
+            **ctx.info,
+            "signals": plant.signal_info(),
+            "diverged": diverged_at is not None,
+            "diverged_at": diverged_at,
+        },
         vector_rows=[g is not None and g.n_outputs > 1 for g in view.generators],
     )
 

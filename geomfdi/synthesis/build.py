@@ -31,6 +31,7 @@ Steps for a row that must see ``target`` and ignore ``decouple`` (and every dist
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import numpy as np
@@ -193,6 +194,17 @@ def _quotient(
     return Qm, d
 
 
+def fault_numbers(text: str, target: tuple[int, ...]) -> str:
+    """``text`` with the search's target positions ("targets [1]") written as the fault
+    numbers of the design ("faults [5]"): the user numbers faults, not targets."""
+
+    def repl(mt: re.Match[str]) -> str:
+        pos = [int(v) for v in mt.group(1).replace(" ", "").split(",") if v]
+        return f"faults {[target[i] for i in pos if 0 <= i < len(target)]}"
+
+    return re.sub(r"\btargets \[([\d, ]*)\]", repl, text)
+
+
 def _search(
     Qm: Quotient,
     plant: Plant,
@@ -213,7 +225,7 @@ def _search(
         reason = (
             f"faults {names} are not isolable from faults {list(decouple)}"
             + (" and the disturbances" if plant.nd else "")
-            + f": {exc.reason}"
+            + f": {fault_numbers(exc.reason, target)}"
         )
         raise NotIsolableError(f"{row}: no residual exists: {reason}", reason=reason) from None
 
@@ -268,6 +280,12 @@ def _finish(
             Em[:, i] = 0.0
             Hm[:, i] = 0.0
     cert = dict(lo.certificate)
+    if "unseen_below" in cert:
+        cert["unseen_below"] = {
+            deg: [target[i] for i in pos] for deg, pos in cert["unseen_below"].items()
+        }
+    if isinstance(cert.get("statement"), str):
+        cert["statement"] = fault_numbers(cert["statement"], target)
     cert["poles"] = lo.poles
     cert["delivered_order"] = lo.order
     least = cert.get("order")

@@ -43,7 +43,7 @@ from geomfdi.errors import (
 from geomfdi.generators.gains import LEAK_TOL, PlantFactor
 from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.generators.realization import minimal_realization
-from geomfdi.model.faults import Fault, SensorFault, fault_matrices
+from geomfdi.model.faults import Fault, SensorFault, bind_faults, fault_matrices
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.build import FD_GAIN_TOL, build_least_order, check_angles, weak_targets
 from geomfdi.synthesis.construction import (
@@ -324,7 +324,7 @@ def design_residual_generator(
         )
     # --- end exact ---
     plant = _coerce_plant(plant)
-    faults = _coerce_faults(faults)
+    faults = bind_faults(plant, _coerce_faults(faults))
     method = _check_method(method)
     minimal = as_bool(minimal, "minimal")
     filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
@@ -524,7 +524,7 @@ def design_bank(
         )
     # --- end exact ---
     plant = _coerce_plant(plant)
-    faults = _coerce_faults(faults)
+    faults = bind_faults(plant, _coerce_faults(faults))
     method = _check_method(method)
     minimal = as_bool(minimal, "minimal")
     filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
@@ -677,6 +677,7 @@ def design_bank(
         [any(cols[j]) and all(cols[j] != cols[i] for i in range(nf) if i != j) for j in range(nf)]
     )
     info.update(margin=mg, plant_scale=omega)
+    info["signals"] = plant.signal_info()  # names and operating point for deployment
     info["total_order"] = sum(g.order for g in gens if g is not None)
     info["closest_gaps"] = [None if g is None else g.info.get("closest_gap") for g in gens]
     if common_poles:
@@ -729,7 +730,7 @@ def design_sensor_bank(
         )
     # --- end exact ---
     plant = _coerce_plant(plant)
-    faults = [SensorFault(i) for i in range(plant.q)]
+    faults = bind_faults(plant, [SensorFault(i) for i in range(plant.q)])
     return design_bank(
         plant,
         faults,

@@ -3,10 +3,12 @@
 Both generators (C and Python) emit exactly the per-sample algorithm of
 :class:`geomfdi.Monitor` (see :mod:`geomfdi.deployment.online`):
 
-1. ``z = [y; u]``; if an entry is not finite or beyond ``SAMPLE_LIMIT`` (``1e150``) in
-   magnitude, or if the update of step 3 overflows, the sample is *missing*: residuals
-   ``nan``, a raw alarm pattern of zeros enters the persistence window, the state is not
-   advanced and the next valid sample restarts the generators (``restart`` rule);
+1. ``z = [y; u]`` (minus the operating point ``[y_op; u_op]`` of a bank designed at one:
+   the code takes physical values); if an entry is not finite or beyond ``SAMPLE_LIMIT``
+   (``1e150``) in magnitude, or if the update of step 3 overflows, the sample is
+   *missing*: residuals ``nan``, a raw alarm pattern of zeros enters the persistence
+   window, the state is not advanced and the next valid sample restarts the generators
+   (``restart`` rule);
 2. at the first valid sample of a segment ``xi = S z`` (steady), ``-J z`` (zero) or
    ``w0 - J z`` (explicit ``w0``);
 3. ``c = C xi + D z``, ``xi <- A xi + B z``; residual of row ``i`` = ``c[a]`` or
@@ -41,7 +43,7 @@ import numpy as np
 
 from geomfdi.errors import GeomFDIError, NotDiscreteError
 
-__all__ = ["CodeSpec", "code_spec", "check_name", "check_out_dir"]
+__all__ = ["CodeSpec", "code_spec", "check_name", "check_out_dir", "signal_macros"]
 
 
 @dataclass(frozen=True)
@@ -69,6 +71,10 @@ class CodeSpec:
     initial: str  # "zero", "steady" or "explicit"
     restart: str
     orders: tuple[int, ...]  # generator orders (existing generators, in row order)
+    z_op: np.ndarray | None = None  # operating point [y_op; u_op] subtracted from z (physical)
+    outputs: tuple[str, ...] = ()  # signal names (the plant's), in channel order
+    inputs: tuple[str, ...] = ()
+    faults: tuple[str, ...] = ()  # fault names, in structure-column order
 
     @property
     def nw(self) -> int:
@@ -173,7 +179,10 @@ def code_spec(
             "bank.discretize(dt)",
             argument="monitor",
         )
+    from geomfdi.model.signals import bank_signals
+
     p = mon.program
+    sig = bank_signals(mon.bank)
     thr = np.full(p.n_rows, np.inf) if mon.thresholds is None else mon.thresholds
     init = mon.initial
     return CodeSpec(
@@ -198,4 +207,26 @@ def code_spec(
         initial=init if isinstance(init, str) else "explicit",
         restart=mon._restart,
         orders=tuple(g.order for g in mon.bank.generators if g is not None),
+        z_op=sig["z_op"] if np.any(sig["z_op"] != 0) else None,
+        outputs=tuple(sig["outputs"]),
+        inputs=tuple(sig["inputs"]),
+        faults=tuple(str(getattr(f, "name", f)) for f in mon.bank.faults),
     )
+
+
+def signal_macros(spec: CodeSpec) -> list[tuple[str, int]]:
+    """``(identifier, index)`` of every output (``Y_``), input (``U_``) and fault (``F_``)
+    by its name, sanitised to an identifier (:func:`geomfdi.model.signals.c_identifier`);
+    a repeated identifier gets the index appended."""
+    from geomfdi.model.signals import c_identifier
+
+    out: list[tuple[str, int]] = []
+    seen: set[str] = set()
+    for prefix, names in (("Y", spec.outputs), ("U", spec.inputs), ("F", spec.faults)):
+        for i, name in enumerate(names):
+            ident = f"{prefix}_{c_identifier(name).upper()}"
+            if ident in seen:
+                ident = f"{ident}_{i}"
+            seen.add(ident)
+            out.append((ident, i))
+    return out
