@@ -48,7 +48,7 @@ class Fault:
         Reference size of the fault signal, in its own units (e.g. the smallest fault to
         be detected): strength verdicts ("weak") compare the residual's responses to
         faults of these sizes, so they do not depend on units.  Default (``None``): the
-        size whose largest effect on the measurements over frequency is 1
+        sizes that balance the faults' peak effects on the measurements over frequency
         (:func:`geomfdi.synthesis.strength.reference_sizes`).
     """
 
