@@ -36,6 +36,10 @@ runs every case also with the geomfdi of another checkout (e.g. the version befo
 chunked simulation) and prints the ratio of its time to this checkout's.  Both calls
 process their time axis in chunks sized from ``gf.limits`` ``chunk_memory``.
 
+``--acceptance`` prints only the throughput ratios of ``benchmarks/_throughput.py`` (a
+short record of a 12-state plant and a bank of 120 generator states against
+``forced_response``; ``simulate_batch`` against a loop of ``simulate``).
+
 Run ``python benchmarks/bench_simulation.py`` (``--quick`` for a smoke run, ``--full`` to
 time ``forced_response`` at every size instead of extrapolating, ``--memory`` for the
 memory cases, ``--samples``/``--runs`` to size them).
@@ -443,6 +447,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--quick", action="store_true", help="small smoke run")
     ap.add_argument("--full", action="store_true", help="time forced_response at every size")
     ap.add_argument("--memory", action="store_true", help="measure peak memory instead")
+    ap.add_argument(
+        "--acceptance",
+        action="store_true",
+        help="only the throughput ratios: short record vs forced_response, batch vs loop",
+    )
     ap.add_argument("--samples", type=float, default=1e7, help="memory: one record's length")
     ap.add_argument("--batch-samples", type=float, default=1e6, help="memory: run length")
     ap.add_argument("--runs", type=int, default=100, help="memory: batch runs")
@@ -455,6 +464,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
         return memory(
             int(args.samples), int(args.batch_samples), args.runs, args.trace_runs, args.baseline
         )
+    if args.acceptance:
+        from _throughput import acceptance
+
+        return [acceptance(quick=args.quick)]
     if args.quick:
         kw = dict(
             sizes=(10**3, 10**4),

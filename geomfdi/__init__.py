@@ -178,6 +178,7 @@ _register(
     "apply_faults",
 )
 _register("geomfdi.simulation.simulate", "simulate")
+_register("geomfdi.synthesis.approximate.estimation", "design_fault_estimator")
 _register(
     "geomfdi.synthesis.design", "design_bank", "design_residual_generator", "design_sensor_bank"
 )
@@ -397,6 +398,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         apply_faults,
     )  # noqa: F401
     from geomfdi.simulation.simulate import simulate  # noqa: F401
+    from geomfdi.synthesis.approximate.estimation import design_fault_estimator  # noqa: F401
     from geomfdi.synthesis.design import design_bank, design_residual_generator, design_sensor_bank  # noqa: F401
     from geomfdi.generators.exact import (
         ExactResidualBank,

@@ -65,7 +65,7 @@ def test_gap_of_a_bank_matches_an_independent_sweep(dt, unstable):
     plant = _plant(dt, unstable=unstable)
     faults = [gf.SensorFault(i) for i in range(3)]
     S = np.array([[0, 1, 1], [1, 0, 1], [1, 1, 0]], dtype=bool)
-    bank = gf.design_bank(plant, faults, S)
+    bank = gf.design_bank(plant, faults, S, objective="decoupling")
     res = gf.fault_to_noise_gap(bank, plant)
     assert res.missing == []
     sigs = [f.signatures(plant.n, plant.q) for f in faults]
@@ -86,7 +86,7 @@ def test_gap_frequencies_and_band_and_no_noise():
     plant = _plant(0.0)
     faults = [gf.SensorFault(i) for i in range(3)]
     S = np.array([[0, 1, 1], [1, 0, 1], [1, 1, 0]], dtype=bool)
-    bank = gf.design_bank(plant, faults, S)
+    bank = gf.design_bank(plant, faults, S, objective="decoupling")
     w = np.array([0.0, 0.3, 2.0])
     res = gf.fault_to_noise_gap(bank, plant, frequencies=w)
     full = gf.fault_to_noise_gap(bank, plant)
@@ -130,7 +130,7 @@ def test_gap_threshold_energy_and_peak_bounds_hold_in_simulation():
     plant = _plant(0.0)
     faults = [gf.SensorFault(i) for i in range(3)]
     S = np.array([[0, 1, 1], [1, 0, 1], [1, 1, 0]], dtype=bool)
-    bank = gf.design_bank(plant, faults, S)
+    bank = gf.design_bank(plant, faults, S, objective="decoupling")
     res = gf.fault_to_noise_gap(bank, plant, peak=True)
     delta = 0.2
     en = gf.gap_threshold(res, delta)

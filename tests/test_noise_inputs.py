@@ -18,7 +18,7 @@ C = [[1.0, 0.0], [0.0, 1.0]]
 
 def _bank(plant):
     faults = [gf.SensorFault(0), gf.SensorFault(1)]
-    return gf.design_bank(plant, faults, [[1, 0], [0, 1]])
+    return gf.design_bank(plant, faults, [[1, 0], [0, 1]], objective="decoupling")
 
 
 def test_plant_noise_inputs_shapes_and_defaults():

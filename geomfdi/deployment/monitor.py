@@ -65,6 +65,13 @@ class Monitor:
         Compute the isolation decision per sample.
     initial : {"steady", "zero"} or array_like
         Generator state at the first sample, as in :func:`geomfdi.evaluate`.
+    backend : {"numpy", "c"}
+        ``"c"``: step and feed the generated C code of :func:`geomfdi.codegen.c`,
+        compiled once with the system's C compiler and cached
+        (:mod:`geomfdi.deployment.compiled`); the same decisions, residuals to rounding.
+        Falls back to ``"numpy"`` with a :class:`RuntimeWarning` for a continuous bank
+        or without a working compiler (:attr:`backend` says which one runs).  The C
+        state is kept in C: :attr:`state` and :meth:`save` need the numpy backend.
 
     Examples
     --------
@@ -84,7 +91,12 @@ class Monitor:
         persistence: Any = None,
         isolation: bool = True,
         initial: Any = "steady",
+        backend: str = "numpy",
     ) -> None:
+        from geomfdi._validation import as_choice
+        from geomfdi.deployment.compiled import BACKENDS
+
+        self.backend = as_choice(backend, "backend", BACKENDS)
         self.bank = as_bank(bank)
         self.program = build_program(self.bank, dt)
         self.dt = self.program.dt
@@ -117,6 +129,14 @@ class Monitor:
         )
         self._step = make_step(*args)
         self._feed = make_feed(*args)
+        if self.backend == "c":
+            from geomfdi.deployment.compiled import compiled_paths
+
+            paths = compiled_paths(self)
+            if paths is None:
+                self.backend = "numpy"
+            else:
+                self._step, self._feed = paths
 
     def step(self, y: Any, u: Any = None) -> MonitorStep:
         """One sample ``y`` (q,), ``u`` (m,): residual per bank row, confirmed alarms and
@@ -169,10 +189,14 @@ class Monitor:
         (``ring``), the held pattern of the alarm episode (``held``, 0/1 per row), the
         samples since its last confirmed alarm (``quiet``), the pattern decisions of the
         last ``n - 1`` samples (``decisions``) and the samples seen."""
+        if self.backend != "numpy":
+            raise GeomFDIError("state: kept in C with backend='c'", argument="backend")
         return state_dict(self._state, self.program)
 
     @state.setter
     def state(self, value: dict[str, Any]) -> None:
+        if self.backend != "numpy":
+            raise GeomFDIError("state: kept in C with backend='c'", argument="backend")
         set_state(self._state, self.program, self.persistence, value)
 
     def save(self, path: str | Path) -> Path:

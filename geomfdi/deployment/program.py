@@ -284,7 +284,27 @@ def _finite_maps(maps: LiftedMaps) -> bool:
     return all(np.isfinite(a).all() for a in parts)
 
 
+_LIFTED_FORMS: dict[tuple, tuple[np.ndarray, LiftedMaps]] = {}
+
+
 def _lifted_form(
+    A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, gens: list[ResidualGenerator]
+) -> tuple[np.ndarray, LiftedMaps]:
+    """:func:`_lifted_form_of`, cached by the matrices: evaluating or monitoring the same
+    bank again (short records) reuses its Schur basis and lifted maps (never written)."""
+    key = (tuple(g.order for g in gens),) + tuple(
+        (a.shape, np.ascontiguousarray(a).tobytes()) for a in (A, B, C, D)
+    )
+    hit = _LIFTED_FORMS.get(key)
+    if hit is None:
+        hit = _lifted_form_of(A, B, C, D, gens)
+        if len(_LIFTED_FORMS) >= 32:
+            _LIFTED_FORMS.clear()
+        _LIFTED_FORMS[key] = hit
+    return hit
+
+
+def _lifted_form_of(
     A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, gens: list[ResidualGenerator]
 ) -> tuple[np.ndarray, LiftedMaps]:
     """Schur basis of the block-diagonal ``A`` (one generator block at a time) and the

@@ -103,6 +103,14 @@ class ResidualGenerator:
         return self.dt > 0
 
     @property
+    def gap(self) -> float | None:
+        """Fault-to-noise gap ``β/γ`` of an approximate design (``info["gap"]``, measured on
+        the design model; ``inf`` when the noise is decoupled exactly), ``None`` for a design
+        that did not consider noise."""
+        value = self.info.get("gap")
+        return None if value is None else float(value)
+
+    @property
     def poles(self) -> np.ndarray:
         """Eigenvalues of ``F``."""
         return np.linalg.eigvals(self.F) if self.order else np.zeros(0, dtype=complex)

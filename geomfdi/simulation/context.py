@@ -14,13 +14,13 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 
 from geomfdi._validation import as_bool, as_choice, as_matrix, as_real_array
 from geomfdi.errors import GeomFDIError, NonFiniteError, ShapeError
 from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.discretization import HOLDS, Discretization, discretize, uniform_step
+from geomfdi.simulation.initial_state import state_scaling
 from geomfdi.simulation.noise import Noise
 from geomfdi.simulation.schedule import FaultSchedule, input_channels
 
@@ -50,8 +50,8 @@ def balanced_generator(g: ResidualGenerator) -> tuple[ResidualGenerator, np.ndar
     """
     if g.order == 0:
         return g, np.ones(0)
-    _, (e, _) = scipy.linalg.matrix_balance(g.F, permute=False, separate=True)
-    e = np.asarray(e, dtype=float)
+    # the scaling depends on F only, cached: repeated simulations of a bank balance once
+    e = state_scaling(np.asarray(g.F, dtype=float))
     if np.all(e == 1.0):
         return g, e
     gb = replace(
@@ -401,8 +401,7 @@ def plant_scaling(plant: Plant) -> np.ndarray | None:
     """Diagonal state scaling that balances ``A`` (``None`` when already balanced)."""
     if plant.n == 0:
         return None
-    _, (xs, _) = scipy.linalg.matrix_balance(plant.A, permute=False, separate=True)
-    xs = np.asarray(xs, dtype=float)
+    xs = state_scaling(np.asarray(plant.A, dtype=float))  # cached by the matrix
     return None if np.all(xs == 1.0) else xs
 
 

@@ -86,6 +86,22 @@ def discretize(A: Any, B: Any, dt: float, hold: str = "foh") -> Discretization:
     A = np.asarray(A, dtype=float)
     B = np.asarray(B, dtype=float).reshape(A.shape[0], -1)
     hold = _check_hold(hold)
+    key = (A.shape, B.shape, A.tobytes(), B.tobytes(), float(dt), hold)
+    hit = _RECENT.get(key)
+    if hit is None:  # the same model on the same grid (repeated simulations): once
+        hit = _discretize(A, B, dt, hold)
+        for a in (hit.Ad, hit.B0, hit.B1):
+            a.setflags(write=False)
+        if len(_RECENT) >= 64:
+            _RECENT.clear()
+        _RECENT[key] = hit
+    return hit
+
+
+_RECENT: dict[tuple, Discretization] = {}
+
+
+def _discretize(A: np.ndarray, B: np.ndarray, dt: float, hold: str) -> Discretization:
     n, m = B.shape
     if hold == "zoh":
         Mz = np.zeros((n + m, n + m))

@@ -179,15 +179,21 @@ def _as_slice(idx: np.ndarray) -> slice | np.ndarray:
 
 
 def _real_product(Mat: np.ndarray, arr: np.ndarray) -> np.ndarray:
-    """``Re(Mat @ arr)`` without forming the complex product."""
+    """``Re(Mat @ arr)`` without forming the complex product: one real product of
+    ``[Re Mat, -Im Mat]`` with ``[Re arr; Im arr]`` (contiguous operands: the strided
+    real and imaginary views would miss the BLAS)."""
     if np.iscomplexobj(arr):
-        return Mat.real @ arr.real - Mat.imag @ arr.imag
+        if not np.iscomplexobj(Mat):
+            return Mat @ np.ascontiguousarray(arr.real)
+        W = np.concatenate([Mat.real, -Mat.imag], axis=-1)
+        return W @ np.concatenate([arr.real, arr.imag], axis=-2)
     return Mat.real @ arr
 
 
 _CACHE_ENTRIES = 64
 _MODAL: dict[Any, Any] = {}
 _LIFTED: dict[Any, Any] = {}
+_BLOCKS: dict[Any, Any] = {}  # block-diagonal modal bases (the final state's coordinates)
 
 
 def _digest(arrays: list[np.ndarray]) -> bytes:
@@ -595,7 +601,7 @@ def block_recursion(
         return res
     if N == 0:
         return res, np.array(np.broadcast_to(x0, (nS, R)), dtype=float)
-    Zb = scipy.linalg.block_diag(*Zs) if Zs else np.zeros((0, 0))
+    Zb = _cached(_BLOCKS, mkey, lambda: scipy.linalg.block_diag(*Zs) if Zs else np.zeros((0, 0)))
     return res, np.ascontiguousarray(_real_product(Zb, last))
 
 

@@ -14,6 +14,9 @@ state of the next), so the memory is proportional to the chunk, not to the recor
 
 from __future__ import annotations
 
+import warnings
+from typing import Any
+
 import numpy as np
 import scipy.linalg
 
@@ -24,7 +27,7 @@ from geomfdi.simulation.initial_state import (
     joint_sylvester,
     start_error,
 )
-from geomfdi.simulation.lifting import Drive, block_recursion
+from geomfdi.simulation.lifting import Drive, _digest, block_recursion
 from geomfdi.simulation.signals import (
     BiasFault,
     SensorFaultSignal,
@@ -78,7 +81,7 @@ class OpenLoopEngine:
         Dy0 = np.hstack([p.D, p.Dd, ctx.Dwp if ctx.Dwp is not None else np.zeros((q, nwp))])
         Cu = -K
         Du = np.hstack([np.eye(m), np.zeros((m, nd + nwp))])
-        self.ne = ne = m + nd + nwp
+        self.ne = m + nd + nwp
         self.foh = foh = ctx.hold == "foh" and not ctx.discrete
         noisy = ctx.Lv is not None
         self.Cy0, self.Dy0, self.Cu, self.Du = Cy0, Dy0, Cu, Du
@@ -100,99 +103,50 @@ class OpenLoopEngine:
         self.holds: list[dict[int, np.ndarray]] = [{} for _ in fault_lists]
         gens = [(k, g) for k, g in enumerate(ctx.view.generators) if g is not None]
         self.gens = gens
-        offs = np.cumsum([0] + [g.order for _, g in gens])
-        Sig_all = np.vstack([-g.E @ Cy0 + g.G @ Cu for _, g in gens])
-        E_all = np.vstack([g.E for _, g in gens])
-        x0T = np.ascontiguousarray(x0.T)
-        # ---- Pi with F Pi - Pi A_X = -Sigma per generator: the consistent start w = Pi x,
-        # and (when every generator has one) the change of state w~ = w - Pi x that removes
-        # the coupling to the plant state from the generators' equations
-        Pis = joint_sylvester([g.F for _, g in gens], A_X, Sig_all)
-        w0s = {}
-        for j, ((k, g), o0, o1) in enumerate(zip(gens, offs[:-1], offs[1:], strict=True)):
-            w0s[k] = np.zeros((g.order, 1))
-            if ctx.consistent:
-                N_out = -g.H @ Cy0 + g.K @ Cu
-                Pis[j] = consistent_start(k, g.F, A_X, Sig_all[o0:o1], g.M, N_out, ctx.info, Pis[j])
-                if Pis[j] is not None:
-                    w0s[k] = Pis[j] @ x0T
-            ctx.info.setdefault("w0", {})[k] = np.array(w0s[k][:, 0])
-        known = ctx.info.get("init_residual", {}) if ctx.consistent else {}
-        decoupled = not ctx.discrete and all(
-            Pi is not None
-            and (
-                known[k]
-                if k in known
-                else start_error(g.F, A_X, Sig_all[o0:o1], g.M, -g.H @ Cy0 + g.K @ Cu, Pi)
-            )
-            <= EXACT_TOL
-            for Pi, (k, g), o0, o1 in zip(Pis, gens, offs[:-1], offs[1:], strict=True)
+        # ---- sensors read through their own drive channels (module docstring)
+        self.sens = (list(range(q)) if noisy else self.touched) if not ctx.discrete else []
+        chan = self._gain_channels(chunk) if self.sens else []
+        # ---- the bank's matrices: they depend on the models and the time grid only, so
+        # repeated simulations of the same bank (short records, Monte-Carlo loops) reuse
+        # them (the warnings and info entries of the set-up are replayed)
+        mats = [A_X, B_X, Cy0, Dy0, Cu, Du, dis.Ad]
+        mats += [x for _, g in gens for x in (g.F, g.E, g.G, g.M, g.H, g.K)]
+        key = (
+            _digest(mats),
+            tuple(k for k, _ in gens),
+            ctx.discrete,
+            ctx.consistent,
+            ctx.keep_states,
+            ctx.hold,
+            float(ctx.step),
+            tuple(self.sens),
+            tuple(chan),
         )
-        self.decoupled = decoupled
-        # ---- the drive matrix of the bank (the drive signals are formed chunk by chunk,
-        # in the same order, in advance())
-        chan: list[int] = []
-        self.sens: list[int] = []
-        if ctx.discrete:
-            # exact: w[k+1] = F w[k] - E y[k] + G u[k] with the measured samples
-            W_all = np.hstack([-E_all, np.vstack([g.G for _, g in gens])])
-            Fd = {k: g.F for k, g in gens}
-            self.chan_mats: list[tuple[int, np.ndarray, np.ndarray, np.ndarray | None]] = []
-        else:
-            # y_i = delta_i y0c_i + rho_i over each interval (module docstring)
-            sens = list(range(q)) if noisy else self.touched
-            self.sens = sens
-            chan = self._gain_channels(chunk) if sens else []
-            Gam_all = np.vstack([-g.E @ Dy0 + g.G @ Du for _, g in gens])
-            nwt = int(offs[-1])
-            F_all = scipy.linalg.block_diag(*[g.F for _, g in gens])
-            Ac = np.zeros((n + nwt, n + nwt))
-            Ac[:n, :n] = A_X
-            Ac[n:, :n] = Sig_all
-            Ac[n:, n:] = F_all
-            if decoupled:
-                # w~' = F w~ + (Gamma - Pi B_X) e - E rho: the plant state drops out (exact)
-                Pi_all = np.vstack(Pis)
-                dc = ctx.discretize(F_all, np.hstack([Gam_all - Pi_all @ B_X, -E_all]))
-                r0, cols = 0, []
-            else:  # one matrix exponential of the plant and the whole bank
-                dc = ctx.discretize(Ac, np.block([[B_X, np.zeros((n, q))], [Gam_all, -E_all]]))
-                r0, cols = n, [dc.Ad[n:, :n]]
-            cols.append(dc.B0[r0:, :ne])
-            if foh:
-                cols.append(dc.B1[r0:, :ne])
-            if sens:
-                cols.append(dc.B0[r0:, [ne + i for i in sens]])
-                if foh:
-                    cols.append(dc.B1[r0:, [ne + i for i in sens]])
-            for i in chan:  # exact coupling of a gain-faulty sensor: one more exponential each
-                Aci = Ac.copy()
-                Aci[n:, :n] = -E_all[:, i : i + 1] @ Cy0[i : i + 1]
-                Bci = np.vstack([B_X, -E_all[:, i : i + 1] @ Dy0[i : i + 1]])
-                di = ctx.discretize(Aci, Bci)
-                cols += [di.Ad[n:, :n], di.B0[n:]] + ([di.B1[n:]] if foh else [])
-            W_all = np.hstack(cols)
-            Fd = {
-                k: dc.Ad[r0 + o0 : r0 + o1, r0 + o0 : r0 + o1]
-                for (k, _), o0, o1 in zip(gens, offs[:-1], offs[1:], strict=True)
-            }
+        setup = _SETUPS.get(key)
+        if setup is None:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                setup = _bank_setup(ctx, gens, A_X, B_X, Cy0, Dy0, Cu, Du, self.sens, chan)
+            setup["warnings"] = [(w.message, w.category) for w in caught]
+            if len(_SETUPS) >= _SETUP_ENTRIES:
+                _SETUPS.clear()
+            _SETUPS[key] = setup
+        for message, category in setup["warnings"]:
+            warnings.warn(message, category, stacklevel=4)
+        for name, entries in setup["info"].items():
+            ctx.info.setdefault(name, {}).update(entries)
+        Pis = list(setup["Pis"])
+        x0T = np.ascontiguousarray(x0.T)
+        for (k, g), Pi in zip(gens, Pis, strict=True):
+            w0 = Pi @ x0T if ctx.consistent and Pi is not None else np.zeros((g.order, 1))
+            ctx.info.setdefault("w0", {})[k] = np.array(w0[:, 0])
+        self.decoupled = decoupled = setup["decoupled"]
         self.chan = chan
-        self.W_all = W_all
-        self.Fd = [Fd[k] for k, _ in gens]
+        self.W_all = setup["W_all"]
+        self.Fd = setup["Fd"]
+        self.outs, self.dmats = setup["outs"], setup["dmats"]
         ctx.info["channels"] = chan
         ctx.info["plant_state_decoupled"] = decoupled
-        # residual rows are written in place, with the direct feedthrough -H y + K u (and
-        # M Pi x, w = w~ + Pi x, for decoupled states) added chunk by chunk
-        self.outs, self.dmats = [], []
-        for (_, g), Pi in zip(gens, Pis, strict=True):
-            Dm = np.hstack([-g.H, g.K] + ([g.M @ Pi] if decoupled else []))
-            if ctx.keep_states:
-                Dw = np.hstack([np.zeros((g.order, q + m)), Pi]) if decoupled else None
-                self.outs.append([g.M, np.eye(g.order)])
-                self.dmats.append([Dm, Dw])
-            else:
-                self.outs.append([g.M])
-                self.dmats.append([Dm])
         self.Pis = Pis
         self.use_pi = [ctx.consistent and Pi is not None for Pi in Pis]
         self.restart(x0, runs)
@@ -330,15 +284,11 @@ class OpenLoopEngine:
             e[m + p.nd :] = wp
         foh = self.foh
         dX = [Drive(e), Drive(e, 1)] if foh else [Drive(e)]
-        ((X, y0c, u),) = block_recursion(
-            [self.dis.Ad],
-            self.WX,
-            dX,
-            self.x,
-            [[np.eye(n), self.Cy0, self.Cu]],
-            L,
-            direct=([e], [[None, self.Dy0, self.Du]]),
-        )
+        # the state only; the readings and inputs from it by two plain products (cheaper
+        # than lifting them: fewer lifted outputs per state)
+        ((X,),) = block_recursion([self.dis.Ad], self.WX, dX, self.x, [[np.eye(n)]], L)
+        y0c = _affine(self.Cy0, X, self.Dy0, e)
+        u = _affine(self.Cu, X, self.Du, e)
         self.x = np.ascontiguousarray(X[:, :, -1])
         y0n = y0c + v if v is not None else y0c
         # ---- sensor faults on the readings, vectorised (only the sensors they touch)
@@ -403,3 +353,124 @@ class OpenLoopEngine:
             if ctx.keep_states:
                 ws[k] = rk[1]
         return Piece(s, X, y, y0n, u, vectors, ws)
+
+
+def _affine(Cm: np.ndarray, X: np.ndarray, Dm: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """``Cm X + Dm e`` for state-major ``X`` (n, R, L) and ``e`` (ne, R | 1, L)."""
+    n, R, L = X.shape
+    out = (Cm @ X.reshape(n, R * L)).reshape(Cm.shape[0], R, L)
+    if Dm.size and np.any(Dm):
+        ne, Re, _ = e.shape
+        out += (Dm @ e.reshape(ne, Re * L)).reshape(Dm.shape[0], Re, L)
+    return out
+
+
+_SETUPS: dict[Any, dict[str, Any]] = {}
+_SETUP_ENTRIES = 32
+
+
+def _bank_setup(
+    ctx: Context,
+    gens: list[tuple[int, Any]],
+    A_X: np.ndarray,
+    B_X: np.ndarray,
+    Cy0: np.ndarray,
+    Dy0: np.ndarray,
+    Cu: np.ndarray,
+    Du: np.ndarray,
+    sens: list[int],
+    chan: list[int],
+) -> dict[str, Any]:
+    """The bank's part of :class:`OpenLoopEngine`, independent of the initial state.
+
+    ``Pi`` per generator (``F Pi - Pi A_X = -Sigma``: the consistent start ``w = Pi x``
+    and, when every generator has an exact one, the change of state ``w~ = w - Pi x``
+    that removes the plant state from the generators' equations), the discretised
+    drive matrix ``W_all`` of the bank in the order of the drive signals formed by
+    :meth:`OpenLoopEngine.advance`, the generators' transition blocks ``Fd``, their
+    outputs and feedthroughs; ``info`` holds the start-up diagnostics per generator.
+    """
+    p = ctx.plant
+    n, m, q = p.n, p.m, p.q
+    ne = m + p.nd + ctx.nwp
+    foh = ctx.hold == "foh" and not ctx.discrete
+    info: dict[str, dict[int, Any]] = {}
+    offs = np.cumsum([0] + [g.order for _, g in gens])
+    Sig_all = np.vstack([-g.E @ Cy0 + g.G @ Cu for _, g in gens])
+    E_all = np.vstack([g.E for _, g in gens])
+    Pis = joint_sylvester([g.F for _, g in gens], A_X, Sig_all)
+    for j, ((k, g), o0, o1) in enumerate(zip(gens, offs[:-1], offs[1:], strict=True)):
+        if ctx.consistent:
+            N_out = -g.H @ Cy0 + g.K @ Cu
+            Pis[j] = consistent_start(k, g.F, A_X, Sig_all[o0:o1], g.M, N_out, info, Pis[j])
+    known = info.get("init_residual", {}) if ctx.consistent else {}
+    decoupled = not ctx.discrete and all(
+        Pi is not None
+        and (
+            known[k]
+            if k in known
+            else start_error(g.F, A_X, Sig_all[o0:o1], g.M, -g.H @ Cy0 + g.K @ Cu, Pi)
+        )
+        <= EXACT_TOL
+        for Pi, (k, g), o0, o1 in zip(Pis, gens, offs[:-1], offs[1:], strict=True)
+    )
+    if ctx.discrete:
+        # exact: w[k+1] = F w[k] - E y[k] + G u[k] with the measured samples
+        W_all = np.hstack([-E_all, np.vstack([g.G for _, g in gens])])
+        Fd = {k: g.F for k, g in gens}
+    else:
+        # y_i = delta_i y0c_i + rho_i over each interval (module docstring)
+        Gam_all = np.vstack([-g.E @ Dy0 + g.G @ Du for _, g in gens])
+        nwt = int(offs[-1])
+        F_all = scipy.linalg.block_diag(*[g.F for _, g in gens])
+        Ac = np.zeros((n + nwt, n + nwt))
+        Ac[:n, :n] = A_X
+        Ac[n:, :n] = Sig_all
+        Ac[n:, n:] = F_all
+        if decoupled:
+            # w~' = F w~ + (Gamma - Pi B_X) e - E rho: the plant state drops out (exact)
+            Pi_all = np.vstack(Pis)
+            dc = ctx.discretize(F_all, np.hstack([Gam_all - Pi_all @ B_X, -E_all]))
+            r0, cols = 0, []
+        else:  # one matrix exponential of the plant and the whole bank
+            dc = ctx.discretize(Ac, np.block([[B_X, np.zeros((n, q))], [Gam_all, -E_all]]))
+            r0, cols = n, [dc.Ad[n:, :n]]
+        cols.append(dc.B0[r0:, :ne])
+        if foh:
+            cols.append(dc.B1[r0:, :ne])
+        if sens:
+            cols.append(dc.B0[r0:, [ne + i for i in sens]])
+            if foh:
+                cols.append(dc.B1[r0:, [ne + i for i in sens]])
+        for i in chan:  # exact coupling of a gain-faulty sensor: one more exponential each
+            Aci = Ac.copy()
+            Aci[n:, :n] = -E_all[:, i : i + 1] @ Cy0[i : i + 1]
+            Bci = np.vstack([B_X, -E_all[:, i : i + 1] @ Dy0[i : i + 1]])
+            di = ctx.discretize(Aci, Bci)
+            cols += [di.Ad[n:, :n], di.B0[n:]] + ([di.B1[n:]] if foh else [])
+        W_all = np.hstack(cols)
+        Fd = {
+            k: dc.Ad[r0 + o0 : r0 + o1, r0 + o0 : r0 + o1]
+            for (k, _), o0, o1 in zip(gens, offs[:-1], offs[1:], strict=True)
+        }
+    # residual rows are written in place, with the direct feedthrough -H y + K u (and
+    # M Pi x, w = w~ + Pi x, for decoupled states) added chunk by chunk
+    outs, dmats = [], []
+    for (_, g), Pi in zip(gens, Pis, strict=True):
+        Dm = np.hstack([-g.H, g.K] + ([g.M @ Pi] if decoupled else []))
+        if ctx.keep_states:
+            Dw = np.hstack([np.zeros((g.order, q + m)), Pi]) if decoupled else None
+            outs.append([g.M, np.eye(g.order)])
+            dmats.append([Dm, Dw])
+        else:
+            outs.append([g.M])
+            dmats.append([Dm])
+    return {
+        "Pis": Pis,
+        "decoupled": decoupled,
+        "W_all": W_all,
+        "Fd": [Fd[k] for k, _ in gens],
+        "outs": outs,
+        "dmats": dmats,
+        "info": info,
+    }

@@ -153,6 +153,8 @@ def structure_columns(
     fault on input ``i`` an ``ActuatorFault(B[:, i])``, an ``AdditiveFault(f)`` the design
     fault ``f`` itself (or any fault with its signature).
     """
+    if not faults:  # nothing to match: the design signatures are not needed
+        return []
     designs = []
     for df in design_faults:
         try:

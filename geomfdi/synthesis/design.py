@@ -57,6 +57,8 @@ from geomfdi.synthesis.construction import (
 from geomfdi.synthesis.least_order.poles import plant_scale
 from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
 from geomfdi.synthesis.rank_decisions import attach, close_note, record_design, summarise
+from geomfdi.synthesis.row_notes import check_strength as _check_strength
+from geomfdi.synthesis.row_notes import row_notes
 from geomfdi.synthesis.sensor_transforms import default_filter_pole, pseudo_actuator_model
 
 __all__ = [
@@ -76,18 +78,6 @@ def _check_method(method: Any) -> str:
             f"method: must be one of {list(METHODS)}, got {method!r:.40}", argument="method"
         )
     return str(method)
-
-
-STRENGTHS = ("strong", "weak")
-
-
-def _check_strength(strength: Any) -> str:
-    if not isinstance(strength, str) or strength not in STRENGTHS:
-        raise DesignError(
-            f"strength: must be one of {list(STRENGTHS)}, got {strength!r:.40}",
-            argument="strength",
-        )
-    return str(strength)
 
 
 def _design_row(
@@ -201,6 +191,9 @@ def design_residual_generator(
     residual_dim: int | None = None,
     exact: bool = False,
     strength: str = "strong",
+    objective: str | None = None,
+    regularization: float | None = None,
+    models: Sequence[Plant] | None = None,
 ) -> ResidualGenerator:
     """Design one residual generator that sees ``target`` and ignores ``decouple``.
 
@@ -257,6 +250,22 @@ def design_residual_generator(
         :class:`~geomfdi.generators.exact.ExactResidualGenerator`; see
         :func:`geomfdi.synthesis.exact.design.design_bank_exact` (``margin`` and
         ``minimal`` do not apply).
+    objective : {"decoupling", "gap"}, optional
+        ``"decoupling"``: the exact design above (every unknown input decoupled).
+        ``"gap"``: the approximate design (Varga 2017, §5.3): ``u``, ``d`` and the
+        ``decouple`` faults decoupled exactly, the fault-to-noise gap ``β/γ`` over the noise
+        inputs ``w`` of the plant (``Bw``, ``Dw``) maximised; ``residual_dim`` is then the
+        number of rows (default: the whole decoupling basis, the optimal gap) and the gap,
+        β and γ are in ``g.info`` (:mod:`geomfdi.synthesis.approximate`; user guide,
+        *Approximate synthesis*).  Default: ``"gap"`` when the plant has noise inputs
+        (``plant.nw > 0``) and ``method="exact"``, ``exact=False``, else ``"decoupling"``.
+    regularization : float, optional
+        ``objective="gap"``: ``ε`` (relative to the noise channel's H∞ norm) of the
+        regularised factorisation used when the noise channel is non-standard (zeros at
+        infinity or on the stability boundary); default ``1e-2`` there, unused otherwise.
+    models : list of Plant, optional
+        ``objective="gap"``: design over several models (same dimensions); see
+        :func:`design_bank`.
 
     Returns
     -------
@@ -301,6 +310,19 @@ def design_residual_generator(
     (2, [1, 1])
     """
     strength = _check_strength(strength)
+    if _objective(objective, plant, models, exact, method) == "gap":
+        from geomfdi.synthesis.approximate.bank import gap_residual_generator
+
+        return gap_residual_generator(
+            _coerce_plant(plant),
+            _coerce_faults(faults),
+            target,
+            decouple=decouple,
+            poles=None if poles is None else checked_poles(poles),
+            residual_dim=None if residual_dim is None else check_residual_dim(residual_dim),
+            regularization=regularization,
+            models=models,
+        )
     rdim = check_residual_dim(residual_dim)
     if rdim > 1 and (exact or method != "exact"):
         raise DesignError(
@@ -368,6 +390,39 @@ def design_residual_generator(
     if "target_strength" not in g.info and rdim == 1 and "dc_gain" in g.info:
         g.info["weak_targets"] = weak_targets(g, plant, sigs, factor, omega, tgt)
     return g
+
+
+OBJECTIVES = ("decoupling", "gap")
+
+
+def _objective(
+    objective: Any, plant: Any, models: Any = None, exact: bool = False, method: Any = "exact"
+) -> str:
+    """``objective`` checked; ``None``: ``"gap"`` for a plant with noise inputs (unless an
+    exact-decoupling construction was asked for: ``exact=True`` or another ``method``)."""
+    if objective is None:
+        if exact is True or method != "exact":
+            return "decoupling"
+        nw = getattr(plant, "nw", 0)
+        if models is not None:
+            return "gap"
+        return "gap" if isinstance(nw, int) and nw > 0 else "decoupling"
+    if not isinstance(objective, str) or objective not in OBJECTIVES:
+        raise DesignError(
+            f"objective: must be one of {list(OBJECTIVES)}, got {objective!r:.40}",
+            argument="objective",
+        )
+    if objective == "gap" and (exact is True or method != "exact"):
+        raise DesignError(
+            "method: objective='gap' builds on the least-order decoupling basis "
+            f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
+            argument="method",
+        )
+    if objective == "decoupling" and models is not None:
+        raise DesignError(
+            "models: several models are designed for with objective='gap'", argument="models"
+        )
+    return objective
 
 
 def _row_poles(poles: Any, rows: int) -> list[Any]:
@@ -454,6 +509,9 @@ def design_bank(
     residual_dim: int | Sequence[int] | None = None,
     exact: bool = False,
     strength: str = "strong",
+    objective: str | None = None,
+    regularization: float | None = None,
+    models: Sequence[Plant] | None = None,
 ) -> ResidualBank:
     """Design one residual generator per row of a structure matrix.
 
@@ -485,6 +543,20 @@ def design_bank(
         Exact / parametric design: returns an
         :class:`~geomfdi.generators.exact.ExactResidualBank` (see
         :func:`geomfdi.synthesis.exact.design.design_bank_exact`).
+    objective, regularization
+        As in :func:`design_residual_generator`: with ``"gap"`` (default for a plant with
+        noise inputs) every row is an approximate FDI row (Varga 2017, §5.5): it decouples
+        the faults of its structure row exactly and maximises its gap;
+        ``bank.info["gaps"]`` lists the gap per row.
+    models : list of Plant, optional
+        Several models of the same dimensions (operating points, parameter corners);
+        ``plant`` is the nominal one (put first in the family when it is not in the
+        list).  Exact decoupling is used where it holds on every model; otherwise each row
+        maximises its worst-case gap
+        over the models, the leaking inputs counting as noise
+        (:mod:`geomfdi.synthesis.approximate.multimodel`).  ``g.info["model_gaps"]`` (and
+        ``bank.info["model_gaps"]``) hold the gap per model of the family, and
+        ``"nominal_model_gaps"`` those of the gap design on the nominal plant alone.
 
     Returns
     -------
@@ -502,6 +574,20 @@ def design_bank(
         has where it was taken).
     """
     strength = _check_strength(strength)
+    if _objective(objective, plant, models, exact, method) == "gap":
+        from geomfdi.synthesis.approximate.bank import gap_bank
+
+        bank = gap_bank(
+            _coerce_plant(plant),
+            _coerce_faults(faults),
+            structure,
+            poles=poles,
+            residual_dim=residual_dim,
+            regularization=regularization,
+            models=models,
+        )
+        _warn_inseparable(bank.requested, bank.faults)
+        return bank
     dims_given = np.atleast_1d(np.asarray(residual_dim, dtype=object)).tolist()
     if exact and any(v is not None and v != 1 for v in dims_given):
         raise DesignError(
@@ -621,54 +707,11 @@ def design_bank(
         gens.append(g)
         close = attach(g, rec, f"row {r}")
         achieved[r] = g.info["fault_gain"] > LEAK_TOL
-        gain = g.info["fault_gain"]
         weak = g.info.get("weak_targets")
         if weak is None:
             weak = weak_targets(g, plant, sigs, factor, omega, tgt)
         leaks = [j for j in dec if achieved[r, j]]
-        notes = []
-        if weak:
-            dc = g.info["dc_gain"]
-            zero = [j for j in weak if dc[j] <= 1e-8 * max(gain[j], 1e-300)]
-            small = [j for j in weak if j not in zero]
-            if zero:
-                notes.append("weak: zero DC gain from fault " + ", ".join(map(str, zero)))
-            if small:
-                notes.append(
-                    "weak: DC gain from fault "
-                    + ", ".join(map(str, small))
-                    + f" below {FD_GAIN_TOL:g} of the residual's largest fault gain (faults at"
-                    " their reference sizes)"
-                )
-        if leaks and method == "paper":
-            dc = g.info["dc_gain"]
-            kind = (
-                "zero DC gain: decoupled in steady state only"
-                if all(np.isfinite(dc[j]) and dc[j] <= 1e-8 * max(gain[j], 1e-300) for j in leaks)
-                else "non-zero DC gain"
-            )
-            notes.append(f"leaks faults {leaks} on the physical model ({kind})")
-        elif leaks:
-            worst = float(max(gain[j] for j in leaks))
-            notes.append(
-                f"ill-conditioned: faults {leaks} leak at relative gain up to {worst:.2g} "
-                "(the decoupling is exact in theory; rounding is amplified by the design)"
-            )
-        if "fallback" in g.info:
-            notes.append(f"not least order: {g.info['fallback']}")
-        cert = g.info.get("least_order")
-        if (  # above the least order for numerical reasons (a raise for strength is "ok")
-            isinstance(cert, dict)
-            and "raised_from" not in cert
-            and cert.get("delivered_order", g.order) != cert.get("order")
-        ):
-            notes.append(f"not least order: {cert.get('statement', '')}")
-        if isinstance(cert, dict) and "raised_from" in cert:
-            notes.append(
-                f"raised for strength: order {g.order} delivered, the least-order row (order "
-                f"{cert['raised_from']}) sees faults {cert.get('weak_at_least', [])} weakly "
-                "(strength='weak' gives it)"
-            )
+        notes = row_notes(g, weak, leaks, method)
         if close:
             notes.append(close)
         diags.append("; ".join(notes) if notes else "ok")

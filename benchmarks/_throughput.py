@@ -1,0 +1,138 @@
+"""Throughput cases of ``bench_simulation.py --acceptance``: ratios measured in one run.
+
+* ``short``: ``gf.simulate`` of a short record (10^4 samples) of a 12-state plant with a
+  bank of 10 generators of order 12 (120 generator states), against
+  ``control.forced_response`` of the plant in series with ``bank.to_statespace()`` (the
+  way a python-control user simulates a residual bank: inputs ``u``, outputs ``r``).
+* ``batch``: ``gf.simulate_batch`` of ``runs`` Monte-Carlo runs (measurement noise, a
+  bias fault, state feedback, the bank of 10 of ``bench_simulation.make_bank``) against
+  a loop of ``gf.simulate`` calls with the same seeds.
+
+Baseline and candidate are timed alternately, each the best of ``repeat`` CPU times
+(``time.process_time``), so that a load change on a shared machine hits both.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+import geomfdi as gf
+
+
+def twelve_state_case(nb: int = 10, n: int = 12, m: int = 3, seed: int = 1):
+    """A stable 12-state plant with 12 sensors and ``nb`` random generators of order 12.
+
+    Each generator picks a stable symmetric ``F``, ``P`` (n x n) and ``M`` (1 x n), then
+    ``E = (F P - P A) C^-1``, ``G = P B``, ``H = M P C^-1`` (``F P = P A + E C``,
+    ``M P = H C``: zero residual on healthy data).
+    """
+    rng = np.random.default_rng(seed)
+    Q = np.linalg.qr(rng.standard_normal((n, n)))[0]
+    A = Q @ np.diag(-rng.uniform(0.2, 3.0, n)) @ Q.T + 0.3 * rng.standard_normal((n, n))
+    B = rng.standard_normal((n, m))
+    C = np.eye(n) + 0.1 * rng.standard_normal((n, n))
+    Ci = np.linalg.inv(C)
+    gens = []
+    for _ in range(nb):
+        Qj = np.linalg.qr(rng.standard_normal((n, n)))[0]
+        F = Qj @ np.diag(-rng.uniform(0.5, 5.0, n)) @ Qj.T
+        P = rng.standard_normal((n, n))
+        M = rng.standard_normal((1, n))
+        E = (F @ P - P @ A) @ Ci
+        gens.append(gf.ResidualGenerator(F, E, P @ B, M, M @ P @ Ci, np.zeros((1, m))))
+    S = np.zeros((nb, n), dtype=bool)
+    faults = [gf.SensorFault(i) for i in range(n)]
+    bank = gf.ResidualBank(gens, S, S, np.zeros(n, bool), ["ok"] * nb, faults)
+    return gf.Plant(A, B, C), bank
+
+
+def _best(fns, repeat):
+    """Best CPU time of each function, the functions called alternately."""
+    best = [np.inf] * len(fns)
+    for _ in range(repeat):
+        for i, fn in enumerate(fns):
+            t0 = time.process_time()
+            fn()
+            best[i] = min(best[i], time.process_time() - t0)
+    return best
+
+
+def short_vs_forced_response(N: int = 10**4, repeat: int = 5) -> dict:
+    import control
+
+    plant, bank = twelve_state_case()
+    n, m = plant.n, plant.m
+    t = np.arange(N) * 1e-3
+    u = np.vstack([np.sin(0.5 * t), np.cos(0.3 * t), 0.2 * np.ones_like(t)])
+    aug = control.ss(
+        plant.A,
+        plant.B,
+        np.vstack([plant.C, np.zeros((m, n))]),
+        np.vstack([0 * plant.B, np.eye(m)]),
+    )
+    sysc = control.series(aug, bank.to_statespace())
+    rf = np.atleast_2d(control.forced_response(sysc, t, u).outputs)
+    rg = gf.simulate(plant, bank, t, u).residuals
+    tf, tg = _best(
+        [lambda: control.forced_response(sysc, t, u), lambda: gf.simulate(plant, bank, t, u)],
+        repeat,
+    )
+    return {"forced_response": tf, "simulate": tg, "max_diff": float(np.max(np.abs(rf - rg)))}
+
+
+def batch_vs_loop(runs: int = 100, N: int = 10**5, repeat: int = 2) -> dict:
+    from bench_simulation import A, B, C, K, bias, inputs, make_bank
+
+    bank, plant = make_bank(10), gf.Plant(A, B, C)
+    t = np.arange(N) * 1e-3
+    tf = float(t[int(0.4 * N)])
+    v, _ = inputs(t, tf)
+    kw = dict(
+        faults=[gf.BiasFault(0, start=tf, bias=bias(tf))],
+        controller=K,
+        x0=np.array([0.5, -0.3, 0.2]),
+        threshold=0.01,
+    )
+    noise = gf.Noise(measurement=2e-4, seed=1)
+    out = {}
+
+    def batch():
+        out["batch"] = gf.simulate_batch(
+            plant, bank, t, v, runs=runs, noise=noise, progress=False, **kw
+        )
+
+    def loop():
+        seeds = out["batch"].seeds
+        out["loop"] = [
+            gf.simulate(plant, bank, t, v, noise=gf.Noise(measurement=2e-4, seed=s), **kw)
+            for s in seeds
+        ]
+
+    batch()
+    tb, tl = _best([batch, loop], repeat)
+    diff = max(
+        float(np.max(np.abs(r.residuals - out["batch"].residuals[i])))
+        for i, r in enumerate(out["loop"])
+    )
+    return {"batch": tb, "loop": tl, "max_diff": diff}
+
+
+def acceptance(quick: bool = False) -> dict:
+    """Print the ratios of both cases; returns them."""
+    s = short_vs_forced_response(N=10**4, repeat=3 if quick else 5)
+    print(
+        f"short record, 1e4 samples, 12-state plant, bank of 10 x order 12: "
+        f"forced_response {s['forced_response'] * 1e3:.1f} ms, gf.simulate "
+        f"{s['simulate'] * 1e3:.1f} ms, ratio {s['forced_response'] / s['simulate']:.1f} "
+        f"(max |dr| {s['max_diff']:.1e})"
+    )
+    runs, N = (10, 10**4) if quick else (100, 10**5)
+    b = batch_vs_loop(runs=runs, N=N, repeat=1 if quick else 2)
+    print(
+        f"batch, {runs} runs x {N} samples, bank of 10, noise: loop of gf.simulate "
+        f"{b['loop']:.2f} s, gf.simulate_batch {b['batch']:.2f} s, ratio "
+        f"{b['loop'] / b['batch']:.2f} (max |dr| {b['max_diff']:.1e})"
+    )
+    return {"short": s, "batch": b}

@@ -1,0 +1,131 @@
+"""``gf.Monitor`` per sample: numpy against the compiled backend (``backend="c"``).
+
+Banks: ``make_bank(nb)`` of ``bench_simulation.py`` (the three Hou, Wen & Chen (2011)
+generators plus random third-order ones) sampled at 1 ms, a bank of 10 (24 generator
+states) and one of 12 (30 states).  Per bank:
+
+* ``step``: one ``Monitor.step(y, u)`` call from Python (numpy, C through ``ctypes``);
+* ``feed``: ``Monitor.feed`` of 10^5 samples, per sample (numpy: the lifted recursion;
+  C: one ``name_run`` call for the whole chunk);
+* ``C run``: the generated ``name_run`` called directly on prepared arrays, per sample
+  (the generated C step alone, no Python).
+
+CPU times (``time.process_time``), best of ``--repeat``; numpy and C timed alternately.
+Run ``python benchmarks/bench_monitor.py`` (``--quick`` for a smoke run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_simulation import make_bank  # noqa: E402
+
+import geomfdi as gf  # noqa: E402
+
+
+def _best(fns, repeat):
+    best = [np.inf] * len(fns)
+    for _ in range(repeat):
+        for i, fn in enumerate(fns):
+            t0 = time.process_time()
+            fn()
+            best[i] = min(best[i], time.process_time() - t0)
+    return best
+
+
+def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
+    from geomfdi.deployment import compiled
+
+    bank = make_bank(nb).discretize(1e-3)
+    rng = np.random.default_rng(0)
+    Y = 0.02 * rng.standard_normal((3, L))
+    U = rng.standard_normal((3, L))
+    Y[0, L // 2 :] += 0.1
+    thr = 0.05
+    mn = gf.Monitor(bank, threshold=thr, persistence=3)
+    mc = gf.Monitor(bank, threshold=thr, persistence=3, backend="c")
+    if mc.backend != "c":
+        raise SystemExit("no C compiler: the compiled backend is not available")
+    ys = [Y[:, k].copy() for k in range(steps)]
+    us = [U[:, k].copy() for k in range(steps)]
+
+    def stepper(mon):
+        def run():
+            step = mon.step
+            for k in range(steps):
+                step(ys[k], us[k])
+
+        return run
+
+    from geomfdi.deployment.codegen._spec import code_spec
+    from geomfdi.deployment.codegen.c import c_source
+
+    dll = compiled._load(compiled.build_library(*c_source(code_spec(mc), "gfmon")))
+    state = ctypes.create_string_buffer(int(dll.gfmon_state_size()))
+    Yt, Ut = np.ascontiguousarray(Y.T), np.ascontiguousarray(U.T)
+    R = np.empty((L, nb))
+    A = np.empty((L, nb), dtype=np.intc)
+    iso = np.empty(L, dtype=np.intc)
+
+    def raw():
+        dll.gfmon_init(state)
+        dll.gfmon_run(
+            state, L, Yt.ctypes.data, Ut.ctypes.data, R.ctypes.data, A.ctypes.data, iso.ctypes.data
+        )
+
+    sn, sc, fn, fc, rc = _best(
+        [stepper(mn), stepper(mc), lambda: mn.feed(Y, U), lambda: mc.feed(Y, U), raw], repeat
+    )
+    out = mc.feed(Y, U)
+    mn.reset()
+    ref = mn.feed(Y, U)
+    mc.reset()
+    out = mc.feed(Y, U)
+    same = bool(
+        np.array_equal(ref.alarms, out.alarms) and np.array_equal(ref.isolated, out.isolated)
+    )
+    return {
+        "bank": nb,
+        "states": mn.program.nw,
+        "step_numpy_us": sn / steps * 1e6,
+        "step_c_us": sc / steps * 1e6,
+        "feed_numpy_ns": fn / L * 1e9,
+        "feed_c_ns": fc / L * 1e9,
+        "c_run_ns": rc / L * 1e9,
+        "decisions_equal": same,
+    }
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="small smoke run")
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args(argv)
+    steps, L = (2000, 20000) if args.quick else (20000, 100000)
+    rows = [bench_bank(nb, steps, L, args.repeat) for nb in (10, 12)]
+    print(
+        f"{'bank':>5} {'states':>6} {'step numpy us':>14} {'step C us':>10} "
+        f"{'feed numpy ns':>14} {'feed C ns':>10} {'C run ns':>9} {'same decisions':>15}"
+    )
+    for r in rows:
+        print(
+            f"{r['bank']:>5} {r['states']:>6} {r['step_numpy_us']:>14.2f} {r['step_c_us']:>10.2f} "
+            f"{r['feed_numpy_ns']:>14.0f} {r['feed_c_ns']:>10.0f} {r['c_run_ns']:>9.0f} "
+            f"{str(r['decisions_equal']):>15}"
+        )
+    return rows
+
+
+if __name__ == "__main__":
+    from _threads import run_thread_modes
+
+    run_thread_modes(main)

@@ -1,0 +1,211 @@
+"""The compiled online path of :class:`geomfdi.Monitor` (``backend="c"``).
+
+The C99 code of :func:`geomfdi.codegen.c` (the same algorithm as the numpy monitor:
+fused generator recursion, start-up and missing-sample rules, thresholds, k-of-n
+persistence, isolation) is compiled once into a shared library with the system's C
+compiler (``$CC``, else ``cc``), cached under a hash of the source, compiler and flags
+in the cache directory (``$GEOMFDI_CACHE_DIR``, else ``$XDG_CACHE_HOME/geomfdi/c`` or
+``~/.cache/geomfdi/c``), and loaded with :mod:`ctypes`.
+
+:meth:`Monitor.step` is then one call of ``name_step`` on preallocated buffers, and
+:meth:`Monitor.feed` one call of ``name_run`` over the whole chunk (the per-sample cost
+is then the generated C step alone; a single ``step`` call from Python pays the
+``ctypes`` call overhead, about a microsecond).  The generated code needs a discrete
+bank; for a continuous bank, or when no compiler works, :func:`compiled_paths` returns
+``None`` and the monitor keeps its numpy path with a warning.  See the user guide,
+*Performance* (``docs/guide/performance.md``).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from geomfdi.errors import GeomFDIError, ShapeError
+
+__all__ = ["BACKENDS", "cache_dir", "compiled_paths", "build_library"]
+
+BACKENDS = ("numpy", "c")
+_NAME = "gfmon"
+_FLAGS = ("-O3", "-std=c99", "-shared", "-fPIC")  # -O3: unrolled fixed loops, same IEEE results
+_LOADED: dict[str, ctypes.CDLL] = {}  # library path -> loaded library (one per process)
+
+
+def cache_dir() -> Path:
+    """Directory of the compiled monitors (created on first use)."""
+    env = os.environ.get("GEOMFDI_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "geomfdi" / "c"
+
+
+def _compiler() -> str | None:
+    cc = os.environ.get("CC", "cc")
+    return shutil.which(cc)
+
+
+def build_library(header: str, source: str) -> Path:
+    """Compile ``name.h`` / ``name.c`` texts into a shared library, cached by hash.
+
+    Parameters
+    ----------
+    header, source : str
+        The texts of :func:`geomfdi.deployment.codegen.c.c_source` (prefix ``gfmon``).
+
+    Returns
+    -------
+    Path
+        The library ``gfmon_<hash>.so`` in :func:`cache_dir` (built only when missing).
+
+    Raises
+    ------
+    GeomFDIError
+        No C compiler, or the compiler failed (its message attached).
+    """
+    cc = _compiler()
+    if cc is None:
+        raise GeomFDIError("backend: no C compiler found ($CC or cc)", argument="backend")
+    key = hashlib.sha256("\0".join([header, source, cc, *_FLAGS]).encode()).hexdigest()[:24]
+    out_dir = cache_dir()
+    lib = out_dir / f"{_NAME}_{key}.so"
+    if lib.exists():
+        return lib
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=out_dir) as tmp:
+        (Path(tmp) / f"{_NAME}.h").write_text(header, encoding="utf-8")
+        (Path(tmp) / f"{_NAME}.c").write_text(source, encoding="utf-8")
+        part = Path(tmp) / "lib.so"
+        cmd = [cc, *_FLAGS, "-o", str(part), str(Path(tmp) / f"{_NAME}.c"), "-lm"]
+        try:
+            done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+        except (OSError, subprocess.TimeoutExpired) as exc:
+            raise GeomFDIError(
+                f"backend: the C compiler failed: {exc}", argument="backend"
+            ) from exc
+        if done.returncode != 0:
+            raise GeomFDIError(
+                f"backend: the C compiler failed: {done.stderr.strip()[:500]}",
+                argument="backend",
+            )
+        os.replace(part, lib)  # atomic: concurrent builds of the same source agree
+    return lib
+
+
+def _load(path: Path) -> ctypes.CDLL:
+    key = str(path)
+    if key not in _LOADED:
+        dll = ctypes.CDLL(key)
+        vp, dp, ip = ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p
+        dll.gfmon_init.argtypes, dll.gfmon_init.restype = [vp], None
+        dll.gfmon_step.argtypes, dll.gfmon_step.restype = [vp, dp, dp, dp, ip], ctypes.c_int
+        dll.gfmon_run.argtypes = [vp, ctypes.c_long, dp, dp, dp, ip, ip]
+        dll.gfmon_run.restype = None
+        dll.gfmon_state_size.argtypes, dll.gfmon_state_size.restype = [], ctypes.c_ulong
+        _LOADED[key] = dll
+    return _LOADED[key]
+
+
+def compiled_paths(monitor: Any) -> tuple[Any, Any] | None:
+    """``(step, feed)`` of ``monitor`` running its generated C code, or ``None``.
+
+    ``None`` (with a :class:`RuntimeWarning` saying why) when the bank is continuous
+    (the generated code is for discrete banks) or no C compiler works; the caller then
+    keeps the numpy path.  The returned functions keep their own C state, started as
+    ``monitor.reset()`` starts the numpy one; they return the same
+    :class:`~geomfdi.deployment.online.MonitorStep` / ``MonitorOutput`` as the numpy
+    path, the decisions equal (the residuals to rounding: the C loops sum in another
+    order).
+    """
+    from geomfdi.deployment.codegen._spec import code_spec
+    from geomfdi.deployment.codegen.c import c_source
+
+    if monitor.bank.dt <= 0:
+        warnings.warn(
+            "backend='c': the generated code needs a discrete bank (build the monitor on "
+            "bank.discretize(dt)); using the numpy path",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        return None
+    try:
+        header, source = c_source(code_spec(monitor), _NAME)
+        dll = _load(build_library(header, source))
+    except (GeomFDIError, OSError) as exc:
+        warnings.warn(f"{exc}; using the numpy path", RuntimeWarning, stacklevel=3)
+        return None
+    return _bind(dll, monitor)
+
+
+def _bind(dll: ctypes.CDLL, monitor: Any) -> tuple[Any, Any]:
+    from geomfdi.deployment.online import MonitorOutput, MonitorStep, _chunk
+
+    prog = monitor.program
+    q, m, rows = prog.q, prog.m, prog.n_rows
+    state = ctypes.create_string_buffer(int(dll.gfmon_state_size()))
+    sp = ctypes.cast(state, ctypes.c_void_p)
+    dll.gfmon_init(sp)
+    ybuf, ubuf = np.zeros(max(q, 1)), np.zeros(max(m, 1))
+    rbuf, abuf = np.zeros(max(rows, 1)), np.zeros(max(rows, 1), dtype=np.intc)
+    # the step through its own function object without argtypes, called with prepared
+    # pointer objects: no per-call argument conversion
+    c_step = dll["gfmon_step"]
+    c_step.restype = ctypes.c_int
+    ptrs = (sp, *(ctypes.c_void_p(b.ctypes.data) for b in (ybuf, ubuf, rbuf, abuf)))
+    c_run = dll.gfmon_run
+    isolation = monitor.isolation
+    thr = monitor.thresholds
+    thr_col = None if thr is None else np.where(np.isfinite(thr), thr, np.inf)[:, None]
+
+    def step(y: Any, u: Any = None) -> MonitorStep:
+        try:
+            ybuf[:q] = y
+            if m:
+                if u is None:
+                    raise ShapeError(f"u: the bank reads {m} inputs; pass u", argument="u")
+                ubuf[:m] = u
+        except (ValueError, TypeError) as exc:
+            if isinstance(exc, ShapeError):
+                raise
+            raise ShapeError(
+                f"y, u: expected {q} outputs and {m} inputs ({exc})", argument="y"
+            ) from exc
+        iso = c_step(*ptrs)
+        return MonitorStep(rbuf[:rows].copy(), abuf[:rows].astype(bool), iso if isolation else None)
+
+    def feed(Y: Any, U: Any = None) -> MonitorOutput:
+        Y = _chunk(Y, q, "Y")
+        L = Y.shape[1]
+        if U is None:
+            if m:
+                raise ShapeError(f"U: the bank reads {m} inputs; pass U", argument="U")
+            U = np.zeros((0, L))
+        U = _chunk(U, m, "U", L)
+        Yt = np.ascontiguousarray(Y.T, dtype=float)
+        Ut = np.ascontiguousarray(U.T, dtype=float) if m else np.zeros((L, 1))
+        R = np.empty((L, max(rows, 1)))
+        A = np.empty((L, max(rows, 1)), dtype=np.intc)
+        iso = np.empty(max(L, 1), dtype=np.intc)
+        if L:
+            c_run(
+                sp, L, Yt.ctypes.data, Ut.ctypes.data, R.ctypes.data, A.ctypes.data, iso.ctypes.data
+            )
+        res = R[:, :rows].T  # (rows, L) views of the sample-major C arrays
+        with np.errstate(invalid="ignore"):
+            raw = np.zeros(res.shape, dtype=bool) if thr_col is None else np.abs(res) > thr_col
+        masked = ~(np.isfinite(Y).all(axis=0) & np.isfinite(U).all(axis=0))
+        alarms = A[:, :rows].T != 0
+        isolated = iso[:L].astype(np.int64) if isolation else None
+        return MonitorOutput(res, raw, alarms, isolated, masked)
+
+    step.state_buffer = feed.state_buffer = state  # type: ignore[attr-defined]  # kept alive
+    return step, feed

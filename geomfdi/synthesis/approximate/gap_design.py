@@ -1,0 +1,344 @@
+"""Approximate fault detection (AFD) synthesis: the fault-to-noise gap maximised.
+
+Varga, *Solving Fault Diagnosis Problems*, 2017, §5.3 (AFDP) and Procedure AFD (§7):
+
+1. ``Q1``: the exact decoupling basis of ``u``, ``d`` and the non-target faults
+   (:func:`~geomfdi.synthesis.approximate.nullspace.decoupling_basis`, ``ρ`` rows).
+   If some combination also decouples the noise and still sees every target, the problem
+   is solved exactly (gap ``∞``).
+2. ``R_w = Q1 [G_w; 0]`` and ``R_f = Q1 [G_f; 0]``.
+3. ``R_w = R_wo R_wi`` (quasi-co-outer–co-inner,
+   :func:`~geomfdi.synthesis.approximate.factorization.co_outer_factor`).
+4. ``Q = M R_wo⁻¹ Q1``: ``γ = ‖M R_wi‖∞ = 1`` for ``M`` with orthonormal rows, and
+   ``β = min_j ‖M R_wo⁻¹ R_fj‖∞``.  With ``M = I`` (all ``ρ`` rows) the gap is the optimum
+   ``min_j ‖R_wo⁻¹ R_fj‖∞``; fewer rows (``residual_dim``) choose the orthonormal ``M``
+   that maximises ``β`` on a frequency grid (singular directions, then a local search).
+5. A minimal realisation; β, γ and the gap measured on the plant by H∞ norms.
+
+See *Theory: approximate synthesis* (``docs/theory/approximate-synthesis.md``).
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import numpy as np
+import scipy.optimize as sopt
+
+from geomfdi.errors import DesignError, NotIsolableError
+from geomfdi.generators.generator import ResidualGenerator
+from geomfdi.generators.realization import minimal_realization
+from geomfdi.model.faults import Fault, fault_matrices
+from geomfdi.model.plant import Plant
+from geomfdi.synthesis.approximate.factorization import co_outer_factor
+from geomfdi.synthesis.approximate.measure import gap_numbers, hinf
+from geomfdi.synthesis.approximate.nullspace import (
+    channel,
+    decoupling_basis,
+    frequency_grid,
+    transfer_on_grid,
+)
+from geomfdi.tolerance import CloseRankWarning
+
+__all__ = ["gap_design", "series", "choose_rows", "finish"]
+
+
+def series(g: ResidualGenerator, Ai, Bi, Ci, Di) -> ResidualGenerator:
+    """``(Ai, Bi, Ci, Di) · g``: a filter applied to the residual of ``g``.
+
+    ``η' = Ai η + Bi r1``, ``r = Ci η + Di r1`` with ``r1 = M ξ − H y + K u``.
+    """
+    n1, n2 = g.order, Ai.shape[0]
+    F = np.block([[g.F, np.zeros((n1, n2))], [Bi @ g.M, Ai]])
+    E = np.vstack([g.E, Bi @ g.H])
+    G = np.vstack([g.G, Bi @ g.K])
+    M = np.hstack([Di @ g.M, Ci])
+    return ResidualGenerator(
+        F, E, G, M, Di @ g.H, Di @ g.K, dt=g.dt, target=g.target, decoupled=g.decoupled
+    )
+
+
+def whiten(
+    Q1: ResidualGenerator,
+    A: np.ndarray,
+    Bw: np.ndarray,
+    C: np.ndarray,
+    Dw: np.ndarray,
+    Rw: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    dt: float,
+    scale: float,
+    regularization: float | None,
+) -> tuple[ResidualGenerator, Any]:
+    """``R_wo⁻¹ Q1`` and the factor, of the order of ``Q1`` where possible.
+
+    In the error coordinates of ``Q1`` (:func:`~geomfdi.synthesis.approximate.nullspace.channel`)
+    the noise channel shares ``Q1``'s ``(F, M)``: ``R_w = (F, B_w', M, D_w')``.  The factor
+    then has the form ``R_wo = (I + M (λI − F)⁻¹ K) R̃^{1/2}`` and
+
+        R_wo⁻¹ Q1 = R̃^{-1/2} [M (λI − F + K M)⁻¹ (B1 − K D1) + D1]
+
+    (``B1 = [−E, G]``, ``D1 = [−H, K]``): an observer-like update of ``Q1`` with no new
+    state.  Otherwise (no error coordinates) the series connection ``R_wo⁻¹ · Q1``.
+    """
+    from geomfdi.synthesis.approximate.nullspace import _error_coordinates
+
+    T = _error_coordinates(Q1, A, C)
+    if T is not None and Q1.order:
+        Bwe = -(Q1.E @ Dw + T @ Bw)
+        Dwe = -Q1.H @ Dw
+        try:
+            fac = co_outer_factor(
+                Q1.F, Bwe, Q1.M, Dwe, dt, scale=scale, regularization=regularization
+            )
+        except DesignError:
+            fac = None
+        if fac is not None:  # the factor keeps the given (F, M)
+            K = fac.B @ np.linalg.inv(fac.D)  # R_wo = (F, K R^{1/2}, M, R^{1/2})
+            Rhi = fac.Di
+            Qt = ResidualGenerator(
+                Q1.F - K @ Q1.M,
+                Q1.E - K @ Q1.H,
+                Q1.G - K @ Q1.K,
+                Rhi @ Q1.M,
+                Rhi @ Q1.H,
+                Rhi @ Q1.K,
+                dt=Q1.dt,
+                target=Q1.target,
+                decoupled=Q1.decoupled,
+            )
+            return Qt, fac
+    fac = co_outer_factor(*Rw, dt, scale=scale, regularization=regularization)
+    return series(Q1, fac.Ai, fac.Bi, fac.Ci, fac.Di), fac
+
+
+def _beta_grid(M: np.ndarray, Gf: list[np.ndarray]) -> float:
+    """``min_j max_ω ‖M G_j(ω)‖`` on the grid (``Gf[j]``: (k, ρ, kj))."""
+    if M.shape[0] == 1:  # one row: the spectral norm is the vector norm
+        return min(float(np.max(np.linalg.norm(M[0] @ G, axis=-1))) for G in Gf)
+    return min(float(np.max(np.linalg.norm(M @ G, ord=2, axis=(1, 2)))) for G in Gf)
+
+
+def choose_rows(Gf: list[np.ndarray], rdim: int) -> tuple[np.ndarray, float]:
+    """Orthonormal ``M`` (rdim × ρ) maximising ``min_j max_ω ‖M G_j(ω)‖`` on the grid.
+
+    Candidates: coordinate rows, the leading left singular vectors of every target column
+    at its peak frequency, and their normalised sum; the best one is refined by a
+    Nelder–Mead search over the unit sphere (one row) — a heuristic: the optimum over all
+    ``M`` (``rdim = ρ``, ``M = I``) is exact.
+    """
+    rho = Gf[0].shape[1]
+    if rdim >= rho:
+        return np.eye(rho), _beta_grid(np.eye(rho), Gf)
+    cands = []
+    for i in range(rho - rdim + 1):
+        cands.append(np.eye(rho)[i : i + rdim])
+    dirs = []
+    for G in Gf:
+        k = int(np.argmax(np.linalg.norm(G, ord=2, axis=(1, 2))))
+        U, _, _ = np.linalg.svd(G[k])
+        dirs.append(U[:, 0])
+    D = np.array(dirs)
+    Dr = np.abs(D.real) + np.abs(D.imag)
+    for row in D:
+        v = np.abs(row)
+        cands.append(v[None, :] / np.linalg.norm(v))
+    Dm = np.hstack([D.real.T, D.imag.T]) if np.any(D.imag) else Dr.T
+    U, _, _ = np.linalg.svd(Dm, full_matrices=True)
+    cands.append(U[:, :rdim].T)
+    s = Dr.sum(axis=0)
+    if np.linalg.norm(s) > 0 and rdim == 1:
+        cands.append(s[None, :] / np.linalg.norm(s))
+    cands = [np.linalg.qr(c.T)[0].T for c in cands]
+    vals = [_beta_grid(c, Gf) for c in cands]
+    best = int(np.argmax(vals))
+    M, val = cands[best], vals[best]
+    if rdim == 1:
+
+        def neg(x: np.ndarray) -> float:
+            nx = np.linalg.norm(x)
+            return 0.0 if nx == 0 else -_beta_grid(x[None, :] / nx, Gf)
+
+        res = sopt.minimize(
+            neg, M[0], method="Nelder-Mead", options={"xatol": 1e-6, "maxiter": 400}
+        )
+        if -res.fun > val:
+            M, val = res.x[None, :] / np.linalg.norm(res.x), -res.fun
+    return M, val
+
+
+def finish(g: ResidualGenerator) -> ResidualGenerator:
+    """Minimal realisation of a generator (inputs ``[y; u]``)."""
+    B = np.hstack([-g.E, g.G])
+    D = np.hstack([-g.H, g.K])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CloseRankWarning)
+        mr = minimal_realization(g.F, B, g.M, D)
+    q = g.q
+    return ResidualGenerator(
+        mr.A,
+        -mr.B[:, :q],
+        mr.B[:, q:],
+        mr.C,
+        -mr.D[:, :q],
+        mr.D[:, q:],
+        dt=g.dt,
+        target=g.target,
+        decoupled=g.decoupled,
+        method="gap",
+        info=dict(g.info),
+    )
+
+
+def _exact_noise_decoupling(plant, faults, target, decouple, Bw, Dw, poles):
+    """The exact design with the noise decoupled too, or ``None`` when it cannot see the targets."""
+    from geomfdi.generators.gains import PlantFactor
+    from geomfdi.synthesis.build import build_least_order
+    from geomfdi.synthesis.least_order.search import plant_scale
+
+    if not Bw.shape[1]:
+        return None
+    fl = [*faults, Fault(Bw, Dw, name="noise")]
+    sigs = fault_matrices(fl, plant.n, plant.q)
+    try:
+        g = build_least_order(
+            plant,
+            fl,
+            sigs,
+            tuple(target),
+            (*decouple, len(faults)),
+            poles=poles,
+            omega=plant_scale(plant.A, plant.dt),
+            row="the residual",
+            factor=PlantFactor(plant),
+        )
+    except (NotIsolableError, DesignError):
+        return None
+    g.decoupled = tuple(decouple)
+    return g
+
+
+def gap_design(
+    plant: Plant,
+    faults: list[Fault],
+    sigs: list[tuple[np.ndarray, np.ndarray]],
+    target: tuple[int, ...],
+    decouple: tuple[int, ...],
+    Bw: np.ndarray,
+    Dw: np.ndarray,
+    *,
+    poles: Any = None,
+    residual_dim: int | None = None,
+    regularization: float | None = None,
+    measure: bool = True,
+) -> ResidualGenerator:
+    """One AFD/AFDI row: the generator maximising the fault-to-noise gap (module docstring).
+
+    Returns a :class:`ResidualGenerator` with ``method="gap"`` and ``info`` holding
+    ``gap``, ``beta``, ``gamma`` (measured on the plant), ``fault_norms`` (per target),
+    ``leak_u``, ``leak_d``, ``nullspace_dim`` (``ρ``), ``regularization`` (ε, 0 in the
+    standard case), ``standard`` and ``noise_decoupled`` (the exact case, gap ``inf``).
+    ``measure=False`` skips the H∞ measurement (β, γ, gap and leaks are then absent; the
+    multi-model design measures on every model itself).
+    """
+    A, C, dt = plant.A, plant.C, plant.dt
+    tsigs = [sigs[j] for j in target]
+    g = _exact_noise_decoupling(plant, faults, target, decouple, Bw, Dw, poles)
+    if g is not None:
+        num = gap_numbers(g, A, plant.B, plant.Bd, Bw, C, plant.D, plant.Dd, Dw, tsigs, dt)
+        g.method = "gap"
+        g.info.update(
+            gap=float("inf"),
+            beta=num.beta,
+            gamma=0.0,
+            gamma_measured=num.gamma,
+            fault_norms=num.fault_norms,
+            leak_u=num.leak_u,
+            leak_d=num.leak_d,
+            noise_decoupled=True,
+            regularization=0.0,
+            standard=True,
+        )
+        return g
+    Q1 = decoupling_basis(plant, faults, sigs, target, decouple, poles=poles)
+    rho = Q1.n_outputs
+    rdim = rho if residual_dim is None else int(residual_dim)
+    if rdim < 1 or rdim > rho:
+        raise DesignError(
+            f"residual_dim: must be between 1 and {rho} (the dimension of the decoupling "
+            f"basis), got {residual_dim!r}",
+            argument="residual_dim",
+        )
+    Aw, Bw1, Cw, Dw1 = channel(Q1, A, Bw, C, Dw)
+    scale = hinf(Aw, Bw1, Cw, Dw1, dt)
+    if scale == 0:  # no noise, or none reaches the decoupling basis: the exact design
+        g = finish(
+            ResidualGenerator(
+                Q1.F,
+                Q1.E,
+                Q1.G,
+                Q1.M[:rdim],
+                Q1.H[:rdim],
+                Q1.K[:rdim],
+                dt=dt,
+                target=target,
+                decoupled=decouple,
+            )
+        )
+        num = gap_numbers(g, A, plant.B, plant.Bd, Bw, C, plant.D, plant.Dd, Dw, tsigs, dt)
+        g.info.update(
+            gap=float("inf"),
+            beta=num.beta,
+            gamma=0.0,
+            fault_norms=num.fault_norms,
+            leak_u=num.leak_u,
+            leak_d=num.leak_d,
+            noise_decoupled=True,
+            regularization=0.0,
+            standard=True,
+            nullspace_dim=rho,
+            residual_dim=rdim,
+            poles=g.poles,
+        )
+        return g
+    Qt, fac = whiten(Q1, A, Bw, C, Dw, (Aw, Bw1, Cw, Dw1), dt, scale, regularization)
+    pts = frequency_grid(A, dt)
+    Gf = [transfer_on_grid(*channel(Qt, A, Bf, C, Df), pts) for Bf, Df in tsigs]
+    Mrow, _ = choose_rows(Gf, rdim)
+    gM = ResidualGenerator(
+        Qt.F,
+        Qt.E,
+        Qt.G,
+        Mrow @ Qt.M,
+        Mrow @ Qt.H,
+        Mrow @ Qt.K,
+        dt=dt,
+        target=target,
+        decoupled=decouple,
+    )
+    g = finish(gM)
+    poles_g = g.poles
+    stable = bool(np.all(np.abs(poles_g) < 1)) if dt > 0 else bool(np.all(poles_g.real < 0))
+    if not stable:
+        raise DesignError("plant: the gap design produced an unstable generator", argument="plant")
+    if measure:
+        num = gap_numbers(g, A, plant.B, plant.Bd, Bw, C, plant.D, plant.Dd, Dw, tsigs, dt)
+        g.info.update(
+            gap=num.gap,
+            beta=num.beta,
+            gamma=num.gamma,
+            fault_norms=num.fault_norms,
+            leak_u=num.leak_u,
+            leak_d=num.leak_d,
+        )
+    g.info.update(
+        nullspace_dim=rho,
+        residual_dim=rdim,
+        design_rows=Mrow,
+        regularization=fac.regularization,
+        standard=fac.regularization == 0,
+        noise_decoupled=False,
+        nullspace_order=Q1.order,
+        poles=poles_g,
+    )
+    return g
