@@ -38,7 +38,12 @@ def _objective(
         from geomfdi.synthesis.approximate.bank import check_models
 
         check_models(models, None)
-    as_float(regularization, "regularization", minimum=0.0, allow_none=True)
+    reg = as_float(regularization, "regularization", allow_none=True)
+    if reg is not None and reg < 0:
+        raise DesignError(
+            f"regularization: must be a finite number >= 0, got {reg!r}",
+            argument="regularization",
+        )
     if objective is None:
         if exact is True or method != "exact":
             return "decoupling"
