@@ -25,6 +25,7 @@ import shutil
 import subprocess
 import tempfile
 import warnings
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +38,7 @@ __all__ = ["BACKENDS", "cache_dir", "compiled_paths", "build_library"]
 BACKENDS = ("numpy", "c")
 _NAME = "gfmon"
 _FLAGS = ("-O3", "-std=c99", "-shared", "-fPIC")  # -O3: unrolled fixed loops, same IEEE results
-_LOADED: dict[str, ctypes.CDLL] = {}  # library path -> loaded library (one per process)
+_LOADED: dict[Any, Any] = {}  # library path -> loaded library (one per process)
 
 
 def cache_dir() -> Path:
@@ -101,18 +102,66 @@ def build_library(header: str, source: str) -> Path:
     return lib
 
 
+#: Appended to the generated source for Python: ``y`` and ``u`` from one buffer, the
+#: confirmed alarms as bytes (read as a bool array without a conversion).
+_SHIM = """
+int gfmon_py_step(gfmon_state *s, const double *z, double *r, unsigned char *a)
+{
+    int al[GFMON_NR > 0 ? GFMON_NR : 1], i, iso;
+    iso = gfmon_step(s, z, z + GFMON_NY, r, al);
+    for (i = 0; i < GFMON_NR; ++i) a[i] = (unsigned char)(al[i] != 0);
+    return iso;
+}
+"""
+_CDEF = """
+void gfmon_init(void *s);
+int gfmon_py_step(void *s, const double *z, double *r, unsigned char *a);
+void gfmon_run(void *s, long n, const double *Y, const double *U, double *R, int *A, int *I);
+unsigned long gfmon_state_size(void);
+"""
+_FFI: Any = None
+#: How :meth:`Monitor.step` calls the C step: ``"ctypes"`` (prepared pointer objects, no
+#: argument conversion; the faster one measured) or ``"cffi"`` (ABI mode on buffers
+#: bound once, when cffi is installed; else ctypes).
+STEP_CALLS = "ctypes"
+
+
 def _load(path: Path) -> ctypes.CDLL:
     key = str(path)
     if key not in _LOADED:
         dll = ctypes.CDLL(key)
-        vp, dp, ip = ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p
+        vp = ctypes.c_void_p
         dll.gfmon_init.argtypes, dll.gfmon_init.restype = [vp], None
-        dll.gfmon_step.argtypes, dll.gfmon_step.restype = [vp, dp, dp, dp, ip], ctypes.c_int
-        dll.gfmon_run.argtypes = [vp, ctypes.c_long, dp, dp, dp, ip, ip]
+        dll.gfmon_py_step.argtypes = [vp, vp, vp, vp]
+        dll.gfmon_py_step.restype = ctypes.c_int
+        dll.gfmon_run.argtypes = [vp, ctypes.c_long, vp, vp, vp, vp, vp]
         dll.gfmon_run.restype = None
         dll.gfmon_state_size.argtypes, dll.gfmon_state_size.restype = [], ctypes.c_ulong
         _LOADED[key] = dll
     return _LOADED[key]
+
+
+def _cffi_step(path: Path, state: Any, bufs: tuple[np.ndarray, ...]) -> Any:
+    """``gfmon_py_step`` bound to ``state`` and ``bufs`` through cffi (ABI mode), or
+    ``None`` without cffi: a call then costs a fraction of a ctypes call."""
+    global _FFI
+    try:
+        import cffi
+    except ImportError:  # pragma: no cover - cffi is optional
+        return None
+    if _FFI is None:
+        _FFI = cffi.FFI()
+        _FFI.cdef(_CDEF)
+    key = ("cffi", str(path))
+    if key not in _LOADED:
+        _LOADED[key] = _FFI.dlopen(str(path))  # type: ignore[index]
+    lib = _LOADED[key]  # type: ignore[index]
+    kinds = {np.dtype(float): "double[]", np.dtype(np.uint8): "unsigned char[]"}
+    args = (
+        _FFI.cast("void *", ctypes.addressof(state)),
+        *(_FFI.from_buffer(kinds[b.dtype], b) for b in bufs),
+    )
+    return partial(lib.gfmon_py_step, *args)
 
 
 def compiled_paths(monitor: Any) -> tuple[Any, Any] | None:
@@ -139,14 +188,15 @@ def compiled_paths(monitor: Any) -> tuple[Any, Any] | None:
         return None
     try:
         header, source = c_source(code_spec(monitor), _NAME)
-        dll = _load(build_library(header, source))
+        path = build_library(header, source + _SHIM)
+        dll = _load(path)
     except (GeomFDIError, OSError) as exc:
         warnings.warn(f"{exc}; using the numpy path", RuntimeWarning, stacklevel=3)
         return None
-    return _bind(dll, monitor)
+    return _bind(dll, path, monitor)
 
 
-def _bind(dll: ctypes.CDLL, monitor: Any) -> tuple[Any, Any]:
+def _bind(dll: ctypes.CDLL, path: Path, monitor: Any) -> tuple[Any, Any]:
     from geomfdi.deployment.online import MonitorOutput, MonitorStep, _chunk
 
     prog = monitor.program
@@ -154,13 +204,20 @@ def _bind(dll: ctypes.CDLL, monitor: Any) -> tuple[Any, Any]:
     state = ctypes.create_string_buffer(int(dll.gfmon_state_size()))
     sp = ctypes.cast(state, ctypes.c_void_p)
     dll.gfmon_init(sp)
-    ybuf, ubuf = np.zeros(max(q, 1)), np.zeros(max(m, 1))
-    rbuf, abuf = np.zeros(max(rows, 1)), np.zeros(max(rows, 1), dtype=np.intc)
-    # the step through its own function object without argtypes, called with prepared
-    # pointer objects: no per-call argument conversion
-    c_step = dll["gfmon_step"]
-    c_step.restype = ctypes.c_int
-    ptrs = (sp, *(ctypes.c_void_p(b.ctypes.data) for b in (ybuf, ubuf, rbuf, abuf)))
+    # preallocated buffers, the C step bound to them once: a call converts no argument
+    zbuf = np.zeros(max(q + m, 1))
+    ybuf, ubuf = zbuf[:q], zbuf[q : q + m]
+    rbuf = np.zeros(max(rows, 1))
+    abuf = np.zeros(max(rows, 1), dtype=np.uint8)
+    rview, aview = rbuf[:rows], abuf[:rows].view(bool)
+    call = _cffi_step(path, state, (zbuf, rbuf, abuf)) if STEP_CALLS == "cffi" else None
+    if call is None:
+        ptrs = (sp, *(ctypes.c_void_p(b.ctypes.data) for b in (zbuf, rbuf, abuf)))
+        c_step = dll["gfmon_py_step"]  # its own function object, without argtypes
+        c_step.restype = ctypes.c_int
+        call = partial(c_step, *ptrs)
+    new = tuple.__new__  # MonitorStep without its Python-level __new__
+
     c_run = dll.gfmon_run
     isolation = monitor.isolation
     thr = monitor.thresholds
@@ -168,19 +225,19 @@ def _bind(dll: ctypes.CDLL, monitor: Any) -> tuple[Any, Any]:
 
     def step(y: Any, u: Any = None) -> MonitorStep:
         try:
-            ybuf[:q] = y
+            ybuf[...] = y
             if m:
                 if u is None:
                     raise ShapeError(f"u: the bank reads {m} inputs; pass u", argument="u")
-                ubuf[:m] = u
+                ubuf[...] = u
         except (ValueError, TypeError) as exc:
             if isinstance(exc, ShapeError):
                 raise
             raise ShapeError(
                 f"y, u: expected {q} outputs and {m} inputs ({exc})", argument="y"
             ) from exc
-        iso = c_step(*ptrs)
-        return MonitorStep(rbuf[:rows].copy(), abuf[:rows].astype(bool), iso if isolation else None)
+        iso = call()
+        return new(MonitorStep, (rview.copy(), aview.copy(), iso if isolation else None))
 
     def feed(Y: Any, U: Any = None) -> MonitorOutput:
         Y = _chunk(Y, q, "Y")
