@@ -4,8 +4,8 @@ Banks: ``make_bank(nb)`` of ``bench_simulation.py`` (the three Hou, Wen & Chen (
 generators plus random third-order ones) sampled at 1 ms: banks of 5, 10, 12 and 22
 generators (9, 24, 30 and 60 generator states).  Per bank:
 
-* ``step``: one ``Monitor.step(y, u)`` call from Python (numpy; C called through
-  ``ctypes``, the default, and through ``cffi``);
+* ``step``: one ``Monitor.step(y, u)`` call from Python (numpy; C through the builtin
+  function of the compiled library, the default, and through ``ctypes`` and ``cffi``);
 * ``feed``: ``Monitor.feed`` of 10^5 samples, per sample (numpy: the lifted recursion;
   C: one ``name_run`` call for the whole chunk);
 * ``C run``: the generated ``name_run`` called directly on prepared arrays, per sample
@@ -54,9 +54,11 @@ def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
     thr = 0.05
     mn = gf.Monitor(bank, threshold=thr, persistence=3)
     mc = gf.Monitor(bank, threshold=thr, persistence=3, backend="c")
-    compiled.STEP_CALLS = "cffi"
-    mf = gf.Monitor(bank, threshold=thr, persistence=3, backend="c")
-    compiled.STEP_CALLS = "ctypes"
+    alt = {}
+    for calls in ("ctypes", "cffi"):  # the other ways of calling the C step
+        compiled.STEP_CALLS = calls
+        alt[calls] = gf.Monitor(bank, threshold=thr, persistence=3, backend="c")
+    compiled.STEP_CALLS = "python"
     if mc.backend != "c":
         raise SystemExit("no C compiler: the compiled backend is not available")
     ys = [Y[:, k].copy() for k in range(steps)]
@@ -91,11 +93,12 @@ def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
             state, L, Yt.ctypes.data, Ut.ctypes.data, R.ctypes.data, A.ctypes.data, iso.ctypes.data
         )
 
-    sn, sc, sf, fn, fc, rc = _best(
+    sn, sc, st, sf, fn, fc, rc = _best(
         [
             stepper(mn),
             stepper(mc),
-            stepper(mf),
+            stepper(alt["ctypes"]),
+            stepper(alt["cffi"]),
             lambda: mn.feed(Y, U),
             lambda: mc.feed(Y, U),
             raw,
@@ -115,6 +118,7 @@ def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
         "states": mn.program.nw,
         "step_numpy_us": sn / steps * 1e6,
         "step_c_us": sc / steps * 1e6,
+        "step_ctypes_us": st / steps * 1e6,
         "step_cffi_us": sf / steps * 1e6,
         "feed_numpy_ns": fn / L * 1e9,
         "feed_c_ns": fc / L * 1e9,
@@ -131,13 +135,14 @@ def main(argv: list[str] | None = None) -> list[dict]:
     steps, L = (2000, 20000) if args.quick else (20000, 100000)
     rows = [bench_bank(nb, steps, L, args.repeat) for nb in (5, 10, 12, 22)]
     print(
-        f"{'bank':>5} {'states':>6} {'step numpy us':>14} {'step C us':>10} {'cffi us':>8} "
+        f"{'bank':>5} {'states':>6} {'step numpy us':>14} {'step C us':>10} "
+        f"{'ctypes us':>9} {'cffi us':>8} "
         f"{'feed numpy ns':>14} {'feed C ns':>10} {'C run ns':>9} {'same decisions':>15}"
     )
     for r in rows:
         print(
             f"{r['bank']:>5} {r['states']:>6} {r['step_numpy_us']:>14.2f} {r['step_c_us']:>10.2f} "
-            f"{r['step_cffi_us']:>8.2f} "
+            f"{r['step_ctypes_us']:>9.2f} {r['step_cffi_us']:>8.2f} "
             f"{r['feed_numpy_ns']:>14.0f} {r['feed_c_ns']:>10.0f} {r['c_run_ns']:>9.0f} "
             f"{str(r['decisions_equal']):>15}"
         )

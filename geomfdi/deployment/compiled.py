@@ -55,13 +55,15 @@ def _compiler() -> str | None:
     return shutil.which(cc)
 
 
-def build_library(header: str, source: str) -> Path:
+def build_library(header: str, source: str, flags: tuple[str, ...] = ()) -> Path:
     """Compile ``name.h`` / ``name.c`` texts into a shared library, cached by hash.
 
     Parameters
     ----------
     header, source : str
         The texts of :func:`geomfdi.deployment.codegen.c.c_source` (prefix ``gfmon``).
+    flags : tuple of str
+        More compiler flags (include folders).
 
     Returns
     -------
@@ -76,7 +78,8 @@ def build_library(header: str, source: str) -> Path:
     cc = _compiler()
     if cc is None:
         raise GeomFDIError("backend: no C compiler found ($CC or cc)", argument="backend")
-    key = hashlib.sha256("\0".join([header, source, cc, *_FLAGS]).encode()).hexdigest()[:24]
+    key = hashlib.sha256("\0".join([header, source, cc, *_FLAGS, *flags]).encode())
+    key = key.hexdigest()[:24]
     out_dir = cache_dir()
     lib = out_dir / f"{_NAME}_{key}.so"
     if lib.exists():
@@ -86,7 +89,7 @@ def build_library(header: str, source: str) -> Path:
         (Path(tmp) / f"{_NAME}.h").write_text(header, encoding="utf-8")
         (Path(tmp) / f"{_NAME}.c").write_text(source, encoding="utf-8")
         part = Path(tmp) / "lib.so"
-        cmd = [cc, *_FLAGS, "-o", str(part), str(Path(tmp) / f"{_NAME}.c"), "-lm"]
+        cmd = [cc, *_FLAGS, *flags, "-o", str(part), str(Path(tmp) / f"{_NAME}.c"), "-lm"]
         try:
             done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
         except (OSError, subprocess.TimeoutExpired) as exc:
@@ -119,11 +122,101 @@ int gfmon_py_step(void *s, const double *z, double *r, unsigned char *a);
 void gfmon_run(void *s, long n, const double *Y, const double *U, double *R, int *A, int *I);
 unsigned long gfmon_state_size(void);
 """
+#: Put before the generated source when Python's and numpy's headers are found: one
+#: call takes ``y`` and ``u`` (float64 vectors, else ``None`` is returned and the
+#: caller converts them) and returns the :class:`MonitorStep` built in C.
+_PY_HEAD = """#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
+#include <string.h>
+#undef I /* complex.h's, from numpy: the generated code names an argument I */
+"""
+_PY_SHIM = """
+int gfmon_py_init(void)
+{
+    if (_import_array() < 0) {
+        PyErr_Clear();
+        return -1;
+    }
+    return 0;
+}
+
+static int gfmon_py_get(PyObject *o, double *dst, Py_ssize_t n)
+{
+    Py_buffer v;
+    Py_ssize_t i;
+    int ok;
+    if (PyObject_GetBuffer(o, &v, PyBUF_RECORDS_RO) != 0) {
+        PyErr_Clear();
+        return 0;
+    }
+    ok = v.ndim == 1 && v.shape[0] == n && v.itemsize == (Py_ssize_t)sizeof(double)
+         && v.format != NULL && strcmp(v.format, "d") == 0;
+    if (ok)
+        for (i = 0; i < n; ++i) /* strided: a column of a (q, L) record */
+            memcpy(dst + i, (const char *)v.buf + i * v.strides[0], sizeof(double));
+    PyBuffer_Release(&v);
+    return ok;
+}
+
+/* bound: (state address, MonitorStep type, isolation flag, state buffer kept alive) */
+static PyObject *gfmon_py_fast(PyObject *bound, PyObject *const *args, Py_ssize_t nargs)
+{
+    double z[GFMON_NY + GFMON_NU + 1], r[GFMON_NR + 1];
+    int al[GFMON_NR + 1], dec, i;
+    npy_intp nr = GFMON_NR;
+    PyObject *res, *alarms, *iso, *out, *u;
+    PyTypeObject *type = (PyTypeObject *)PyTuple_GET_ITEM(bound, 1);
+    gfmon_state *s = (gfmon_state *)PyLong_AsVoidPtr(PyTuple_GET_ITEM(bound, 0));
+    npy_bool *a;
+    if (s == NULL || nargs < 1 || nargs > 2) Py_RETURN_NONE;
+    u = nargs == 2 ? args[1] : Py_None;
+    if (!gfmon_py_get(args[0], z, GFMON_NY)) Py_RETURN_NONE;
+    if (GFMON_NU && (u == Py_None || !gfmon_py_get(u, z + GFMON_NY, GFMON_NU))) Py_RETURN_NONE;
+    dec = gfmon_step(s, z, z + GFMON_NY, r, al);
+    res = PyArray_SimpleNew(1, &nr, NPY_DOUBLE);
+    alarms = PyArray_SimpleNew(1, &nr, NPY_BOOL);
+    if (PyObject_IsTrue(PyTuple_GET_ITEM(bound, 2)))
+        iso = PyLong_FromLong(dec);
+    else {
+        Py_INCREF(Py_None);
+        iso = Py_None;
+    }
+    out = type->tp_alloc(type, 3);
+    if (res == NULL || alarms == NULL || iso == NULL || out == NULL) {
+        Py_XDECREF(res);
+        Py_XDECREF(alarms);
+        Py_XDECREF(iso);
+        Py_XDECREF(out);
+        return NULL;
+    }
+    memcpy(PyArray_DATA((PyArrayObject *)res), r, sizeof(double) * GFMON_NR);
+    a = (npy_bool *)PyArray_DATA((PyArrayObject *)alarms);
+    for (i = 0; i < GFMON_NR; ++i) a[i] = (npy_bool)(al[i] != 0);
+    PyTuple_SET_ITEM(out, 0, res);
+    PyTuple_SET_ITEM(out, 1, alarms);
+    PyTuple_SET_ITEM(out, 2, iso);
+    return out;
+}
+
+static PyMethodDef gfmon_py_def = {
+    "gfmon_step", (PyCFunction)(void (*)(void))gfmon_py_fast, METH_FASTCALL,
+    "step(y, u): MonitorStep, or None when y or u is not a float64 vector"};
+
+/* a builtin function running the step of the state in bound */
+PyObject *gfmon_py_function(PyObject *bound)
+{
+    return PyCFunction_New(&gfmon_py_def, bound);
+}
+"""
 _FFI: Any = None
-#: How :meth:`Monitor.step` calls the C step: ``"ctypes"`` (prepared pointer objects, no
-#: argument conversion; the faster one measured) or ``"cffi"`` (ABI mode on buffers
-#: bound once, when cffi is installed; else ctypes).
-STEP_CALLS = "ctypes"
+#: How :meth:`Monitor.step` calls the C step: ``"python"`` (a builtin function made by
+#: the compiled library through Python's and numpy's C interface: float64 vectors read
+#: and the :class:`MonitorStep` built in C; the fastest, when their headers are found,
+#: else ``"ctypes"``), ``"ctypes"`` (prepared pointer objects on preallocated buffers,
+#: no argument conversion) or ``"cffi"`` (ABI mode on buffers bound once; needs cffi).
+STEP_CALLS = "python"
 
 
 def _load(path: Path) -> ctypes.CDLL:
@@ -164,6 +257,32 @@ def _cffi_step(path: Path, state: Any, bufs: tuple[np.ndarray, ...]) -> Any:
     return partial(lib.gfmon_py_step, *args)
 
 
+def _build_py(header: str, source: str) -> tuple[Path, Any]:
+    """The library with the Python-object step ``gfmon_py_call`` (and that function
+    bound through :class:`ctypes.PyDLL`) when Python's and numpy's headers compile it,
+    else the plain library and ``None``."""
+    import sysconfig
+
+    inc = [sysconfig.get_paths().get("include", ""), np.get_include()]
+    if STEP_CALLS == "python" and all(Path(d).is_dir() for d in inc):
+        try:
+            path = build_library(
+                header, _PY_HEAD + source + _SHIM + _PY_SHIM, tuple(f"-I{d}" for d in inc)
+            )
+            key = ("py", str(path))
+            if key not in _LOADED:
+                pydll = ctypes.PyDLL(str(path))
+                if pydll.gfmon_py_init() != 0:
+                    raise OSError("numpy's C interface did not load")
+                fn = pydll.gfmon_py_function
+                fn.argtypes, fn.restype = [ctypes.py_object], ctypes.py_object
+                _LOADED[key] = fn
+            return path, _LOADED[key]
+        except (GeomFDIError, OSError, AttributeError):
+            pass  # the plain library below
+    return build_library(header, source + _SHIM), None
+
+
 def compiled_paths(monitor: Any) -> tuple[Any, Any] | None:
     """``(step, feed)`` of ``monitor`` running its generated C code, or ``None``.
 
@@ -188,15 +307,15 @@ def compiled_paths(monitor: Any) -> tuple[Any, Any] | None:
         return None
     try:
         header, source = c_source(code_spec(monitor), _NAME)
-        path = build_library(header, source + _SHIM)
+        path, pycall = _build_py(header, source)
         dll = _load(path)
     except (GeomFDIError, OSError) as exc:
         warnings.warn(f"{exc}; using the numpy path", RuntimeWarning, stacklevel=3)
         return None
-    return _bind(dll, path, monitor)
+    return _bind(dll, path, pycall, monitor)
 
 
-def _bind(dll: ctypes.CDLL, path: Path, monitor: Any) -> tuple[Any, Any]:
+def _bind(dll: ctypes.CDLL, path: Path, pycall: Any, monitor: Any) -> tuple[Any, Any]:
     from geomfdi.deployment.online import MonitorOutput, MonitorStep, _chunk
 
     prog = monitor.program
@@ -223,7 +342,7 @@ def _bind(dll: ctypes.CDLL, path: Path, monitor: Any) -> tuple[Any, Any]:
     thr = monitor.thresholds
     thr_col = None if thr is None else np.where(np.isfinite(thr), thr, np.inf)[:, None]
 
-    def step(y: Any, u: Any = None) -> MonitorStep:
+    def convert_step(y: Any, u: Any) -> MonitorStep:
         try:
             ybuf[...] = y
             if m:
@@ -238,6 +357,15 @@ def _bind(dll: ctypes.CDLL, path: Path, monitor: Any) -> tuple[Any, Any]:
             ) from exc
         iso = call()
         return new(MonitorStep, (rview.copy(), aview.copy(), iso if isolation else None))
+
+    if pycall is None:
+        step = convert_step
+    else:
+        fast = pycall((ctypes.addressof(state), MonitorStep, bool(isolation), state))
+
+        def step(y: Any, u: Any = None) -> MonitorStep:
+            out = fast(y, u)  # None: y or u to convert
+            return convert_step(y, u) if out is None else out
 
     def feed(Y: Any, U: Any = None) -> MonitorOutput:
         Y = _chunk(Y, q, "Y")
