@@ -74,46 +74,54 @@ def _blocks(spec: CodeSpec) -> list[tuple[int, int, int, int]]:
 
 
 def _block_tables(spec: CodeSpec, P: str) -> str:
-    """Generator ``g``'s blocks of ``A`` and ``C`` by columns (``{P}_G<g>_AT``,
-    ``{P}_G<g>_CT``), and ``B``, ``D`` of the whole bank by columns (``{P}_BT``, ``{P}_DT``)."""
+    """``{P}_G<g>_A, _B, _C, _D``: generator ``g``'s blocks of ``A``, ``B``, ``C``, ``D``."""
     parts = []
     for g, (o, n, c0, nc) in enumerate(_blocks(spec)):
         if n:
-            parts.append(_table("double", f"{P}_G{g}_AT", spec.A[o : o + n, o : o + n].T))
-            parts.append(_table("double", f"{P}_G{g}_CT", spec.C[c0 : c0 + nc, o : o + n].T))
-    parts.append(_table("double", f"{P}_BT", spec.B.T))
-    parts.append(_table("double", f"{P}_DT", spec.D.T))
+            parts.append(_table("double", f"{P}_G{g}_A", spec.A[o : o + n, o : o + n]))
+            parts.append(_table("double", f"{P}_G{g}_B", spec.B[o : o + n]))
+            parts.append(_table("double", f"{P}_G{g}_C", spec.C[c0 : c0 + nc, o : o + n]))
+        parts.append(_table("double", f"{P}_G{g}_D", spec.D[c0 : c0 + nc]))
     return "".join(parts)
 
 
 def _update_c(spec: CodeSpec, P: str) -> str:
-    """``c = C xi + D z`` and ``xn = A xi + B z``: generator by generator for the
-    block-diagonal ``C xi`` and ``A xi`` (each block its own small dense table, constant
-    loop bounds), then ``D z`` and ``B z`` for the whole bank.
+    """``c = C xi + D z`` and ``xn = A xi + B z`` generator by generator.
 
-    Every entry is summed in the order of its dense row (the block of ``C`` or ``A``
-    in column order, then ``D`` or ``B``), only the rows run side by side: the results
-    are bitwise those of row-by-row sums.
+    Each generator's blocks of ``A`` and ``C`` are its own small dense tables, looped over
+    with constant bounds (unrolled by the compiler); the zeros outside the blocks are never
+    read.  Every entry is summed in the order of its dense row (the block's columns, then
+    ``D`` or ``B``), so the results are bitwise those of the dense rows.
     """
-    out = [
-        f"""        for (i = 0; i < NC; ++i) c[i] = 0.0;
-        for (i = 0; i < {P}_NW; ++i) xn[i] = 0.0;"""
-    ]
+    out = []
     for g, (o, n, c0, nc) in enumerate(_blocks(spec)):
-        if not n:
-            continue
         G = f"{P}_G{g}"
-        what = f"generator {g}: states {o}..{o + n - 1}, components {c0}..{c0 + nc - 1}"
-        out.append(f"""        x = s->xi + {o}; /* {what} */
-        for (j = 0; j < {n}; ++j) {{
-            for (i = 0; i < {nc}; ++i) c[{c0} + i] += {G}_CT[j * {nc} + i] * x[j];
-            for (i = 0; i < {n}; ++i) xn[{o} + i] += {G}_AT[j * {n} + i] * x[j];
+        x = f"s->xi + {o}"
+        states = f"states {o}..{o + n - 1}" if n else "no state"
+        head = f"        /* generator {g}: {states}, components {c0}..{c0 + nc - 1} */"
+        if not n:
+            out.append(f"""{head}
+        for (i = 0; i < {nc}; ++i) {{
+            acc = 0.0;
+            for (j = 0; j < NZ; ++j) acc += {G}_D[i * NZ + j] * z[j];
+            c[{c0} + i] = acc;
         }}""")
-    out.append(f"""        for (j = 0; j < NZ; ++j) {{ /* the samples */
-            for (i = 0; i < NC; ++i) c[i] += {P}_DT[j * NC + i] * z[j];
-            for (i = 0; i < {P}_NW; ++i) xn[i] += {P}_BT[j * {P}_NW + i] * z[j];
+            continue
+        out.append(f"""{head}
+        x = {x};
+        for (i = 0; i < {nc}; ++i) {{
+            acc = 0.0;
+            for (j = 0; j < {n}; ++j) acc += {G}_C[i * {n} + j] * x[j];
+            for (j = 0; j < NZ; ++j) acc += {G}_D[i * NZ + j] * z[j];
+            c[{c0} + i] = acc;
         }}
-        for (i = 0; i < NC; ++i) /* an overflow: the sample is missing */
+        for (i = 0; i < {n}; ++i) {{
+            acc = 0.0;
+            for (j = 0; j < {n}; ++j) acc += {G}_A[i * {n} + j] * x[j];
+            for (j = 0; j < NZ; ++j) acc += {G}_B[i * NZ + j] * z[j];
+            xn[{o} + i] = acc;
+        }}""")
+    out.append(f"""        for (i = 0; i < NC; ++i) /* an overflow: the sample is missing */
             ok &= c[i] - c[i] == 0.0;
         for (i = 0; i < {P}_NW; ++i) ok &= xn[i] - xn[i] == 0.0;""")
     return "\n".join(out)
@@ -349,7 +357,7 @@ static void {name}_start({name}_state *s, const double *z)
 {_decide_c(spec, P, name)}
 int {name}_step({name}_state *s, const double *y, const double *u, double *r, int *alarms)
 {{
-    double z[{_alloc(nz)}], c[{_alloc(nc)}], xn[{_alloc(nw)}];{x_decl}
+    double z[{_alloc(nz)}], c[{_alloc(nc)}], xn[{_alloc(nw)}], acc;{x_decl}
     int raw[{P}_NR], pattern[{P}_NR];
     int i, j, ok = 1, any = 0{extra_decl};
     for (j = 0; j < {P}_NY; ++j) z[j] = y[j];
