@@ -75,12 +75,8 @@ def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
     from geomfdi.deployment.codegen._spec import code_spec
     from geomfdi.deployment.codegen.c import c_source
 
-    dll = compiled._load(
-        compiled.build_library(
-            *c_source(code_spec(mc), "gfmon")[0],
-            c_source(code_spec(mc), "gfmon")[1] + compiled._SHIM,
-        )
-    )
+    header, source = c_source(code_spec(mc), "gfmon")
+    dll = compiled._load(compiled.build_library(header, source + compiled._SHIM))
     state = ctypes.create_string_buffer(int(dll.gfmon_state_size()))
     Yt, Ut = np.ascontiguousarray(Y.T), np.ascontiguousarray(U.T)
     R = np.empty((L, nb))

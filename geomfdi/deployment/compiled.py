@@ -3,17 +3,22 @@
 The C99 code of :func:`geomfdi.codegen.c` (the same algorithm as the numpy monitor:
 fused generator recursion, start-up and missing-sample rules, thresholds, k-of-n
 persistence, isolation) is compiled once into a shared library with the system's C
-compiler (``$CC``, else ``cc``), cached under a hash of the source, compiler and flags
-in the cache directory (``$GEOMFDI_CACHE_DIR``, else ``$XDG_CACHE_HOME/geomfdi/c`` or
-``~/.cache/geomfdi/c``), and loaded with :mod:`ctypes`.
+compiler (``$CC``, else ``cc``; for the running processor, without fused multiply-add),
+cached under a hash of the source, compiler, flags and processor in the cache directory
+(``$GEOMFDI_CACHE_DIR``, else ``$XDG_CACHE_HOME/geomfdi/c`` or ``~/.cache/geomfdi/c``),
+and loaded with :mod:`ctypes`.
 
-:meth:`Monitor.step` is then one call of ``name_step`` on preallocated buffers, and
-:meth:`Monitor.feed` one call of ``name_run`` over the whole chunk (the per-sample cost
-is then the generated C step alone; a single ``step`` call from Python pays the
-``ctypes`` call overhead, about a microsecond).  The generated code needs a discrete
-bank; for a continuous bank, or when no compiler works, :func:`compiled_paths` returns
-``None`` and the monitor keeps its numpy path with a warning.  See the user guide,
-*Performance* (``docs/guide/performance.md``).
+:meth:`Monitor.feed` is one call of ``name_run`` over the whole chunk (per sample the
+generated C step alone, plus a few array passes).  :meth:`Monitor.step` is one call
+of a builtin function that the library makes through the C interface of Python and
+numpy (when their headers are found): it reads float64 vectors ``y``, ``u`` (also
+columns of a record) and returns the :class:`MonitorStep` built in C, without the
+argument conversion of a ``ctypes`` call.  Other samples (lists, other dtypes), and
+libraries built without those headers, go through ``ctypes`` on preallocated buffers
+(:data:`STEP_CALLS` chooses; ``cffi`` is the third way).  The generated code needs a
+discrete bank; for a continuous bank, or when no compiler works, :func:`compiled_paths`
+returns ``None`` and the monitor keeps its numpy path with a warning.  See the user
+guide, *Performance* (``docs/guide/performance.md``).
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ import hashlib
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import warnings
 from functools import partial
@@ -289,8 +295,11 @@ def _build_py(header: str, source: str) -> tuple[Path, Any]:
     inc = [sysconfig.get_paths().get("include", ""), np.get_include()]
     if STEP_CALLS == "python" and all(Path(d).is_dir() for d in inc):
         try:
+            built_for = f"/* Python {sys.version.split()[0]}, numpy {np.__version__} */\n"
             path = build_library(
-                header, _PY_HEAD + source + _SHIM + _PY_SHIM, tuple(f"-I{d}" for d in inc)
+                header,
+                built_for + _PY_HEAD + source + _SHIM + _PY_SHIM,
+                tuple(f"-I{d}" for d in inc),
             )
             key = ("py", str(path))
             if key not in _LOADED:
