@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import ctypes
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -27,19 +26,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _timing import best_alternating  # noqa: E402
 from bench_simulation import make_bank  # noqa: E402
 
 import geomfdi as gf  # noqa: E402
-
-
-def _best(fns, repeat):
-    best = [np.inf] * len(fns)
-    for _ in range(repeat):
-        for i, fn in enumerate(fns):
-            t0 = time.process_time()
-            fn()
-            best[i] = min(best[i], time.process_time() - t0)
-    return best
 
 
 def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
@@ -82,7 +72,7 @@ def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
             state, L, Yt.ctypes.data, Ut.ctypes.data, R.ctypes.data, A.ctypes.data, iso.ctypes.data
         )
 
-    sn, sc, fn, fc, rc = _best(
+    sn, sc, fn, fc, rc = best_alternating(
         [stepper(mn), stepper(mc), lambda: mn.feed(Y, U), lambda: mc.feed(Y, U), raw], repeat
     )
     out = mc.feed(Y, U)
