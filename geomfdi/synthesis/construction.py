@@ -122,6 +122,12 @@ def row_poles(poles: Any, rows: int, check: Callable[[Any], Any] = checked_poles
     return [check(poles)] * rows
 
 
+def row_split(row: np.ndarray) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """A structure row (boolean, one entry per fault) as its target and decoupled fault
+    indices: the faults the residual must see and those it must ignore."""
+    return tuple(int(j) for j in np.flatnonzero(row)), tuple(int(j) for j in np.flatnonzero(~row))
+
+
 def checked_margin(margin: Any, dt: float) -> float:
     """``margin`` validated: finite, > 0, and < 1 for a discrete plant (a radius)."""
     if margin is None:

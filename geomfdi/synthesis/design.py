@@ -52,6 +52,7 @@ from geomfdi.synthesis.construction import (
     checked_margin,
     checked_poles,
     row_poles,
+    row_split,
 )
 from geomfdi.synthesis.least_order.search import plant_scale
 from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
@@ -611,8 +612,7 @@ def design_bank(
     diags: list[str] = []
     achieved = np.zeros_like(req)
     for r in range(rows):
-        tgt = tuple(int(j) for j in np.flatnonzero(req[r]))
-        dec = tuple(int(j) for j in np.flatnonzero(~req[r]))
+        tgt, dec = row_split(req[r])
         if not tgt:
             gens.append(None)
             diags.append("missing: the row requests no fault")

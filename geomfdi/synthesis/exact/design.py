@@ -55,7 +55,7 @@ from geomfdi.generators.exact import (
 from geomfdi.geometry import parametric as pm
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.synthesis.construction import design_dims, row_poles
+from geomfdi.synthesis.construction import design_dims, row_poles, row_split
 
 __all__ = ["design_bank_exact", "design_sensor_bank_exact", "default_exact_poles"]
 
@@ -572,8 +572,7 @@ def design_bank_exact(
     params: set[Any] = set()
     t0 = time.perf_counter()
     for r in range(req.shape[0]):
-        tgt = tuple(int(j) for j in np.flatnonzero(req[r]))
-        dec = tuple(int(j) for j in np.flatnonzero(~req[r]))
+        tgt, dec = row_split(req[r])
         if not tgt:
             gens.append(None)
             diags.append("missing: the row requests no fault")
