@@ -277,6 +277,10 @@ def _read(path: str | Path, fmt: str) -> dict[str, Any]:
 
     try:
         doc = json.loads(text, parse_constant=no_constants)
+    except RecursionError as exc:
+        raise BankFileError(
+            f"{where}: not a geomfdi file (JSON nested too deeply)", path=where
+        ) from exc
     except json.JSONDecodeError as exc:
         raise BankFileError(
             f"{where}: not valid JSON (truncated or corrupted at line {exc.lineno}, column "
