@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import ctypes
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -28,19 +27,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _timing import best_alternating  # noqa: E402
 from bench_simulation import make_bank  # noqa: E402
 
 import geomfdi as gf  # noqa: E402
-
-
-def _best(fns, repeat):
-    best = [np.inf] * len(fns)
-    for _ in range(repeat):
-        for i, fn in enumerate(fns):
-            t0 = time.process_time()
-            fn()
-            best[i] = min(best[i], time.process_time() - t0)
-    return best
 
 
 def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
@@ -89,7 +79,7 @@ def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
             state, L, Yt.ctypes.data, Ut.ctypes.data, R.ctypes.data, A.ctypes.data, iso.ctypes.data
         )
 
-    sn, sc, st, sf, fn, fc, rc = _best(
+    sn, sc, st, sf, fn, fc, rc = best_alternating(
         [
             stepper(mn),
             stepper(mc),
