@@ -25,6 +25,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _timing import svd_time  # noqa: E402
 
 import geomfdi as gf  # noqa: E402
 
@@ -46,16 +49,6 @@ def noisy_plant(n: int, seed: int):
         p.Bw, p.Dw, p.nw = Bw, Dw, Bw.shape[1]
     faults = [gf.ActuatorFault(rng.standard_normal(n)) for _ in range(2)]
     return p, faults
-
-
-def svd_time(n: int, repeats: int = 3) -> float:
-    X = np.random.default_rng(n).standard_normal((n, n))
-    best = np.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
-        np.linalg.svd(X)
-        best = min(best, time.perf_counter() - t)
-    return best
 
 
 def table_time(sizes, repeats: int = 2) -> list[dict]:

@@ -53,6 +53,8 @@ from geomfdi.synthesis.construction import (
     build_full,
     checked_margin,
     checked_poles,
+    row_poles,
+    row_split,
 )
 from geomfdi.synthesis.least_order.poles import plant_scale
 from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
@@ -425,24 +427,6 @@ def _objective(
     return objective
 
 
-def _row_poles(poles: Any, rows: int) -> list[Any]:
-    """``poles`` for a bank: one spectrum for every row, or a list with one per row."""
-    if poles is None:
-        return [None] * rows
-    if (
-        isinstance(poles, list | tuple)
-        and poles
-        and all(p is None or isinstance(p, list | tuple | np.ndarray) for p in poles)
-    ):
-        if len(poles) != rows:
-            raise DesignError(
-                f"poles: a per-row list must have {rows} entries, got {len(poles)}",
-                argument="poles",
-            )
-        return [checked_poles(p) for p in poles]
-    return [checked_poles(poles)] * rows
-
-
 def _row_dims(residual_dim: Any, rows: int) -> list[int]:
     """``residual_dim`` for a bank: one integer for every row, or one per row."""
     if isinstance(residual_dim, list | tuple | np.ndarray):
@@ -644,15 +628,14 @@ def design_bank(
         info.update(design_n=model.n, filter_pole=model.filter_pole, notes=model.notes)
     mg = checked_margin(margin, plant.dt)
     rows = req.shape[0]
-    per_row = _row_poles(poles, rows)
+    per_row = row_poles(poles, rows)
     factor = PlantFactor(plant)
     omega = plant_scale(plant.A, plant.dt)
     gens: list[ResidualGenerator | None] = []
     diags: list[str] = []
     achieved = np.zeros_like(req)
     for r in range(rows):
-        tgt = tuple(int(j) for j in np.flatnonzero(req[r]))
-        dec = tuple(int(j) for j in np.flatnonzero(~req[r]))
+        tgt, dec = row_split(req[r])
         if not tgt:
             gens.append(None)
             diags.append("missing: the row requests no fault")
