@@ -3,9 +3,8 @@
 ``β = min_j ‖R_fj‖∞`` over the target fault columns (Varga's ``H∞−`` index used by his
 ``fdif2ngap``), ``γ = ‖R_w‖∞``, gap ``= β / γ`` (``inf`` when ``γ = 0``); see *Theory:
 approximate synthesis* (``docs/theory/approximate-synthesis.md``).  H∞ norms come from
-:func:`geomfdi.verification.norms.hinf_norm`, imported lazily (the one import of this
-subpackage from the verification layer: the norm routine depends on nothing above
-:mod:`geomfdi.generators`).
+:func:`geomfdi.generators.norms.hinf_norm`, the routine :func:`geomfdi.fault_to_noise_gap`
+uses too (the synthesis never imports :mod:`geomfdi.verification`).
 """
 
 from __future__ import annotations
@@ -15,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from geomfdi.generators.generator import ResidualGenerator
+from geomfdi.generators.norms import hinf_norm
 from geomfdi.synthesis.approximate.nullspace import channel
 
 __all__ = ["hinf", "GapNumbers", "gap_numbers"]
@@ -23,7 +23,7 @@ __all__ = ["hinf", "GapNumbers", "gap_numbers"]
 def hinf(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, dt: float) -> float:
     """H∞ norm of a stable ``(A, B, C, D)`` (0 for an empty channel).
 
-    Computed by :func:`geomfdi.verification.norms.hinf_norm` (the two-step Hamiltonian /
+    Computed by :func:`geomfdi.generators.norms.hinf_norm` (the two-step Hamiltonian /
     symplectic-pencil algorithm of Bruinsma & Steinbuch 1990), the routine every geomfdi
     gap measurement uses.
     """
@@ -31,8 +31,6 @@ def hinf(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, dt: float) 
         return 0.0
     if A.shape[0] == 0 or not (np.any(B) and np.any(C)):
         return float(np.linalg.norm(D, 2))
-    from geomfdi.verification.norms import hinf_norm
-
     return float(hinf_norm(A, B, C, D, dt, tol=1e-8).value)
 
 
