@@ -224,7 +224,7 @@ def build_multirow(
     if poles is None:
         pool = default_pole_sequence(k + 2, omega * sc, plant.dt)
         if k:
-            eig = np.linalg.eigvals(Qm.A0)
+            eig = Qm.eigenvalues
             for t in range(pool.size):  # clear of the quotient's spectrum
                 for _ in range(20):
                     if np.min(np.abs(eig - pool[t])) > 1e-6 * max(omega, 1e-300):
@@ -244,7 +244,9 @@ def build_multirow(
             cand = pool[:nu]
             if np.count_nonzero(cand.imag > 0) != np.count_nonzero(cand.imag < 0):
                 continue  # the prefix splits a conjugate pair
-            found = _independent_row(Qm, _check_poles(cand, Qm.A0, plant.dt), plant.D, prev, points)
+            found = _independent_row(
+                Qm, _check_poles(cand, Qm.A0, plant.dt, Qm.eigenvalues), plant.D, prev, points
+            )
             if found is not None:
                 break
         if found is None and poles is not None and pool.size <= k:
@@ -262,7 +264,9 @@ def build_multirow(
                 argument="plant",
             )
         x, indep, kinds, sizes = found
-        F, Gs, T, c, h = _realise(Qm, _check_poles(pool[:nu], Qm.A0, plant.dt), kinds, x, sizes)
+        F, Gs, T, c, h = _realise(
+            Qm, _check_poles(pool[:nu], Qm.A0, plant.dt, Qm.eigenvalues), kinds, x, sizes
+        )
         lo = LeastOrderRow(nu, F, Gs, T, c, h, pool[:nu], {})
         mi = realise_on_plant(Qm, lo, plant.D)
         bad = {key: v for key, v in mi["identities"].items() if v > IDENTITY_TOL}

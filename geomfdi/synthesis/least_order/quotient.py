@@ -60,6 +60,16 @@ class Quotient:
     def rho(self) -> int:
         return self.M.shape[0]
 
+    @property
+    def eigenvalues(self) -> np.ndarray:
+        """Eigenvalues of ``A0`` (computed once: every pole check of a search uses them)."""
+        cached = self.__dict__.get("_eigenvalues")
+        if cached is None or cached[0] is not self.A0:
+            ev = np.linalg.eigvals(self.A0) if self.A0.size else np.zeros(0, complex)
+            cached = (self.A0, ev)
+            self.__dict__["_eigenvalues"] = cached
+        return cached[1]
+
 
 def quotient_model(
     A: np.ndarray,

@@ -525,7 +525,7 @@ def least_order_row(
                 "observability index)",
             )
             return LeastOrderRow(nu, None, None, None, None, None, np.zeros(0), cert)
-        cand = _check_poles(pool[:nu].astype(complex), Qm.A0, dt)
+        cand = _check_poles(pool[:nu].astype(complex), Qm.A0, dt, Qm.eigenvalues)
         blocks, kinds = _blocks(Qm, cand)
         X, rank, gap = _null_rows(blocks, dim)
         pts = _points(Qm, cand, omega)
@@ -558,7 +558,7 @@ def least_order_row(
             raise DesignError(
                 f"poles: the first {nu} poles split a conjugate pair", argument="poles"
             )
-        cand = _check_poles(cand, Qm.A0, dt)
+        cand = _check_poles(cand, Qm.A0, dt, Qm.eigenvalues)
         blocks, kinds = _blocks(Qm, cand)
         X, rank, gap = _null_rows(blocks, st.parity_dim(nu))
         grams, rel = _target_grams(Qm, cand, kinds, X, _points(Qm, cand, omega), blocks)
