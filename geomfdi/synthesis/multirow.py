@@ -16,7 +16,11 @@ components is built greedily, like a minimal polynomial basis:
    earlier rows and ``Z(s)`` the candidate rows (one per basis vector of the parity space),
    the direction ``α`` maximising ``‖α Z(s) (I − W(s)⁺ W(s))‖`` over a few random points
    ``s`` is taken (the top singular vector); the degree is the least one where that
-   maximum exceeds ``SEE_TOL`` relative to ``‖Z‖``.
+   maximum exceeds ``SEE_TOL`` relative to ``‖Z‖``.  The degree-``ν`` parity spaces are
+   nested (rows of degree ``ν`` are rows of degree ``ν + 1``: the poles are prefixes of one
+   sequence), so a degree that adds nothing independent of rows ``1 … i−1`` adds nothing
+   independent of rows ``1 … i`` either: the search for row ``i + 1`` starts at the degree
+   of row ``i`` (rows ``2 … p`` have non-decreasing degrees).
 
 Each row keeps every decoupling (it is a row of the left annihilator), the stack sees every
 target (row 1 does), and the stacked transfer has normal rank ``p``, checked on the physical
@@ -238,9 +242,10 @@ def build_multirow(
     orders = [g1.order]
     independence = [1.0]
     prev = _y_rows(mats[0], points)[None]
+    start = 0  # the degree of the previous extra row (Notes, step 2)
     for i in range(1, p):
         found = None
-        for nu in range(0, min(k + 1, pool.size) + 1):
+        for nu in range(start, min(k + 1, pool.size) + 1):
             cand = pool[:nu]
             if np.count_nonzero(cand.imag > 0) != np.count_nonzero(cand.imag < 0):
                 continue  # the prefix splits a conjugate pair
@@ -264,6 +269,7 @@ def build_multirow(
                 argument="plant",
             )
         x, indep, kinds, sizes = found
+        start = nu
         F, Gs, T, c, h = _realise(
             Qm, _check_poles(pool[:nu], Qm.A0, plant.dt, Qm.eigenvalues), kinds, x, sizes
         )
