@@ -148,7 +148,7 @@ def _independent_row(
     sizes = [b.shape[0] for b in blocks]
     Z = []  # (dim, points, q): each basis vector realised and evaluated
     for col in Xu.T:
-        F, Gs, T, c, h = _realise(Qm, cand, kinds, col, sizes)
+        F, Gs, T, c, h = _realise(Qm, cand, kinds, col, sizes, blocks)
         row = LeastOrderRow(len(cand), F, Gs, T, c, h, cand, {})
         Z.append(_y_rows(realise_on_plant(Qm, row, Du), points))
     Zc = np.array(Z)

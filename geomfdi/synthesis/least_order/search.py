@@ -361,9 +361,18 @@ class LeastOrderRow:
 
 
 def _realise(
-    Qm: Quotient, poles: np.ndarray, kinds: list[tuple[str, int]], x: np.ndarray, sizes: list[int]
+    Qm: Quotient,
+    poles: np.ndarray,
+    kinds: list[tuple[str, int]],
+    x: np.ndarray,
+    sizes: list[int],
+    blocks: list[np.ndarray] | None = None,
 ) -> tuple[np.ndarray, ...]:
-    """Functional observer ``(Λ, G_s, T, c, h)`` of the real null vector x (module Notes)."""
+    """Functional observer ``(Λ, G_s, T, c, h)`` of the real null vector x (module Notes).
+
+    ``blocks``: the (un-normalised) blocks of :func:`_blocks` for these poles, which hold
+    ``M (λ − A0)⁻¹`` already (a caller realising many vectors at the same poles passes
+    them instead of solving again for every vector)."""
     nu = len(poles)
     rho, k = Qm.rho, Qm.k
     edges = np.cumsum([0, *sizes])
@@ -374,11 +383,16 @@ def _realise(
     c = np.zeros(nu)
     h = part[0]
     b = 1
-    for kind, i in kinds[1:]:
-        if kind == "im":
+    for pos, (kind, i) in enumerate(kinds):
+        if kind in ("h", "im"):
             continue
         lam = poles[i]
-        R = np.linalg.solve((lam * np.eye(k) - Qm.A0).T, Qm.M.T).T if k else Qm.M[:, :0]
+        if blocks is not None:
+            R = blocks[pos] + 1j * blocks[pos + 1] if kind == "re" else blocks[pos]
+        elif k:
+            R = np.linalg.solve((lam * np.eye(k) - Qm.A0).T, Qm.M.T).T
+        else:
+            R = Qm.M[:, :0]
         if kind == "r":
             xi = part[b]
             F[i, i] = lam.real
@@ -575,7 +589,7 @@ def least_order_row(
     alpha, val = _maxmin_direction(grams)
     x = _unnormalise(X, blocks) @ alpha
     sizes = [b.shape[0] for b in blocks]
-    F, Gs, T, c, h = _realise(Qm, cand, kinds, x, sizes)
+    F, Gs, T, c, h = _realise(Qm, cand, kinds, x, sizes, blocks)
     edges = np.cumsum([0, *sizes])
     cert = {
         "order": nu,
@@ -784,13 +798,14 @@ def realise_on_plant(Qm: Quotient, row: LeastOrderRow, Du: np.ndarray) -> dict[s
     Mg = c.reshape(1, -1)
     Hg = -(h @ H).reshape(1, -1)
     Kg = -(h @ H @ Du).reshape(1, -1)
-    scale = max(_norm2(T) * _norm2(Qm.A0), _norm2(F) * _norm2(T), _norm2(Gs) * _norm2(Qm.M), 1e-300)
+    nT, nA0, nM = _norm2(T), Qm.norm("A0"), Qm.norm("M")
+    scale = max(nT * nA0, _norm2(F) * nT, _norm2(Gs) * nM, 1e-300)
     ident = {
         "T A0 − Λ T = G_s M": float(_norm2(T @ Qm.A0 - F @ T - Gs @ Qm.M) / scale)
         if T.size
         else 0.0,
         "c T + h M = 0": float(
-            _norm2(c @ T + h @ Qm.M) / max(_norm2(c) * _norm2(T), _norm2(h) * _norm2(Qm.M), 1e-300)
+            _norm2(c @ T + h @ Qm.M) / max(_norm2(c) * nT, _norm2(h) * nM, 1e-300)
         ),
     }
     return {"F": F, "E": E, "G": G, "M": Mg, "H": Hg, "K": Kg, "identities": ident}
