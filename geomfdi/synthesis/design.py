@@ -170,6 +170,14 @@ def _design_row(
     return g
 
 
+def _no_band(band: Any) -> None:
+    if band is not None:
+        raise DesignError(
+            'band: a frequency band is an objective of the gap design (objective="gap")',
+            argument="band",
+        )
+
+
 @limit_blas_threads
 def design_residual_generator(
     plant: Plant,
@@ -187,6 +195,7 @@ def design_residual_generator(
     objective: str | None = None,
     regularization: float | None = None,
     models: Sequence[Plant] | None = None,
+    band: Any = None,
 ) -> ResidualGenerator:
     """Design one residual generator that sees ``target`` and ignores ``decouple``.
 
@@ -253,6 +262,11 @@ def design_residual_generator(
     models : list of Plant, optional
         ``objective="gap"``: design over several models (same dimensions); see
         :func:`design_bank`.
+    band : (w1, w2), optional
+        ``objective="gap"``, one model: the fault sensitivity β is the H₋ index over the
+        frequency band ``[w1, w2]`` (rad/s), ``min_j min_ω ‖R_fj(jω)‖`` (Varga 2017, §3.3),
+        in the choice of the rows (``residual_dim`` below the decoupling basis's
+        dimension) and in the reported ``beta`` and ``gap``; γ stays the H∞ norm.
 
     Returns
     -------
@@ -308,7 +322,9 @@ def design_residual_generator(
             residual_dim=None if residual_dim is None else check_residual_dim(residual_dim),
             regularization=regularization,
             models=models,
+            band=band,
         )
+    _no_band(band)
     rdim = check_residual_dim(residual_dim)
     if rdim > 1 and (exact or method != "exact"):
         raise DesignError(
@@ -494,6 +510,7 @@ def design_bank(
     objective: str | None = None,
     regularization: float | None = None,
     models: Sequence[Plant] | None = None,
+    band: Any = None,
 ) -> ResidualBank:
     """Design one residual generator per row of a structure matrix.
 
@@ -535,6 +552,8 @@ def design_bank(
         (:mod:`geomfdi.synthesis.approximate.multimodel`).  ``g.info["model_gaps"]`` (and
         ``bank.info["model_gaps"]``) hold the gap per model of the family, and
         ``"nominal_model_gaps"`` those of the gap design on the nominal plant alone.
+    band : (w1, w2), optional
+        As in :func:`design_residual_generator` (every row).
 
     Returns
     -------
@@ -562,9 +581,11 @@ def design_bank(
             residual_dim=residual_dim,
             regularization=regularization,
             models=models,
+            band=band,
         )
         _warn_inseparable(bank.requested, bank.faults)
         return bank
+    _no_band(band)
     dims_given = np.atleast_1d(np.asarray(residual_dim, dtype=object)).tolist()
     if exact and any(v is not None and v != 1 for v in dims_given):
         raise DesignError(
