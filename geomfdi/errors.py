@@ -23,6 +23,7 @@ __all__ = [
     "BankFileError",
     "SchemaVersionError",
     "ResourceLimitError",
+    "CampaignIncompleteError",
     "IsolabilityWarning",
 ]
 
@@ -144,6 +145,20 @@ class ResourceLimitError(GeomFDIError):
         super().__init__(message, argument=argument)
         self.limit = limit
         self.estimate = estimate
+
+
+class CampaignIncompleteError(GeomFDIError):
+    """A campaign lost workers more often than it retries their tasks.
+
+    Attributes
+    ----------
+    partial : CampaignResult or None
+        The runs that were done (``partial.complete`` is False), or None.
+    """
+
+    def __init__(self, message: str, *, partial: object = None, argument: str | None = None):
+        super().__init__(message, argument=argument)
+        self.partial = partial
 
 
 # ------------------------------------------------------------------------------- warnings

@@ -194,7 +194,8 @@ def test_bank_residual_dim_per_row():
     assert g1 is None  # decoupling two sensors of three leaves one row only
     assert "residual_dim" in bank.diagnostics[1] and "at most 1" in bank.diagnostics[1]
     assert bank.diagnostics[0] == "ok"
-    assert gf.verify(bank, p).ok
+    rep = gf.verify(bank, p)  # the delivered rows are right, but row 1 is missing
+    assert rep.rows_ok and not rep.complete and not rep.ok
     with pytest.raises(gf.errors.DesignError) as exc:
         gf.design_bank(p, faults, S, residual_dim=[2, 2])
     assert exc.value.argument == "residual_dim"

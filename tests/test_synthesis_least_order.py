@@ -245,7 +245,7 @@ def test_certificate_and_user_poles():
 
 
 @pytest.mark.slow
-def test_weak_least_order_rows_are_raised_until_strong(monkeypatch):
+def test_weak_least_order_rows_are_raised_until_strong():
     # sampled DC motor: the order-1 rows see some sensor faults with a DC gain below
     # FD_GAIN_TOL of their peak; the design raises them to order 2, where none is weak
     from pathlib import Path
@@ -258,20 +258,23 @@ def test_weak_least_order_rows_are_raised_until_strong(monkeypatch):
     p = spec.plant
     faults = [gf.SensorFault(i) for i in range(p.q)]
     bank = gf.design_bank(p, faults, spec.structure)
-    assert bank.diagnostics == ["ok"] * 4
+    # the diagnostic says the row was raised and how to get the least-order one
+    assert all(d.startswith("raised for strength: order 2") for d in bank.diagnostics)
+    assert all("strength='weak'" in d for d in bank.diagnostics)
     for g in bank.generators:
         cert = g.info["least_order"]
         assert g.order == 2 and cert["order"] == 1 and cert["raised_from"] == 1
         assert "above the least order 1" in cert["statement"]
         assert g.info["weak_targets"] == []
+        assert all(v["dc"] >= 0.01 for v in g.info["target_strength"].values())
     assert gf.verify(bank, p).ok
-    # the least-order rows themselves are weak: with the raise disabled they are reported
-    import geomfdi.synthesis.build as build
-
-    monkeypatch.setattr(build, "MAX_RAISE", 0)
-    weak = gf.design_bank(p, faults, spec.structure)
+    # the least-order rows themselves are weak: strength="weak" delivers them, reported
+    weak = gf.design_bank(p, faults, spec.structure, strength="weak")
     assert [g.order for g in weak.generators] == [1] * 4
     assert all(d.startswith("weak") for d in weak.diagnostics)
+    for g, raised in zip(weak.generators, bank.generators, strict=True):
+        low = [j for j, v in g.info["target_strength"].items() if v["dc"] < 0.01]
+        assert low and raised.info["least_order"]["weak_at_least"] == low
 
 
 def test_target_reaching_the_quotient_only_through_rounding_is_not_isolable():

@@ -134,7 +134,7 @@ def test_mvw_isolates_only_sensor_1(mvw, plant):
         assert d.startswith("missing")
         assert "dim S* = n" in d or "not isolable" in d or "⊆ S*" in d
     rep = gf.verify(mvw, plant)
-    assert rep.ok and rep.missing == [1, 2]
+    assert rep.rows_ok and not rep.ok and not rep.complete and rep.missing == [1, 2]
     assert rep.leakage.max() < 1e-12
 
 

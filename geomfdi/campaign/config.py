@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._files import csv_text, replace_file
 from geomfdi.errors import GeomFDIError, ModelFileError
 
 __all__ = [
@@ -40,6 +41,8 @@ __all__ = [
     "build_campaign",
     "write_outputs",
     "campaign_report",
+    "write_csv",
+    "save_partial",
 ]
 
 _KEYS = {
@@ -78,6 +81,38 @@ def _err(source: str, where: str, msg: str) -> ModelFileError:
     return ModelFileError(f"{source}: campaign.{where}: {msg}")
 
 
+def _int(src: str, where: str, value: Any, minimum: int | None = None) -> int:
+    """An integer entry (an integral float such as ``1e3`` too; ``2.7`` and ``true`` not)."""
+    ok = isinstance(value, int | float) and not isinstance(value, bool)
+    if ok and isinstance(value, float):
+        ok = bool(np.isfinite(value)) and float(value).is_integer()
+    if not ok:
+        raise _err(src, where, f"must be an integer, got {value!r:.40}")
+    n = int(value)
+    if minimum is not None and n < minimum:
+        raise _err(src, where, f"must be >= {minimum}, got {n}")
+    return n
+
+
+def _float(src: str, where: str, value: Any, *, positive: bool = False) -> float:
+    """A finite number entry (``> 0`` if ``positive``)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise _err(src, where, f"must be a number, got {value!r:.40}")
+    x = float(value)
+    if not np.isfinite(x) or (positive and x <= 0):
+        raise _err(
+            src, where, f"must be a finite{' positive' if positive else ''} number, got {x!r}"
+        )
+    return x
+
+
+def _floats(src: str, where: str, value: Any) -> list[float]:
+    """A non-empty list of finite numbers."""
+    if not isinstance(value, list) or not value:
+        raise _err(src, where, f"must be a non-empty list of numbers, got {value!r:.40}")
+    return [_float(src, f"{where}[{i}]", v) for i, v in enumerate(value)]
+
+
 def _test(source: str, tab: Any, spec: Any, bank: Any, noise: Any) -> Any:
     from geomfdi.evaluation.covariance import residual_noise_models
     from geomfdi.evaluation.statistics import ChiSquareTest, CusumTest, GLRTest
@@ -92,21 +127,25 @@ def _test(source: str, tab: Any, spec: Any, bank: Any, noise: Any) -> Any:
         th = tab.get("threshold", spec.threshold)
         if th is None or isinstance(th, dict):
             raise _err(source, "test.threshold", "a number or one per residual is needed")
-        return th
+        if isinstance(th, list):
+            return [_float(source, "test.threshold", v, positive=True) for v in th]
+        return _float(source, "test.threshold", th, positive=True)
+    window = _int(source, "test.window", tab.get("window", 20), minimum=1)
+    rate = _float(source, "test.false_alarm_rate", tab.get("false_alarm_rate", 1e-3), positive=True)
+    if rate >= 1:
+        raise _err(source, "test.false_alarm_rate", f"must be in (0, 1), got {rate!r}")
     step = None if spec.plant.is_discrete else float(spec.t[1] - spec.t[0])
     models = residual_noise_models(spec.plant, bank, noise, step=step, controller=spec.K)
     if kind == "chi2":
-        return ChiSquareTest.design(
-            models,
-            int(tab.get("window", 20)),
-            float(tab.get("false_alarm_rate", 1e-3)),
-            str(tab.get("method", "imhof")),
-        )
+        method = tab.get("method", "imhof")
+        if not isinstance(method, str):
+            raise _err(source, "test.method", f"must be a string, got {method!r:.40}")
+        return ChiSquareTest.design(models, window, rate, method)
     if kind == "cusum":
-        return CusumTest.design(models, float(tab.get("drift", 0.5)), float(tab.get("arl", 1e4)))
-    return GLRTest.design(
-        models, int(tab.get("window", 20)), float(tab.get("false_alarm_rate", 1e-3))
-    )
+        drift = _float(source, "test.drift", tab.get("drift", 0.5), positive=True)
+        arl = _float(source, "test.arl", tab.get("arl", 1e4), positive=True)
+        return CusumTest.design(models, drift, arl)
+    return GLRTest.design(models, window, rate)
 
 
 def read_campaign(path: str | Path) -> tuple[dict[str, Any], Any]:
@@ -173,36 +212,56 @@ def build_campaign(
     ``banks`` maps design methods to banks (as designed from ``spec``); ``runs``
     overrides ``campaign.runs``.
     """
+    src = spec.source
+    try:
+        return _build(camp, spec, banks, runs)
+    except GeomFDIError:
+        raise
+    except (TypeError, ValueError, OverflowError, KeyError) as exc:  # (a value not foreseen)
+        raise _err(src, "", f"invalid value ({type(exc).__name__}: {exc})") from exc
+
+
+def _build(camp: dict[str, Any], spec: Any, banks: dict[str, Any], runs: int | None) -> Any:
     from geomfdi.campaign.runner import Campaign
     from geomfdi.campaign.spec import Uncertainty
     from geomfdi.evaluation.persistence import Persistence, as_persistence
     from geomfdi.simulation.noise import Noise
 
     src = spec.source
-    method = str(camp.get("method", next(iter(banks))))
-    if method not in banks:
-        raise _err(src, "method", f"{method!r} is not a designed method ({sorted(banks)})")
+    method = camp.get("method", next(iter(banks)))
+    if not isinstance(method, str) or method not in banks:
+        raise _err(src, "method", f"{method!r:.40} is not a designed method ({sorted(banks)})")
     bank = banks[method]
     noise_kw = dict(spec.noise)
     if "seed" in camp:
-        noise_kw["seed"] = int(camp["seed"])
+        noise_kw["seed"] = _int(src, "seed", camp["seed"], minimum=0)
     noise = Noise(**noise_kw)
-    sizes = camp.get("sizes", [0.0, 1.0])
-    onsets = camp.get("onsets", [float(spec.t[len(spec.t) // 2])])
+    sizes = _floats(src, "sizes", camp.get("sizes", [0.0, 1.0]))
+    onsets = _floats(src, "onsets", camp.get("onsets", [float(spec.t[len(spec.t) // 2])]))
     faults = camp.get("faults", [{"type": "bias", "sensor": i} for i in range(spec.plant.q)])
+    if not isinstance(faults, list) or not faults:
+        raise _err(src, "faults", "expected a non-empty list of {type, sensor} tables")
     scenarios = []
     for i, f in enumerate(faults):
+        if not isinstance(f, dict):
+            raise _err(src, f"faults[{i}]", "expected a table {type, sensor | actuator | fault}")
         scenarios.append(_scenario(src, f, f"faults[{i}]", spec, sizes, onsets))
     unc = camp.get("uncertainty")
     uncertainty = None
     if unc is not None:
         if not isinstance(unc, dict) or set(unc) - {"relative", "samples", "seed", "matrices"}:
             raise _err(src, "uncertainty", "expected {relative, samples, seed, matrices}")
+        matrices = unc.get("matrices", ["A", "B"])
+        if not isinstance(matrices, list) or not all(isinstance(x, str) for x in matrices):
+            raise _err(src, "uncertainty.matrices", "expected a list of matrix names")
+        relative = _float(src, "uncertainty.relative", unc.get("relative", 0.0))
+        if relative < 0:
+            raise _err(src, "uncertainty.relative", f"must be >= 0, got {relative!r}")
         uncertainty = Uncertainty(
-            relative=float(unc.get("relative", 0.0)),
-            samples=int(unc.get("samples", 1)),
-            matrices=tuple(unc.get("matrices", ("A", "B"))),
-            seed=int(unc.get("seed", 0)),
+            relative=relative,
+            samples=_int(src, "uncertainty.samples", unc.get("samples", 1), minimum=1),
+            matrices=tuple(matrices),
+            seed=_int(src, "uncertainty.seed", unc.get("seed", 0), minimum=0),
         )
     persistence = camp.get("persistence")
     if persistence is not None:
@@ -211,10 +270,24 @@ def build_campaign(
                 extra = set(persistence) - {"k", "n", "reset", "latch"}
                 if extra:
                     raise GeomFDIError(f"unknown keys {sorted(extra)}")
-                persistence = Persistence(**persistence)
+                kw = {
+                    k: _int(src, f"persistence.{k}", v, minimum=1)
+                    for k, v in persistence.items()
+                    if k != "latch"
+                }
+                if "latch" in persistence:
+                    if not isinstance(persistence["latch"], bool):
+                        raise GeomFDIError("latch must be true or false")
+                    kw["latch"] = persistence["latch"]
+                persistence = Persistence(**kw)
             else:
                 if isinstance(persistence, list):
-                    persistence = tuple(persistence)
+                    persistence = tuple(
+                        _int(src, f"persistence[{i}]", v, minimum=1)
+                        for i, v in enumerate(persistence)
+                    )
+                else:
+                    persistence = _int(src, "persistence", persistence, minimum=1)
                 persistence = as_persistence(persistence)
         except (GeomFDIError, TypeError) as exc:
             raise _err(
@@ -222,6 +295,8 @@ def build_campaign(
                 "persistence",
                 f"expected n, [k, n] or {{k, n, reset, latch}} with 1 <= k <= n ({exc})",
             ) from exc
+    if persistence is not None and max(persistence.n, persistence.reset or 0) > spec.t.size:
+        raise _err(src, "persistence", f"a rule over more samples than the record's {spec.t.size}")
     test = _test(src, camp.get("test", {"type": "chi2"}), spec, bank, noise)
     c = Campaign(
         spec.plant,
@@ -230,15 +305,19 @@ def build_campaign(
         noise,
         t=spec.t,
         uncertainty=uncertainty,
-        runs=int(runs if runs is not None else camp.get("runs", 100)),
+        runs=runs if runs is not None else _int(src, "runs", camp.get("runs", 100), minimum=1),
         test=test,
         u=spec.u,
         d=spec.d,
         controller=spec.K,
         x0=spec.x0,
-        detection_window=camp.get("detection_window"),
-        eval_start=float(camp.get("eval_start", 0.0)),
-        block_size=int(camp.get("block_size", 64)),
+        detection_window=(
+            None
+            if camp.get("detection_window") is None
+            else _float(src, "detection_window", camp["detection_window"], positive=True)
+        ),
+        eval_start=_float(src, "eval_start", camp.get("eval_start", 0.0)),
+        block_size=_int(src, "block_size", camp.get("block_size", 64), minimum=1),
         persistence=persistence,
     )
     return CampaignConfig(spec, method, bank, c)
@@ -249,20 +328,18 @@ def write_outputs(result: Any, out: Path, *, plots: bool = True, name: str = "")
     scenario, ROC and P_d-vs-size PNGs (and the confusion matrix as a PNG)."""
     import re
 
-    from geomfdi.plotting.residuals import save_png
-
     out.mkdir(parents=True, exist_ok=True)
     files = [out / "campaign.csv", out / "summary.csv"]
-    result.table.to_csv(files[0], index=False)
-    result.summary().to_csv(files[1])
+    write_csv(result.table, files[0], index=False)
+    write_csv(result.summary(), files[1])
     if result.has_isolation:
         files.append(out / "confusion.csv")
-        result.confusion().to_csv(files[-1])
+        write_csv(result.confusion(), files[-1])
     if not plots:
         return files
     if result.has_isolation:
         fig = result.plot_confusion(title=f"{name}\nisolation (first decision in the window)")
-        files.append(save_png(fig, out / "confusion.png"))
+        files.append(_png(fig, out / "confusion.png"))
     for scen in result.table["scenario"].cat.categories:
         slug = re.sub(r"[^a-z0-9]+", "-", str(scen).lower()).strip("-")
         tb = result.table[result.table["scenario"] == scen]
@@ -270,12 +347,48 @@ def write_outputs(result: Any, out: Path, *, plots: bool = True, name: str = "")
         if sizes:  # three sizes spread over the sweep
             pick = sorted({sizes[int(round(i))] for i in np.linspace(0, len(sizes) - 1, 3)})
             fig = result.plot_roc(pick, scenario=scen, title=f"{name}\n{scen}: ROC of the bank")
-            files.append(save_png(fig, out / f"roc_{slug}.png"))
+            files.append(_png(fig, out / f"roc_{slug}.png"))
         fig = result.plot_detection(
             scenario=scen, residuals=result.residual_labels, title=f"{name}\n{scen}"
         )
-        files.append(save_png(fig, out / f"detection_{slug}.png"))
+        files.append(_png(fig, out / f"detection_{slug}.png"))
     return files
+
+
+def _png(fig: Any, path: Path) -> Path:
+    return replace_file(path, lambda tmp: fig.savefig(tmp, dpi=120, format="png"))
+
+
+def write_csv(frame: Any, path: Path, *, index: bool = True) -> Path:
+    """``frame.to_csv(path)`` with text cells and labels that a spreadsheet would take for
+    a formula escaped (:func:`geomfdi._files.csv_text`), written through
+    :func:`geomfdi._files.replace_file`."""
+    import pandas as pd
+
+    def safe(values: Any) -> Any:
+        if isinstance(values, pd.MultiIndex):
+            return pd.MultiIndex.from_tuples(
+                [tuple(csv_text(v) for v in row) for row in values], names=values.names
+            )
+        return pd.Index([csv_text(v) for v in values], name=values.name)
+
+    frame = frame.copy()
+    for col in frame.columns:
+        if frame[col].dtype == object or isinstance(frame[col].dtype, pd.CategoricalDtype):
+            frame[col] = frame[col].map(csv_text).astype(object)
+    frame.index = safe(frame.index)
+    frame.columns = safe(frame.columns)
+    return replace_file(path, lambda tmp: frame.to_csv(tmp, index=index))
+
+
+def save_partial(exc: Any, out: Path) -> str:
+    """Write the runs done of a :class:`~geomfdi.errors.CampaignIncompleteError` to
+    ``out/campaign.incomplete.csv``; returns the note for the error line."""
+    if getattr(exc, "partial", None) is None:
+        return ""
+    out.mkdir(parents=True, exist_ok=True)
+    path = write_csv(exc.partial.table, out / "campaign.incomplete.csv", index=False)
+    return f"; the runs done are in {path} (incomplete)"
 
 
 def campaign_report(cfg: CampaignConfig, result: Any, files: list[Path]) -> str:

@@ -34,14 +34,19 @@ class CampaignResult:
     info: dict[str, Any] = field(default_factory=dict)
 
     @classmethod
-    def from_parts(cls, campaign: Any, parts: list[dict[str, np.ndarray]]) -> CampaignResult:
+    def from_parts(
+        cls, campaign: Any, parts: list[dict[str, np.ndarray]], *, partial: bool = False
+    ) -> CampaignResult:
+        """The result of the block outcomes ``parts`` (every run, unless ``partial``:
+        the runs there are, ``info["complete"]`` False)."""
         import pandas as pd
 
-        g = campaign.grid()
+        grid = campaign.grid()
         run = np.concatenate([p["run"] for p in parts])
         order = np.argsort(run, kind="stable")
         run = run[order]
-        if not np.array_equal(run, g["run"]):
+        g = {k: v[run] for k, v in grid.items()}
+        if not partial and not np.array_equal(run, grid["run"]):
             raise GeomFDIError(
                 "campaign: some runs are missing from the results", argument="executor"
             )
@@ -98,6 +103,7 @@ class CampaignResult:
             "runs": campaign.runs,
             "fault_labels": list(campaign.fault_labels),
             "persistence": campaign.persistence,
+            "complete": bool(np.array_equal(run, grid["run"])),
         }
         return cls(table, labels, info)
 

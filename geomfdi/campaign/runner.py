@@ -47,9 +47,32 @@ import numpy as np
 
 from geomfdi._validation import as_int, as_positive
 from geomfdi.campaign.spec import Scenario, Uncertainty
-from geomfdi.errors import GeomFDIError
+from geomfdi.errors import CampaignIncompleteError, GeomFDIError, ResourceLimitError
+from geomfdi.limits import estimate_bytes
 
-__all__ = ["Campaign"]
+__all__ = ["Campaign", "TABLE_ROW_BYTES", "RETRIES"]
+
+TABLE_ROW_BYTES = 160
+"""Bytes of one row of a campaign's table (one run and residual: its numbers, the
+summary's copies), as used in the size estimate."""
+
+RETRIES = 2
+"""Times the tasks of a lost worker are run again (on a fresh process pool, or with the
+job shipped again to a Dask cluster) before the campaign gives up."""
+
+_LOST = {
+    "BrokenProcessPool",
+    "BrokenExecutor",
+    "CancelledError",
+    "FutureCancelledError",
+    "KilledWorker",
+    "CommClosedError",
+}
+
+
+def _lost_worker(exc: BaseException) -> bool:
+    """Whether ``exc`` says that a task's worker was lost (not that the task failed)."""
+    return any(cls.__name__ in _LOST for cls in type(exc).__mro__)
 
 
 @dataclass
@@ -348,6 +371,12 @@ def _run_task(job: dict[str, Any], blocks: list[_Block]) -> list[dict[str, np.nd
     return [_run_block(job, b) for b in blocks]
 
 
+def _pool(workers: int | None) -> Any:
+    from concurrent.futures import ProcessPoolExecutor
+
+    return ProcessPoolExecutor(max_workers=workers)
+
+
 class Campaign:
     """A Monte-Carlo campaign over seeds, fault sizes, onsets and plant models.
 
@@ -474,9 +503,59 @@ class Campaign:
             else as_positive(detection_window, "detection_window")
         )
         self.eval_start = float(eval_start)
+        if not self.eval_start < first:
+            raise GeomFDIError(
+                f"eval_start: {self.eval_start!r} must be before the first of the onsets "
+                f"({first!r})",
+                argument="eval_start",
+            )
         self.block_size = as_int(block_size, "block_size", minimum=1)
         self.hold = hold
+        self.estimate = self._check_size()  # before the plant models are drawn
         self.plants = [self.plant] if uncertainty is None else uncertainty.plants(self.plant)
+
+    def _check_size(self) -> float:
+        """Refuse a campaign over the caps of :mod:`geomfdi.limits` before any work: its
+        runs (models x scenarios x sizes x onsets x ``runs``) against ``max_runs``, the
+        estimated memory of its table and of one block's simulation against
+        ``max_memory``.  Returns the estimate in bytes."""
+        from geomfdi.limits import check_allocation, check_runs, format_bytes
+
+        unc = self.uncertainty
+        models = 1 if unc is None else len(unc.models) if unc.models is not None else unc.samples
+        cells = sum(len(s.sizes) * len(s.onsets) for s in self.scenarios)
+        total = models * cells * self.runs
+        try:
+            check_runs(total, argument="runs")
+        except ResourceLimitError as exc:
+            table = estimate_bytes(total, 1, self.n_residuals + 1, itemsize=TABLE_ROW_BYTES)
+            raise ResourceLimitError(
+                f"runs: the campaign has {models} model(s) x {cells} (scenario, size, onset) "
+                f"x {self.runs} runs = {total} runs, its table about {format_bytes(table)}; "
+                f"{exc}",
+                limit="max_runs",
+                estimate=table,
+                argument="runs",
+            ) from exc
+        table = check_allocation(
+            total,
+            1,
+            self.n_residuals + 1,
+            itemsize=TABLE_ROW_BYTES,
+            argument="runs",
+            what="campaign table",
+        )
+        states = self.plant.n + self.plant.q + self.plant.m + 2 * self.n_residuals
+        block = check_allocation(
+            self.t.size,
+            min(self.block_size, total),
+            states,
+            copies=4,
+            argument="t",
+            runs_argument="block_size",
+            what="campaign block",
+        )
+        return table + block
 
     # ------------------------------------------------------------------ the grid
     def grid(self) -> dict[str, np.ndarray]:
@@ -543,6 +622,52 @@ class Campaign:
         }
 
     # ------------------------------------------------------------------- running
+    @staticmethod
+    def _submit(
+        executor: Any,
+        job: Any,
+        tasks: list[list[_Block]],
+        pending: list[int],
+        done: dict[int, list[dict[str, np.ndarray]]],
+        bar: Any,
+    ) -> tuple[list[int], str]:
+        """Run the ``pending`` tasks on ``executor`` into ``done``; return the tasks whose
+        worker was lost (and why).  Any other failure of a task is raised."""
+        if hasattr(executor, "scatter"):  # a Dask client: ship the job once
+            # (a fresh key: a campaign run twice, or a retry, must not share it with a
+            # previous run's data being released or lost with its worker)
+            job = executor.scatter([job], broadcast=True, hash=False)[0]
+        lost: list[int] = []
+        why = ""
+        futures: dict[int, Any] = {}
+        for i in pending:
+            try:
+                futures[i] = executor.submit(_run_task, job, tasks[i])
+            except Exception as exc:
+                if not _lost_worker(exc):
+                    raise
+                lost.append(i)
+                why = f"{type(exc).__name__}: {exc}"
+        for i, fut in futures.items():
+            try:
+                done[i] = fut.result()
+            except Exception as exc:
+                if not _lost_worker(exc):
+                    raise
+                lost.append(i)
+                why = f"{type(exc).__name__}: {exc}"
+                continue
+            if bar is not None:
+                bar.update(1)
+        return sorted(lost), why
+
+    def _partial(self, done: dict[int, list[dict[str, np.ndarray]]]) -> Any:
+        """The table of the runs done (a :class:`CampaignResult` marked incomplete)."""
+        from geomfdi.campaign.result import CampaignResult
+
+        parts = [p for i in sorted(done) for p in done[i]]
+        return CampaignResult.from_parts(self, parts, partial=True) if parts else None
+
     def run(
         self,
         executor: Any = "serial",
@@ -582,20 +707,18 @@ class Campaign:
             from tqdm.auto import tqdm
 
             bar = tqdm(total=len(tasks), desc="campaign", unit="task", leave=False)
-        parts: list[dict[str, np.ndarray]] = []
+        done: dict[int, list[dict[str, np.ndarray]]] = {}
         own = None
         try:
             if isinstance(executor, str):
                 if executor == "serial":
-                    for tk in tasks:
-                        parts.extend(_run_task(job, tk))
+                    for i, tk in enumerate(tasks):
+                        done[i] = _run_task(job, tk)
                         if bar is not None:
                             bar.update(1)
                     executor = None
                 elif executor == "processes":
-                    from concurrent.futures import ProcessPoolExecutor
-
-                    own = executor = ProcessPoolExecutor(max_workers=workers)
+                    own = executor = _pool(workers)
                 else:
                     raise GeomFDIError(
                         f"executor: 'serial', 'processes' or an executor, got {executor!r}",
@@ -604,18 +727,26 @@ class Campaign:
             if executor is not None:
                 if not hasattr(executor, "submit"):
                     raise GeomFDIError("executor: has no submit method", argument="executor")
-                if hasattr(executor, "scatter"):  # a Dask client: ship the job once
-                    # (a fresh key: a campaign run twice must not share it with a
-                    # previous run's data being released)
-                    job = executor.scatter([job], broadcast=True, hash=False)[0]
-                futures = [executor.submit(_run_task, job, tk) for tk in tasks]
-                for fut in futures:
-                    parts.extend(fut.result())
-                    if bar is not None:
-                        bar.update(1)
+                pending = list(range(len(tasks)))
+                for attempt in range(RETRIES + 1):
+                    lost, why = self._submit(executor, job, tasks, pending, done, bar)
+                    if not lost:
+                        break
+                    if attempt == RETRIES:
+                        raise CampaignIncompleteError(
+                            f"executor: workers lost {RETRIES + 1} times ({why}); "
+                            f"{len(lost)} of {len(tasks)} tasks not done",
+                            partial=self._partial(done),
+                            argument="executor",
+                        )
+                    if own is not None:  # a broken pool takes no more tasks: a new one
+                        own.shutdown(wait=False, cancel_futures=True)
+                        own = executor = _pool(workers)
+                    pending = lost
         finally:
             if own is not None:
                 own.shutdown()
             if bar is not None:
                 bar.close()
+        parts = [p for i in sorted(done) for p in done[i]]
         return CampaignResult.from_parts(self, parts)

@@ -177,8 +177,11 @@ class Uncertainty:
     )
 
     def __post_init__(self) -> None:
+        from geomfdi.limits import check_runs
+
         as_positive(self.relative, "relative", strict=False)
         as_int(self.samples, "samples", minimum=1)
+        check_runs(self.samples, argument="samples")  # (a model is at least one run)
         for mname in self.matrices:
             if mname not in self._allowed:
                 raise GeomFDIError(

@@ -5,11 +5,14 @@
 * :mod:`~geomfdi.data.three_tank` -- the three-tank laboratory system: nonlinear model
   (Torricelli flows), operating points and the linearised plant with pump, leak and level-sensor
   faults: ``gf.three_tank_model()``.
+* :mod:`~geomfdi.data.flight_actuators` -- the flight-actuator case study of Varga (2017),
+  chapter 8 (data of FaultDetectionTools.jl, MIT licence): ``gf.flight_actuator_case_study()``.
 
 Layer: beside the model.  It may import :mod:`geomfdi.model` and the base modules only.
 """
 
 from geomfdi.data.aircraft import aircraft_model
+from geomfdi.data.flight_actuators import flight_actuator_case_study
 from geomfdi.data.three_tank import three_tank_model
 
-__all__ = ["aircraft_model", "three_tank_model"]
+__all__ = ["aircraft_model", "flight_actuator_case_study", "three_tank_model"]

@@ -3,7 +3,9 @@
 ``geomfdi evaluate MODEL.toml DATA.csv --out DIR`` designs the model's bank, reads the
 CSV (a header row naming the columns ``t`` or ``time``, the plant's output and input
 names, or outputs ``y0, y1, ...`` and inputs ``u0, ...``; empty or ``nan`` cells are
-missing samples; physical values when the plant has an operating point), runs
+missing samples, anything else that is not a decimal number is refused:
+:mod:`geomfdi.deployment.csvfile`; physical values when the plant has an operating
+point), runs
 :func:`geomfdi.evaluate` and writes ``residuals.csv``, ``alarms.csv`` (confirmed alarms and
 the isolation decision per sample), ``report.md`` (thresholds, masked windows, alarm
 episodes with isolation) and ``residuals.png``.
@@ -22,9 +24,11 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._files import csv_texts, replace_file, write_text
+from geomfdi.deployment.csvfile import CHUNK_ROWS, read_record
 from geomfdi.deployment.decide import as_persistence
-from geomfdi.deployment.recorded import EvaluationResult, channel_columns, evaluate
-from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.deployment.recorded import EvaluationResult, evaluate
+from geomfdi.errors import GeomFDIError
 from geomfdi.evaluation.persistence import Persistence
 from geomfdi.model.signals import bank_signals
 
@@ -38,6 +42,11 @@ __all__ = [
 ]
 
 
+MAX_PERSISTENCE = 100_000
+"""Largest sample count of ``--persistence`` (the rule's window and reset; the monitor
+and the generated code keep a ring of that many samples)."""
+
+
 def parse_persistence(text: str | None) -> Any:
     """``"3"`` (3 consecutive samples), ``"2/3"`` (2 of 3) or ``"2/3/50"`` (2 of 3, the
     alarm episode ends after 50 quiet samples) from the command line; the pattern is
@@ -48,6 +57,11 @@ def parse_persistence(text: str | None) -> Any:
         parts = [int(p) for p in str(text).split("/")]
     except ValueError:
         parts = []
+    if any(p > MAX_PERSISTENCE for p in parts):
+        raise GeomFDIError(
+            f"--persistence: at most {MAX_PERSISTENCE} samples per count, got {text!r}",
+            argument="persistence",
+        )
     if len(parts) == 1:
         return as_persistence(parts[0])
     if len(parts) == 2:
@@ -58,6 +72,21 @@ def parse_persistence(text: str | None) -> Any:
         f"--persistence: expected D, K/N or K/N/RESET (integers), got {text!r}",
         argument="persistence",
     )
+
+
+def parse_settle(text: str) -> float | str:
+    """``--settle``: seconds (a finite number >= 0) or ``auto``."""
+    if str(text).strip() == "auto":
+        return "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value >= 0 and value < float("inf")):
+        raise GeomFDIError(
+            f"--settle: expected seconds >= 0 or auto, got {text!r:.40}", argument="settle"
+        )
+    return value
 
 
 def parse_threshold(values: Sequence[float] | None, rows: int) -> Any:
@@ -89,52 +118,29 @@ def describe_rule(rule: Persistence) -> str:
 def read_csv(
     path: str | Path, q: int, m: int, names: tuple[Any, Any] | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``t, y (q, N), u (m, N)`` from a CSV with a header row (module docstring).
+    """``t, y (q, N), u (m, N)`` from a CSV with a header row (module docstring), read by
+    the strict reader :func:`geomfdi.deployment.csvfile.read_record`.
 
     ``names = (outputs, inputs)``: the plant's signal names, read when the header has
     them all (else the columns ``y0, ..., u0, ...``)."""
-    path = Path(path)
-    with path.open(newline="", encoding="utf-8") as fh:
-        header = next(csv.reader(fh), None)
-    if not header:
-        raise ShapeError(f"{path}: empty file (expected a header row)", argument="data")
-    header = [h.strip() for h in header]
-    ys, us = channel_columns(header, "y"), channel_columns(header, "u")
-    if names is not None:
-        if list(names[0]) and set(names[0]) <= set(header):
-            ys = list(names[0])
-        if list(names[1]) and set(names[1]) <= set(header):
-            us = list(names[1])
-    tcol = next((c for c in ("t", "time") if c in header), None)
-    if tcol is None:
-        raise ShapeError(f"{path}: no time column (name it t or time)", argument="data")
-    if len(ys) != q or len(us) != m:
-        raise ShapeError(
-            f"{path}: the bank reads {q} outputs and {m} inputs; the header has "
-            f"{len(ys)} output columns {ys} and {len(us)} input columns {us}",
-            argument="data",
-        )
-    data = np.genfromtxt(path, delimiter=",", skip_header=1, dtype=float, ndmin=2)
-    if data.ndim != 2 or data.shape[1] != len(header):
-        raise ShapeError(
-            f"{path}: expected {len(header)} columns per row, got shape {data.shape}",
-            argument="data",
-        )
-    col = {h: i for i, h in enumerate(header)}
-    t = data[:, col[tcol]]
-    y = data[:, [col[c] for c in ys]].T
-    u = data[:, [col[c] for c in us]].T if us else np.zeros((0, data.shape[0]))
-    return t, y, u
+    rec = read_record(path, q, m, names=names)
+    return rec.t, rec.y, rec.u
 
 
 def _write_table(path: Path, header: list[str], columns: list[np.ndarray]) -> None:
-    with path.open("w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        for row in zip(*columns, strict=True):
-            w.writerow(
-                [repr(float(x)) if isinstance(x, float | np.floating) else int(x) for x in row]
-            )
+    """A CSV table (floats in their shortest round-trip form, integers as integers),
+    written in chunks of rows through :func:`geomfdi._files.replace_file`."""
+    import pandas as pd
+
+    def write(tmp: Path) -> None:
+        N = len(columns[0]) if columns else 0
+        with tmp.open("w", newline="", encoding="utf-8") as fh:
+            csv.writer(fh).writerow(csv_texts(header))
+            for a in range(0, N, CHUNK_ROWS):
+                frame = pd.DataFrame({k: c[a : a + CHUNK_ROWS] for k, c in enumerate(columns)})
+                frame.to_csv(fh, header=False, index=False, lineterminator="\r\n")
+
+    replace_file(path, write)
 
 
 def _fmt(x: float | None) -> str:
@@ -151,13 +157,16 @@ def _decision(res: EvaluationResult, fault: int | None, at: float | None) -> str
     return res.fault_labels[fault]
 
 
-def _report(res: EvaluationResult, model: str, data: str, method: str) -> str:
+def _report(
+    res: EvaluationResult, model: str, data: str, method: str, missing: tuple[int, int] = (0, 0)
+) -> str:
     lines = [
         f"# Residual evaluation: {model}",
         "",
         f"Data: `{data}`, {res.t.size} samples, t = {res.t[0]:g} .. {res.t[-1]:g} s, "
         f"dt = {res.info['dt']:g} s; design `{method}`; start-up `{res.info['initial']}`; "
-        f"persistence: {describe_rule(res.persistence)}.",
+        f"persistence: {describe_rule(res.persistence)}; no decisions in the first "
+        f"{res.info['settle']:g} s (settle).",
         "",
         "| residual | threshold | max abs(r) | alarming samples |",
         "|---|---|---|---|",
@@ -168,6 +177,11 @@ def _report(res: EvaluationResult, model: str, data: str, method: str) -> str:
         peak = float(np.nanmax(np.abs(row))) if np.isfinite(row).any() else float("nan")
         lines.append(f"| {lab} | {thr} | {peak:.6g} | {int(res.alarms[i].sum())} |")
     lines += ["", "## Masked windows (missing samples)", ""]
+    lines += [
+        f"{missing[0]} missing cells (empty or nan) in {missing[1]} of {res.t.size} samples; "
+        f"{int(res.masked.sum())} samples masked (a missing or non-finite value).",
+        "",
+    ]
     lines += [f"- {a:g} .. {b:g} s" for a, b in res.gaps] or ["none"]
     lines += ["", "## Alarm episodes", ""]
     if res.episodes:
@@ -207,6 +221,7 @@ def evaluate_files(
     persistence: Any = None,
     initial: str = "steady",
     plots: bool = True,
+    settle: float | str = 0.0,
 ) -> dict[str, Any]:
     """Evaluate ``bank`` on the CSV ``data``; write the outputs to ``out`` (module docstring).
 
@@ -217,8 +232,19 @@ def evaluate_files(
         raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
     sig = bank_signals(bank)
     names = (sig["outputs"], sig["inputs"]) if sig["named"] else None
-    t, y, u = read_csv(data, gens[0].q, gens[0].m, names)
-    res = evaluate(bank, y, u, t, threshold=threshold, persistence=persistence, initial=initial)
+    rec = read_record(data, gens[0].q, gens[0].m, names=names)
+    res = evaluate(
+        bank,
+        rec.y,
+        rec.u,
+        rec.t,
+        threshold=threshold,
+        persistence=persistence,
+        initial=initial,
+        settle=settle,
+    )
+    missing = (rec.missing, rec.missing_samples)
+    del rec  # (the residuals are computed: the signals are not needed any more)
     out.mkdir(parents=True, exist_ok=True)
     _write_table(out / "residuals.csv", ["t", *res.residual_labels], [res.t, *list(res.residuals)])
     _write_table(
@@ -226,13 +252,12 @@ def evaluate_files(
         ["t", *res.residual_labels, "isolated"],
         [res.t, *[a.astype(int) for a in res.alarms], res.isolated],
     )
-    report = _report(res, model, str(data), method)
-    (out / "report.md").write_text(report, encoding="utf-8")
+    report = _report(res, model, str(data), method, missing)
+    write_text(out / "report.md", report)
     files = ["residuals.csv", "alarms.csv", "report.md"]
     if plots:
-        from geomfdi.plotting.residuals import save_png
-
-        save_png(res.plot(title=f"{model}: {Path(data).name}"), out / "residuals.png")
+        fig = res.plot(title=f"{model}: {Path(data).name}")
+        replace_file(out / "residuals.png", lambda tmp: fig.savefig(tmp, dpi=120, format="png"))
         files.append("residuals.png")
     return {
         "report": report,

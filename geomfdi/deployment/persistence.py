@@ -111,7 +111,36 @@ def bank_from_dict(d: Any) -> ResidualBank:
     info = decode(d["info"], "bank.info")
     if not isinstance(d["method"], str) or not isinstance(info, dict):
         raise _Bad("bank.method, bank.info: expected a string and an object")
+    _check_consistent(gens, fl, dt)
     return ResidualBank(gens, req, st, iso, diags, fl, dt, d["method"], info)
+
+
+def _check_consistent(gens: list[ResidualGenerator | None], faults: list[Any], dt: float) -> None:
+    """The metadata of a bank file agree with its generators: fault channels exist
+    (a sensor index below the outputs read), target and decoupled faults are faults of
+    the bank, and every generator is stable (a residual that grows without bound is no
+    residual)."""
+    from geomfdi.model.faults import SensorFault
+
+    present = [g for g in gens if g is not None]
+    q = present[0].q if present else None
+    for j, f in enumerate(faults):
+        if q is not None and isinstance(f, SensorFault) and not 0 <= f.i < q:
+            raise _Bad(f"bank.faults[{j}]: sensor {f.i} does not exist (the bank reads {q})")
+    nf = len(faults)
+    for r, g in enumerate(gens):
+        if g is None:
+            continue
+        where = f"bank.generators[{r}]"
+        for name in ("target", "decoupled"):
+            bad = [i for i in getattr(g, name) if not 0 <= i < nf]
+            if bad:
+                raise _Bad(f"{where}.{name}: fault {bad[0]} is not one of the bank's {nf}")
+        if g.order:
+            p = np.asarray(g.poles)
+            stable = np.all(np.abs(p) < 1.0) if dt > 0 else np.all(p.real < 0.0)
+            if not stable:
+                raise _Bad(f"{where}.F: the generator is not stable (poles {np.round(p, 6)})")
 
 
 # ------------------------------------------------------------------ files
@@ -130,6 +159,8 @@ def load_bank(path: str | Path) -> ResidualBank:
         return bank_from_dict(payload)
     except _Bad as exc:
         raise BankFileError(f"{path}: {exc}", path=str(path)) from exc
+    except RecursionError as exc:
+        raise BankFileError(f"{path}: nested too deeply", path=str(path)) from exc
 
 
 def load_monitor(path: str | Path) -> Any:
@@ -153,7 +184,11 @@ def load_monitor(path: str | Path) -> Any:
         )
         bank = bank_from_dict(payload["bank"])
         thr = payload["threshold"]
-        thr = None if thr is None else Threshold(decode_array(thr, "monitor.threshold"))
+        if thr is not None:
+            values = decode_array(thr, "monitor.threshold")
+            if values.dtype.kind not in "fi" or not np.all(values > 0):
+                raise _Bad("monitor.threshold: thresholds must be numbers > 0")
+            thr = Threshold(values)
         initial = payload["initial"]
         if not isinstance(initial, str):
             initial = decode_array(initial, "monitor.initial")

@@ -57,7 +57,14 @@ from geomfdi.evaluation.decision import (
 from geomfdi.evaluation.persistence import Persistence
 from geomfdi.model.signals import bank_signals
 
-__all__ = ["evaluate", "EvaluationResult", "AlarmEpisode", "check_time", "channel_columns"]
+__all__ = [
+    "evaluate",
+    "EvaluationResult",
+    "AlarmEpisode",
+    "check_time",
+    "channel_columns",
+    "settling_time",
+]
 
 _TIME_RTOL = 1e-6
 
@@ -401,6 +408,7 @@ def evaluate(
     outputs: Sequence[str] | None = None,
     inputs: Sequence[str] | None = None,
     time: str | None = None,
+    settle: float | str = 0.0,
 ) -> EvaluationResult:
     """Run a residual bank on recorded data and decide on alarms and isolation.
 
@@ -437,6 +445,12 @@ def evaluate(
     detection_window : float, optional
         Seconds after each fault's onset in which its alarms and decisions count, as in
         :func:`geomfdi.simulate` (``None``: to the end of the record).
+    settle : float or "auto"
+        Seconds from the first sample during which no decision is taken (no raw alarm,
+        nothing enters the persistence rule): the generators' start-up transient
+        (module docstring) passes first.  ``"auto"``: :data:`SETTLE_TIME_CONSTANTS`
+        time constants of the slowest generator pole (:func:`settling_time`).  Default
+        0: decisions from the first sample, as :class:`geomfdi.Monitor` takes them.
 
     Returns
     -------
@@ -512,6 +526,11 @@ def evaluate(
     thr = as_threshold(threshold, program.n_rows, program.present)
     pers = as_persistence(persistence)
     raw = raw_alarms(residuals, thr)
+    settle_s = settling_time(bank, step) if settle == "auto" else settle
+    if isinstance(settle_s, bool) or not isinstance(settle_s, int | float):
+        raise GeomFDIError(f"settle: seconds or 'auto', got {settle!r:.40}", argument="settle")
+    settle_s = as_positive(settle_s, "settle", strict=False)
+    raw[:, t < t[0] + settle_s - _TIME_RTOL * step] = False  # no decision while settling
     if pers.trivial:
         alarms, iso = raw, isolate(raw, program.structure)
     else:
@@ -557,8 +576,42 @@ def evaluate(
             "initial": initial if isinstance(initial, str) else "explicit",
             "restart": restart,
             "xi": xi,
+            "settle": settle_s,
         },
     )
+
+
+SETTLE_TIME_CONSTANTS = 7.0
+"""Time constants of the slowest generator pole in ``settle="auto"`` (a start-up
+transient falls to ``exp(-7)``, about 0.1 %, of its size)."""
+
+
+def settling_time(bank: Any, dt: float) -> float:
+    """:data:`SETTLE_TIME_CONSTANTS` time constants of the slowest pole of ``bank``'s
+    generators: ``tau = -1 / max Re(p)`` (continuous) or ``-dt / ln max |p|``
+    (discrete); 0 for static generators.
+
+    Raises
+    ------
+    GeomFDIError
+        A generator pole that is not stable (no transient ever settles).
+    """
+    tau = 0.0
+    for g in as_bank(bank).generators:
+        if g is None or not g.order:
+            continue
+        p = np.asarray(g.poles)
+        if bank.dt > 0:
+            r = float(np.max(np.abs(p)))
+            if r >= 1.0:
+                raise GeomFDIError("settle: a generator pole is not stable", argument="settle")
+            tau = max(tau, -dt / np.log(r) if r > 0 else 0.0)
+        else:
+            a = float(np.max(p.real))
+            if a >= 0.0:
+                raise GeomFDIError("settle: a generator pole is not stable", argument="settle")
+            tau = max(tau, -1.0 / a)
+    return SETTLE_TIME_CONSTANTS * tau
 
 
 def _fault_indices(bank: Any, signals: Sequence[Any]) -> list[int | None]:

@@ -152,29 +152,35 @@ def decode_array(value: Any, where: str) -> np.ndarray:
 
 # ----------------------------------------------------------------- faults
 def fault_to_dict(f: Any) -> dict[str, Any]:
-    """A design fault as a tagged dict (sensor, actuator or general)."""
+    """A design fault as a tagged dict (sensor, actuator or general); ``size`` when set."""
     if isinstance(f, SensorFault):
-        return {"kind": "sensor", "i": f.i, "name": f.name}
-    if isinstance(f, ActuatorFault):
-        return {"kind": "actuator", "b": encode(f._Bf), "name": f.name}
-    if isinstance(f, Fault):
-        return {"kind": "general", "Bf": encode(f._Bf), "Df": encode(f._Df), "name": f.name}
-    raise GeomFDIError(f"bank: cannot save a fault of type {type(f).__name__}", argument="bank")
+        out = {"kind": "sensor", "i": f.i, "name": f.name}
+    elif isinstance(f, ActuatorFault):
+        out = {"kind": "actuator", "b": encode(f._Bf), "name": f.name}
+    elif isinstance(f, Fault):
+        out = {"kind": "general", "Bf": encode(f._Bf), "Df": encode(f._Df), "name": f.name}
+    else:
+        raise GeomFDIError(f"bank: cannot save a fault of type {type(f).__name__}", argument="bank")
+    if getattr(f, "size", None) is not None:
+        out["size"] = float(f.size)
+    return out
 
 
 def fault_from_dict(d: Any, where: str) -> Fault:
     if not isinstance(d, dict) or "kind" not in d:
         raise _Bad(f"{where}: a fault needs a 'kind'")
     kind = d["kind"]
+    keys = set(d) - {"size"}
+    size = d.get("size")
     try:
-        if kind == "sensor" and set(d) == {"kind", "i", "name"}:
-            return SensorFault(d["i"], name=d["name"])
-        if kind == "actuator" and set(d) == {"kind", "b", "name"}:
-            return ActuatorFault(decode_array(d["b"], f"{where}.b"), name=d["name"])
-        if kind == "general" and set(d) == {"kind", "Bf", "Df", "name"}:
+        if kind == "sensor" and keys == {"kind", "i", "name"}:
+            return SensorFault(d["i"], name=d["name"], size=size)
+        if kind == "actuator" and keys == {"kind", "b", "name"}:
+            return ActuatorFault(decode_array(d["b"], f"{where}.b"), name=d["name"], size=size)
+        if kind == "general" and keys == {"kind", "Bf", "Df", "name"}:
             Bf = None if d["Bf"] is None else decode_array(d["Bf"], f"{where}.Bf")
             Df = None if d["Df"] is None else decode_array(d["Df"], f"{where}.Df")
-            return Fault(Bf, Df, name=d["name"])
+            return Fault(Bf, Df, name=d["name"], size=size)
     except GeomFDIError as exc:
         raise _Bad(f"{where}: {exc}") from exc
     raise _Bad(f"{where}: unknown fault kind {kind!r} or wrong keys {sorted(d)}")
@@ -277,6 +283,10 @@ def _read(path: str | Path, fmt: str) -> dict[str, Any]:
 
     try:
         doc = json.loads(text, parse_constant=no_constants)
+    except RecursionError as exc:
+        raise BankFileError(
+            f"{where}: not a geomfdi file (JSON nested too deeply)", path=where
+        ) from exc
     except json.JSONDecodeError as exc:
         raise BankFileError(
             f"{where}: not valid JSON (truncated or corrupted at line {exc.lineno}, column "

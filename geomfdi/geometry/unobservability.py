@@ -133,6 +133,7 @@ def min_unobservability_subspace(
         history = [n]
         for _ in range(n + 1):
             Y_new, R = split_kernel(np.hstack([R, new]), Wb.T, 1.0, "V ∩ W*^⊥")
+            Y_new = _project_out(Y_new, Wb)
             V, Y = np.hstack([V, new]), np.hstack([Y, Y_new])
             history.append(n - Y.shape[1])
             if not Y_new.shape[1]:
@@ -144,6 +145,17 @@ def min_unobservability_subspace(
     S = InvariantSubspace._wrap(Z, history, [*W.decisions, *rec], "min_unobservability_subspace")
     S.W = W
     return S
+
+
+def _project_out(Y: np.ndarray, W: np.ndarray) -> np.ndarray:
+    """``Y`` (orthonormal, in ``W^⊥`` up to the dropped singular values of ``Wᵀ Y``) made
+    exactly orthogonal to ``W`` and re-orthonormalised (twice-projected Gram–Schmidt)."""
+    if not Y.shape[1] or not W.shape[1]:
+        return Y
+    Y = Y - W @ (W.T @ Y)
+    Y = Y - W @ (W.T @ Y)
+    q, _ = np.linalg.qr(Y)
+    return q
 
 
 def measurement_map(C: Any, S: Any) -> np.ndarray:

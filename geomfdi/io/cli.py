@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from geomfdi._files import write_text
 from geomfdi.errors import GeomFDIError
 from geomfdi.io.figures import (
     _draw_residuals,
@@ -343,12 +344,12 @@ def run_model(
         figs.close()
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        (out / "report.md").write_text(summary["report"] + "\n", encoding="utf-8")
-        (out / "summary.json").write_text(
+        write_text(out / "report.md", summary["report"] + "\n")
+        write_text(
+            out / "summary.json",
             json.dumps(
                 {k: v for k, v in summary.items() if k != "report"}, indent=2, default=_json_default
             ),
-            encoding="utf-8",
         )
     return summary
 
@@ -481,6 +482,7 @@ def _add_deployment_parsers(sub: Any) -> None:
     ev = sub.add_parser("evaluate", help=text, description=text)
     ev.add_argument("model", help="model file (TOML)")
     ev.add_argument("data", help="CSV with a header row: t, y0, y1, ..., u0, ...")
+    ev.add_argument("--settle", default="0", help="seconds without decisions first, or auto")
     text = "write C99 or Python code of the designed bank's online monitor"
     cg = sub.add_parser("codegen", help=text, description=text)
     cg.add_argument("model", help="model file (TOML)")
@@ -561,6 +563,7 @@ def _run_deployment(args: Any) -> int:
                 persistence=persistence,
                 initial=args.initial,
                 plots=not args.no_plots,
+                settle=commands.parse_settle(args.settle),
             )
             text = summary["report"] + f"\nwritten to {args.out}"
         else:
@@ -633,7 +636,7 @@ def load_campaign(
 
 def campaign_command(args: argparse.Namespace) -> int:
     """``geomfdi campaign MODEL.toml``: run, write CSV tables and PNGs, print the summary."""
-    from geomfdi.campaign.config import campaign_report, write_outputs
+    from geomfdi.campaign.config import campaign_report, save_partial, write_outputs
 
     try:
         if args.runs is not None and args.runs < 1:
@@ -655,8 +658,8 @@ def campaign_command(args: argparse.Namespace) -> int:
         else:
             result = cfg.campaign.run(args.executor, workers=args.workers, progress=progress)
         files = write_outputs(result, args.out, plots=not args.no_plots, name=cfg.spec.name)
-    except (GeomFDIError, OSError) as exc:
-        print(f"geomfdi: error: {_one_line(exc)}", file=sys.stderr)
+    except (GeomFDIError, OSError) as exc:  # (lost workers: the runs done are saved)
+        print(f"geomfdi: error: {_one_line(exc)}{save_partial(exc, args.out)}", file=sys.stderr)
         return 2
     except ImportError as exc:
         print(f"geomfdi: error: {_one_line(exc)} (install geomfdi[dask])", file=sys.stderr)

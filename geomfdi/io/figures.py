@@ -21,6 +21,8 @@ PNG_COMPRESS_LEVEL = 1
 """zlib level of the PNG files (lossless at every level: the same pixels as the default 6,
 files about 15 % larger, encoded several times faster)."""
 FIGURE_COLUMNS = 800
+POLL_SECONDS = 0.5
+"""How often an idle figure process checks that its parent is still there."""
 """Pixel columns of a residual figure: traces keep at most their min and max per column."""
 
 
@@ -59,10 +61,16 @@ def decimate_minmax(t: Any, r: Any, columns: int = FIGURE_COLUMNS) -> np.ndarray
 
 
 def _save(fig: Any, path: Path) -> str:
-    """``fig`` written to ``path`` (a checked output file) as PNG; returns the file name."""
-    fig.savefig(
-        path, dpi=FIGURE_DPI, format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL}
-    )
+    """``fig`` written to ``path`` (a checked output file) as PNG, through a temporary file
+    renamed over it (a link at ``path`` is replaced, never followed); returns the name."""
+    from geomfdi._files import replace_file
+
+    def write(tmp: Path) -> None:
+        fig.savefig(
+            tmp, dpi=FIGURE_DPI, format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL}
+        )
+
+    replace_file(path, write)
     return path.name
 
 
@@ -159,12 +167,37 @@ def _worker(todo: Any, done: Any, help_wanted: Any) -> None:
     forks once: the copy starts warm (matplotlib loaded, fonts set up) and draws from
     the same queue, so that figures are drawn two at a time without a second matplotlib
     start-up; the original waits for it before exiting, and exits non-zero if it failed.
+
+    No drawing process outlives its parent: a process whose parent is gone stops at the
+    next poll of the queue (every :data:`POLL_SECONDS`), and the original, when
+    orphaned or terminated (an early end of ``geomfdi run``), ends its copy first.
     """
-    _warm_up()
+    import queue
+    import signal
+
+    parent = os.getppid()
     helper = 0
-    is_helper = False
+    is_helper = orphaned = False
+
+    def _stop(signum: int, frame: Any) -> None:  # SIGTERM from the main process
+        if helper and not is_helper:
+            try:
+                os.kill(helper, signal.SIGKILL)
+                os.waitpid(helper, 0)
+            except OSError:
+                pass
+        os._exit(1)
+
+    signal.signal(signal.SIGTERM, _stop)
+    _warm_up()
     while True:
-        job = todo.get()
+        try:
+            job = todo.get(timeout=POLL_SECONDS)
+        except queue.Empty:
+            if os.getppid() != parent:  # the parent is gone: nobody waits for figures
+                orphaned = True
+                break
+            continue
         if job is None:
             break
         more = help_wanted.is_set() or not todo.empty()  # more than this job to draw
@@ -172,6 +205,8 @@ def _worker(todo: Any, done: Any, help_wanted: Any) -> None:
             helper = os.fork()
             if helper == 0:  # the copy: the job in hand is the original's
                 is_helper = True
+                parent = os.getppid()
+                signal.signal(signal.SIGTERM, signal.SIG_DFL)
                 continue
         key, fn, args = job
         try:
@@ -184,6 +219,8 @@ def _worker(todo: Any, done: Any, help_wanted: Any) -> None:
     if is_helper:
         os._exit(0)
     if helper:
+        if orphaned:  # the copy's parent (this process) is there: it would wait on
+            os.kill(helper, signal.SIGKILL)
         _, status = os.waitpid(helper, 0)
         if status:
             raise SystemExit(1)

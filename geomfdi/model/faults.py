@@ -15,10 +15,15 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._validation import as_index, as_matrix, as_name
+from geomfdi._validation import as_index, as_matrix, as_name, as_positive
 from geomfdi.errors import GeomFDIError, ShapeError
 
 __all__ = ["Fault", "SensorFault", "ActuatorFault", "fault_matrices", "bind_faults"]
+
+
+def _fault_size(size: Any) -> float | None:
+    """A fault's reference size: ``None`` (default, see :class:`Fault`) or a number > 0."""
+    return None if size is None else as_positive(size, "size")
 
 
 def _fault_name(name: Any, default: str) -> str:
@@ -39,9 +44,19 @@ class Fault:
         Output-side signature (``None``: zero).
     name : str, optional
         Label used in reports and plots.
+    size : float, optional
+        Reference size of the fault signal, in its own units (e.g. the smallest fault to
+        be detected): strength verdicts ("weak") compare the residual's responses to
+        faults of these sizes, so they do not depend on units.  Default (``None``): the
+        sizes that balance the faults' peak effects on the measurements over frequency
+        (:func:`geomfdi.synthesis.strength.reference_sizes`).
     """
 
-    def __init__(self, Bf: Any = None, Df: Any = None, *, name: str | None = None) -> None:
+    size: float | None = None
+
+    def __init__(
+        self, Bf: Any = None, Df: Any = None, *, name: str | None = None, size: Any = None
+    ) -> None:
         if Bf is None and Df is None:
             raise GeomFDIError("Bf, Df: at least one must be given", argument="Bf")
         self._Bf = None if Bf is None else as_matrix(Bf, "Bf", vector_as="column")
@@ -52,6 +67,7 @@ class Fault:
                 argument="Df",
             )
         self.name = _fault_name(name, "fault")
+        self.size = _fault_size(size)
 
     @property
     def k(self) -> int:
@@ -91,11 +107,14 @@ class SensorFault(Fault):
     ``i`` is a 0-based index or an output name of the plant (``SensorFault("level 1")``);
     a name is resolved when the fault meets the plant (:func:`bind_faults`, done by the
     design functions), and the fault is then named after the output unless ``name`` is
-    given.
+    given.  ``size``: reference size in the sensor's units; default: the sensor's scale
+    (the typical effect on output ``i`` of the other faults at their reference sizes, see
+    :func:`geomfdi.synthesis.strength.reference_sizes`).
     """
 
-    def __init__(self, i: int | str, *, name: str | None = None) -> None:
+    def __init__(self, i: int | str, *, name: str | None = None, size: Any = None) -> None:
         self._given_name = name is not None and name != ""
+        self.size = _fault_size(size)
         if isinstance(i, str):
             if not i.strip():
                 raise GeomFDIError("i: an output name must not be empty", argument="i")
@@ -150,11 +169,15 @@ class SensorFault(Fault):
 
 
 class ActuatorFault(Fault):
-    """Additive state-side fault with signature ``b`` ((n,) or (n, k))."""
+    """Additive state-side fault with signature ``b`` ((n,) or (n, k)); ``size`` as in
+    :class:`Fault`."""
 
-    def __init__(self, b: Any, *, name: str | None = None) -> None:
+    def __init__(self, b: Any, *, name: str | None = None, size: Any = None) -> None:
         super().__init__(
-            as_matrix(b, "b", vector_as="column"), None, name=_fault_name(name, "actuator")
+            as_matrix(b, "b", vector_as="column"),
+            None,
+            name=_fault_name(name, "actuator"),
+            size=size,
         )
 
     def __repr__(self) -> str:
@@ -213,5 +236,5 @@ def bind_faults(plant: Any, faults: Any, *, argument: str = "faults") -> list[Fa
             label = f.name
         else:
             label = outputs[i]
-        out.append(SensorFault(i, name=label))
+        out.append(SensorFault(i, name=label, size=f.size))
     return out

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi.errors import GeomFDIError
+from geomfdi.plotting._text import plain, plain_all
 
 __all__ = ["plot_roc", "plot_detection", "plot_confusion"]
 
@@ -69,7 +70,7 @@ def plot_roc(
     floor = min((c.far[c.far > 0].min() for c in curves if np.any(c.far > 0)), default=1e-3)
     for c in curves:
         x = np.where(c.far > 0, c.far, floor / 2) if log_far else c.far
-        ax.step(x, c.pd, where="post", label=f"{c.label} (AUC {c.auc:.3f})")
+        ax.step(x, c.pd, where="post", label=f"{plain(c.label)} (AUC {c.auc:.3f})")
     if log_far:
         ax.set_xscale("log")
     ax.set_xlabel("false-alarm probability per window")
@@ -78,7 +79,7 @@ def plot_roc(
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small", loc="lower right")
     if title:
-        ax.set_title(title, fontsize="medium")
+        ax.set_title(plain(title), fontsize="medium")
     return fig
 
 
@@ -102,9 +103,9 @@ def plot_detection(
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
     for label, df in curves.items():
         size = np.asarray(df.index, dtype=float)
-        line = ax1.plot(size, df["pd"], marker="o", label=str(label))[0]
+        line = ax1.plot(size, df["pd"], marker="o", label=plain(label))[0]
         ax1.fill_between(size, df["pd_low"], df["pd_high"], color=line.get_color(), alpha=0.2)
-        ax2.plot(size, df["delay_median"], marker="o", color=line.get_color(), label=str(label))
+        ax2.plot(size, df["delay_median"], marker="o", color=line.get_color(), label=plain(label))
     ax1.set_ylabel("$P_d$")
     ax1.set_ylim(-0.02, 1.02)
     ax1.grid(True, alpha=0.3)
@@ -113,7 +114,7 @@ def plot_detection(
     ax2.set_ylabel("median delay [s]")
     ax2.grid(True, alpha=0.3)
     if title:
-        ax1.set_title(title, fontsize="medium")
+        ax1.set_title(plain(title), fontsize="medium")
     return fig
 
 
@@ -177,11 +178,11 @@ def plot_confusion(
                 color="white" if frac[i, j] > 0.6 else "black",
                 fontsize=8,
             )
-    ax.set_xticks(range(len(cols)), cols, rotation=30, ha="right")
-    ax.set_yticks(range(len(rows)), rows)
+    ax.set_xticks(range(len(cols)), plain_all(cols), rotation=30, ha="right")
+    ax.set_yticks(range(len(rows)), plain_all(rows))
     ax.set_xlabel("isolated")
     ax.set_ylabel("true fault")
     fig.colorbar(im, ax=ax, label="fraction of the row's runs")
     if title:
-        ax.set_title(title)
+        ax.set_title(plain(title))
     return fig

@@ -12,6 +12,7 @@ import numpy as np
 from geomfdi._validation import as_bool
 from geomfdi.diagnosability.results import DiagnosabilityTable
 from geomfdi.errors import GeomFDIError
+from geomfdi.plotting._text import plain, plain_all
 
 __all__ = ["plot_isolability"]
 
@@ -69,8 +70,8 @@ def plot_isolability(
     top = float(np.max(fi)) if fi.size else 0.0
     im = ax.imshow(fi, cmap=cmap, vmin=0.0, vmax=top if top > 0 else 1.0)
     fig.colorbar(im, ax=ax, label="FI(row, column)")
-    ax.set_xticks(range(p), labels=list(table.fault_names))
-    ax.set_yticks(range(p), labels=list(table.fault_names))
+    ax.set_xticks(range(p), labels=plain_all(table.fault_names))
+    ax.set_yticks(range(p), labels=plain_all(table.fault_names))
     ax.set_xlabel("isolated from")
     ax.set_ylabel("fault present")
     if annotate:
@@ -80,5 +81,5 @@ def plot_isolability(
     if title is None:
         extra = ", ".join(f"{k}={v}" for k, v in table.options.items() if k != "nullspace")
         title = f"isolability ({table.method}{', ' + extra if extra else ''})"
-    ax.set_title(title)
+    ax.set_title(plain(title))
     return fig

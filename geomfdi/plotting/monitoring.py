@@ -11,6 +11,7 @@ import numpy as np
 
 from geomfdi._validation import as_bool, as_real_array
 from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi.plotting._text import plain
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
@@ -85,7 +86,7 @@ def plot_ar_monitor(
     else:
         fig = ax.figure
     shown = np.where(valid, np.maximum(lam, 1e-6) if logy else lam, np.nan)
-    ax.plot(t, shown, lw=0.9, label=label or r"$\lambda_t$")
+    ax.plot(t, shown, lw=0.9, label=plain(label) if label else r"$\lambda_t$")
     ax.axhline(result.threshold, color="k", ls="--", lw=0.9, label=f"T = {result.threshold:.4g}")
     if np.any(alarm):
         ax.plot(t[alarm], shown[alarm], "r.", ms=3, label="alarm")
@@ -102,6 +103,6 @@ def plot_ar_monitor(
     ax.set_xlabel("epoch" if time is None else "time")
     ax.set_ylabel(r"$\lambda$")
     if title:
-        ax.set_title(title)
+        ax.set_title(plain(title))
     ax.legend(loc="upper right", fontsize=8)
     return fig

@@ -17,6 +17,7 @@ import numpy as np
 from geomfdi._validation import as_bool_array, as_choice, as_positive, as_real_array, as_sequence_of
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.limits import check_allocation
+from geomfdi.plotting._text import plain, plain_all
 
 __all__ = ["plot_residuals", "plot_result", "plot_structure", "save_png"]
 
@@ -88,6 +89,7 @@ def plot_residuals(
     )
     if len(labels) != nres:
         raise ShapeError(f"labels: expected {nres} labels, got {len(labels)}", argument="labels")
+    labels = plain_all(labels)  # names are plain text, never mathtext
     is_norm = [False] * nres if norms is None else [bool(b) for b in norms]
     if len(is_norm) != nres:
         raise ShapeError(f"norms: expected {nres} flags, got {len(is_norm)}", argument="norms")
@@ -130,7 +132,7 @@ def plot_residuals(
     axes[0].legend(loc="upper left", fontsize="small", ncols=3)
     axes[-1].set_xlabel("t [s]")
     if title:
-        fig.suptitle(title)
+        fig.suptitle(plain(title))
     return fig
 
 
@@ -231,13 +233,13 @@ def plot_structure(
                 )
                 if name == "achieved" and Rq is not None and Rq[k, j] != M[k, j]:
                     ax.add_patch(Rectangle((k - 0.5, j - 0.5), 1, 1, fill=False, ec="red", lw=2))
-        ax.set_xticks(range(nres), residual_labels)
-        ax.set_yticks(range(nf), fault_labels)
+        ax.set_xticks(range(nres), plain_all(residual_labels))
+        ax.set_yticks(range(nf), plain_all(fault_labels))
         ax.set_title(name)
         ax.set_xlabel("residual")
     axes[0].set_ylabel("fault")
     if title:
-        fig.suptitle(title)
+        fig.suptitle(plain(title))
     return fig
 
 

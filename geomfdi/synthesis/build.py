@@ -45,6 +45,7 @@ from geomfdi.model.plant import Plant
 from geomfdi.synthesis.construction import IDENTITY_TOL, _NumericalDesignError
 from geomfdi.synthesis.least_order.injection import RELAX
 from geomfdi.synthesis.least_order.orthonormal_row import orthonormal_row
+from geomfdi.synthesis.least_order.quotient import adaptive_quotient_model
 from geomfdi.synthesis.least_order.quotient_observer import quotient_observer_row
 from geomfdi.synthesis.least_order.search import (
     NU_PF_MAX,
@@ -53,9 +54,9 @@ from geomfdi.synthesis.least_order.search import (
     _Infeasible,
     least_order_row,
     parity_basis_row,
-    quotient_model,
     realise_on_plant,
 )
+from geomfdi.synthesis.strength import reference_sizes, strength_frequencies
 from geomfdi.tolerance import get_rtol
 
 __all__ = ["build_least_order", "ANGLE_TOL", "check_angles", "weak_targets", "FD_GAIN_TOL"]
@@ -82,18 +83,38 @@ def weak_targets(
 ) -> list[int]:
     """Targets whose DC gain is below ``FD_GAIN_TOL`` × the largest gain over frequency.
 
-    The largest gain is taken over the faults' gains on 31 frequencies spread over
-    ``ω·[1e-3, 1e3]`` (continuous) or ``π·[1e-3, 1]`` (discrete) and the DC gains;
-    ``g.info["dc_gain"]`` must hold the DC gains; ``comp``: the factored interconnection
-    of g and the plant if already at hand.
+    Gains are those of faults at their reference sizes σ_j
+    (:func:`geomfdi.synthesis.strength.reference_sizes`: unit-free); the largest is taken
+    over every fault's gain on 31 frequencies spread over ``ω·[1e-3, 1e3]`` (continuous)
+    or ``π·[1e-3, 1]`` (discrete) and the DC gains.  ``g.info["dc_gain"]`` must hold the
+    DC gains; ``comp``: the factored interconnection of g and the plant if at hand.
+    Records ``g.info["target_strength"]``: per target, its DC and mid-band (at ω) gain
+    relative to that largest gain, and ``g.info["reference_sizes"]``.
     """
     comp = comp if comp is not None else Composite(g, plant, factor)
-    dc = np.asarray(g.info["dc_gain"], dtype=float)
-    base = np.pi if plant.dt > 0 else omega
-    ws = base * np.logspace(-3, 0 if plant.dt > 0 else 3, 31)
-    peak = frequency_gains(comp, sigs, ws)
+    faults = g.info.get("faults") or []
+    sizes = np.ones(len(sigs))
+    if len(faults) == len(sigs):
+        cache = getattr(factor, "_reference_sizes", None) if factor is not None else None
+        key = (tuple(id(f) for f in faults), float(omega))
+        if cache is not None and cache[0] == key:
+            sizes = cache[1]
+        else:
+            sizes = reference_sizes(plant, faults, sigs, omega)
+            if factor is not None:
+                factor._reference_sizes = (key, sizes)
+    dc = np.asarray(g.info["dc_gain"], dtype=float) * sizes
+    ws = strength_frequencies(omega, plant.dt)
+    peak = frequency_gains(comp, sigs, np.append(ws, np.pi / 2 if plant.dt > 0 else omega))
+    mid = peak[-1] * sizes
+    peak = peak * sizes[None, :]
     top = np.max(np.where(np.isfinite(peak), peak, 0.0), initial=0.0)
     top = max(top, float(np.max(np.where(np.isfinite(dc), dc, 0.0), initial=0.0)))
+    ref = top if top > 0 else 1.0
+    g.info["reference_sizes"] = sizes.tolist()
+    g.info["target_strength"] = {
+        int(j): {"dc": float(dc[j] / ref), "mid_band": float(mid[j] / ref)} for j in target
+    }
     return [j for j in target if np.isfinite(dc[j]) and dc[j] < FD_GAIN_TOL * top]
 
 
@@ -162,7 +183,7 @@ def _quotient(
     Bw = np.hstack([plant.Bd / d[:, None], *[sigs[j][0] / d[:, None] for j in decouple]])
     Dw = np.hstack([plant.Dd, *[sigs[j][1] for j in decouple]])
     tg = [(sigs[j][0] / d[:, None], sigs[j][1]) for j in target]
-    Qm = quotient_model(Ab, Bb, Cb, Du, Bw, Dw, tg)
+    Qm = adaptive_quotient_model(Ab, Bb, Cb, Du, Bw, Dw, tg)
     bad = {k: v for k, v in Qm.identities.items() if v > IDENTITY_TOL}
     if bad:
         raise _NumericalDesignError(
@@ -285,6 +306,7 @@ def _finish(
         "W_dim": Qm.S.W.dim,
         "W_history": Qm.S.W.history,
         "min_gap": Qm.S.min_gap,
+        "S_rtol": Qm.rtol,
         "quotient_order": Qm.k,
         "full_order": Qm.k,
         "design_n": Qm.n_aug,
@@ -318,7 +340,9 @@ def _finish(
     g.info["fault_gain"] = gains
     g.info["markov_gain"] = _first_markov(g, plant, *sigs[target[0]])
     g.info["dc_gain"] = dc
-    ang = comp.angle_gains([sigs[j] + (False,) for j in decouple])
+    both = comp.angle_gains([sigs[j] + (False,) for j in (*decouple, *target)])
+    ang, tang = both[: len(decouple)], both[len(decouple) :]
+    g.info["target_angle"] = dict(zip(target, tang.tolist(), strict=True))
     leaks = [j for j, a in zip(decouple, ang, strict=True) if a > ANGLE_TOL]
     chans = [(plant.B, plant.D, True)] if plant.m else []
     chans += [(plant.Bd, plant.Dd, False)] if plant.nd else []
@@ -328,6 +352,15 @@ def _finish(
         raise _NumericalDesignError(
             f"{row}: the least-order row leaks on the physical model (faults {leaks}, input "
             f"gain {inp:.2g}); the design is ill-conditioned",
+            argument="plant",
+        )
+    blind = [j for j, a in zip(target, tang, strict=True) if not a > ANGLE_TOL]
+    if blind and all(gains[j] > LEAK_TOL for j in target):
+        # seen off the frequency axis only: on the frequency response the target is at
+        # the level a decoupled channel counts as zero (a rounding-level detection)
+        raise _NumericalDesignError(
+            f"{row}: targets {blind} reach the residual only at rounding level on the "
+            f"frequency response (angle <= {ANGLE_TOL:g})",
             argument="plant",
         )
     unseen = [j for j in target if not gains[j] > LEAK_TOL]
@@ -405,8 +438,11 @@ def build_least_order(
     factor: PlantFactor | None = None,
     balance: bool = True,
     prefix: bool = False,
+    strengthen: bool = True,
 ) -> ResidualGenerator:
     """Design, realise and check one least-order scalar row (module Notes).
+
+    ``strengthen=False`` delivers the least-order row even where it is weak (step 6 off).
 
     The realisations are tried in the order of :func:`_attempts`: the partial-fraction
     functional observer with the default poles scaled by ``RETRY_SCALES`` (the parity
@@ -470,7 +506,7 @@ def build_least_order(
             continue
         if kind in ("pf", "onbp"):
             g.info["pole_scale"] = val
-            if poles is None and not prefix:
+            if poles is None and not prefix and strengthen:
                 g = _strengthen(
                     g, comp, cur, Qm, d, plant, faults, sigs, target, decouple, omega, row, factor
                 )
@@ -522,6 +558,7 @@ def _strengthen(
                 reason=f"the least-order row sees targets {weak} only weakly (DC gain "
                 f"below {FD_GAIN_TOL:g} of its largest fault gain)",
                 raised_from=nu,
+                weak_at_least=list(weak),
             )
             g2, comp2 = _finish(
                 plant,

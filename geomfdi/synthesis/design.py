@@ -14,8 +14,10 @@ transforms of Hou, Wen & Chen (2011) and Massoumnia, Verghese & Willsky (1989) o
 construction.
 
 Defaults relative to the plant: the default poles of a least-order row are distinct, real
-and geometrically spread over ``[−10ω, −ω/10]`` (continuous; ω the spectral radius of A,
-see :func:`geomfdi.synthesis.least_order.search.plant_scale`) or ``[0.001, 0.93]`` (discrete).
+and geometrically spread over ``[−10ω, −ω/10]`` (continuous; ω the plant's time scale, the
+geometric mean of the moduli of A's non-zero eigenvalues, at least its fastest unstable
+one, see :func:`geomfdi.synthesis.least_order.poles.plant_scale`) or ``[0.001, 0.93]``
+(discrete).
 A row is reported ``"weak"`` when the DC gain from a target is below ``FD_GAIN_TOL``
 times the largest gain from any fault over frequency (strong detectability), never
 ``"ok"``.
@@ -52,9 +54,11 @@ from geomfdi.synthesis.construction import (
     checked_margin,
     checked_poles,
 )
-from geomfdi.synthesis.least_order.search import plant_scale
+from geomfdi.synthesis.least_order.poles import plant_scale
 from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
 from geomfdi.synthesis.rank_decisions import attach, close_note, record_design, summarise
+from geomfdi.synthesis.row_notes import check_strength as _check_strength
+from geomfdi.synthesis.row_notes import row_notes
 from geomfdi.synthesis.sensor_transforms import default_filter_pole, pseudo_actuator_model
 
 __all__ = [
@@ -92,6 +96,7 @@ def _design_row(
     omega: float,
     prefix: bool = False,
     residual_dim: int = 1,
+    strength: str = "strong",
 ) -> ResidualGenerator:
     """One row: least order for ``"exact"`` (full-quotient fallback on numerical failure).
 
@@ -141,6 +146,7 @@ def _design_row(
             row=row,
             factor=factor,
             prefix=prefix,
+            strengthen=strength == "strong",
         )
     except _NumericalDesignError as exc:
         first = str(exc)
@@ -192,6 +198,7 @@ def design_residual_generator(
     minimal: bool = True,
     residual_dim: int | None = None,
     exact: bool = False,
+    strength: str = "strong",
     objective: str | None = None,
     regularization: float | None = None,
     models: Sequence[Plant] | None = None,
@@ -212,9 +219,9 @@ def design_residual_generator(
         ``method="exact"``: poles of the scalar least-order residual, distinct and stable
         (closed under conjugation); a row of order ν uses the first ν (fewer raise a
         :class:`DesignError` naming the order).  Default: distinct real poles spread
-        geometrically over ``[−10ω, −ω/10]`` (continuous, ω the plant's spectral radius)
-        or ``[0.001, 0.93]`` (discrete).  Other methods: the spectrum of the quotient
-        observer (its order).
+        geometrically over ``[−10ω, −ω/10]`` (continuous, ω the plant's time scale:
+        :func:`geomfdi.synthesis.least_order.poles.plant_scale`) or ``[0.001, 0.93]``
+        (discrete).  Other methods: the spectrum of the quotient observer (its order).
     method : {"exact", "full", "paper", "mvw"}
         ``"exact"``: least-order scalar residual (exact decoupling, no output filter).
         ``"full"``: full-quotient observer with the output filter of the exact
@@ -240,6 +247,12 @@ def design_residual_generator(
         decoupled signals); asking for more raises :class:`DesignError` with
         ``argument="residual_dim"``.  With ``poles``, every row of order ν uses the
         first ν of that list (give at least the largest row order).
+    strength : {"strong", "weak"}
+        ``"strong"`` (default): a least-order row that sees a target only weakly (DC
+        gain below ``FD_GAIN_TOL`` of its largest fault gain, faults at their reference
+        sizes) is replaced by the first strong row of higher order (up to 3 degrees
+        above), stated in ``g.info["least_order"]`` (``raised_from``) and in a bank's
+        diagnostic; ``"weak"``: the least-order row itself, reported weak.
     exact : bool
         Run the construction in exact arithmetic (rationals, or rational functions of the
         parameters of a parametric plant) and return an
@@ -310,6 +323,7 @@ def design_residual_generator(
     >>> g2.n_outputs, g2.info["row_orders"]
     (2, [1, 1])
     """
+    strength = _check_strength(strength)
     if _objective(objective, plant, models, exact, method) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_residual_generator
 
@@ -386,8 +400,11 @@ def design_residual_generator(
             factor,
             omega,
             residual_dim=rdim,
+            strength=strength,
         )
     attach(g, rec, "the residual")
+    if "target_strength" not in g.info and rdim == 1 and "dc_gain" in g.info:
+        g.info["weak_targets"] = weak_targets(g, plant, sigs, factor, omega, tgt)
     return g
 
 
@@ -507,6 +524,7 @@ def design_bank(
     common_poles: bool = False,
     residual_dim: int | Sequence[int] | None = None,
     exact: bool = False,
+    strength: str = "strong",
     objective: str | None = None,
     regularization: float | None = None,
     models: Sequence[Plant] | None = None,
@@ -522,6 +540,8 @@ def design_bank(
         ``structure[r, j] = 1``: residual r must see fault j; 0: must ignore it.
     poles : sequence or list of sequences, optional
         One pole list used for every row, or one per row (``None`` entries: default).
+        A list that does not fit its row (e.g. fewer poles than the row's least order)
+        raises :class:`DesignError` with ``argument="poles"`` naming the row.
     method, filter_pole, margin, minimal
         As in :func:`design_residual_generator`.
     common_poles : bool
@@ -534,6 +554,8 @@ def design_bank(
         row or one per row (``None`` entries: 1).  Default 1, scalar residuals; see
         :func:`design_residual_generator`.  A row that cannot have that many independent
         components is missing, its diagnostic names ``residual_dim`` and the maximum.
+    strength : {"strong", "weak"}
+        As in :func:`design_residual_generator`.
     exact : bool
         Exact / parametric design: returns an
         :class:`~geomfdi.generators.exact.ExactResidualBank` (see
@@ -570,6 +592,7 @@ def design_bank(
         ``bank.info["closest_gaps"]``: that gap per row (``g.info["rank_decisions"]``
         has where it was taken).
     """
+    strength = _check_strength(strength)
     if _objective(objective, plant, models, exact, method) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_bank
 
@@ -674,6 +697,7 @@ def design_bank(
                     omega,
                     common_poles,
                     residual_dim=dims[r],
+                    strength=strength,
                 )
         except NotIsolableError as exc:
             gens.append(None)
@@ -690,7 +714,11 @@ def design_bank(
                 and per_row[r] is not None
                 and not isinstance(exc, _NumericalDesignError)
             ):
-                raise  # the user's poles are wrong for this row
+                msg = str(exc)  # the user's poles are wrong for this row: say which
+                raise DesignError(
+                    msg if f"row {r}" in msg else f"poles: row {r}: {msg.removeprefix('poles: ')}",
+                    argument="poles",
+                ) from None
             gens.append(None)
             close = close_note(summarise(rec))
             diags.append(
@@ -700,47 +728,11 @@ def design_bank(
         gens.append(g)
         close = attach(g, rec, f"row {r}")
         achieved[r] = g.info["fault_gain"] > LEAK_TOL
-        gain = g.info["fault_gain"]
         weak = g.info.get("weak_targets")
         if weak is None:
             weak = weak_targets(g, plant, sigs, factor, omega, tgt)
         leaks = [j for j in dec if achieved[r, j]]
-        notes = []
-        if weak:
-            dc = g.info["dc_gain"]
-            zero = [j for j in weak if dc[j] <= 1e-8 * max(gain[j], 1e-300)]
-            small = [j for j in weak if j not in zero]
-            if zero:
-                notes.append("weak: zero DC gain from fault " + ", ".join(map(str, zero)))
-            if small:
-                notes.append(
-                    "weak: DC gain from fault "
-                    + ", ".join(map(str, small))
-                    + f" below {FD_GAIN_TOL:g} of the residual's largest fault gain"
-                )
-        if leaks and method == "paper":
-            dc = g.info["dc_gain"]
-            kind = (
-                "zero DC gain: decoupled in steady state only"
-                if all(np.isfinite(dc[j]) and dc[j] <= 1e-8 * max(gain[j], 1e-300) for j in leaks)
-                else "non-zero DC gain"
-            )
-            notes.append(f"leaks faults {leaks} on the physical model ({kind})")
-        elif leaks:
-            worst = float(max(gain[j] for j in leaks))
-            notes.append(
-                f"ill-conditioned: faults {leaks} leak at relative gain up to {worst:.2g} "
-                "(the decoupling is exact in theory; rounding is amplified by the design)"
-            )
-        if "fallback" in g.info:
-            notes.append(f"not least order: {g.info['fallback']}")
-        cert = g.info.get("least_order")
-        if (  # above the least order for numerical reasons (a raise for strength is "ok")
-            isinstance(cert, dict)
-            and "raised_from" not in cert
-            and cert.get("delivered_order", g.order) != cert.get("order")
-        ):
-            notes.append(f"not least order: {cert.get('statement', '')}")
+        notes = row_notes(g, weak, leaks, method)
         if close:
             notes.append(close)
         diags.append("; ".join(notes) if notes else "ok")

@@ -44,6 +44,7 @@ from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.build import build_least_order, check_angles
 from geomfdi.synthesis.construction import IDENTITY_TOL, _NumericalDesignError
+from geomfdi.synthesis.least_order.quotient import adaptive_quotient_model
 from geomfdi.synthesis.least_order.search import (
     SEE_TOL,
     LeastOrderRow,
@@ -54,7 +55,6 @@ from geomfdi.synthesis.least_order.search import (
     _realise,
     _unnormalise,
     default_pole_sequence,
-    quotient_model,
     realise_on_plant,
     validate_poles,
 )
@@ -94,7 +94,7 @@ def _quotient(
     Bw = np.hstack([plant.Bd / d[:, None], *[sigs[j][0] / d[:, None] for j in decouple]])
     Dw = np.hstack([plant.Dd, *[sigs[j][1] for j in decouple]])
     tg = [(sigs[j][0] / d[:, None], sigs[j][1]) for j in target]
-    return quotient_model(Ab, Bb, Cb, plant.D, Bw, Dw, tg)
+    return adaptive_quotient_model(Ab, Bb, Cb, plant.D, Bw, Dw, tg)
 
 
 def _y_rows(mats: dict[str, np.ndarray], points: np.ndarray) -> np.ndarray:

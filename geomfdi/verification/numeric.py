@@ -76,13 +76,19 @@ class VerificationReport:
     identities : list of dict
         Relative residuals of the construction identities per row (empty if missing).
     missing : list of int
-        Rows without a generator (not counted in ``ok``).
+        Requested rows without a generator.
     tol : float
-        Threshold for "zero".
+        Threshold for "zero" (leakage; a target must be seen above it, see Notes of
+        :func:`verify`).
     ok : bool
-        Every decoupling holds, no input leaks, every target is seen — over the rows
-        whose generator exists (a bank with missing rows can be ``ok``; see
-        :attr:`complete`).
+        **The requested structure is achieved**: no requested row is missing
+        (:attr:`complete`) and every delivered row is correct (:attr:`rows_ok`).
+    rows_ok : bool
+        Every decoupling holds, no input leaks, every target is seen above rounding
+        level — over the rows whose generator exists.
+    target_angle : ndarray (rows, faults)
+        The angle measure of the leakage applied to the targets (0 elsewhere): a target
+        whose response on the frequency response is at or below ``tol`` is not seen.
     """
 
     gain: np.ndarray
@@ -98,11 +104,13 @@ class VerificationReport:
     details: list[str] = field(default_factory=list)
     stable: np.ndarray | None = None
     unstable_leakage: np.ndarray | None = None
+    rows_ok: bool = True
+    target_angle: np.ndarray | None = None
 
     @property
     def complete(self) -> bool:
-        """``ok`` and no row missing: the bank realises the whole requested structure."""
-        return self.ok and not self.missing
+        """No requested row is missing (part of :attr:`ok`)."""
+        return not self.missing
 
     def __repr__(self) -> str:
         return (
@@ -160,8 +168,10 @@ def _row_measures(
     dc: np.ndarray,
     inp: np.ndarray,
     unst: np.ndarray,
+    tang: np.ndarray,
 ) -> None:
-    """Fault gains, input leakage and unstable-mode angle of row ``r`` (in place)."""
+    """Fault gains, input leakage, unstable-mode angle and target angles of row ``r``
+    (in place)."""
     comp = Composite(g, plant, factor)
     gain[r], dc[r] = _gains(comp, sigs, method)
     for j in np.flatnonzero(req & (gain[r] <= LEAK_TOL)):
@@ -171,6 +181,7 @@ def _row_measures(
             gain[r, j], fault_gains(g, plant, [faults[j]], method="krylov", factor=factor)[0][0]
         )
     ang = comp.angle_gains([(Bf, Df, False) for Bf, Df in sigs])
+    tang[r] = np.where(req, ang, 0.0)
     gain[r] = np.where(req, gain[r], ang)
     chans = []
     if plant.m:
@@ -217,7 +228,14 @@ def verify(
 
     Notes
     -----
-    ``docs/theory/verification.md``, items 1–3.  The transfer from sensor i is
+    See the user guide, *Theory: verification* (``docs/theory/verification.md``).
+    ``ok`` means "the requested structure is achieved": a bank with a missing row is
+    never ``ok`` (``rows_ok`` tells whether the delivered rows are correct).  A target
+    is seen when its random-point gain is above rounding **and** its angle on the
+    frequency response (the leakage measure) is above ``tol``: a response that small
+    would count as zero on a decoupled channel, so it cannot count as detection (a
+    row blind to its targets is never ``ok``, whatever the rank tolerance of the
+    design).  The transfer from sensor i is
     ``−M (sI − F)⁻¹ E e_i − H e_i`` composed with the plant; from u and d it must vanish.
     Unlike the paper's check on its pseudo-actuator model, this one uses the measured y,
     so the paper design's transient leakage (Erratum 2) is visible.
@@ -236,6 +254,7 @@ def verify(
     inp = np.zeros(rows)
     stable = np.ones(rows, dtype=bool)
     unst = np.zeros(rows)
+    tang = np.zeros((rows, nf))
     idents: list[dict[str, float]] = []
     missing, details = [], []
     unusable: dict[int, str] = {}  # rows whose measures could not be computed
@@ -249,7 +268,7 @@ def verify(
         try:
             with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
                 _row_measures(g, plant, factor, faults, sigs, req[r], method, r,
-                              gain, dc, inp, unst)  # fmt: skip
+                              gain, dc, inp, unst, tang)  # fmt: skip
         except np.linalg.LinAlgError as exc:  # a generator pole on a plant pole, say
             gain[r], dc[r], inp[r], unst[r] = np.nan, np.nan, np.nan, np.nan
             unusable[r] = f"singular transfer ({exc})"
@@ -279,6 +298,12 @@ def verify(
             if req[r, j] and gain[r, j] <= LEAK_TOL:
                 ok = False
                 details.append(f"row {r}: does not see fault {j}")
+            elif req[r, j] and tang[r, j] <= tol:
+                ok = False
+                details.append(
+                    f"row {r}: sees fault {j} only at rounding level (angle {tang[r, j]:.2g} "
+                    f"<= {tol:g} on the frequency response)"
+                )
         if inp[r] > tol:
             ok = False
             details.append(f"row {r}: input leakage {inp[r]:.3g}")
@@ -291,8 +316,24 @@ def verify(
         if any(v > 1e-8 for v in idents[r].values()):
             ok = False
             details.append(f"row {r}: identities {idents[r]}")
+    for r in missing:
+        details.append(f"row {r}: missing (requested, not delivered)")
     return VerificationReport(
-        gain, leak, tgain, inp, dc, idents, missing, tol, ok, method, details, stable, unst
+        gain,
+        leak,
+        tgain,
+        inp,
+        dc,
+        idents,
+        missing,
+        tol,
+        ok and not missing,
+        method,
+        details,
+        stable,
+        unst,
+        rows_ok=ok,
+        target_angle=tang,
     )
 
 

@@ -8,7 +8,7 @@ through one output is hopeless for k ≳ 10).  The rule follows Varga's stabilit
 (Varga 2017): eigenvalues that are already stable enough are kept, only the others move.
 
 * Continuous time: with ``α = SDEG_REL · ω`` (``ω`` the plant scale of
-  :func:`geomfdi.synthesis.least_order.search.plant_scale`, the plant's spectral radius), the
+  :func:`geomfdi.synthesis.least_order.poles.plant_scale`, the plant's time scale), the
   eigenvalues with ``Re λ > −α`` move and those with ``Re λ ≤ −α`` stay.  ``L = X Cᵀ``
   with X the stabilising solution of the dual Riccati equation of the shifted pair::
 

@@ -1,4 +1,5 @@
-"""Pole lists of a least-order row: the user's poles checked, conjugate pairs ordered.
+"""Pole lists of a least-order row: the default spectrum from the plant's time scale, the
+user's poles checked, conjugate pairs ordered.
 
 See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.md``,
 section 5).
@@ -13,7 +14,54 @@ import numpy as np
 from geomfdi.errors import DesignError
 from geomfdi.geometry.subspace import _norm2
 
-__all__ = ["validate_poles"]
+__all__ = ["validate_poles", "plant_scale", "default_pole_sequence"]
+
+_GOLD = 0.6180339887498949
+
+
+def plant_scale(A: np.ndarray, dt: float) -> float:
+    """The plant's frequency scale ω for the default spectrum: its own time scale.
+
+    Continuous: the geometric mean of the moduli of A's non-zero eigenvalues
+    (``exp(mean(log|λ_i|))`` over ``|λ_i| > 1e-8 ρ``, ρ the spectral radius), and at least
+    the modulus of its fastest unstable eigenvalue (``Re λ > 0``: the residual must not be
+    slower than the drift it has to cancel).  A slow plant gets slow residual poles, a
+    stiff one (fast actuators next to slow rigid-body modes) poles in the middle of its
+    time scales rather than at its fastest mode; ``‖A‖₂`` if every eigenvalue is 0 and 1
+    if ``A = 0``.  Discrete: ``1`` (the unit circle sets the scale).  Scaling time
+    (``A → c A``, c > 0) scales ω by c.
+    """
+    if dt > 0 or A.size == 0:
+        return 1.0
+    lam = np.linalg.eigvals(A)
+    mod = np.abs(lam)
+    rho = float(np.max(mod))
+    if rho > 1e-12 * max(_norm2(A), 1e-300):
+        keep = mod > 1e-8 * rho
+        mean = float(np.exp(np.mean(np.log(mod[keep]))))
+        unstable = mod[keep & (lam.real > 1e-8 * rho)]
+        return max(mean, float(np.max(unstable, initial=0.0)))
+    nA = _norm2(A)
+    return nA if nA > 0 else 1.0
+
+
+def default_pole_sequence(count: int, omega: float, dt: float) -> np.ndarray:
+    """Distinct real stable poles, geometrically spread: the default generator spectrum.
+
+    Continuous: ``λ_i = −ω · 10^{2 ({i φ} − 1/2)}`` ({·}: fractional part, φ the golden
+    ratio conjugate), i.e. in ``[−10ω, −ω/10]``; discrete:
+    ``z_i = exp(−0.7 ω · 10^{2 ({i φ} − 1/2)})``, i.e. in ``[0.001, 0.93]`` for the
+    default ω = 1.  Every prefix is spread over the interval (a low-discrepancy
+    sequence).  A wide geometric spread keeps the partial-fraction
+    (rational Krylov) basis of the parity space well conditioned: clustered poles make
+    its coefficients large and cancelling.
+    """
+    i = np.arange(1, count + 1)
+    frac = np.mod(i * _GOLD, 1.0)
+    spread = 10.0 ** (2.0 * (frac - 0.5))
+    if dt > 0:
+        return np.exp(-0.7 * omega * spread)
+    return -omega * spread
 
 
 def _check_poles(

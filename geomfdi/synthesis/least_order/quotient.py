@@ -31,9 +31,20 @@ import numpy as np
 
 from geomfdi.geometry.subspace import Subspace, _norm2, pinv
 from geomfdi.geometry.unobservability import min_unobservability_subspace
-from geomfdi.tolerance import get_rtol
+from geomfdi.tolerance import GAP_WARN, get_rtol, tolerance
 
-__all__ = ["Quotient", "quotient_model"]
+__all__ = ["Quotient", "quotient_model", "adaptive_quotient_model", "QUOTIENT_IDENTITY_TOL"]
+
+QUOTIENT_IDENTITY_TOL = 1e-8
+"""Largest relative residual of the quotient identities (the design's ``IDENTITY_TOL``)."""
+
+RTOL_LADDER = (10.0, 100.0, 1e3, 1e4, 0.1)
+"""Factors of the tolerance in force tried for S* when its decisions are close or its
+quotient identities fail (:func:`adaptive_quotient_model`)."""
+
+RTOL_MAX = 1e-7
+"""Largest tolerance the ladder reaches (a dropped singular value above it would break
+the quotient identities)."""
 
 
 @dataclass
@@ -51,6 +62,8 @@ class Quotient:
     S: Any
     n_aug: int
     identities: dict[str, float] = field(default_factory=dict)
+    rtol: float | None = None
+    """The tolerance S* was decided with when it differs from the one in force."""
 
     @property
     def k(self) -> int:
@@ -149,3 +162,49 @@ def quotient_model(
         Bf.append(b)
         Df.append(dd)
     return Quotient(A0, M, H, Bqy, Bqu, Bf, Df, P[:, :n], S, n + na, ident)
+
+
+def _ok(Qm: Quotient) -> bool:
+    return all(v <= QUOTIENT_IDENTITY_TOL for v in Qm.identities.values())
+
+
+def adaptive_quotient_model(
+    A: np.ndarray,
+    B: np.ndarray,
+    C: np.ndarray,
+    Du: np.ndarray,
+    Bw: np.ndarray,
+    Dw: np.ndarray,
+    targets: list[tuple[np.ndarray, np.ndarray]],
+) -> Quotient:
+    """:func:`quotient_model` with S*'s rank decisions adapted to the row.
+
+    No single tolerance suits every row of a badly scaled plant: the recursion of S*
+    reaches some directions weakly (singular values far below ``‖A‖``), and whether such
+    a direction is kept depends on where the tolerance falls.  The quotient is formed at
+    the tolerance in force; when its identities fail (S is not conditioned invariant) or
+    its closest decision has a gap below :data:`geomfdi.tolerance.GAP_WARN`, S* is
+    recomputed at the tolerances :data:`RTOL_LADDER` × the one in force (up to
+    :data:`RTOL_MAX`), and among the quotients whose identities hold, the one whose
+    closest rank decision has the **largest** singular-value gap is kept (the rank
+    decision taken at the largest gap, as in Varga 2017, Section 10.4).  ``Qm.rtol``
+    records the tolerance used when it differs from the one in force.
+    """
+    n = A.shape[0] + Dw.shape[1]
+    base = get_rtol(n)
+    Qm = quotient_model(A, B, C, Du, Bw, Dw, targets)
+    if _ok(Qm) and Qm.S.min_gap >= GAP_WARN:
+        return Qm
+    best = Qm if _ok(Qm) else None
+    for f in RTOL_LADDER:
+        rt = base * f
+        if rt > RTOL_MAX or rt <= 0 or rt >= 1:
+            continue
+        with tolerance(rt):
+            cand = quotient_model(A, B, C, Du, Bw, Dw, targets)
+        if not _ok(cand):
+            continue
+        cand.rtol = rt
+        if best is None or cand.S.min_gap > best.S.min_gap:
+            best = cand
+    return best if best is not None else Qm

@@ -53,7 +53,12 @@ from geomfdi.synthesis.least_order.parity_spaces import (
     realise_onb,
     spectral_pole_set,
 )
-from geomfdi.synthesis.least_order.poles import _check_poles, validate_poles
+from geomfdi.synthesis.least_order.poles import (
+    _check_poles,
+    default_pole_sequence,
+    plant_scale,
+    validate_poles,
+)
 from geomfdi.synthesis.least_order.quotient import Quotient, quotient_model
 from geomfdi.tolerance import rank_decision
 
@@ -90,44 +95,20 @@ ONB_GAP_MIN = 1e6
 """Singular-value gap of a high-degree parity space (orthonormal basis) above which a
 target it misses counts as unseen at that degree (for the least-order certificate)."""
 
-_GOLD = 0.6180339887498949
-
-
-def plant_scale(A: np.ndarray, dt: float) -> float:
-    """The plant's frequency scale ω for the default spectrum.
-
-    Continuous: the spectral radius of A (its fastest mode); ``‖A‖₂`` if that is 0 and
-    1 if ``A = 0``.  Discrete: ``1`` (the unit circle sets the scale).
-    """
-    if dt > 0 or A.size == 0:
-        return 1.0
-    rho = float(np.max(np.abs(np.linalg.eigvals(A))))
-    if rho > 1e-12 * max(_norm2(A), 1e-300):
-        return rho
-    nA = _norm2(A)
-    return nA if nA > 0 else 1.0
-
-
-def default_pole_sequence(count: int, omega: float, dt: float) -> np.ndarray:
-    """Distinct real stable poles, geometrically spread: the default generator spectrum.
-
-    Continuous: ``λ_i = −ω · 10^{2 ({i φ} − 1/2)}`` ({·}: fractional part, φ the golden
-    ratio conjugate), i.e. in ``[−10ω, −ω/10]``; discrete:
-    ``z_i = exp(−0.7 ω · 10^{2 ({i φ} − 1/2)})``, i.e. in ``[0.001, 0.93]`` for the
-    default ω = 1.  Every prefix is spread over the interval (a low-discrepancy
-    sequence).  A wide geometric spread keeps the partial-fraction
-    (rational Krylov) basis of the parity space well conditioned: clustered poles make
-    its coefficients large and cancelling.
-    """
-    i = np.arange(1, count + 1)
-    frac = np.mod(i * _GOLD, 1.0)
-    spread = 10.0 ** (2.0 * (frac - 0.5))
-    if dt > 0:
-        return np.exp(-0.7 * omega * spread)
-    return -omega * spread
-
 
 # ------------------------------------------------------------------ parity space
+def _fresh(st: Staircase, nu: int) -> int:
+    """Vectors of degree ν in a minimal polynomial basis of the parity space.
+
+    The degree-ν space holds the multiples ``a(s) v(s)`` of the degree-(ν − 1) space
+    (dimension ``2 d_{ν−1} − d_{ν−2}``); the rest, ``d_ν − 2 d_{ν−1} + d_{ν−2}``, are new
+    minimal-basis vectors (their degrees are the observability indices of the quotient,
+    Varga 2017, Section 10.4).  A degree with none sees no target its predecessor misses.
+    """
+    dims = [st.parity_dim(v) if v >= 0 else 0 for v in (nu, nu - 1, nu - 2)]
+    return dims[0] - 2 * dims[1] + dims[2]
+
+
 def _blocks(Qm: Quotient, poles: np.ndarray) -> tuple[list[np.ndarray], list[tuple[str, int]]]:
     """Real row blocks of the degree-ν parity condition, each normalised to unit norm.
 
@@ -491,6 +472,16 @@ def least_order_row(
         if dim == 0:  # the staircase says: no residual of this degree
             history.append({"order": nu, "dim": 0, "rank": ranks[-1], "gap": np.inf})
             unseen_at[nu] = list(range(nt))
+            nu += 1
+            continue
+        if nu > min_order and nu - 1 in unseen_at and _fresh(st, nu) == 0:
+            # no minimal-basis vector of degree ν: the space is the polynomial multiples
+            # of the degree-(ν − 1) one and sees exactly the targets that one sees; what
+            # a basis computed here would add is rounding
+            history.append({"order": nu, "dim": dim, "rank": ranks[-1], "gap": np.inf})
+            unseen_at[nu] = list(unseen_at[nu - 1])
+            if nu >= top:
+                raise infeasible(unseen_at[nu])
             nu += 1
             continue
         if nu > NU_PF_MAX and user is None:
