@@ -56,6 +56,7 @@ from geomfdi.synthesis.construction import (
 )
 from geomfdi.synthesis.least_order.poles import plant_scale
 from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
+from geomfdi.synthesis.objective import objective_of
 from geomfdi.synthesis.rank_decisions import attach, close_note, record_design, summarise
 from geomfdi.synthesis.row_notes import check_strength as _check_strength
 from geomfdi.synthesis.row_notes import row_notes
@@ -176,14 +177,6 @@ def _design_row(
     return g
 
 
-def _no_band(band: Any) -> None:
-    if band is not None:
-        raise DesignError(
-            'band: a frequency band is an objective of the gap design (objective="gap")',
-            argument="band",
-        )
-
-
 @limit_blas_threads
 def design_residual_generator(
     plant: Plant,
@@ -276,10 +269,9 @@ def design_residual_generator(
         ``objective="gap"``: design over several models (same dimensions); see
         :func:`design_bank`.
     band : (w1, w2), optional
-        ``objective="gap"``, one model: the fault sensitivity β is the H₋ index over the
-        frequency band ``[w1, w2]`` (rad/s), ``min_j min_ω ‖R_fj(jω)‖`` (Varga 2017, §3.3),
-        in the choice of the rows (``residual_dim`` below the decoupling basis's
-        dimension) and in the reported ``beta`` and ``gap``; γ stays the H∞ norm.
+        ``objective="gap"``, one model: β is the H₋ index over the band (rad/s),
+        ``min_j min_ω ‖R_fj(jω)‖`` (Varga 2017, §3.3), in the row choice and in the
+        reported ``beta`` and ``gap``; γ stays the H∞ norm.
 
     Returns
     -------
@@ -324,7 +316,7 @@ def design_residual_generator(
     (2, [1, 1])
     """
     strength = _check_strength(strength)
-    if _objective(objective, plant, models, exact, method) == "gap":
+    if objective_of(objective, plant, models, exact, method, band) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_residual_generator
 
         return gap_residual_generator(
@@ -338,7 +330,6 @@ def design_residual_generator(
             models=models,
             band=band,
         )
-    _no_band(band)
     rdim = check_residual_dim(residual_dim)
     if rdim > 1 and (exact or method != "exact"):
         raise DesignError(
@@ -406,39 +397,6 @@ def design_residual_generator(
     if "target_strength" not in g.info and rdim == 1 and "dc_gain" in g.info:
         g.info["weak_targets"] = weak_targets(g, plant, sigs, factor, omega, tgt)
     return g
-
-
-OBJECTIVES = ("decoupling", "gap")
-
-
-def _objective(
-    objective: Any, plant: Any, models: Any = None, exact: bool = False, method: Any = "exact"
-) -> str:
-    """``objective`` checked; ``None``: ``"gap"`` for a plant with noise inputs (unless an
-    exact-decoupling construction was asked for: ``exact=True`` or another ``method``)."""
-    if objective is None:
-        if exact is True or method != "exact":
-            return "decoupling"
-        nw = getattr(plant, "nw", 0)
-        if models is not None:
-            return "gap"
-        return "gap" if isinstance(nw, int) and nw > 0 else "decoupling"
-    if not isinstance(objective, str) or objective not in OBJECTIVES:
-        raise DesignError(
-            f"objective: must be one of {list(OBJECTIVES)}, got {objective!r:.40}",
-            argument="objective",
-        )
-    if objective == "gap" and (exact is True or method != "exact"):
-        raise DesignError(
-            "method: objective='gap' builds on the least-order decoupling basis "
-            f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
-            argument="method",
-        )
-    if objective == "decoupling" and models is not None:
-        raise DesignError(
-            "models: several models are designed for with objective='gap'", argument="models"
-        )
-    return objective
 
 
 def _row_poles(poles: Any, rows: int) -> list[Any]:
@@ -593,7 +551,7 @@ def design_bank(
         has where it was taken).
     """
     strength = _check_strength(strength)
-    if _objective(objective, plant, models, exact, method) == "gap":
+    if objective_of(objective, plant, models, exact, method, band) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_bank
 
         bank = gap_bank(
@@ -608,7 +566,6 @@ def design_bank(
         )
         _warn_inseparable(bank.requested, bank.faults)
         return bank
-    _no_band(band)
     dims_given = np.atleast_1d(np.asarray(residual_dim, dtype=object)).tolist()
     if exact and any(v is not None and v != 1 for v in dims_given):
         raise DesignError(

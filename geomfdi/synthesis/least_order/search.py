@@ -349,11 +349,8 @@ def _realise(
     sizes: list[int],
     blocks: list[np.ndarray] | None = None,
 ) -> tuple[np.ndarray, ...]:
-    """Functional observer ``(Λ, G_s, T, c, h)`` of the real null vector x (module Notes).
-
-    ``blocks``: the (un-normalised) blocks of :func:`_blocks` for these poles, which hold
-    ``M (λ − A0)⁻¹`` already (a caller realising many vectors at the same poles passes
-    them instead of solving again for every vector)."""
+    """Functional observer ``(Λ, G_s, T, c, h)`` of the real null vector x (module Notes);
+    ``blocks``: those of :func:`_blocks` at these poles (``M (λ − A0)⁻¹``, not solved again)."""
     nu = len(poles)
     rho, k = Qm.rho, Qm.k
     edges = np.cumsum([0, *sizes])
