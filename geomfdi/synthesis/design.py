@@ -58,6 +58,7 @@ from geomfdi.synthesis.construction import (
 )
 from geomfdi.synthesis.least_order.poles import plant_scale
 from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
+from geomfdi.synthesis.objective import objective_of
 from geomfdi.synthesis.rank_decisions import attach, close_note, record_design, summarise
 from geomfdi.synthesis.row_notes import check_strength as _check_strength
 from geomfdi.synthesis.row_notes import row_notes
@@ -196,6 +197,7 @@ def design_residual_generator(
     objective: str | None = None,
     regularization: float | None = None,
     models: Sequence[Plant] | None = None,
+    band: Any = None,
 ) -> ResidualGenerator:
     """Design one residual generator that sees ``target`` and ignores ``decouple``.
 
@@ -268,6 +270,10 @@ def design_residual_generator(
     models : list of Plant, optional
         ``objective="gap"``: design over several models (same dimensions); see
         :func:`design_bank`.
+    band : (w1, w2), optional
+        ``objective="gap"``, one model: β is the H₋ index over the band (rad/s),
+        ``min_j min_ω ‖R_fj(jω)‖`` (Varga 2017, §3.3), in the row choice and in the
+        reported ``beta`` and ``gap``; γ stays the H∞ norm.
 
     Returns
     -------
@@ -312,7 +318,7 @@ def design_residual_generator(
     (2, [1, 1])
     """
     strength = _check_strength(strength)
-    if _objective(objective, plant, models, exact, method) == "gap":
+    if objective_of(objective, plant, models, exact, method, band) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_residual_generator
 
         return gap_residual_generator(
@@ -324,6 +330,7 @@ def design_residual_generator(
             residual_dim=None if residual_dim is None else check_residual_dim(residual_dim),
             regularization=regularization,
             models=models,
+            band=band,
         )
     rdim = check_residual_dim(residual_dim)
     if rdim > 1 and (exact or method != "exact"):
@@ -392,39 +399,6 @@ def design_residual_generator(
     if "target_strength" not in g.info and rdim == 1 and "dc_gain" in g.info:
         g.info["weak_targets"] = weak_targets(g, plant, sigs, factor, omega, tgt)
     return g
-
-
-OBJECTIVES = ("decoupling", "gap")
-
-
-def _objective(
-    objective: Any, plant: Any, models: Any = None, exact: bool = False, method: Any = "exact"
-) -> str:
-    """``objective`` checked; ``None``: ``"gap"`` for a plant with noise inputs (unless an
-    exact-decoupling construction was asked for: ``exact=True`` or another ``method``)."""
-    if objective is None:
-        if exact is True or method != "exact":
-            return "decoupling"
-        nw = getattr(plant, "nw", 0)
-        if models is not None:
-            return "gap"
-        return "gap" if isinstance(nw, int) and nw > 0 else "decoupling"
-    if not isinstance(objective, str) or objective not in OBJECTIVES:
-        raise DesignError(
-            f"objective: must be one of {list(OBJECTIVES)}, got {objective!r:.40}",
-            argument="objective",
-        )
-    if objective == "gap" and (exact is True or method != "exact"):
-        raise DesignError(
-            "method: objective='gap' builds on the least-order decoupling basis "
-            f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
-            argument="method",
-        )
-    if objective == "decoupling" and models is not None:
-        raise DesignError(
-            "models: several models are designed for with objective='gap'", argument="models"
-        )
-    return objective
 
 
 def _row_dims(residual_dim: Any, rows: int) -> list[int]:
@@ -496,6 +470,7 @@ def design_bank(
     objective: str | None = None,
     regularization: float | None = None,
     models: Sequence[Plant] | None = None,
+    band: Any = None,
 ) -> ResidualBank:
     """Design one residual generator per row of a structure matrix.
 
@@ -541,6 +516,8 @@ def design_bank(
         (:mod:`geomfdi.synthesis.approximate.multimodel`).  ``g.info["model_gaps"]`` (and
         ``bank.info["model_gaps"]``) hold the gap per model of the family, and
         ``"nominal_model_gaps"`` those of the gap design on the nominal plant alone.
+    band : (w1, w2), optional
+        As in :func:`design_residual_generator` (every row).
 
     Returns
     -------
@@ -558,7 +535,7 @@ def design_bank(
         has where it was taken).
     """
     strength = _check_strength(strength)
-    if _objective(objective, plant, models, exact, method) == "gap":
+    if objective_of(objective, plant, models, exact, method, band) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_bank
 
         bank = gap_bank(
@@ -569,6 +546,7 @@ def design_bank(
             residual_dim=residual_dim,
             regularization=regularization,
             models=models,
+            band=band,
         )
         _warn_inseparable(bank.requested, bank.faults)
         return bank
