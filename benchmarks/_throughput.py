@@ -14,9 +14,8 @@ Baseline and candidate are timed alternately, each the best of ``repeat`` CPU ti
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
+from _timing import best_alternating
 
 import geomfdi as gf
 
@@ -48,17 +47,6 @@ def twelve_state_case(nb: int = 10, n: int = 12, m: int = 3, seed: int = 1):
     return gf.Plant(A, B, C), bank
 
 
-def _best(fns, repeat):
-    """Best CPU time of each function, the functions called alternately."""
-    best = [np.inf] * len(fns)
-    for _ in range(repeat):
-        for i, fn in enumerate(fns):
-            t0 = time.process_time()
-            fn()
-            best[i] = min(best[i], time.process_time() - t0)
-    return best
-
-
 def short_vs_forced_response(N: int = 10**4, repeat: int = 5) -> dict:
     import control
 
@@ -75,7 +63,7 @@ def short_vs_forced_response(N: int = 10**4, repeat: int = 5) -> dict:
     sysc = control.series(aug, bank.to_statespace())
     rf = np.atleast_2d(control.forced_response(sysc, t, u).outputs)
     rg = gf.simulate(plant, bank, t, u).residuals
-    tf, tg = _best(
+    tf, tg = best_alternating(
         [lambda: control.forced_response(sysc, t, u), lambda: gf.simulate(plant, bank, t, u)],
         repeat,
     )
@@ -111,7 +99,7 @@ def batch_vs_loop(runs: int = 100, N: int = 10**5, repeat: int = 2) -> dict:
         ]
 
     batch()
-    tb, tl = _best([batch, loop], repeat)
+    tb, tl = best_alternating([batch, loop], repeat)
     diff = max(
         float(np.max(np.abs(r.residuals - out["batch"].residuals[i])))
         for i, r in enumerate(out["loop"])

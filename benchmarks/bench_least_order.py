@@ -39,6 +39,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _timing import svd_time  # noqa: E402
 
 import geomfdi as gf  # noqa: E402
 from geomfdi.model.faults import fault_matrices  # noqa: E402
@@ -154,16 +157,6 @@ def dense(n, q, m, seed):
         rng.standard_normal((n, m)),
         rng.standard_normal((q, n)),
     )
-
-
-def svd_time(n, repeats=3):
-    X = np.random.default_rng(n).standard_normal((n, n))
-    best = np.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
-        np.linalg.svd(X)
-        best = min(best, time.perf_counter() - t)
-    return best
 
 
 def _good_rows(bank, plant):

@@ -1,10 +1,11 @@
 """``gf.Monitor`` per sample: numpy against the compiled backend (``backend="c"``).
 
 Banks: ``make_bank(nb)`` of ``bench_simulation.py`` (the three Hou, Wen & Chen (2011)
-generators plus random third-order ones) sampled at 1 ms, a bank of 10 (24 generator
-states) and one of 12 (30 states).  Per bank:
+generators plus random third-order ones) sampled at 1 ms: banks of 5, 10, 12 and 22
+generators (9, 24, 30 and 60 generator states).  Per bank:
 
-* ``step``: one ``Monitor.step(y, u)`` call from Python (numpy, C through ``ctypes``);
+* ``step``: one ``Monitor.step(y, u)`` call from Python (numpy; C through the builtin
+  function of the compiled library, the default, and through ``ctypes`` and ``cffi``);
 * ``feed``: ``Monitor.feed`` of 10^5 samples, per sample (numpy: the lifted recursion;
   C: one ``name_run`` call for the whole chunk);
 * ``C run``: the generated ``name_run`` called directly on prepared arrays, per sample
@@ -19,7 +20,6 @@ from __future__ import annotations
 import argparse
 import ctypes
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -27,19 +27,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _timing import best_alternating  # noqa: E402
 from bench_simulation import make_bank  # noqa: E402
 
 import geomfdi as gf  # noqa: E402
-
-
-def _best(fns, repeat):
-    best = [np.inf] * len(fns)
-    for _ in range(repeat):
-        for i, fn in enumerate(fns):
-            t0 = time.process_time()
-            fn()
-            best[i] = min(best[i], time.process_time() - t0)
-    return best
 
 
 def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
@@ -53,6 +44,11 @@ def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
     thr = 0.05
     mn = gf.Monitor(bank, threshold=thr, persistence=3)
     mc = gf.Monitor(bank, threshold=thr, persistence=3, backend="c")
+    alt = {}
+    for calls in ("ctypes", "cffi"):  # the other ways of calling the C step
+        compiled.STEP_CALLS = calls
+        alt[calls] = gf.Monitor(bank, threshold=thr, persistence=3, backend="c")
+    compiled.STEP_CALLS = "python"
     if mc.backend != "c":
         raise SystemExit("no C compiler: the compiled backend is not available")
     ys = [Y[:, k].copy() for k in range(steps)]
@@ -69,7 +65,8 @@ def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
     from geomfdi.deployment.codegen._spec import code_spec
     from geomfdi.deployment.codegen.c import c_source
 
-    dll = compiled._load(compiled.build_library(*c_source(code_spec(mc), "gfmon")))
+    header, source = c_source(code_spec(mc), "gfmon")
+    dll = compiled._load(compiled.build_library(header, source + compiled._SHIM))
     state = ctypes.create_string_buffer(int(dll.gfmon_state_size()))
     Yt, Ut = np.ascontiguousarray(Y.T), np.ascontiguousarray(U.T)
     R = np.empty((L, nb))
@@ -82,8 +79,17 @@ def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
             state, L, Yt.ctypes.data, Ut.ctypes.data, R.ctypes.data, A.ctypes.data, iso.ctypes.data
         )
 
-    sn, sc, fn, fc, rc = _best(
-        [stepper(mn), stepper(mc), lambda: mn.feed(Y, U), lambda: mc.feed(Y, U), raw], repeat
+    sn, sc, st, sf, fn, fc, rc = best_alternating(
+        [
+            stepper(mn),
+            stepper(mc),
+            stepper(alt["ctypes"]),
+            stepper(alt["cffi"]),
+            lambda: mn.feed(Y, U),
+            lambda: mc.feed(Y, U),
+            raw,
+        ],
+        repeat,
     )
     out = mc.feed(Y, U)
     mn.reset()
@@ -98,6 +104,8 @@ def bench_bank(nb: int, steps: int, L: int, repeat: int) -> dict:
         "states": mn.program.nw,
         "step_numpy_us": sn / steps * 1e6,
         "step_c_us": sc / steps * 1e6,
+        "step_ctypes_us": st / steps * 1e6,
+        "step_cffi_us": sf / steps * 1e6,
         "feed_numpy_ns": fn / L * 1e9,
         "feed_c_ns": fc / L * 1e9,
         "c_run_ns": rc / L * 1e9,
@@ -111,14 +119,16 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args(argv)
     steps, L = (2000, 20000) if args.quick else (20000, 100000)
-    rows = [bench_bank(nb, steps, L, args.repeat) for nb in (10, 12)]
+    rows = [bench_bank(nb, steps, L, args.repeat) for nb in (5, 10, 12, 22)]
     print(
         f"{'bank':>5} {'states':>6} {'step numpy us':>14} {'step C us':>10} "
+        f"{'ctypes us':>9} {'cffi us':>8} "
         f"{'feed numpy ns':>14} {'feed C ns':>10} {'C run ns':>9} {'same decisions':>15}"
     )
     for r in rows:
         print(
             f"{r['bank']:>5} {r['states']:>6} {r['step_numpy_us']:>14.2f} {r['step_c_us']:>10.2f} "
+            f"{r['step_ctypes_us']:>9.2f} {r['step_cffi_us']:>8.2f} "
             f"{r['feed_numpy_ns']:>14.0f} {r['feed_c_ns']:>10.0f} {r['c_run_ns']:>9.0f} "
             f"{str(r['decisions_equal']):>15}"
         )

@@ -45,6 +45,9 @@ from pathlib import Path
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _timing import svd_time  # noqa: E402
 
 import geomfdi as gf  # noqa: E402
 
@@ -83,16 +86,6 @@ def block_plant(n: int, q: int, rng: np.random.Generator, m: int = 2) -> gf.Plan
     return gf.Plant(V @ A @ V.T, V @ B, C @ V.T)
 
 
-def svd_time(n: int, rng: np.random.Generator, repeats: int = 5) -> float:
-    X = rng.standard_normal((n, n))
-    best = np.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
-        np.linalg.svd(X)
-        best = min(best, time.perf_counter() - t)
-    return best
-
-
 def _leakage(bank: gf.ResidualBank, plant: gf.Plant) -> float:
     if not bank.present:
         return 0.0
@@ -118,7 +111,7 @@ def bench_design(ns, qs, seed: int = 0, repeats: int = 2, budget: float = BUDGET
                     warnings.simplefilter("ignore", gf.CloseRankWarning)
                     bank = gf.design_sensor_bank(plant)
                 best = min(best, time.perf_counter() - t)
-            ts = svd_time(n, rng)
+            ts = svd_time(n, 5, rng)
             orders = [g.order for g in bank.generators if g is not None]
             rows.append(
                 (n, q, best, ts, len(orders), max(orders, default=0), _leakage(bank, plant))

@@ -8,10 +8,11 @@ Use as ``import geomfdi as gf``. The package follows the data path of a design::
 
     geomfdi.model          plants and faults
     geomfdi.geometry       subspaces, W*, S* (numeric and exact)
-    geomfdi.generators     residual generators and banks, bank files, sampling
-    geomfdi.synthesis      design front end, least-order rows, exact design
-    geomfdi.verification   numeric and symbolic proofs on the physical plant; H∞ norms and
-                           the fault-to-noise gap
+    geomfdi.generators     residual generators and banks, bank files, sampling; H∞ norm and
+                           H₋ index of a system
+    geomfdi.synthesis      design front end, least-order rows, exact and approximate design
+    geomfdi.verification   numeric and symbolic proofs on the physical plant; the
+                           fault-to-noise gap
     geomfdi.simulation     fault signals, LTI core, closed loop
     geomfdi.evaluation     thresholds, alarms, isolation
     geomfdi.deployment     recorded and live evaluation, generated code
@@ -189,6 +190,15 @@ _register(
     "ExceptionalCondition",
 )
 _register("geomfdi.generators.generator", "ResidualBank", "ResidualGenerator")
+_register(
+    "geomfdi.generators.norms",
+    "HinfNorm",
+    "HminusIndex",
+    "UnstableSystemError",
+    "hinf_norm",
+    "hminus_index",
+    "peak_gain",
+)
 _register("geomfdi.generators.realization", "minimal_realization", "reachable_subspace")
 _register("geomfdi.synthesis.sensor_transforms", "pseudo_actuator_model")
 _register(
@@ -205,15 +215,6 @@ _register(
 )
 _register("geomfdi.tolerance", "CloseRankWarning", "set_rtol")
 _register("geomfdi.verification.gap", "FaultToNoiseGap", "fault_to_noise_gap")
-_register(
-    "geomfdi.verification.norms",
-    "HinfNorm",
-    "HminusIndex",
-    "UnstableSystemError",
-    "hinf_norm",
-    "hminus_index",
-    "peak_gain",
-)
 _register("geomfdi.verification.numeric", "VerificationReport", "verify")
 _register("geomfdi.verification.symbolic", "SymbolicReport", "verify_symbolic")
 
@@ -406,6 +407,14 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         ExceptionalCondition,
     )  # noqa: F401
     from geomfdi.generators.generator import ResidualBank, ResidualGenerator  # noqa: F401
+    from geomfdi.generators.norms import (  # noqa: F401
+        HinfNorm,
+        HminusIndex,
+        UnstableSystemError,
+        hinf_norm,
+        hminus_index,
+        peak_gain,
+    )
     from geomfdi.generators.realization import minimal_realization, reachable_subspace  # noqa: F401
     from geomfdi.synthesis.sensor_transforms import pseudo_actuator_model  # noqa: F401
     from geomfdi.synthesis.specification.isolability import (  # noqa: F401
@@ -420,13 +429,5 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
     )
     from geomfdi.tolerance import CloseRankWarning, set_rtol  # noqa: F401
     from geomfdi.verification.gap import FaultToNoiseGap, fault_to_noise_gap  # noqa: F401
-    from geomfdi.verification.norms import (  # noqa: F401
-        HinfNorm,
-        HminusIndex,
-        UnstableSystemError,
-        hinf_norm,
-        hminus_index,
-        peak_gain,
-    )
     from geomfdi.verification.numeric import VerificationReport, verify  # noqa: F401
     from geomfdi.verification.symbolic import SymbolicReport, verify_symbolic  # noqa: F401

@@ -36,6 +36,7 @@ MOVED: dict[str, str] = {
     "geomfdi.synthesis.transforms": "geomfdi.synthesis.sensor_transforms",
     "geomfdi.synthesis.decisions": "geomfdi.synthesis.rank_decisions",
     "geomfdi.parity.seed004": "geomfdi.parity.dodecahedron_experiment",
+    "geomfdi.verification.norms": "geomfdi.generators.norms",
 }
 """Old module path -> the module that now holds its code."""
 

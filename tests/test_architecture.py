@@ -311,6 +311,19 @@ def test_generators_never_import_synthesis_even_lazily():
             assert not any(_in(d, ("geomfdi.synthesis",)) for d in _imports(m, p)), m
 
 
+def test_synthesis_never_imports_verification_even_lazily():
+    """The design code measures its designs with :mod:`geomfdi.generators.norms`; the
+    verification, which checks the designs, is above it."""
+    bad = [
+        (m, d)
+        for m, p in MODULES.items()
+        if _in(m, ("geomfdi.synthesis",))
+        for d in _imports(m, p) | _type_imports(p)
+        if _in(d, ("geomfdi.verification",))
+    ]
+    assert bad == []
+
+
 def test_every_subpackage_says_what_it_holds_and_may_import():
     for m, p in MODULES.items():
         if p.name == "__init__.py" and m != "geomfdi":

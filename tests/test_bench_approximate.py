@@ -2,21 +2,14 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
+from script_loader import load_script
 
 import geomfdi as gf
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_approximate.py"
-
 
 def _load():
-    spec = importlib.util.spec_from_file_location("bench_approximate", SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("benchmarks/bench_approximate.py")
 
 
 def test_benchmark_small_sizes(capsys):

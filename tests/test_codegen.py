@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-import ctypes
-import importlib.util
 import shutil
 import subprocess
 from pathlib import Path
-from types import ModuleType
 
 import numpy as np
 import pytest
 from deploy_banks import DT, sampled_bank, seed_bank
+from generated_c import compile_c, run_c
+from script_loader import load_script
 
 import geomfdi as gf
 from geomfdi.errors import GeomFDIError, NotDiscreteError
@@ -47,39 +46,6 @@ def _bank_with_vector_row() -> gf.ResidualBank:
     return gf.ResidualBank([g1, None, g2], S, S, np.ones(2, bool), ["ok", "none", "ok"], [], DT)
 
 
-def _compile(c_file: Path, out: Path) -> ctypes.CDLL:
-    lib = out / f"lib{c_file.stem}.so"
-    proc = subprocess.run(
-        [CC, *CFLAGS, "-shared", "-fPIC", "-o", str(lib), str(c_file), "-lm"],
-        capture_output=True,
-        text=True,
-    )
-    assert proc.returncode == 0, proc.stderr
-    return ctypes.CDLL(str(lib))
-
-
-def _run_c(lib: ctypes.CDLL, name: str, Y: np.ndarray, U: np.ndarray, rows: int) -> tuple:
-    n = Y.shape[1]
-    state = ctypes.create_string_buffer(getattr(lib, f"{name}_state_size")())
-    getattr(lib, f"{name}_init")(state)
-    Yc, Uc = np.ascontiguousarray(Y.T), np.ascontiguousarray(U.T)
-    R = np.zeros((n, rows))
-    Al = np.zeros((n, rows), dtype=np.intc)
-    iso = np.zeros(n, dtype=np.intc)
-    run = getattr(lib, f"{name}_run")
-    run.argtypes = [ctypes.c_void_p, ctypes.c_long] + [ctypes.c_void_p] * 5
-    ptr = lambda a: a.ctypes.data_as(ctypes.c_void_p)  # noqa: E731
-    run(state, n, ptr(Yc), ptr(Uc), ptr(R), ptr(Al), ptr(iso))
-    return R.T, Al.T.astype(bool), iso.astype(int)
-
-
-def _load(path: Path) -> ModuleType:
-    spec = importlib.util.spec_from_file_location(path.stem, path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 def _check(
     res: gf.deployment.EvaluationResult, R: np.ndarray, Al: np.ndarray, iso: np.ndarray
 ) -> None:
@@ -107,8 +73,8 @@ def test_generated_c_matches_evaluate(case: tuple, tmp_path: Path) -> None:
     src = c.read_text() + h.read_text()
     code = "\n".join(ln for ln in src.splitlines() if not ln.lstrip().startswith(("/*", "*")))
     assert "malloc" not in code and "static const double" in code
-    lib = _compile(c, tmp_path)
-    _check(res, *_run_c(lib, "fdi", Y, U, 3))
+    lib = compile_c(c, tmp_path, CFLAGS)
+    _check(res, *run_c(lib, "fdi", Y, U, 3))
 
 
 @needs_cc
@@ -136,8 +102,8 @@ def test_generated_c_vector_rows_and_bank_source(tmp_path: Path) -> None:
     res = gf.evaluate(bank, Y, U, dt=DT, **kw)
     assert res.alarms[0].any() and res.alarms[2].any()
     _, c = gf.codegen.c(bank, "vec", tmp_path, **kw)
-    _check(res, *_run_c(_compile(c, tmp_path), "vec", Y, U, 3))
-    mod = _load(gf.codegen.python(bank, "vec_py", tmp_path, **kw))
+    _check(res, *run_c(compile_c(c, tmp_path, CFLAGS), "vec", Y, U, 3))
+    mod = load_script(gf.codegen.python(bank, "vec_py", tmp_path, **kw))
     R, Al, iso = mod.run(Y.T, U.T)
     _check(res, R.T, Al.T, iso)
 
@@ -149,7 +115,7 @@ def test_generated_python_matches_evaluate(case: tuple, tmp_path: Path) -> None:
     text = path.read_text()
     imports = {ln.split()[1] for ln in text.splitlines() if ln.startswith("import ")}
     assert imports <= {"math", "numpy"} and "from " not in text.replace("float.fromhex", "")
-    mod = _load(path)
+    mod = load_script(path)
     R, Al, iso = mod.run(Y.T, U.T)
     _check(res, R.T, Al.T, iso)
     state = mod.init()  # step by step from a fresh state gives the same first samples
@@ -177,8 +143,8 @@ def test_generated_code_latched_rule_with_reset(case: tuple, tmp_path: Path, rul
     if CC is not None:
         h, c = gf.codegen.c(mon, "fdi_latch", tmp_path)
         assert "MULTIPLE" in h.read_text()
-        _check(res, *_run_c(_compile(c, tmp_path), "fdi_latch", Y, U, 3))
-    mod = _load(gf.codegen.python(mon, "fdi_latch_py", tmp_path))
+        _check(res, *run_c(compile_c(c, tmp_path, CFLAGS), "fdi_latch", Y, U, 3))
+    mod = load_script(gf.codegen.python(mon, "fdi_latch_py", tmp_path))
     R, Al, isp = mod.run(Y.T, U.T)
     _check(res, R.T, Al.T, isp)
 
@@ -202,11 +168,13 @@ def test_generated_code_decides_multiple(tmp_path: Path) -> None:
     want[21], want[22:] = -2, -4  # pattern {0, 1} held from 21, MULTIPLE settled at 22
     np.testing.assert_array_equal(res.isolated, want)
     mon = gf.Monitor(bank, **kw)
-    mod = _load(gf.codegen.python(mon, "multi_py", tmp_path))
+    mod = load_script(gf.codegen.python(mon, "multi_py", tmp_path))
     np.testing.assert_array_equal(mod.run(Y.T, U.T)[2], want)
     if CC is not None:
         _, c = gf.codegen.c(mon, "multi", tmp_path)
-        np.testing.assert_array_equal(_run_c(_compile(c, tmp_path), "multi", Y, U, 2)[2], want)
+        np.testing.assert_array_equal(
+            run_c(compile_c(c, tmp_path, CFLAGS), "multi", Y, U, 2)[2], want
+        )
 
 
 def test_continuous_bank_is_refused(tmp_path: Path) -> None:
@@ -230,10 +198,10 @@ def test_cli_codegen(tmp_path: Path) -> None:
     args = ["codegen", str(model), "--lang", "c", "--out", str(out), "--quiet"]
     assert main([*args, "--threshold", "0.5"]) == 2  # continuous design without --dt
     assert main([*args, "--threshold", "0.5", "--dt", "0.01", "--persistence", "2/3"]) == 0
-    lib = _compile(out / "fdi_monitor.c", out)
+    lib = compile_c(out / "fdi_monitor.c", out, CFLAGS)
     bank = seed_bank().discretize(0.01)
     Y, U = _data(3, 3, 8000, seed=9)
     res = gf.evaluate(bank, Y, U, dt=0.01, threshold=0.5, persistence=(2, 3))
-    _check(res, *_run_c(lib, "fdi_monitor", Y, U, 3))
+    _check(res, *run_c(lib, "fdi_monitor", Y, U, 3))
     py = ["codegen", str(model), "--lang", "python", "--out", str(out), "--dt", "0.01", "--quiet"]
     assert main(py) == 0 and (out / "fdi_monitor.py").exists()

@@ -7,7 +7,7 @@ import pytest
 import scipy.optimize
 
 import geomfdi as gf
-from geomfdi.verification.norms import UnstableSystemError
+from geomfdi.generators.norms import UnstableSystemError
 
 
 def _plant(dt: float, seed: int = 4, unstable: bool = False) -> gf.Plant:
@@ -158,7 +158,7 @@ def test_gap_threshold_energy_and_peak_bounds_hold_in_simulation():
 
 
 def test_peak_gain_known_values():
-    from geomfdi.verification.norms import peak_gain
+    from geomfdi.generators.norms import peak_gain
 
     assert peak_gain([[-1.0]], [[1.0]], [[1.0]])[0] == pytest.approx(1.0, rel=1e-5)
     assert peak_gain([[-2.0]], [[1.0]], [[1.0]], [[0.5]])[0] == pytest.approx(1.0, rel=1e-5)

@@ -144,3 +144,43 @@ def test_vector_rows_missing_generator_and_explicit_start_agree():
     ok = ~np.isnan(a.residuals)
     np.testing.assert_array_equal(ok, ~np.isnan(b.residuals))
     np.testing.assert_allclose(b.residuals[ok], a.residuals[ok], rtol=1e-9, atol=1e-9)
+
+
+@needs_cc
+@pytest.mark.parametrize("calls", ["python", "ctypes", "cffi"])
+def test_every_way_of_calling_the_step_agrees_on_any_input_kind(calls, monkeypatch):
+    """The step called through the library's builtin function, ctypes or cffi, on float64
+    vectors (contiguous or columns of a record), lists, float32 and byte-swapped arrays:
+    the decisions of the numpy path sample by sample; bad samples refused alike."""
+    monkeypatch.setattr(compiled, "STEP_CALLS", calls)
+    bank = sampled_bank()
+    Y, U = _data(3, 3, 600, seed=5)
+    thr = _threshold(bank, Y, U)
+    mn = gf.Monitor(bank, threshold=thr, persistence=3)
+    mc = gf.Monitor(bank, threshold=thr, persistence=3, backend="c")
+    assert mc.backend == "c"
+    kinds = [
+        lambda v: v,  # a column of the record: strided
+        np.ascontiguousarray,
+        lambda v: v.tolist(),
+        lambda v: v.astype(">f8"),
+        lambda v: np.asarray(v, dtype=np.float32).astype(float),
+    ]
+    seen = set()
+    for k in range(Y.shape[1]):
+        kind = kinds[k % len(kinds)]
+        y, u = kind(Y[:, k]), kind(U[:, k])
+        sa, sb = mn.step(y, u), mc.step(y, u)
+        assert type(sb) is type(sa) and sb.alarms.dtype == bool
+        assert sa.isolated == sb.isolated
+        np.testing.assert_array_equal(sa.alarms, sb.alarms)
+        np.testing.assert_array_equal(np.isnan(sa.residuals), np.isnan(sb.residuals))
+        seen.add(sa.isolated)
+    assert len(seen) > 2
+    out = mc.step(Y[:, 0].copy(), U[:, 0].copy())
+    out.residuals[:] = 7.0  # a fresh array: the next step does not write into it
+    assert not np.any(mc.step(Y[:, 1].copy(), U[:, 1].copy()).residuals == 7.0)
+    with pytest.raises(GeomFDIError, match="u"):
+        mc.step(Y[:, 0].copy())
+    with pytest.raises(GeomFDIError, match="y"):
+        mc.step(np.zeros(4), np.zeros(3))

@@ -1,4 +1,4 @@
-"""H∞ norm and H₋ index (geomfdi.verification.norms) against independent methods."""
+"""H∞ norm and H₋ index (geomfdi.generators.norms) against independent methods."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from threadpoolctl import threadpool_limits
 
 import geomfdi as gf
 from geomfdi.errors import GeomFDIError
-from geomfdi.verification.norms import UnstableSystemError
+from geomfdi.generators.norms import UnstableSystemError
 
 
 def _random_stable(rng, dt):

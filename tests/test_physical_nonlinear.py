@@ -63,12 +63,19 @@ def test_the_three_tank_system_pickles_and_linearises_at_its_levels():
     assert lin.inputs == ("Q1", "Q2", "leak") and np.allclose(lin.y_op, h)
 
 
-def test_a_nonlinear_leak_matches_the_linear_simulation_for_a_small_leak():
+def _linear_tanks():
+    """The nonlinear three-tank system, its levels at rest, its linearisation (pumps and
+    leak as inputs) and the linear plant of the pumps alone at that operating point."""
     sys = three_tank_system()
     h, Q = three_tank_operating_point()
     lin = gf.Plant.linearize(sys, h, [*Q, 0.0])
     plant = gf.Plant(lin.A, lin.B[:, :2], lin.C, inputs=lin.inputs[:2], outputs=lin.outputs,
                      x_op=h, u_op=Q, y_op=h)  # fmt: skip
+    return sys, h, lin, plant
+
+
+def test_a_nonlinear_leak_matches_the_linear_simulation_for_a_small_leak():
+    sys, h, lin, plant = _linear_tanks()
     leak = gf.ActuatorFault(lin.B[:, 2], name="leak")
     faults = [gf.ActuatorFault(plant.B[:, 0], name="pump 1"), leak]
     bank = gf.design_bank(plant, faults, [[0, 1], [1, 0]])
@@ -147,11 +154,7 @@ def _leak_faults(size, onset):
 
 
 def test_a_campaign_over_the_nonlinear_three_tank_system():
-    sys = three_tank_system()
-    h, Q = three_tank_operating_point()
-    lin = gf.Plant.linearize(sys, h, [*Q, 0.0])
-    plant = gf.Plant(lin.A, lin.B[:, :2], lin.C, inputs=lin.inputs[:2], outputs=lin.outputs,
-                     x_op=h, u_op=Q, y_op=h)  # fmt: skip
+    sys, _, _, plant = _linear_tanks()
     _, tank_faults = three_tank_model()
     bank = gf.design_bank(plant, [tank_faults[0], tank_faults[2]], [[0, 1], [1, 0]])
     t = np.arange(0.0, 400.0, 1.0)

@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import ctypes
-import importlib.util
 import shutil
-import subprocess
 
 import control
 import numpy as np
 import pandas as pd
 import pytest
+from generated_c import compile_c, run_c
+from script_loader import load_script
 
 import geomfdi as gf
 from geomfdi.data.three_tank import three_tank_model, three_tank_operating_point
@@ -46,31 +45,6 @@ def test_a_python_control_system_is_a_plant_with_its_names():
         gf.Plant(-np.eye(2), np.eye(2), np.eye(2), outputs=["a", "a"])
 
 
-def _compile(c_file, out):
-    lib = out / f"lib{c_file.stem}.so"
-    proc = subprocess.run(
-        [CC, "-std=c99", "-O2", "-shared", "-fPIC", "-o", str(lib), str(c_file), "-lm"],
-        capture_output=True,
-        text=True,
-    )
-    assert proc.returncode == 0, proc.stderr
-    return ctypes.CDLL(str(lib))
-
-
-def _run_c(lib, name, Y, U, rows):
-    n = Y.shape[1]
-    state = ctypes.create_string_buffer(getattr(lib, f"{name}_state_size")())
-    getattr(lib, f"{name}_init")(state)
-    Yc, Uc = np.ascontiguousarray(Y.T), np.ascontiguousarray(U.T)
-    R, Al = np.zeros((n, rows)), np.zeros((n, rows), dtype=np.intc)
-    iso = np.zeros(n, dtype=np.intc)
-    run = getattr(lib, f"{name}_run")
-    run.argtypes = [ctypes.c_void_p, ctypes.c_long] + [ctypes.c_void_p] * 5
-    ptr = lambda a: a.ctypes.data_as(ctypes.c_void_p)  # noqa: E731
-    run(state, n, ptr(Yc), ptr(Uc), ptr(R), ptr(Al), ptr(iso))
-    return R.T, Al.T.astype(bool), iso.astype(int)
-
-
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc)")
 def test_names_round_trip_from_python_control_to_generated_code(tmp_path):
     plant, h, Q = _named_plant()
@@ -104,17 +78,15 @@ def test_names_round_trip_from_python_control_to_generated_code(tmp_path):
     head = (tmp_path / "c" / "tank_monitor.h").read_text()
     assert "#define TANK_MONITOR_Y_LEVEL_3_M 2" in head
     assert "#define TANK_MONITOR_U_Q2 1" in head and "#define TANK_MONITOR_F_LEVEL_2 1" in head
-    lib = _compile(tmp_path / "c" / "tank_monitor.c", tmp_path)
+    lib = compile_c(tmp_path / "c" / "tank_monitor.c", tmp_path)
     Y, U = back[OUTPUTS].to_numpy().T, back[INPUTS].to_numpy().T
-    R, Al, iso = _run_c(lib, "tank_monitor", Y, U, 3)
+    R, Al, iso = run_c(lib, "tank_monitor", Y, U, 3)
     np.testing.assert_array_equal(Al, res.alarms)
     np.testing.assert_array_equal(iso, res.isolated)
     np.testing.assert_allclose(R, res.residuals, atol=1e-12)
     # generated Python: the same
     path = gf.codegen.python(mon, "tank_monitor_py", tmp_path / "py")
-    spec = importlib.util.spec_from_file_location("tank_monitor_py", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script(path, "tank_monitor_py")
     assert mod.OUTPUTS == OUTPUTS and mod.Y_LEVEL_3_M == 2
     st = mod.init()
     al = np.array([mod.step(st, Y[:, k], U[:, k])[1] for k in range(Y.shape[1])]).T

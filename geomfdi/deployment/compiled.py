@@ -3,17 +3,22 @@
 The C99 code of :func:`geomfdi.codegen.c` (the same algorithm as the numpy monitor:
 fused generator recursion, start-up and missing-sample rules, thresholds, k-of-n
 persistence, isolation) is compiled once into a shared library with the system's C
-compiler (``$CC``, else ``cc``), cached under a hash of the source, compiler and flags
-in the cache directory (``$GEOMFDI_CACHE_DIR``, else ``$XDG_CACHE_HOME/geomfdi/c`` or
-``~/.cache/geomfdi/c``), and loaded with :mod:`ctypes`.
+compiler (``$CC``, else ``cc``; for the running processor, without fused multiply-add),
+cached under a hash of the source, compiler, flags and processor in the cache directory
+(``$GEOMFDI_CACHE_DIR``, else ``$XDG_CACHE_HOME/geomfdi/c`` or ``~/.cache/geomfdi/c``),
+and loaded with :mod:`ctypes`.
 
-:meth:`Monitor.step` is then one call of ``name_step`` on preallocated buffers, and
-:meth:`Monitor.feed` one call of ``name_run`` over the whole chunk (the per-sample cost
-is then the generated C step alone; a single ``step`` call from Python pays the
-``ctypes`` call overhead, about a microsecond).  The generated code needs a discrete
-bank; for a continuous bank, or when no compiler works, :func:`compiled_paths` returns
-``None`` and the monitor keeps its numpy path with a warning.  See the user guide,
-*Performance* (``docs/guide/performance.md``).
+:meth:`Monitor.feed` is one call of ``name_run`` over the whole chunk (per sample the
+generated C step alone, plus a few array passes).  :meth:`Monitor.step` is one call
+of a builtin function that the library makes through the C interface of Python and
+numpy (when their headers are found): it reads float64 vectors ``y``, ``u`` (also
+columns of a record) and returns the :class:`MonitorStep` built in C, without the
+argument conversion of a ``ctypes`` call.  Other samples (lists, other dtypes), and
+libraries built without those headers, go through ``ctypes`` on preallocated buffers
+(:data:`STEP_CALLS` chooses; ``cffi`` is the third way).  The generated code needs a
+discrete bank; for a continuous bank, or when no compiler works, :func:`compiled_paths`
+returns ``None`` and the monitor keeps its numpy path with a warning.  See the user
+guide, *Performance* (``docs/guide/performance.md``).
 """
 
 from __future__ import annotations
@@ -23,8 +28,10 @@ import hashlib
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import warnings
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -36,8 +43,12 @@ __all__ = ["BACKENDS", "cache_dir", "compiled_paths", "build_library"]
 
 BACKENDS = ("numpy", "c")
 _NAME = "gfmon"
-_FLAGS = ("-O3", "-std=c99", "-shared", "-fPIC")  # -O3: unrolled fixed loops, same IEEE results
-_LOADED: dict[str, ctypes.CDLL] = {}  # library path -> loaded library (one per process)
+# -O3: the fixed loops unrolled; -ffp-contract=off: no fused multiply-add, the sums round as
+# the generated Python's; the library is built for the machine that runs it (-march=native,
+# the cache key holding that machine's processor), else without when the compiler refuses
+_FLAGS = ("-O3", "-std=c99", "-ffp-contract=off", "-shared", "-fPIC")
+_NATIVE = ("-march=native",)
+_LOADED: dict[Any, Any] = {}  # library path -> loaded library (one per process)
 
 
 def cache_dir() -> Path:
@@ -49,18 +60,34 @@ def cache_dir() -> Path:
     return Path(base) / "geomfdi" / "c"
 
 
+def _processor() -> str:
+    """What identifies this machine's processor (its instruction set extensions)."""
+    import platform
+
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                if line.startswith(("flags", "Features", "isa")):
+                    return line.strip()
+    except OSError:
+        pass
+    return f"{platform.machine()} {platform.processor()}"
+
+
 def _compiler() -> str | None:
     cc = os.environ.get("CC", "cc")
     return shutil.which(cc)
 
 
-def build_library(header: str, source: str) -> Path:
+def build_library(header: str, source: str, flags: tuple[str, ...] = ()) -> Path:
     """Compile ``name.h`` / ``name.c`` texts into a shared library, cached by hash.
 
     Parameters
     ----------
     header, source : str
         The texts of :func:`geomfdi.deployment.codegen._c_text.c_source` (prefix ``gfmon``).
+    flags : tuple of str
+        More compiler flags (include folders).
 
     Returns
     -------
@@ -75,7 +102,9 @@ def build_library(header: str, source: str) -> Path:
     cc = _compiler()
     if cc is None:
         raise GeomFDIError("backend: no C compiler found ($CC or cc)", argument="backend")
-    key = hashlib.sha256("\0".join([header, source, cc, *_FLAGS]).encode()).hexdigest()[:24]
+    parts = [header, source, cc, *_FLAGS, *_NATIVE, *flags, _processor()]
+    key = hashlib.sha256("\0".join(parts).encode())
+    key = key.hexdigest()[:24]
     out_dir = cache_dir()
     lib = out_dir / f"{_NAME}_{key}.so"
     if lib.exists():
@@ -85,13 +114,17 @@ def build_library(header: str, source: str) -> Path:
         (Path(tmp) / f"{_NAME}.h").write_text(header, encoding="utf-8")
         (Path(tmp) / f"{_NAME}.c").write_text(source, encoding="utf-8")
         part = Path(tmp) / "lib.so"
-        cmd = [cc, *_FLAGS, "-o", str(part), str(Path(tmp) / f"{_NAME}.c"), "-lm"]
-        try:
-            done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
-        except (OSError, subprocess.TimeoutExpired) as exc:
-            raise GeomFDIError(
-                f"backend: the C compiler failed: {exc}", argument="backend"
-            ) from exc
+        src = str(Path(tmp) / f"{_NAME}.c")
+        for native in (_NATIVE, ()):  # a compiler refusing -march=native: without
+            cmd = [cc, *_FLAGS, *native, *flags, "-o", str(part), src, "-lm"]
+            try:
+                done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+            except (OSError, subprocess.TimeoutExpired) as exc:
+                raise GeomFDIError(
+                    f"backend: the C compiler failed: {exc}", argument="backend"
+                ) from exc
+            if done.returncode == 0:
+                break
         if done.returncode != 0:
             raise GeomFDIError(
                 f"backend: the C compiler failed: {done.stderr.strip()[:500]}",
@@ -101,18 +134,185 @@ def build_library(header: str, source: str) -> Path:
     return lib
 
 
+#: Appended to the generated source for Python: ``y`` and ``u`` from one buffer, the
+#: confirmed alarms as bytes (read as a bool array without a conversion).
+_SHIM = """
+int gfmon_py_step(gfmon_state *s, const double *z, double *r, unsigned char *a)
+{
+    int al[GFMON_NR > 0 ? GFMON_NR : 1], i, iso;
+    iso = gfmon_step(s, z, z + GFMON_NY, r, al);
+    for (i = 0; i < GFMON_NR; ++i) a[i] = (unsigned char)(al[i] != 0);
+    return iso;
+}
+"""
+_CDEF = """
+void gfmon_init(void *s);
+int gfmon_py_step(void *s, const double *z, double *r, unsigned char *a);
+void gfmon_run(void *s, long n, const double *Y, const double *U, double *R, int *A, int *I);
+unsigned long gfmon_state_size(void);
+"""
+#: Put before the generated source when Python's and numpy's headers are found: one
+#: call takes ``y`` and ``u`` (float64 vectors, else ``None`` is returned and the
+#: caller converts them) and returns the :class:`MonitorStep` built in C.
+_PY_HEAD = """#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
+#include <string.h>
+#undef I /* complex.h's, from numpy: the generated code names an argument I */
+"""
+_PY_SHIM = """
+int gfmon_py_init(void)
+{
+    if (_import_array() < 0) {
+        PyErr_Clear();
+        return -1;
+    }
+    return 0;
+}
+
+static int gfmon_py_get(PyObject *o, double *dst, Py_ssize_t n)
+{
+    Py_buffer v;
+    Py_ssize_t i;
+    int ok;
+    if (PyObject_GetBuffer(o, &v, PyBUF_RECORDS_RO) != 0) {
+        PyErr_Clear();
+        return 0;
+    }
+    ok = v.ndim == 1 && v.shape[0] == n && v.itemsize == (Py_ssize_t)sizeof(double)
+         && v.format != NULL && strcmp(v.format, "d") == 0;
+    if (ok)
+        for (i = 0; i < n; ++i) /* strided: a column of a (q, L) record */
+            memcpy(dst + i, (const char *)v.buf + i * v.strides[0], sizeof(double));
+    PyBuffer_Release(&v);
+    return ok;
+}
+
+/* bound: (state address, MonitorStep type, isolation flag, state buffer kept alive) */
+static PyObject *gfmon_py_fast(PyObject *bound, PyObject *const *args, Py_ssize_t nargs)
+{
+    double z[GFMON_NY + GFMON_NU + 1], r[GFMON_NR + 1];
+    int al[GFMON_NR + 1], dec, i;
+    npy_intp nr = GFMON_NR;
+    PyObject *res, *alarms, *iso, *out, *u;
+    PyTypeObject *type = (PyTypeObject *)PyTuple_GET_ITEM(bound, 1);
+    gfmon_state *s = (gfmon_state *)PyLong_AsVoidPtr(PyTuple_GET_ITEM(bound, 0));
+    npy_bool *a;
+    if (s == NULL || nargs < 1 || nargs > 2) Py_RETURN_NONE;
+    u = nargs == 2 ? args[1] : Py_None;
+    if (!gfmon_py_get(args[0], z, GFMON_NY)) Py_RETURN_NONE;
+    if (GFMON_NU && (u == Py_None || !gfmon_py_get(u, z + GFMON_NY, GFMON_NU))) Py_RETURN_NONE;
+    dec = gfmon_step(s, z, z + GFMON_NY, r, al);
+    res = PyArray_SimpleNew(1, &nr, NPY_DOUBLE);
+    alarms = PyArray_SimpleNew(1, &nr, NPY_BOOL);
+    if (PyObject_IsTrue(PyTuple_GET_ITEM(bound, 2)))
+        iso = PyLong_FromLong(dec);
+    else {
+        Py_INCREF(Py_None);
+        iso = Py_None;
+    }
+    out = type->tp_alloc(type, 3);
+    if (res == NULL || alarms == NULL || iso == NULL || out == NULL) {
+        Py_XDECREF(res);
+        Py_XDECREF(alarms);
+        Py_XDECREF(iso);
+        Py_XDECREF(out);
+        return NULL;
+    }
+    memcpy(PyArray_DATA((PyArrayObject *)res), r, sizeof(double) * GFMON_NR);
+    a = (npy_bool *)PyArray_DATA((PyArrayObject *)alarms);
+    for (i = 0; i < GFMON_NR; ++i) a[i] = (npy_bool)(al[i] != 0);
+    PyTuple_SET_ITEM(out, 0, res);
+    PyTuple_SET_ITEM(out, 1, alarms);
+    PyTuple_SET_ITEM(out, 2, iso);
+    return out;
+}
+
+static PyMethodDef gfmon_py_def = {
+    "gfmon_step", (PyCFunction)(void (*)(void))gfmon_py_fast, METH_FASTCALL,
+    "step(y, u): MonitorStep, or None when y or u is not a float64 vector"};
+
+/* a builtin function running the step of the state in bound */
+PyObject *gfmon_py_function(PyObject *bound)
+{
+    return PyCFunction_New(&gfmon_py_def, bound);
+}
+"""
+_FFI: Any = None
+#: How :meth:`Monitor.step` calls the C step: ``"python"`` (a builtin function made by
+#: the compiled library through Python's and numpy's C interface: float64 vectors read
+#: and the :class:`MonitorStep` built in C; the fastest, when their headers are found,
+#: else ``"ctypes"``), ``"ctypes"`` (prepared pointer objects on preallocated buffers,
+#: no argument conversion) or ``"cffi"`` (ABI mode on buffers bound once; needs cffi).
+STEP_CALLS = "python"
+
+
 def _load(path: Path) -> ctypes.CDLL:
     key = str(path)
     if key not in _LOADED:
         dll = ctypes.CDLL(key)
-        vp, dp, ip = ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p
+        vp = ctypes.c_void_p
         dll.gfmon_init.argtypes, dll.gfmon_init.restype = [vp], None
-        dll.gfmon_step.argtypes, dll.gfmon_step.restype = [vp, dp, dp, dp, ip], ctypes.c_int
-        dll.gfmon_run.argtypes = [vp, ctypes.c_long, dp, dp, dp, ip, ip]
+        dll.gfmon_py_step.argtypes = [vp, vp, vp, vp]
+        dll.gfmon_py_step.restype = ctypes.c_int
+        dll.gfmon_run.argtypes = [vp, ctypes.c_long, vp, vp, vp, vp, vp]
         dll.gfmon_run.restype = None
         dll.gfmon_state_size.argtypes, dll.gfmon_state_size.restype = [], ctypes.c_ulong
         _LOADED[key] = dll
     return _LOADED[key]
+
+
+def _cffi_step(path: Path, state: Any, bufs: tuple[np.ndarray, ...]) -> Any:
+    """``gfmon_py_step`` bound to ``state`` and ``bufs`` through cffi (ABI mode), or
+    ``None`` without cffi: a call then costs a fraction of a ctypes call."""
+    global _FFI
+    try:
+        import cffi
+    except ImportError:  # pragma: no cover - cffi is optional
+        return None
+    if _FFI is None:
+        _FFI = cffi.FFI()
+        _FFI.cdef(_CDEF)
+    key = ("cffi", str(path))
+    if key not in _LOADED:
+        _LOADED[key] = _FFI.dlopen(str(path))  # type: ignore[index]
+    lib = _LOADED[key]  # type: ignore[index]
+    kinds = {np.dtype(float): "double[]", np.dtype(np.uint8): "unsigned char[]"}
+    args = (
+        _FFI.cast("void *", ctypes.addressof(state)),
+        *(_FFI.from_buffer(kinds[b.dtype], b) for b in bufs),
+    )
+    return partial(lib.gfmon_py_step, *args)
+
+
+def _build_py(header: str, source: str) -> tuple[Path, Any]:
+    """The library with the Python-object step ``gfmon_py_call`` (and that function
+    bound through :class:`ctypes.PyDLL`) when Python's and numpy's headers compile it,
+    else the plain library and ``None``."""
+    import sysconfig
+
+    inc = [sysconfig.get_paths().get("include", ""), np.get_include()]
+    if STEP_CALLS == "python" and all(Path(d).is_dir() for d in inc):
+        try:
+            built_for = f"/* Python {sys.version.split()[0]}, numpy {np.__version__} */\n"
+            path = build_library(
+                header,
+                built_for + _PY_HEAD + source + _SHIM + _PY_SHIM,
+                tuple(f"-I{d}" for d in inc),
+            )
+            key = ("py", str(path))
+            if key not in _LOADED:
+                pydll = ctypes.PyDLL(str(path))
+                if pydll.gfmon_py_init() != 0:
+                    raise OSError("numpy's C interface did not load")
+                fn = pydll.gfmon_py_function
+                fn.argtypes, fn.restype = [ctypes.py_object], ctypes.py_object
+                _LOADED[key] = fn
+            return path, _LOADED[key]
+        except (GeomFDIError, OSError, AttributeError):
+            pass  # the plain library below
+    return build_library(header, source + _SHIM), None
 
 
 def compiled_paths(monitor: Any) -> tuple[Any, Any] | None:
@@ -139,14 +339,15 @@ def compiled_paths(monitor: Any) -> tuple[Any, Any] | None:
         return None
     try:
         header, source = c_source(monitor_spec(monitor), _NAME)
-        dll = _load(build_library(header, source))
+        path, pycall = _build_py(header, source)
+        dll = _load(path)
     except (GeomFDIError, OSError) as exc:
         warnings.warn(f"{exc}; using the numpy path", RuntimeWarning, stacklevel=3)
         return None
-    return _bind(dll, monitor)
+    return _bind(dll, path, pycall, monitor)
 
 
-def _bind(dll: ctypes.CDLL, monitor: Any) -> tuple[Any, Any]:
+def _bind(dll: ctypes.CDLL, path: Path, pycall: Any, monitor: Any) -> tuple[Any, Any]:
     from geomfdi.deployment.online import MonitorOutput, MonitorStep, _chunk
 
     prog = monitor.program
@@ -154,33 +355,49 @@ def _bind(dll: ctypes.CDLL, monitor: Any) -> tuple[Any, Any]:
     state = ctypes.create_string_buffer(int(dll.gfmon_state_size()))
     sp = ctypes.cast(state, ctypes.c_void_p)
     dll.gfmon_init(sp)
-    ybuf, ubuf = np.zeros(max(q, 1)), np.zeros(max(m, 1))
-    rbuf, abuf = np.zeros(max(rows, 1)), np.zeros(max(rows, 1), dtype=np.intc)
-    # the step through its own function object without argtypes, called with prepared
-    # pointer objects: no per-call argument conversion
-    c_step = dll["gfmon_step"]
-    c_step.restype = ctypes.c_int
-    ptrs = (sp, *(ctypes.c_void_p(b.ctypes.data) for b in (ybuf, ubuf, rbuf, abuf)))
+    # preallocated buffers, the C step bound to them once: a call converts no argument
+    zbuf = np.zeros(max(q + m, 1))
+    ybuf, ubuf = zbuf[:q], zbuf[q : q + m]
+    rbuf = np.zeros(max(rows, 1))
+    abuf = np.zeros(max(rows, 1), dtype=np.uint8)
+    rview, aview = rbuf[:rows], abuf[:rows].view(bool)
+    call = _cffi_step(path, state, (zbuf, rbuf, abuf)) if STEP_CALLS == "cffi" else None
+    if call is None:
+        ptrs = (sp, *(ctypes.c_void_p(b.ctypes.data) for b in (zbuf, rbuf, abuf)))
+        c_step = dll["gfmon_py_step"]  # its own function object, without argtypes
+        c_step.restype = ctypes.c_int
+        call = partial(c_step, *ptrs)
+    new = tuple.__new__  # MonitorStep without its Python-level __new__
+
     c_run = dll.gfmon_run
     isolation = monitor.isolation
     thr = monitor.thresholds
     thr_col = None if thr is None else np.where(np.isfinite(thr), thr, np.inf)[:, None]
 
-    def step(y: Any, u: Any = None) -> MonitorStep:
+    def convert_step(y: Any, u: Any) -> MonitorStep:
         try:
-            ybuf[:q] = y
+            ybuf[...] = y
             if m:
                 if u is None:
                     raise ShapeError(f"u: the bank reads {m} inputs; pass u", argument="u")
-                ubuf[:m] = u
+                ubuf[...] = u
         except (ValueError, TypeError) as exc:
             if isinstance(exc, ShapeError):
                 raise
             raise ShapeError(
                 f"y, u: expected {q} outputs and {m} inputs ({exc})", argument="y"
             ) from exc
-        iso = c_step(*ptrs)
-        return MonitorStep(rbuf[:rows].copy(), abuf[:rows].astype(bool), iso if isolation else None)
+        iso = call()
+        return new(MonitorStep, (rview.copy(), aview.copy(), iso if isolation else None))
+
+    if pycall is None:
+        step = convert_step
+    else:
+        fast = pycall((ctypes.addressof(state), MonitorStep, bool(isolation), state))
+
+        def step(y: Any, u: Any = None) -> MonitorStep:
+            out = fast(y, u)  # None: y or u to convert
+            return convert_step(y, u) if out is None else out
 
     def feed(Y: Any, U: Any = None) -> MonitorOutput:
         Y = _chunk(Y, q, "Y")

@@ -153,8 +153,8 @@ class Monitor:
         unless ``u`` is given) by the plant's names.  Physical values: a bank designed at
         an operating point subtracts ``y_op`` and ``u_op`` itself.
         """
-        if isinstance(y, Mapping) or self._y_op is not None:
-            y, u = self._deviations(y, u, 1)
+        if self._y_op is not None or (type(y) is not np.ndarray and isinstance(y, Mapping)):
+            y, u = self._deviations(y, u, 1)  # (an array is never a mapping: no ABC check)
         return self._step(y, u)
 
     def _deviations(self, y: Any, u: Any, ndim: int) -> tuple[Any, Any]:

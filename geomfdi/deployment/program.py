@@ -41,7 +41,7 @@ from geomfdi.deployment._lti import (
     schur_form,
 )
 from geomfdi.errors import GeomFDIError, ShapeError
-from geomfdi.generators.generator import ResidualBank, ResidualGenerator
+from geomfdi.generators.generator import ResidualBank, ResidualGenerator, stacked_matrices
 
 __all__ = [
     "SAMPLE_LIMIT",
@@ -172,25 +172,6 @@ class Program:
         return out
 
 
-def _stack(gens: list[ResidualGenerator]) -> tuple[np.ndarray, ...]:
-    q, m = gens[0].q, gens[0].m
-    nw = sum(g.order for g in gens)
-    nc = sum(g.n_outputs for g in gens)
-    F = np.zeros((nw, nw))
-    Bz = np.zeros((nw, q + m))
-    M = np.zeros((nc, nw))
-    Dz = np.zeros((nc, q + m))
-    i = o = 0
-    for g in gens:
-        F[i : i + g.order, i : i + g.order] = g.F
-        Bz[i : i + g.order] = np.hstack([-g.E, g.G])
-        M[o : o + g.n_outputs, i : i + g.order] = g.M
-        Dz[o : o + g.n_outputs] = np.hstack([-g.H, g.K])
-        i += g.order
-        o += g.n_outputs
-    return F, Bz, M, Dz
-
-
 def build_program(bank: Any, dt: float | None = None) -> Program:
     """The fused discrete form of ``bank`` (module docstring).
 
@@ -215,7 +196,7 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
             raise ShapeError(
                 "bank: the generators read different numbers of signals", argument="bank"
             )
-    F, Bz, M, Dz = _stack(gens)
+    F, Bz, M, Dz = stacked_matrices(gens)
     nw, nz = F.shape[0], q + m
     bdt = float(bank.dt)
     if dt is not None:

@@ -30,12 +30,13 @@ from geomfdi.diagnosability import indices as _indices
 from geomfdi.diagnosability import stacking as _stacking
 from geomfdi.diagnosability import tables as _tables
 from geomfdi.diagnosability._linalg import _as_channel, _as_covariance
-from geomfdi.diagnosability._records import NULLSPACE_METHODS as _NULLSPACE_METHODS
 from geomfdi.diagnosability._records import (
     CosineConvention,
     NullSpaceMethod,
     TableMethod,
     WindowData,
+    WindowSizes,
+    nullspace_choice,
 )
 from geomfdi.diagnosability.results import (
     ApplicabilityReport,
@@ -48,7 +49,7 @@ from geomfdi.limits import check_allocation
 __all__ = ["WindowModel"]
 
 
-class WindowModel:
+class WindowModel(WindowSizes):
     """Discrete plant with faults and noise, stacked over a window (Li, Wang & Liu 2015).
 
     Sizes follow Li, Wang & Liu (2015), eqs. 1-3: ``n`` states, ``m`` outputs, ``q`` known
@@ -199,12 +200,7 @@ class WindowModel:
                     argument="fault_names",
                 )
             self.fault_names = names
-        if not isinstance(nullspace, str) or nullspace not in _NULLSPACE_METHODS:
-            raise GeomFDIError(
-                f"nullspace: must be one of {_NULLSPACE_METHODS}, got {nullspace!r}",
-                argument="nullspace",
-            )
-        self.nullspace = nullspace
+        self.nullspace = nullspace_choice(nullspace, "nullspace")
         for arr in (self.A, self.B, self.C, self.D, self.Bf, self.Df, self.Bw, self.Dv, self.Dw):
             arr.setflags(write=False)
         self.Qw.setflags(write=False)
@@ -233,21 +229,6 @@ class WindowModel:
         return self._data
 
     # ------------------------------------------------------------------ sizes
-    @property
-    def n(self) -> int:
-        """Number of states."""
-        return self.A.shape[0]
-
-    @property
-    def m(self) -> int:
-        """Number of outputs."""
-        return self.C.shape[0]
-
-    @property
-    def p(self) -> int:
-        """Number of (scalar) faults."""
-        return self.Bf.shape[1]
-
     @property
     def residual_dim(self) -> int:
         """``d = m s - rank O_s``: the dimension of the left null space of ``H``."""

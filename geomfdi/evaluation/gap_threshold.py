@@ -10,7 +10,7 @@ decoupled) and noise of bounded size ``‖w‖ ≤ δ`` (Varga 2017, §3.6; Ding
   is ``S = Σ ‖r[k]‖² ≈ J² / h`` (step ``h``; ``J² = S`` in discrete time), so
   ``S_th = J_th² / h``.
 * **peak** (``|w_j(t)| ≤ δ`` for every component and time): ``|r_i(t)| ≤ g_i δ`` with the
-  peak-to-peak (L1) gains ``g_i`` of ``R_w`` (:func:`geomfdi.verification.norms.peak_gain`),
+  peak-to-peak (L1) gains ``g_i`` of ``R_w`` (:func:`geomfdi.generators.norms.peak_gain`),
   so ``J_th = sqrt(Σ_i g_i²) δ`` on ``J = sup_t ‖r(t)‖`` (the ``|r|`` rows of
   :func:`geomfdi.simulate`).  The H∞ norm does not bound peaks; this bound does.
 

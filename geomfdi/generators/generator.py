@@ -288,22 +288,12 @@ class ResidualBank:
             raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
         gens = [self.generators[k] for k in rows]
         q, m = gens[0].q, gens[0].m
-        nw = sum(g.order for g in gens)
-        nr = sum(g.n_outputs for g in gens)
-        A = np.zeros((nw, nw))
-        B = np.zeros((nw, q + m))
-        C = np.zeros((nr, nw))
-        D = np.zeros((nr, q + m))
-        i = o = 0
-        outputs = []
-        for k, g in zip(rows, gens, strict=True):
-            A[i : i + g.order, i : i + g.order] = g.F
-            B[i : i + g.order] = np.hstack([-g.E, g.G])
-            C[o : o + g.n_outputs, i : i + g.order] = g.M
-            D[o : o + g.n_outputs] = np.hstack([-g.H, g.K])
-            outputs += [f"r{k}[{c}]" if g.n_outputs > 1 else f"r[{k}]" for c in range(g.n_outputs)]
-            i += g.order
-            o += g.n_outputs
+        A, B, C, D = stacked_matrices(gens)
+        outputs = [
+            f"r{k}[{c}]" if g.n_outputs > 1 else f"r[{k}]"
+            for k, g in zip(rows, gens, strict=True)
+            for c in range(g.n_outputs)
+        ]
         return control.ss(
             A,
             B,
@@ -334,3 +324,30 @@ class ResidualBank:
             f"ResidualBank(rows={self.n_residuals}, faults={self.n_faults}, "
             f"present={self.present}, isolable={self.isolable.tolist()}, method={self.method!r})"
         )
+
+
+def stacked_matrices(
+    gens: list[ResidualGenerator],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The generators ``gens`` side by side as one system with inputs ``[y; u]``.
+
+    Block-diagonal ``F``, stacked ``[-E_k, G_k]``, block-diagonal ``M`` and stacked
+    ``[-H_k, K_k]``, in the order of ``gens``: ``w' = F w + B [y; u]``,
+    ``r = M w + D [y; u]`` (the sign convention of Hou, Wen & Chen 2011, eq. 23, row by row).
+    """
+    q, m = gens[0].q, gens[0].m
+    nw = sum(g.order for g in gens)
+    nr = sum(g.n_outputs for g in gens)
+    F = np.zeros((nw, nw))
+    B = np.zeros((nw, q + m))
+    M = np.zeros((nr, nw))
+    D = np.zeros((nr, q + m))
+    i = o = 0
+    for g in gens:
+        F[i : i + g.order, i : i + g.order] = g.F
+        B[i : i + g.order] = np.hstack([-g.E, g.G])
+        M[o : o + g.n_outputs, i : i + g.order] = g.M
+        D[o : o + g.n_outputs] = np.hstack([-g.H, g.K])
+        i += g.order
+        o += g.n_outputs
+    return F, B, M, D

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from geomfdi._validation import as_matrix
-from geomfdi.geometry.subspace import Subspace, _norm2, apply, kernel
+from geomfdi.geometry.subspace import Subspace, _norm2, invariant_closure, kernel
 from geomfdi.geometry.unobservability import max_invariant_in
 
 __all__ = ["reachable_subspace", "minimal_realization", "MinimalRealization"]
@@ -21,8 +21,10 @@ __all__ = ["reachable_subspace", "minimal_realization", "MinimalRealization"]
 def reachable_subspace(A: np.ndarray, B: np.ndarray) -> Subspace:
     """``<A | Im B>``: the smallest A-invariant subspace containing Im B.
 
-    Orthonormal Krylov iteration ``V_0 = Im B, V_{k+1} = Im B + A V_k`` with every rank
-    decision on the un-normalised product (tolerance policy of :mod:`geomfdi.tolerance`).
+    Orthonormal Krylov iteration ``V_0 = Im B, V_{k+1} = Im B + A V_k`` on the new
+    directions of each step (:func:`geomfdi.geometry.subspace.invariant_closure`, ``O(n³)``
+    in all), with every rank decision on the un-normalised product ``A V / ‖A‖``
+    (tolerance policy of :mod:`geomfdi.tolerance`).
     """
     A = as_matrix(A, "A", square=True)
     B = as_matrix(B, "B", rows=A.shape[0], allow_empty=True, vector_as="column")
@@ -30,13 +32,10 @@ def reachable_subspace(A: np.ndarray, B: np.ndarray) -> Subspace:
     if B.size == 0:
         return Subspace.zero(n)
     ImB = Subspace(B)
-    V = ImB
-    for _ in range(n + 1):
-        Vn = ImB + apply(A, V)
-        if Vn.dim == V.dim:
-            return Vn
-        V = Vn
-    return V
+    if ImB.dim in (0, n):
+        return ImB
+    An = A / (_norm2(A) or 1.0)
+    return Subspace.from_orthonormal(invariant_closure(An, ImB.basis, what="reachable subspace"))
 
 
 @dataclass

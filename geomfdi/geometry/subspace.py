@@ -36,6 +36,7 @@ __all__ = [
     "pinv",
     "extend_basis",
     "split_kernel",
+    "invariant_closure",
 ]
 
 #: Largest dimension of a space built from a bare size (an ``n x n`` basis of 8 GiB).
@@ -388,3 +389,30 @@ def pinv(M: np.ndarray, scale: float | None = None, *, what: str = "pseudo-inver
     U, s, Vt = np.linalg.svd(M, full_matrices=False)
     r = rank_decision(s, _norm2(M) if scale is None else scale, max(rows, cols), what=what).rank
     return (Vt[:r].T / s[:r]) @ U[:, :r].T
+
+
+def invariant_closure(M: np.ndarray, Q0: np.ndarray, *, what: str) -> np.ndarray:
+    """Orthonormal basis of the smallest ``M``-invariant subspace containing ``Im Q0``.
+
+    The Krylov recursion ``V_0 = Im Q0``, ``V_{k+1} = Im Q0 + M V_k`` carried out on the
+    new directions only: since ``V_k ⊇ V_{k−1}``, ``V_{k+1} = V_k + M N_k`` with ``N_k`` the
+    directions added at step ``k``.  ``M N_k`` is projected off ``V_k`` (two Gram–Schmidt
+    passes) and the rank of the remainder is decided against 1 (the caller scales ``M`` to
+    unit norm, so the decision is on the un-normalised product).  Each step costs
+    ``O(n k b)`` for ``b`` new directions, the whole recursion ``O(n³)``.
+
+    ``Q0`` must have orthonormal columns.
+    """
+    V = Q0
+    new = Q0
+    n = M.shape[0]
+    while new.shape[1] and V.shape[1] < n:
+        W = M @ new
+        for _ in range(2):
+            W = W - V @ (V.T @ W)
+        new = _range_basis(W, 1.0, what)
+        if new.shape[1]:
+            new = new - V @ (V.T @ new)  # keep the union orthonormal to rounding
+            new, _ = np.linalg.qr(new)
+            V = np.hstack([V, new])
+    return V

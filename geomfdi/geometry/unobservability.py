@@ -34,6 +34,7 @@ from geomfdi.geometry.subspace import (
     Subspace,
     _extend,
     _norm2,
+    invariant_closure,
     kernel,
     split_kernel,
 )
@@ -178,8 +179,10 @@ def max_invariant_in(A: Any, K: Subspace, *, scale: float | None = None) -> Subs
 
         V_0 = K^⊥,   V_{k+1} = K^⊥ + Aᵀ V_k,   <K | A> = V_∞^⊥
 
-    since ``(A⁻¹ V)^⊥ = Aᵀ V^⊥``.  Only images are formed, and each sum is rank-decided on
-    ``[Q_{K^⊥}, Aᵀ Q_V / ||A||]`` (the un-normalised product).  The primal
+    since ``(A⁻¹ V)^⊥ = Aᵀ V^⊥``.  Only images are formed, each step on the directions
+    the previous one added (:func:`geomfdi.geometry.subspace.invariant_closure`,
+    ``O(n³)`` in all), and each sum is rank-decided on the un-normalised product
+    ``Aᵀ Q / ||A||`` projected off the current subspace.  The primal
     recursion ``V_{k+1} = K ∩ A⁻¹ V_k`` amplifies rounding by ``1 / σ_min`` of the
     restricted map and loses invariant directions when A is nearly singular.
 
@@ -196,13 +199,7 @@ def max_invariant_in(A: Any, K: Subspace, *, scale: float | None = None) -> Subs
         return K
     Kp = K.complement().basis
     At = A.T / ((_norm2(A) if scale is None else max(float(scale), _norm2(A))) or 1.0)
-    V = Subspace.from_orthonormal(Kp)
-    for _ in range(n + 1):
-        Vn = Subspace(np.hstack([Kp, At @ V.basis]), scale=1.0)
-        grew = Vn.dim > V.dim
-        V = Vn
-        if not grew:
-            break
+    V = Subspace.from_orthonormal(invariant_closure(At, Kp, what="invariant subspace"))
     return V.complement()
 
 

@@ -223,26 +223,9 @@ def build_data(
 
 
 def reduced_data(pf: ParityData, remove: int | Sequence[int]) -> ParityData:
-    """The configuration without the sensors ``remove`` (re-detection after isolation).
-
-    Parameters
-    ----------
-    remove : int or sequence of int
-        Sensor indices of *this* configuration (0-based).
-
-    Returns
-    -------
-    ParityData
-        The record of the configuration with ``H`` (and ``F``) without those rows, same
-        ``sigma`` and basis kind; ``sensors`` keeps the original labels.  Cached on ``pf``.
-
-    Raises
-    ------
-    DesignError
-        ``D`` is not the identity, or no redundancy would remain (``m - r <= n``).
-    RankDeficientError
-        The remaining rows do not determine ``x``.
-    """
+    """The record of the configuration without the sensors ``remove`` (cached on ``pf``):
+    what :func:`~geomfdi.parity.model.reduced_configuration` wraps, with its parameters and
+    errors."""
     if pf.D is not None:
         raise DesignError(
             "remove: a reduced configuration needs D = I (faults are sensor faults)",

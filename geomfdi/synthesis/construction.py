@@ -40,7 +40,7 @@ Beyond the construction of Hou, Wen & Chen 2011 (§3.4, eq. 17–23):
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -100,6 +100,32 @@ def checked_poles(poles: Any) -> Any:
             argument="poles",
         )
     return poles
+
+
+def row_poles(poles: Any, rows: int, check: Callable[[Any], Any] = checked_poles) -> list[Any]:
+    """``poles`` for a bank of ``rows`` rows: ``None`` (every row its default), one spectrum
+    for every row, or a list with one spectrum (or ``None``) per row; each row's entry passed
+    through ``check`` (:func:`checked_poles` by default)."""
+    if poles is None:
+        return [None] * rows
+    if (
+        isinstance(poles, list | tuple)
+        and poles
+        and all(p is None or isinstance(p, list | tuple | np.ndarray) for p in poles)
+    ):
+        if len(poles) != rows:
+            raise DesignError(
+                f"poles: a per-row list must have {rows} entries, got {len(poles)}",
+                argument="poles",
+            )
+        return [check(p) for p in poles]
+    return [check(poles)] * rows
+
+
+def row_split(row: np.ndarray) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """A structure row (boolean, one entry per fault) as its target and decoupled fault
+    indices: the faults the residual must see and those it must ignore."""
+    return tuple(int(j) for j in np.flatnonzero(row)), tuple(int(j) for j in np.flatnonzero(~row))
 
 
 def checked_margin(margin: Any, dt: float) -> float:
@@ -495,6 +521,12 @@ def _coerce_plant(plant: Any) -> Plant:
 
 
 def _coerce_faults(faults: Any) -> list[Fault]:
+    return as_sequence_of(fault_list(faults), "faults", Fault)
+
+
+def fault_list(faults: Any) -> list[Fault]:
+    """``faults`` as a non-empty list (one fault alone becomes a list of one); the entries
+    are checked where their signatures are formed (:func:`geomfdi.model.faults.fault_matrices`)."""
     if isinstance(faults, Fault):
         faults = [faults]
     try:
@@ -505,7 +537,7 @@ def _coerce_faults(faults: Any) -> list[Fault]:
         ) from exc
     if not out:
         raise GeomFDIError("faults: at least one fault is required", argument="faults")
-    return as_sequence_of(out, "faults", Fault)
+    return out
 
 
 def _first_markov(model: DesignModel, c: dict[str, Any], j: int) -> float:

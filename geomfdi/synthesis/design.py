@@ -53,10 +53,12 @@ from geomfdi.synthesis.construction import (
     build_full,
     checked_margin,
     checked_poles,
+    row_poles,
+    row_split,
 )
-from geomfdi.synthesis.front import METHODS, _check_method, _objective
 from geomfdi.synthesis.least_order.poles import plant_scale
 from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
+from geomfdi.synthesis.objective import objective_of
 from geomfdi.synthesis.rank_decisions import attach, close_note, record_design, summarise
 from geomfdi.synthesis.row_notes import check_strength as _check_strength
 from geomfdi.synthesis.row_notes import row_notes
@@ -69,6 +71,16 @@ __all__ = [
     "METHODS",
     "FD_GAIN_TOL",
 ]
+
+METHODS = ("exact", "full", "paper", "mvw")
+
+
+def _check_method(method: Any) -> str:
+    if not isinstance(method, str) or method not in METHODS:
+        raise DesignError(
+            f"method: must be one of {list(METHODS)}, got {method!r:.40}", argument="method"
+        )
+    return str(method)
 
 
 def _design_row(
@@ -185,6 +197,7 @@ def design_residual_generator(
     objective: str | None = None,
     regularization: float | None = None,
     models: Sequence[Plant] | None = None,
+    band: Any = None,
 ) -> ResidualGenerator:
     """Design one residual generator that sees ``target`` and ignores ``decouple``.
 
@@ -257,6 +270,10 @@ def design_residual_generator(
     models : list of Plant, optional
         ``objective="gap"``: design over several models (same dimensions); see
         :func:`design_bank`.
+    band : (w1, w2), optional
+        ``objective="gap"``, one model: β is the H₋ index over the band (rad/s),
+        ``min_j min_ω ‖R_fj(jω)‖`` (Varga 2017, §3.3), in the row choice and in the
+        reported ``beta`` and ``gap``; γ stays the H∞ norm.
 
     Returns
     -------
@@ -301,7 +318,7 @@ def design_residual_generator(
     (2, [1, 1])
     """
     strength = _check_strength(strength)
-    if _objective(objective, plant, models, exact, method, regularization) == "gap":
+    if objective_of(objective, plant, models, exact, method, band) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_residual_generator
 
         return gap_residual_generator(
@@ -313,6 +330,7 @@ def design_residual_generator(
             residual_dim=None if residual_dim is None else check_residual_dim(residual_dim),
             regularization=regularization,
             models=models,
+            band=band,
         )
     rdim = check_residual_dim(residual_dim)
     if rdim > 1 and (exact or method != "exact"):
@@ -381,24 +399,6 @@ def design_residual_generator(
     if "target_strength" not in g.info and rdim == 1 and "dc_gain" in g.info:
         g.info["weak_targets"] = weak_targets(g, plant, sigs, factor, omega, tgt)
     return g
-
-
-def _row_poles(poles: Any, rows: int) -> list[Any]:
-    """``poles`` for a bank: one spectrum for every row, or a list with one per row."""
-    if poles is None:
-        return [None] * rows
-    if (
-        isinstance(poles, list | tuple)
-        and poles
-        and all(p is None or isinstance(p, list | tuple | np.ndarray) for p in poles)
-    ):
-        if len(poles) != rows:
-            raise DesignError(
-                f"poles: a per-row list must have {rows} entries, got {len(poles)}",
-                argument="poles",
-            )
-        return [checked_poles(p) for p in poles]
-    return [checked_poles(poles)] * rows
 
 
 def _row_dims(residual_dim: Any, rows: int) -> list[int]:
@@ -470,6 +470,7 @@ def design_bank(
     objective: str | None = None,
     regularization: float | None = None,
     models: Sequence[Plant] | None = None,
+    band: Any = None,
 ) -> ResidualBank:
     """Design one residual generator per row of a structure matrix.
 
@@ -515,6 +516,8 @@ def design_bank(
         (:mod:`geomfdi.synthesis.approximate.multimodel`).  ``g.info["model_gaps"]`` (and
         ``bank.info["model_gaps"]``) hold the gap per model of the family, and
         ``"nominal_model_gaps"`` those of the gap design on the nominal plant alone.
+    band : (w1, w2), optional
+        As in :func:`design_residual_generator` (every row).
 
     Returns
     -------
@@ -532,7 +535,7 @@ def design_bank(
         has where it was taken).
     """
     strength = _check_strength(strength)
-    if _objective(objective, plant, models, exact, method, regularization) == "gap":
+    if objective_of(objective, plant, models, exact, method, band) == "gap":
         from geomfdi.synthesis.approximate.bank import gap_bank
 
         bank = gap_bank(
@@ -543,6 +546,7 @@ def design_bank(
             residual_dim=residual_dim,
             regularization=regularization,
             models=models,
+            band=band,
         )
         _warn_inseparable(bank.requested, bank.faults)
         return bank
@@ -602,15 +606,14 @@ def design_bank(
         info.update(design_n=model.n, filter_pole=model.filter_pole, notes=model.notes)
     mg = checked_margin(margin, plant.dt)
     rows = req.shape[0]
-    per_row = _row_poles(poles, rows)
+    per_row = row_poles(poles, rows)
     factor = PlantFactor(plant)
     omega = plant_scale(plant.A, plant.dt)
     gens: list[ResidualGenerator | None] = []
     diags: list[str] = []
     achieved = np.zeros_like(req)
     for r in range(rows):
-        tgt = tuple(int(j) for j in np.flatnonzero(req[r]))
-        dec = tuple(int(j) for j in np.flatnonzero(~req[r]))
+        tgt, dec = row_split(req[r])
         if not tgt:
             gens.append(None)
             diags.append("missing: the row requests no fault")

@@ -16,7 +16,11 @@ components is built greedily, like a minimal polynomial basis:
    earlier rows and ``Z(s)`` the candidate rows (one per basis vector of the parity space),
    the direction ``α`` maximising ``‖α Z(s) (I − W(s)⁺ W(s))‖`` over a few random points
    ``s`` is taken (the top singular vector); the degree is the least one where that
-   maximum exceeds ``SEE_TOL`` relative to ``‖Z‖``.
+   maximum exceeds ``SEE_TOL`` relative to ``‖Z‖``.  The degree-``ν`` parity spaces are
+   nested (rows of degree ``ν`` are rows of degree ``ν + 1``: the poles are prefixes of one
+   sequence), so a degree that adds nothing independent of rows ``1 … i−1`` adds nothing
+   independent of rows ``1 … i`` either: the search for row ``i + 1`` starts at the degree
+   of row ``i`` (rows ``2 … p`` have non-decreasing degrees).
 
 Each row keeps every decoupling (it is a row of the left annihilator), the stack sees every
 target (row 1 does), and the stacked transfer has normal rank ``p``, checked on the physical
@@ -144,7 +148,7 @@ def _independent_row(
     sizes = [b.shape[0] for b in blocks]
     Z = []  # (dim, points, q): each basis vector realised and evaluated
     for col in Xu.T:
-        F, Gs, T, c, h = _realise(Qm, cand, kinds, col, sizes)
+        F, Gs, T, c, h = _realise(Qm, cand, kinds, col, sizes, blocks)
         row = LeastOrderRow(len(cand), F, Gs, T, c, h, cand, {})
         Z.append(_y_rows(realise_on_plant(Qm, row, Du), points))
     Zc = np.array(Z)
@@ -224,7 +228,7 @@ def build_multirow(
     if poles is None:
         pool = default_pole_sequence(k + 2, omega * sc, plant.dt)
         if k:
-            eig = np.linalg.eigvals(Qm.A0)
+            eig = Qm.eigenvalues
             for t in range(pool.size):  # clear of the quotient's spectrum
                 for _ in range(20):
                     if np.min(np.abs(eig - pool[t])) > 1e-6 * max(omega, 1e-300):
@@ -238,13 +242,16 @@ def build_multirow(
     orders = [g1.order]
     independence = [1.0]
     prev = _y_rows(mats[0], points)[None]
+    start = 0  # the degree of the previous extra row (Notes, step 2)
     for i in range(1, p):
         found = None
-        for nu in range(0, min(k + 1, pool.size) + 1):
+        for nu in range(start, min(k + 1, pool.size) + 1):
             cand = pool[:nu]
             if np.count_nonzero(cand.imag > 0) != np.count_nonzero(cand.imag < 0):
                 continue  # the prefix splits a conjugate pair
-            found = _independent_row(Qm, _check_poles(cand, Qm.A0, plant.dt), plant.D, prev, points)
+            found = _independent_row(
+                Qm, _check_poles(cand, Qm.A0, plant.dt, Qm.eigenvalues), plant.D, prev, points
+            )
             if found is not None:
                 break
         if found is None and poles is not None and pool.size <= k:
@@ -262,7 +269,10 @@ def build_multirow(
                 argument="plant",
             )
         x, indep, kinds, sizes = found
-        F, Gs, T, c, h = _realise(Qm, _check_poles(pool[:nu], Qm.A0, plant.dt), kinds, x, sizes)
+        start = nu
+        F, Gs, T, c, h = _realise(
+            Qm, _check_poles(pool[:nu], Qm.A0, plant.dt, Qm.eigenvalues), kinds, x, sizes
+        )
         lo = LeastOrderRow(nu, F, Gs, T, c, h, pool[:nu], {})
         mi = realise_on_plant(Qm, lo, plant.D)
         bad = {key: v for key, v in mi["identities"].items() if v > IDENTITY_TOL}

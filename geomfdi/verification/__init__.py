@@ -1,13 +1,13 @@
 """Verification of delivered generators on the physical plant, numeric and exact, and the
-system norms of the approximate problems (H∞ norm, H₋ index, fault-to-noise gap).
+fault-to-noise gap of the approximate problems (with the system norms of
+:mod:`geomfdi.generators.norms` re-exported: H∞ norm, H₋ index, peak-to-peak gain).
 
 Layer: above :mod:`geomfdi.generators`.  It may import :mod:`geomfdi.model`,
 :mod:`geomfdi.geometry` and :mod:`geomfdi.generators` (the generator types and their
 transfer gains); never the design code of :mod:`geomfdi.synthesis`.
 """
 
-from geomfdi.verification.gap import FaultToNoiseGap, fault_to_noise_gap
-from geomfdi.verification.norms import (
+from geomfdi.generators.norms import (
     HinfNorm,
     HminusIndex,
     UnstableSystemError,
@@ -15,6 +15,7 @@ from geomfdi.verification.norms import (
     hminus_index,
     peak_gain,
 )
+from geomfdi.verification.gap import FaultToNoiseGap, fault_to_noise_gap
 from geomfdi.verification.numeric import VerificationReport, verify
 from geomfdi.verification.symbolic import SymbolicReport, verify_symbolic
 

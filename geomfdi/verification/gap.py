@@ -44,9 +44,9 @@ import numpy as np
 
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_bool, as_choice, as_sequence_of
+from geomfdi.generators.norms import UnstableSystemError, hinf_norm, hminus_index
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.verification.norms import UnstableSystemError, hinf_norm, hminus_index
 
 __all__ = ["FaultToNoiseGap", "fault_to_noise_gap", "LEAK_TOL"]
 
@@ -86,7 +86,7 @@ class FaultToNoiseGap:
     gamma_peak : ndarray (rows,) or None
         With ``peak=True``: the peak-to-peak gain from ``w`` (each component bounded by
         δ) to the Euclidean norm of the row's residual, ``sqrt(Σ_i g_i²)`` with ``g_i``
-        the L1 gains of :func:`geomfdi.verification.norms.peak_gain`.
+        the L1 gains of :func:`geomfdi.generators.norms.peak_gain`.
     """
 
     beta: np.ndarray
@@ -182,7 +182,7 @@ def fault_to_noise_gap(
     (1.0, 0.1)
     """
     from geomfdi.generators.gains import Composite, PlantFactor
-    from geomfdi.verification.norms import peak_gain
+    from geomfdi.generators.norms import peak_gain
     from geomfdi.verification.numeric import _unpack
 
     peak = as_bool(peak, "peak")

@@ -1,6 +1,6 @@
 """The fuzz table: bad values, entry points and the outcome classifier.
 
-Used by ``test_fuzz_api.py``; kept apart so the table reads as data.
+Used by ``test_fuzz_api.py`` and ``test_fuzz_online.py``; kept apart so the table reads as data.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
+import pytest
 
 import geomfdi as gf
 from geomfdi.errors import GeomFDIError
@@ -761,3 +762,26 @@ def outcome(entry: Entry, arg: str, value: Any) -> tuple[str, str]:
     finally:
         plt.close("all")
     return ("correct", "") if good else ("wrong result", repr(result)[:300])
+
+
+def cases(entries: list[Entry]) -> list[Any]:
+    """One pytest case per (entry point, argument) of ``entries``."""
+    return [pytest.param(e, arg, id=f"{e.name}-{arg}") for e in entries for arg in e.args]
+
+
+def bad_value_failures(entry: Entry, arg: str) -> list[str]:
+    """Every value of :data:`BAD_VALUES` in place of ``arg``: the ones whose outcome is
+    neither ``named`` nor ``correct``, with what happened."""
+    failures = []
+    for value_name, value in BAD_VALUES.items():
+        kind, detail = outcome(entry, arg, value)
+        if kind not in ("named", "correct"):
+            failures.append(f"{value_name}: {kind}: {detail}")
+    return failures
+
+
+def base_call_holds(entry: Entry) -> bool:
+    """Whether the unmodified call passes the entry point's check (warnings silenced)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return bool(entry.check(entry.call(**entry.base)))

@@ -4,34 +4,22 @@ classifier of ``fuzz_table.py``: every outcome is a named error or a correct res
 
 from __future__ import annotations
 
-import warnings
-
 import pytest
 from fuzz_online_table import ENTRIES_ONLINE
-from fuzz_table import BAD_VALUES, Entry, outcome
+from fuzz_table import Entry, bad_value_failures, base_call_holds, cases
 
-CASES = [
-    pytest.param(entry, arg, id=f"{entry.name}-{arg}")
-    for entry in ENTRIES_ONLINE
-    for arg in entry.args
-]
+CASES = cases(ENTRIES_ONLINE)
 
 
 @pytest.mark.parametrize("entry, arg", CASES)
 def test_bad_values_give_named_error_or_correct_result(entry: Entry, arg: str):
-    failures = []
-    for value_name, value in BAD_VALUES.items():
-        kind, detail = outcome(entry, arg, value)
-        if kind not in ("named", "correct"):
-            failures.append(f"{value_name}: {kind}: {detail}")
+    failures = bad_value_failures(entry, arg)
     assert failures == []
 
 
 @pytest.mark.parametrize("entry", ENTRIES_ONLINE, ids=[e.name for e in ENTRIES_ONLINE])
 def test_base_call_is_valid(entry: Entry):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        assert entry.check(entry.call(**entry.base))
+    assert base_call_holds(entry)
 
 
 def test_table_covers_the_online_surface():

@@ -40,21 +40,75 @@ def _alloc(n: int) -> int:
     return max(n, 1)
 
 
-def _state_ranges(spec: CodeSpec) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
-    """Per state row and per component row, the states of its generator.
+def _blocks(spec: CodeSpec) -> list[tuple[int, int, int, int]]:
+    """Per generator ``(o, n, c0, nc)``: its states ``xi[o:o+n]`` and components
+    ``c[c0:c0+nc]``.
 
-    ``A`` and ``C`` are block diagonal (one block per generator, in row order), so the
-    generated loops read only that block.
+    ``A`` and ``C`` are block diagonal (one block per generator, in row order): the
+    generated code stores each generator's blocks as its own small dense tables and
+    loops over them with constant bounds.
     """
-    w_rng: list[tuple[int, int]] = []
-    c_rng: list[tuple[int, int]] = []
-    i = 0
+    out = []
+    o = 0
     comps = [sl for sl in spec.rows if sl is not None]
     for n, (c0, c1) in zip(spec.orders, comps, strict=True):
-        w_rng += [(i, i + n)] * n
-        c_rng += [(i, i + n)] * (c1 - c0)
-        i += n
-    return w_rng, c_rng
+        out.append((o, n, c0, c1 - c0))
+        o += n
+    return out
+
+
+def _block_tables(spec: CodeSpec, P: str) -> str:
+    """``{P}_G<g>_A, _B, _C, _D``: generator ``g``'s blocks of ``A``, ``B``, ``C``, ``D``."""
+    parts = []
+    for g, (o, n, c0, nc) in enumerate(_blocks(spec)):
+        if n:
+            parts.append(_table("double", f"{P}_G{g}_A", spec.A[o : o + n, o : o + n]))
+            parts.append(_table("double", f"{P}_G{g}_B", spec.B[o : o + n]))
+            parts.append(_table("double", f"{P}_G{g}_C", spec.C[c0 : c0 + nc, o : o + n]))
+        parts.append(_table("double", f"{P}_G{g}_D", spec.D[c0 : c0 + nc]))
+    return "".join(parts)
+
+
+def _update_c(spec: CodeSpec, P: str) -> str:
+    """``c = C xi + D z`` and ``xn = A xi + B z`` generator by generator.
+
+    Each generator's blocks of ``A`` and ``C`` are its own small dense tables, looped over
+    with constant bounds (unrolled by the compiler); the zeros outside the blocks are never
+    read.  Every entry is summed in the order of its dense row (the block's columns, then
+    ``D`` or ``B``), so the results are bitwise those of the dense rows.
+    """
+    out = []
+    for g, (o, n, c0, nc) in enumerate(_blocks(spec)):
+        G = f"{P}_G{g}"
+        x = f"s->xi + {o}"
+        states = f"states {o}..{o + n - 1}" if n else "no state"
+        head = f"        /* generator {g}: {states}, components {c0}..{c0 + nc - 1} */"
+        if not n:
+            out.append(f"""{head}
+        for (i = 0; i < {nc}; ++i) {{
+            acc = 0.0;
+            for (j = 0; j < NZ; ++j) acc += {G}_D[i * NZ + j] * z[j];
+            c[{c0} + i] = acc;
+        }}""")
+            continue
+        out.append(f"""{head}
+        x = {x};
+        for (i = 0; i < {nc}; ++i) {{
+            acc = 0.0;
+            for (j = 0; j < {n}; ++j) acc += {G}_C[i * {n} + j] * x[j];
+            for (j = 0; j < NZ; ++j) acc += {G}_D[i * NZ + j] * z[j];
+            c[{c0} + i] = acc;
+        }}
+        for (i = 0; i < {n}; ++i) {{
+            acc = 0.0;
+            for (j = 0; j < {n}; ++j) acc += {G}_A[i * {n} + j] * x[j];
+            for (j = 0; j < NZ; ++j) acc += {G}_B[i * NZ + j] * z[j];
+            xn[{o} + i] = acc;
+        }}""")
+    out.append(f"""        for (i = 0; i < NC; ++i) /* an overflow: the sample is missing */
+            ok &= c[i] - c[i] == 0.0;
+        for (i = 0; i < {P}_NW; ++i) ok &= xn[i] - xn[i] == 0.0;""")
+    return "\n".join(out)
 
 
 def _decide_c(spec: CodeSpec, P: str, name: str) -> str:
@@ -162,6 +216,7 @@ def c_source(spec: CodeSpec, name: str) -> tuple[str, str]:
         if spec.z_op is None
         else f"\n    for (j = 0; j < NZ; ++j) z[j] -= {P}_ZOP[j]; /* physical -> deviation */"
     )
+    x_decl = "\n    const double *x;" if nw else ""
     names = "".join(
         f"#define {P}_{ident} {i} /* {label} */\n"
         for (ident, i), label in zip(
@@ -221,25 +276,17 @@ unsigned long {name}_state_size(void);
         else:
             terms = " + ".join(f"c[{k}] * c[{k}]" for k in range(sl[0], sl[1]))
             rows_code.append(f"        r[{i}] = sqrt({terms});")
-    blocks_w, blocks_c = _state_ranges(spec)
     active = [1 if np.isfinite(v) else 0 for v in spec.thresholds]
     thr = [v if np.isfinite(v) else 0.0 for v in spec.thresholds]
     tables = "".join(
         [
-            _table("double", f"{P}_A", spec.A),
-            _table("double", f"{P}_B", spec.B),
-            _table("double", f"{P}_C", spec.C),
-            _table("double", f"{P}_D", spec.D),
+            _block_tables(spec, P),
             _table("double", f"{P}_J", spec.J),
             _table("double", f"{P}_S", spec.S),
             _table("double", f"{P}_W0", spec.W0),
             _table("double", f"{P}_THR", thr),
             _table("int", f"{P}_ACTIVE", active, str),
             _table("int", f"{P}_STRUCT", spec.structure.astype(int), str),
-            _table("int", f"{P}_AW0", [a for a, _ in blocks_w], str),
-            _table("int", f"{P}_AW1", [b for _, b in blocks_w], str),
-            _table("int", f"{P}_CW0", [a for a, _ in blocks_c], str),
-            _table("int", f"{P}_CW1", [b for _, b in blocks_c], str),
             "" if spec.z_op is None else _table("double", f"{P}_ZOP", spec.z_op),
         ]
     )
@@ -294,7 +341,7 @@ static void {name}_start({name}_state *s, const double *z)
 {_decide_c(spec, P, name)}
 int {name}_step({name}_state *s, const double *y, const double *u, double *r, int *alarms)
 {{
-    double z[{_alloc(nz)}], c[{_alloc(nc)}], xn[{_alloc(nw)}], acc;
+    double z[{_alloc(nz)}], c[{_alloc(nc)}], xn[{_alloc(nw)}], acc;{x_decl}
     int raw[{P}_NR], pattern[{P}_NR];
     int i, j, ok = 1, any = 0{extra_decl};
     for (j = 0; j < {P}_NY; ++j) z[j] = y[j];
@@ -304,20 +351,7 @@ int {name}_step({name}_state *s, const double *y, const double *u, double *r, in
     s->samples += 1;
     if (ok) {{
         if (s->pending) {name}_start(s, z);
-        for (i = 0; i < NC; ++i) {{
-            acc = 0.0;
-            for (j = {P}_CW0[i]; j < {P}_CW1[i]; ++j) acc += {P}_C[i * {P}_NW + j] * s->xi[j];
-            for (j = 0; j < NZ; ++j) acc += {P}_D[i * NZ + j] * z[j];
-            c[i] = acc;
-            if (acc - acc != 0.0) ok = 0; /* an overflow: the sample is missing */
-        }}
-        for (i = 0; i < {P}_NW; ++i) {{
-            acc = 0.0;
-            for (j = {P}_AW0[i]; j < {P}_AW1[i]; ++j) acc += {P}_A[i * {P}_NW + j] * s->xi[j];
-            for (j = 0; j < NZ; ++j) acc += {P}_B[i * NZ + j] * z[j];
-            xn[i] = acc;
-            if (acc - acc != 0.0) ok = 0;
-        }}
+{_update_c(spec, P)}
     }}
     if (!ok) {{ /* residuals nan, no raw alarm, restart at the next valid sample */
         for (i = 0; i < {P}_NR; ++i) {{

@@ -12,12 +12,11 @@
   ``design_residual_generator(..., objective="gap")`` and ``design_bank(..., objective="gap")``.
 * :mod:`~geomfdi.synthesis.approximate.estimation` -- fault estimators (model matching).
 
-It may import :mod:`geomfdi.model`, :mod:`geomfdi.generators`, :mod:`geomfdi.tolerance` and
-the least-order row builders of :mod:`geomfdi.synthesis` (``build``, ``multirow``,
-``least_order``, lazily) and, lazily, the H∞ routine
-:func:`geomfdi.verification.norms.hinf_norm` (it depends on nothing above the generators
-layer); the front end :mod:`geomfdi.synthesis.design` imports it lazily,
-never the other way round.  See *Theory: approximate synthesis*
+It may import :mod:`geomfdi.model`, :mod:`geomfdi.generators` (with the H∞ routine
+:func:`geomfdi.generators.norms.hinf_norm`), :mod:`geomfdi.tolerance` and the least-order
+row builders of :mod:`geomfdi.synthesis` (``build``, ``multirow``, ``least_order``,
+lazily), never :mod:`geomfdi.verification`; the front end :mod:`geomfdi.synthesis.design`
+imports it lazily, never the other way round.  See *Theory: approximate synthesis*
 (``docs/theory/approximate-synthesis.md``).
 """
 

@@ -60,11 +60,17 @@ def gap_residual_generator(
     residual_dim: int | None = None,
     regularization: float | None = None,
     models: Sequence[Plant] | None = None,
+    band: Any = None,
 ) -> ResidualGenerator:
     """One AFD row (see :func:`geomfdi.design_residual_generator` with ``objective="gap"``)."""
     faults = list(faults)
     tgt, dec = _indices(target, decouple, len(faults))
     if models is not None:
+        if band is not None:
+            raise DesignError(
+                "band: the multi-model design maximises the H∞ gap; give no band with models",
+                argument="band",
+            )
         fam = check_models(models, plant)
         fam = [plant, *[m for m in fam if m is not plant]]
         return robust_gap_design(
@@ -89,6 +95,7 @@ def gap_residual_generator(
         poles=poles,
         residual_dim=residual_dim,
         regularization=regularization,
+        band=band,
     )
 
 
@@ -120,6 +127,7 @@ def gap_bank(
     residual_dim: Any = None,
     regularization: float | None = None,
     models: Sequence[Plant] | None = None,
+    band: Any = None,
 ) -> ResidualBank:
     """AFDI: one gap-maximising row per structure row (Varga 2017, §5.5, Procedure AFDI).
 
@@ -178,9 +186,10 @@ def gap_bank(
                 residual_dim=dims[r],
                 regularization=regularization,
                 models=models,
+                band=band,
             )
         except (NotIsolableError, DesignError) as exc:
-            if getattr(exc, "argument", None) in ("poles", "regularization"):
+            if getattr(exc, "argument", None) in ("poles", "regularization", "band"):
                 raise
             gens.append(None)
             diags.append(f"missing: {exc}")

@@ -3,9 +3,8 @@
 ``β = min_j ‖R_fj‖∞`` over the target fault columns (Varga's ``H∞−`` index used by his
 ``fdif2ngap``), ``γ = ‖R_w‖∞``, gap ``= β / γ`` (``inf`` when ``γ = 0``); see *Theory:
 approximate synthesis* (``docs/theory/approximate-synthesis.md``).  H∞ norms come from
-:func:`geomfdi.verification.norms.hinf_norm`, imported lazily (the one import of this
-subpackage from the verification layer: the norm routine depends on nothing above
-:mod:`geomfdi.generators`).
+:func:`geomfdi.generators.norms.hinf_norm`, the routine :func:`geomfdi.fault_to_noise_gap`
+uses too (the synthesis never imports :mod:`geomfdi.verification`).
 """
 
 from __future__ import annotations
@@ -15,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from geomfdi.generators.generator import ResidualGenerator
+from geomfdi.generators.norms import hinf_norm, hminus_index
 from geomfdi.synthesis.approximate.nullspace import channel
 
 __all__ = ["hinf", "GapNumbers", "gap_numbers"]
@@ -23,7 +23,7 @@ __all__ = ["hinf", "GapNumbers", "gap_numbers"]
 def hinf(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, dt: float) -> float:
     """H∞ norm of a stable ``(A, B, C, D)`` (0 for an empty channel).
 
-    Computed by :func:`geomfdi.verification.norms.hinf_norm` (the two-step Hamiltonian /
+    Computed by :func:`geomfdi.generators.norms.hinf_norm` (the two-step Hamiltonian /
     symplectic-pencil algorithm of Bruinsma & Steinbuch 1990), the routine every geomfdi
     gap measurement uses.
     """
@@ -31,9 +31,15 @@ def hinf(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, dt: float) 
         return 0.0
     if A.shape[0] == 0 or not (np.any(B) and np.any(C)):
         return float(np.linalg.norm(D, 2))
-    from geomfdi.verification.norms import hinf_norm
-
     return float(hinf_norm(A, B, C, D, dt, tol=1e-8).value)
+
+
+def _band_index(A, B, C, D, dt: float, band: tuple[float, float]) -> float:
+    """``min_{ω∈band} σ_max`` of one fault's channel (0 for an empty channel)."""
+    if B.shape[1] == 0 or C.shape[0] == 0:
+        return 0.0
+    cols = [list(range(B.shape[1]))]
+    return float(hminus_index(A, B, C, D, dt, columns=cols, band=band).value)
 
 
 @dataclass
@@ -60,9 +66,17 @@ def gap_numbers(
     Dw: np.ndarray,
     fault_sigs: list[tuple[np.ndarray, np.ndarray]],
     dt: float,
+    band: tuple[float, float] | None = None,
 ) -> GapNumbers:
-    """β, γ and the gap of ``g`` for the given target fault signatures, plus its leaks."""
-    norms = [hinf(*channel(g, A, Bf, C, Df), dt) for Bf, Df in fault_sigs]
+    """β, γ and the gap of ``g`` for the given target fault signatures, plus its leaks.
+
+    ``band``: β and the per-fault values are the H₋ index over ``[ω₁, ω₂]``
+    (:func:`geomfdi.generators.norms.hminus_index`, ``min_ω σ_max`` of each fault's
+    columns) instead of the H∞ norms; γ is always the H∞ norm."""
+    if band is None:
+        norms = [hinf(*channel(g, A, Bf, C, Df), dt) for Bf, Df in fault_sigs]
+    else:
+        norms = [_band_index(*channel(g, A, Bf, C, Df), dt, band) for Bf, Df in fault_sigs]
     beta = min(norms) if norms else 0.0
     gamma = hinf(*channel(g, A, Bw, C, Dw), dt) if Bw.shape[1] else 0.0
     gap = float("inf") if gamma == 0 else beta / gamma

@@ -71,9 +71,18 @@ def transfer_on_grid(
         CV = C @ V
         VB = np.linalg.solve(V, B)
         return np.einsum("pi,ki,im->kpm", CV, 1.0 / (pts[:, None] - lam[None, :]), VB) + D
-    M = pts[:, None, None] * np.eye(n) - A
-    X = np.linalg.solve(M, np.broadcast_to(B.astype(complex), (pts.size, *B.shape)))
-    return C @ X + D
+    # otherwise the complex Schur form: one triangular back substitution over all points
+    # (on the transposed system when there are fewer outputs than inputs)
+    import scipy.linalg as sla
+
+    from geomfdi.generators.gains import _tri_solve_many
+
+    T, U = sla.schur(A.astype(complex), output="complex")
+    UhB, CU = U.conj().T @ B, C @ U
+    if C.shape[0] < B.shape[1]:  # Gᵀ = (U*B)ᵀ (λI − Tᵀ)⁻¹ (CU)ᵀ, Tᵀ reversed is upper
+        X = _tri_solve_many(np.ascontiguousarray(T.T[::-1, ::-1]), pts, CU.T[::-1].copy())
+        return np.matmul(UhB.T[:, ::-1], X).transpose(0, 2, 1) + D
+    return np.matmul(CU, _tri_solve_many(T, pts, UhB)) + D
 
 
 def normal_rank(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, dt: float) -> int:

@@ -55,7 +55,7 @@ from geomfdi.generators.exact import (
 from geomfdi.geometry import parametric as pm
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.synthesis.construction import design_dims
+from geomfdi.synthesis.construction import design_dims, row_poles, row_split
 
 __all__ = ["design_bank_exact", "design_sensor_bank_exact", "default_exact_poles"]
 
@@ -439,22 +439,9 @@ def _classify(cands, mats, sigs, dt, poles, a, gen, generic, deadline):
     return out
 
 
-def _row_poles(poles: Any, rows: int) -> list[Any]:
-    """One spectrum for every row, or a list with one per row (``None`` entries: default)."""
-    if poles is None:
-        return [None] * rows
-    if (
-        isinstance(poles, list | tuple)
-        and poles
-        and all(p is None or isinstance(p, list | tuple | np.ndarray) for p in poles)
-    ):
-        if len(poles) != rows:
-            raise DesignError(
-                f"poles: a per-row list must have {rows} entries, got {len(poles)}",
-                argument="poles",
-            )
-        return list(poles)
-    return [list(poles)] * rows
+def _listed(poles: Any) -> Any:
+    """A row's poles as a list (``None`` kept: the row's default)."""
+    return None if poles is None else list(poles)
 
 
 def _exact_poles(poles: Any, dt: float, row: int, rows: int) -> list[sp.Expr]:
@@ -575,7 +562,7 @@ def design_bank_exact(
     ]
     per_row = [
         None if rp is None else _exact_poles(rp, plant.dt, r, req.shape[0])
-        for r, rp in enumerate(_row_poles(poles, req.shape[0]))
+        for r, rp in enumerate(row_poles(poles, req.shape[0], _listed))
     ]
     deadline = time.monotonic() + float(time_limit)
     gens: list[ExactResidualGenerator | None] = []
@@ -585,8 +572,7 @@ def design_bank_exact(
     params: set[Any] = set()
     t0 = time.perf_counter()
     for r in range(req.shape[0]):
-        tgt = tuple(int(j) for j in np.flatnonzero(req[r]))
-        dec = tuple(int(j) for j in np.flatnonzero(~req[r]))
+        tgt, dec = row_split(req[r])
         if not tgt:
             gens.append(None)
             diags.append("missing: the row requests no fault")

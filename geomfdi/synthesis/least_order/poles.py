@@ -64,8 +64,13 @@ def default_pole_sequence(count: int, omega: float, dt: float) -> np.ndarray:
     return -omega * spread
 
 
-def _check_poles(poles: np.ndarray, A0: np.ndarray, dt: float) -> np.ndarray:
-    """Order conjugate pairs as (λ, λ̄) with Im λ > 0; distinct; not in spec(A0)."""
+def _check_poles(
+    poles: np.ndarray, A0: np.ndarray, dt: float, eig: np.ndarray | None = None
+) -> np.ndarray:
+    """Order conjugate pairs as (λ, λ̄) with Im λ > 0; distinct; not in spec(A0).
+
+    ``eig``: the eigenvalues of ``A0`` when the caller has them (a search checks many
+    candidate pole sets against one ``A0``)."""
     out: list[complex] = []
     rest = list(np.asarray(poles, dtype=complex))
     while rest:
@@ -90,7 +95,7 @@ def _check_poles(poles: np.ndarray, A0: np.ndarray, dt: float) -> np.ndarray:
                     argument="poles",
                 )
     if A0.size and arr.size:
-        eig = np.linalg.eigvals(A0)
+        eig = np.linalg.eigvals(A0) if eig is None else eig
         near = np.min(np.abs(arr[:, None] - eig[None, :]), axis=1)
         if np.any(near <= 1e-9 * max(scale, _norm2(A0))):
             raise DesignError(

@@ -73,6 +73,26 @@ class Quotient:
     def rho(self) -> int:
         return self.M.shape[0]
 
+    def norm(self, name: str) -> float:
+        """Spectral norm of the matrix ``name`` (``"A0"``, ``"M"``), computed once."""
+        key = f"_norm_{name}"
+        mat = getattr(self, name)
+        cached = self.__dict__.get(key)
+        if cached is None or cached[0] is not mat:
+            cached = (mat, float(np.linalg.norm(mat, 2)) if mat.size else 0.0)
+            self.__dict__[key] = cached
+        return cached[1]
+
+    @property
+    def eigenvalues(self) -> np.ndarray:
+        """Eigenvalues of ``A0`` (computed once: every pole check of a search uses them)."""
+        cached = self.__dict__.get("_eigenvalues")
+        if cached is None or cached[0] is not self.A0:
+            ev = np.linalg.eigvals(self.A0) if self.A0.size else np.zeros(0, complex)
+            cached = (self.A0, ev)
+            self.__dict__["_eigenvalues"] = cached
+        return cached[1]
+
 
 def quotient_model(
     A: np.ndarray,

@@ -342,9 +342,15 @@ class LeastOrderRow:
 
 
 def _realise(
-    Qm: Quotient, poles: np.ndarray, kinds: list[tuple[str, int]], x: np.ndarray, sizes: list[int]
+    Qm: Quotient,
+    poles: np.ndarray,
+    kinds: list[tuple[str, int]],
+    x: np.ndarray,
+    sizes: list[int],
+    blocks: list[np.ndarray] | None = None,
 ) -> tuple[np.ndarray, ...]:
-    """Functional observer ``(Λ, G_s, T, c, h)`` of the real null vector x (module Notes)."""
+    """Functional observer ``(Λ, G_s, T, c, h)`` of the real null vector x (module Notes);
+    ``blocks``: those of :func:`_blocks` at these poles (``M (λ − A0)⁻¹``, not solved again)."""
     nu = len(poles)
     rho, k = Qm.rho, Qm.k
     edges = np.cumsum([0, *sizes])
@@ -355,11 +361,16 @@ def _realise(
     c = np.zeros(nu)
     h = part[0]
     b = 1
-    for kind, i in kinds[1:]:
-        if kind == "im":
+    for pos, (kind, i) in enumerate(kinds):
+        if kind in ("h", "im"):
             continue
         lam = poles[i]
-        R = np.linalg.solve((lam * np.eye(k) - Qm.A0).T, Qm.M.T).T if k else Qm.M[:, :0]
+        if blocks is not None:
+            R = blocks[pos] + 1j * blocks[pos + 1] if kind == "re" else blocks[pos]
+        elif k:
+            R = np.linalg.solve((lam * np.eye(k) - Qm.A0).T, Qm.M.T).T
+        else:
+            R = Qm.M[:, :0]
         if kind == "r":
             xi = part[b]
             F[i, i] = lam.real
@@ -516,7 +527,7 @@ def least_order_row(
                 "observability index)",
             )
             return LeastOrderRow(nu, None, None, None, None, None, np.zeros(0), cert)
-        cand = _check_poles(pool[:nu].astype(complex), Qm.A0, dt)
+        cand = _check_poles(pool[:nu].astype(complex), Qm.A0, dt, Qm.eigenvalues)
         blocks, kinds = _blocks(Qm, cand)
         X, rank, gap = _null_rows(blocks, dim)
         pts = _points(Qm, cand, omega)
@@ -549,7 +560,7 @@ def least_order_row(
             raise DesignError(
                 f"poles: the first {nu} poles split a conjugate pair", argument="poles"
             )
-        cand = _check_poles(cand, Qm.A0, dt)
+        cand = _check_poles(cand, Qm.A0, dt, Qm.eigenvalues)
         blocks, kinds = _blocks(Qm, cand)
         X, rank, gap = _null_rows(blocks, st.parity_dim(nu))
         grams, rel = _target_grams(Qm, cand, kinds, X, _points(Qm, cand, omega), blocks)
@@ -566,7 +577,7 @@ def least_order_row(
     alpha, val = _maxmin_direction(grams)
     x = _unnormalise(X, blocks) @ alpha
     sizes = [b.shape[0] for b in blocks]
-    F, Gs, T, c, h = _realise(Qm, cand, kinds, x, sizes)
+    F, Gs, T, c, h = _realise(Qm, cand, kinds, x, sizes, blocks)
     edges = np.cumsum([0, *sizes])
     cert = {
         "order": nu,
@@ -775,13 +786,14 @@ def realise_on_plant(Qm: Quotient, row: LeastOrderRow, Du: np.ndarray) -> dict[s
     Mg = c.reshape(1, -1)
     Hg = -(h @ H).reshape(1, -1)
     Kg = -(h @ H @ Du).reshape(1, -1)
-    scale = max(_norm2(T) * _norm2(Qm.A0), _norm2(F) * _norm2(T), _norm2(Gs) * _norm2(Qm.M), 1e-300)
+    nT, nA0, nM = _norm2(T), Qm.norm("A0"), Qm.norm("M")
+    scale = max(nT * nA0, _norm2(F) * nT, _norm2(Gs) * nM, 1e-300)
     ident = {
         "T A0 − Λ T = G_s M": float(_norm2(T @ Qm.A0 - F @ T - Gs @ Qm.M) / scale)
         if T.size
         else 0.0,
         "c T + h M = 0": float(
-            _norm2(c @ T + h @ Qm.M) / max(_norm2(c) * _norm2(T), _norm2(h) * _norm2(Qm.M), 1e-300)
+            _norm2(c @ T + h @ Qm.M) / max(_norm2(c) * nT, _norm2(h) * nM, 1e-300)
         ),
     }
     return {"F": F, "E": E, "G": G, "M": Mg, "H": Hg, "K": Kg, "identities": ident}

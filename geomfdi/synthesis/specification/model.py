@@ -24,6 +24,7 @@ from geomfdi.geometry.balancing import state_scaling
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
+from geomfdi.synthesis.construction import fault_list
 
 __all__ = ["SpecModel", "spec_model", "quotient_of", "IDENTITY_TOL"]
 
@@ -67,20 +68,6 @@ def _unit_block(B: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return (B / nrm, D / nrm) if nrm > 0 else (B, D)
 
 
-def _fault_list(faults: Any) -> list[Fault]:
-    if isinstance(faults, Fault):
-        faults = [faults]
-    try:
-        out = list(faults)
-    except TypeError as exc:
-        raise GeomFDIError(
-            "faults: must be a list of SensorFault / ActuatorFault / Fault", argument="faults"
-        ) from exc
-    if not out:
-        raise GeomFDIError("faults: at least one fault is required", argument="faults")
-    return out
-
-
 def spec_model(plant: Any, faults: Any) -> SpecModel:
     """Check ``plant`` and ``faults`` and return the column-normalised :class:`SpecModel`.
 
@@ -93,7 +80,7 @@ def spec_model(plant: Any, faults: Any) -> SpecModel:
     from geomfdi.synthesis.least_order.search import plant_scale
 
     plant = as_plant(plant, static=True)
-    flist = _fault_list(faults)
+    flist = fault_list(faults)
     raw = fault_matrices(flist, plant.n, plant.q)
     for k, (Bf, Df) in enumerate(raw):
         if not np.any(Bf) and not np.any(Df):

@@ -151,9 +151,18 @@ class _System:
         self.B, self.C, self.D = B / d[:, None] if n else B, C * d[None, :] if n else C, D
         self.dt = dt
         self.n, self.p, self.m = n, C.shape[0], B.shape[1]
+        self.dual = False
         if n:
             T, U = scipy.linalg.schur(self.A.astype(complex), output="complex")
             self.T, self.UhB, self.CU = T, U.conj().T @ self.B, self.C @ U
+            # fewer outputs than inputs: solve the transposed system, whose right-hand side
+            # has p columns instead of m (Gᵀ = B̃ᵀ (sI − Tᵀ)⁻¹ C̃ᵀ; Tᵀ with rows and columns
+            # reversed is upper triangular again)
+            self.dual = self.p < self.m
+            if self.dual:
+                self.Tt = np.ascontiguousarray(T.T[::-1, ::-1])
+                self.CUt = np.ascontiguousarray(self.CU.T[::-1])
+                self.UhBt = np.ascontiguousarray(self.UhB.T[:, ::-1])
             self.poles = np.diag(T).copy()
         else:
             self.poles = np.zeros(0, complex)
@@ -173,18 +182,20 @@ class _System:
         fin = np.isfinite(w)
         if self.n and np.any(fin):
             pts = self.point(w[fin])
+            T, R = (self.Tt, self.CUt) if self.dual else (self.T, self.UhB)
             if self.n <= 48 or pts.size > self.n // 4:
-                X = _tri_solve_many(self.T, pts, self.UhB)
+                X = _tri_solve_many(T, pts, R)
             else:  # a few points of a large system: one triangular solve each
                 X = np.stack(
                     [
-                        scipy.linalg.solve_triangular(
-                            s * np.eye(self.n) - self.T, self.UhB, check_finite=False
-                        )
+                        scipy.linalg.solve_triangular(s * np.eye(self.n) - T, R, check_finite=False)
                         for s in pts
                     ]
                 )
-            out[fin] += np.matmul(self.CU, X)
+            if self.dual:
+                out[fin] += np.matmul(self.UhBt, X).transpose(0, 2, 1)
+            else:
+                out[fin] += np.matmul(self.CU, X)
         return out
 
     def sigma_max(self, w: Any) -> np.ndarray:

@@ -1,49 +1,51 @@
-"""Checks of the design front end's choices: the ``method`` of the decoupling design and
-the ``objective`` (exact ``"decoupling"`` or the approximate ``"gap"`` design of Varga
-2017, ch. 5), each checked with a named error before any of them is compared.
+"""The objective of a design: exact decoupling, or the fault-to-noise gap.
+
+Used by the front end :mod:`geomfdi.synthesis.design`; imports only the package's errors and
+validation helpers.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from geomfdi._validation import as_bool, as_float
+from geomfdi._validation import as_bool
 from geomfdi.errors import DesignError
 
-__all__ = ["METHODS", "OBJECTIVES"]
-
-METHODS = ("exact", "full", "paper", "mvw")
-
-
-def _check_method(method: Any) -> str:
-    if not isinstance(method, str) or method not in METHODS:
-        raise DesignError(
-            f"method: must be one of {list(METHODS)}, got {method!r:.40}", argument="method"
-        )
-    return str(method)
-
+__all__ = ["OBJECTIVES", "objective_of"]
 
 OBJECTIVES = ("decoupling", "gap")
 
 
-def _objective(
-    objective: Any, plant: Any, models: Any, exact: Any, method: Any, regularization: Any
+def objective_of(
+    objective: Any,
+    plant: Any,
+    models: Any = None,
+    exact: bool = False,
+    method: Any = "exact",
+    band: Any = None,
 ) -> str:
     """``objective`` checked; ``None``: ``"gap"`` for a plant with noise inputs (unless an
     exact-decoupling construction was asked for: ``exact=True`` or another ``method``).
-    ``method``, ``exact``, ``models``, ``regularization`` checked first (named errors)."""
-    method = _check_method(method)
-    exact = as_bool(exact, "exact")
-    if models is not None:
-        from geomfdi.synthesis.approximate.bank import check_models
 
-        check_models(models, None)
-    reg = as_float(regularization, "regularization", allow_none=True)
-    if reg is not None and reg < 0:
+    ``band`` (a frequency band of the gap design) is refused with any other objective."""
+    # checked first (named errors), before any of them is compared
+    if not isinstance(method, str) or method not in ("exact", "full", "paper", "mvw"):
         raise DesignError(
-            f"regularization: must be a finite number >= 0, got {reg!r}",
-            argument="regularization",
+            f"method: must be one of ['exact', 'full', 'paper', 'mvw'], got {method!r:.40}",
+            argument="method",
         )
+    exact = as_bool(exact, "exact")
+    if models is not None and (
+        not isinstance(models, list | tuple) or not models or isinstance(models, str)
+    ):
+        raise DesignError("models: give a non-empty list of plants", argument="models")
+    out = _objective(objective, plant, models, exact, method)
+    if band is not None and out != "gap":
+        raise DesignError('band: an objective of the gap design (objective="gap")', argument="band")
+    return out
+
+
+def _objective(objective: Any, plant: Any, models: Any, exact: bool, method: Any) -> str:
     if objective is None:
         if exact is True or method != "exact":
             return "decoupling"
