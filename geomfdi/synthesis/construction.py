@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from geomfdi._validation import as_positive, as_sequence_of
+from geomfdi._validation import as_indices, as_positive, as_sequence_of
 from geomfdi.errors import DesignError, GeomFDIError, NotIsolableError
 from geomfdi.generators.gains import LEAK_TOL, PlantFactor, fault_gains
 from geomfdi.generators.generator import ResidualGenerator
@@ -120,6 +120,25 @@ def row_poles(poles: Any, rows: int, check: Callable[[Any], Any] = checked_poles
             )
         return [check(p) for p in poles]
     return [check(poles)] * rows
+
+
+def target_decouple(target: Any, decouple: Any, nf: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """A single residual's ``target`` and ``decouple`` fault indices, validated.
+
+    ``decouple=None`` means every fault that is not a target; a fault may not be both.
+    """
+    tgt = as_indices(target, "target", nf)
+    if not tgt:
+        raise GeomFDIError("target: at least one fault index is required", argument="target")
+    dec = (
+        tuple(j for j in range(nf) if j not in tgt)
+        if decouple is None
+        else as_indices(decouple, "decouple", nf)
+    )
+    both = set(tgt) & set(dec)
+    if both:
+        raise GeomFDIError(f"decouple: faults {sorted(both)} are also targets", argument="decouple")
+    return tgt, dec
 
 
 def row_split(row: np.ndarray) -> tuple[tuple[int, ...], tuple[int, ...]]:

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads
-from geomfdi._validation import as_bool, as_float, as_indices, as_real_array
+from geomfdi._validation import as_bool, as_float, as_real_array
 from geomfdi.errors import (
     DesignError,
     GeomFDIError,
@@ -55,6 +55,7 @@ from geomfdi.synthesis.construction import (
     checked_poles,
     row_poles,
     row_split,
+    target_decouple,
 )
 from geomfdi.synthesis.least_order.poles import plant_scale
 from geomfdi.synthesis.multirow import ResidualDimError, build_multirow, check_residual_dim
@@ -360,17 +361,7 @@ def design_residual_generator(
     minimal = as_bool(minimal, "minimal")
     filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
     poles = checked_poles(poles)
-    nf = len(faults)
-    tgt = as_indices(target, "target", nf)
-    if not tgt:
-        raise GeomFDIError("target: at least one fault index is required", argument="target")
-    if decouple is None:
-        dec = tuple(j for j in range(nf) if j not in tgt)
-    else:
-        dec = as_indices(decouple, "decouple", nf)
-    both = set(tgt) & set(dec)
-    if both:
-        raise GeomFDIError(f"decouple: faults {sorted(both)} are also targets", argument="decouple")
+    tgt, dec = target_decouple(target, decouple, len(faults))
     mg = checked_margin(margin, plant.dt)
     if filter_pole is not None:  # validated by the transform even when unused
         pseudo_actuator_model(plant, faults, "exact", filter_pole=filter_pole)

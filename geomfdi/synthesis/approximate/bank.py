@@ -34,20 +34,9 @@ def fault_norms(
 
 
 def _indices(target: Any, decouple: Any, nf: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
-    from geomfdi._validation import as_indices
+    from geomfdi.synthesis.construction import target_decouple
 
-    tgt = as_indices(target, "target", nf)
-    if not tgt:
-        raise GeomFDIError("target: at least one fault index is required", argument="target")
-    dec = (
-        tuple(j for j in range(nf) if j not in tgt)
-        if decouple is None
-        else as_indices(decouple, "decouple", nf)
-    )
-    both = set(tgt) & set(dec)
-    if both:
-        raise GeomFDIError(f"decouple: faults {sorted(both)} are also targets", argument="decouple")
-    return tgt, dec
+    return target_decouple(target, decouple, nf)
 
 
 def gap_residual_generator(

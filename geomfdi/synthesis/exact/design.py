@@ -55,7 +55,7 @@ from geomfdi.generators.exact import (
 from geomfdi.geometry import parametric as pm
 from geomfdi.model.faults import Fault, SensorFault, fault_matrices
 from geomfdi.model.plant import Plant, as_plant
-from geomfdi.synthesis.construction import design_dims, row_poles, row_split
+from geomfdi.synthesis.construction import design_dims, row_poles, row_split, target_decouple
 
 __all__ = ["design_bank_exact", "design_sensor_bank_exact", "default_exact_poles"]
 
@@ -692,7 +692,6 @@ def exact_dispatch(
     filter_pole: Any = None,
 ) -> ExactResidualBank | ExactResidualGenerator:
     """The ``exact=True`` branch of the three design functions (one row, a bank, sensors)."""
-    from geomfdi._validation import as_indices
 
     if method != "exact":
         raise DesignError(
@@ -705,17 +704,7 @@ def exact_dispatch(
         return design_bank_exact(plant, faults, structure, poles=poles, filter_pole=filter_pole)
     faults = [faults] if isinstance(faults, Fault) else list(faults)
     nf = len(faults)
-    tgt = as_indices(target, "target", nf)
-    if not tgt:
-        raise GeomFDIError("target: at least one fault index is required", argument="target")
-    dec = (
-        tuple(j for j in range(nf) if j not in tgt)
-        if decouple is None
-        else as_indices(decouple, "decouple", nf)
-    )
-    both = set(tgt) & set(dec)
-    if both:
-        raise GeomFDIError(f"decouple: faults {sorted(both)} are also targets", argument="decouple")
+    tgt, dec = target_decouple(target, decouple, nf)
     row = np.zeros((1, nf))
     row[0, list(tgt)] = 1
     keep = sorted(set(tgt) | set(dec))  # faults neither seen nor decoupled are ignored
