@@ -348,7 +348,7 @@ def compiled_paths(monitor: Any) -> tuple[Any, Any] | None:
 
 
 def _bind(dll: ctypes.CDLL, path: Path, pycall: Any, monitor: Any) -> tuple[Any, Any]:
-    from geomfdi.deployment.online import MonitorOutput, MonitorStep, _chunk
+    from geomfdi.deployment.online import MonitorOutput, MonitorStep, chunks
 
     prog = monitor.program
     q, m, rows = prog.q, prog.m, prog.n_rows
@@ -400,13 +400,8 @@ def _bind(dll: ctypes.CDLL, path: Path, pycall: Any, monitor: Any) -> tuple[Any,
             return convert_step(y, u) if out is None else out
 
     def feed(Y: Any, U: Any = None) -> MonitorOutput:
-        Y = _chunk(Y, q, "Y")
+        Y, U = chunks(Y, U, q, m)
         L = Y.shape[1]
-        if U is None:
-            if m:
-                raise ShapeError(f"U: the bank reads {m} inputs; pass U", argument="U")
-            U = np.zeros((0, L))
-        U = _chunk(U, m, "U", L)
         Yt = np.ascontiguousarray(Y.T, dtype=float)
         Ut = np.ascontiguousarray(U.T, dtype=float) if m else np.zeros((L, 1))
         R = np.empty((L, max(rows, 1)))

@@ -347,6 +347,17 @@ def _may_overflow(program: Program, Phi: np.ndarray) -> bool:
     return bool(program.nw and np.abs(np.linalg.eigvals(program.A)).max() >= 1.0)
 
 
+def chunks(Y: Any, U: Any, q: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """A block of readings ``(q, L)`` and inputs ``(m, L)`` (``U=None``: no inputs)."""
+    Y = _chunk(Y, q, "Y")
+    L = Y.shape[1]
+    if U is None:
+        if m:
+            raise ShapeError(f"U: the bank reads {m} inputs; pass U", argument="U")
+        U = np.zeros((0, L))
+    return Y, _chunk(U, m, "U", L)
+
+
 def _chunk(value: Any, rows: int, name: str, L: int | None = None) -> np.ndarray:
     """A ``(rows, L)`` float array (non-finite entries allowed: missing samples)."""
     if not (isinstance(value, np.ndarray) and value.dtype == np.float64):
@@ -399,13 +410,8 @@ def make_feed(
         return isolate(pattern, structure).isolated
 
     def feed(Y: Any, U: Any = None) -> MonitorOutput:
-        Y = _chunk(Y, q, "Y")
+        Y, U = chunks(Y, U, q, m)
         L = Y.shape[1]
-        if U is None:
-            if m:
-                raise ShapeError(f"U: the bank reads {m} inputs; pass U", argument="U")
-            U = np.zeros((0, L))
-        U = _chunk(U, m, "U", L)
         Zt = np.empty((L, nz))  # sample-major: the layout of the lifted recursion
         Zt[:, :q] = Y.T
         Zt[:, q:] = U.T

@@ -184,18 +184,23 @@ class ActuatorFault(Fault):
         return f"ActuatorFault(k={self.k}, name={self.name!r})"
 
 
-def fault_matrices(
-    faults: Any, n: int, q: int, *, argument: str = "faults"
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Validate a list of faults and return their ``(Bf, Df)`` signatures."""
+def _fault_items(faults: Any, argument: str) -> list[Any]:
+    """``faults`` as a list (one fault alone is a list of one)."""
     if isinstance(faults, Fault):
-        faults = [faults]
+        return [faults]
     try:
-        items = list(faults)
+        return list(faults)
     except TypeError as exc:
         raise GeomFDIError(
             f"{argument}: must be a list of SensorFault / ActuatorFault / Fault", argument=argument
         ) from exc
+
+
+def fault_matrices(
+    faults: Any, n: int, q: int, *, argument: str = "faults"
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Validate a list of faults and return their ``(Bf, Df)`` signatures."""
+    items = _fault_items(faults, argument)
     out = []
     for k, f in enumerate(items):
         if not isinstance(f, Fault):
@@ -216,14 +221,7 @@ def bind_faults(plant: Any, faults: Any, *, argument: str = "faults") -> list[Fa
     faults are returned as they are.  Raises :class:`GeomFDIError` naming the fault for an
     unknown output name.
     """
-    if isinstance(faults, Fault):
-        faults = [faults]
-    try:
-        items = list(faults)
-    except TypeError as exc:
-        raise GeomFDIError(
-            f"{argument}: must be a list of SensorFault / ActuatorFault / Fault", argument=argument
-        ) from exc
+    items = _fault_items(faults, argument)
     outputs = getattr(plant, "outputs", None)
     named = bool(getattr(plant, "named", False))
     out: list[Fault] = []
