@@ -21,6 +21,7 @@ from __future__ import annotations
 import contextvars
 import functools
 import os
+import sys
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -36,6 +37,7 @@ _inside: contextvars.ContextVar[bool] = contextvars.ContextVar(
     "geomfdi_blas_limited", default=False
 )
 _controller: Any = None
+_modules_seen = -1  # len(sys.modules) when _controller was made
 
 
 def _parse(value: Any, name: str) -> int | None:
@@ -94,11 +96,20 @@ def get_blas_threads() -> int | None:
 
 
 def _get_controller() -> Any:
-    global _controller
-    if _controller is None:
+    """threadpoolctl's controller of the BLAS libraries loaded now.
+
+    A controller knows the libraries loaded when it was made (scipy's OpenBLAS is a
+    library of its own, loaded with ``scipy.linalg``, often after the first limited
+    call), so it is made again whenever modules were imported since: a new BLAS comes
+    with an import.  Cost: one ``len(sys.modules)`` per call once the imports settle.
+    """
+    global _controller, _modules_seen
+    seen = len(sys.modules)
+    if _controller is None or seen != _modules_seen:
         from threadpoolctl import ThreadpoolController
 
         _controller = ThreadpoolController()
+        _modules_seen = len(sys.modules)  # after threadpoolctl's own import
     return _controller
 
 

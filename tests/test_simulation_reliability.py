@@ -173,3 +173,35 @@ def test_simulate_limits_blas_to_one_thread_unless_opted_out():
         assert inside() == before
     finally:
         gf.set_blas_threads(old)
+
+
+def test_blas_limit_covers_a_blas_library_loaded_after_the_first_limited_call():
+    """scipy's OpenBLAS is a library of its own, loaded with ``scipy.linalg``: a limited
+    call made before it was loaded must not leave it out of the later limits."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = (
+        "import numpy\n"
+        "from threadpoolctl import threadpool_info\n"
+        "from geomfdi._threads import limit_blas_threads\n"
+        "counts = lambda: {p['filepath']: p['num_threads'] for p in threadpool_info()\n"
+        "                  if p['user_api'] == 'blas'}\n"
+        "f = limit_blas_threads(counts)\n"
+        "first = f()\n"
+        "import scipy.linalg\n"
+        "print((len(first), sorted(counts().values()), sorted(f().values())))\n"
+    )
+    root = str(Path(__file__).resolve().parents[1])
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "2", "GEOMFDI_BLAS_THREADS": "1"}
+    env["PYTHONPATH"] = os.pathsep.join([root, env.get("PYTHONPATH", "")])
+    out = subprocess.run(
+        [sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=120
+    )
+    assert out.returncode == 0, out.stderr
+    n_first, outside, inside = eval(out.stdout.strip().splitlines()[-1])
+    if len(outside) <= n_first or max(outside) < 2:
+        pytest.skip("scipy shares numpy's BLAS here, or the BLAS runs one thread only")
+    assert inside == [1] * len(outside)
