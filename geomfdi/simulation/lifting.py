@@ -10,6 +10,7 @@ and :func:`driven_recursion` are its one-system forms.
 from __future__ import annotations
 
 import hashlib
+import math
 import threading
 from dataclasses import dataclass
 from typing import Any
@@ -327,6 +328,7 @@ def block_recursion(
     out: list[list[np.ndarray | None]] | None = None,
     lift: int | None = None,
     final: bool = False,
+    key: Any = None,
 ) -> Any:
     """Independent subsystems ``x_b[k+1] = A_b x_b[k] + W_b d[k]``, chunked over time.
 
@@ -361,6 +363,10 @@ def block_recursion(
         coordinates of ``x0``: a long record simulated in consecutive calls (each call's
         window ending on the sample where the next one starts) carries it over as the
         next call's ``x0``.
+    key : hashable, optional
+        The caller's fingerprint of ``blocks``, ``W`` and ``outputs`` (equal keys: equal
+        matrices), naming their set-up in the caches instead of a digest of their values
+        (a caller that already holds one saves hashing the matrices on every call).
 
     Returns
     -------
@@ -399,7 +405,7 @@ def block_recursion(
     nS = int(sum(sizes))
     Rd = max([d.runs for d in drives] + [1])
     R = max(Rd, x0.shape[1])
-    mkey = _digest(blocks + [W])
+    mkey = _digest(blocks + [W]) if key is None else ("key", key)
     modal = _cached(_MODAL, mkey, lambda: _modal_setup(blocks, W))
     Ts, Zs, Zis, stops, Zinv, cplx, V = modal
     dtype = complex if cplx else float
@@ -443,7 +449,8 @@ def block_recursion(
     layout = tuple(
         (src.k, src.smin, src.smax, tuple(src.parts), src.drive.scale is None) for src in srcs
     )
-    lkey = (mkey, _digest([C for outs in outputs for C in outs]), layout, M)
+    okey = _digest([C for outs in outputs for C in outs]) if key is None else None
+    lkey = (mkey, okey, layout, M)
     hit = _LIFTED.get(lkey)
     if hit is not None:
         Tb, TbM, Hz, Gam, splits, CZ, state_maps = hit
@@ -485,7 +492,7 @@ def block_recursion(
     pool = _workspace()
 
     def work(name: str, shape: tuple[int, ...], dt: Any = float) -> np.ndarray:
-        size = int(np.prod(shape))
+        size = math.prod(shape)
         key = (name, np.dtype(dt).char)
         if key not in pool or pool[key].size < size:
             pool[key] = np.empty(max(size, 1), dtype=dt)

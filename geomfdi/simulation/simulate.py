@@ -179,7 +179,7 @@ def stop_divergent(
     from geomfdi.simulation.nonlinear import DivergenceWarning
 
     mag = np.max(np.abs(x), axis=0, initial=0.0) if x.shape[0] else np.zeros(t.size)
-    mag = np.where(np.all(np.isfinite(x), axis=0), mag, np.inf)
+    mag[np.isnan(mag)] = np.inf  # max propagates nan: a non-finite state is inf here
     if bound is None:
         onsets = [f.start for f in faults if getattr(f, "start", None) is not None]
         k_on = int(np.searchsorted(t, min(onsets))) if onsets else t.size
