@@ -3,6 +3,7 @@
 * :func:`best_alternating`: the best wall-clock time of each of several functions, called
   alternately (so that a load change on a shared machine hits them all), each call
   started after the BLAS worker threads have gone idle (:data:`SETTLE`);
+  :func:`best_times`: the same calls timed by both clocks (wall and process CPU);
 * :func:`svd_time`: the best wall-clock time of one dense ``n x n`` SVD, the yardstick the
   synthesis benchmarks report their design times against.
 
@@ -29,11 +30,32 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-__all__ = ["SETTLE", "best_alternating", "svd_time"]
+__all__ = ["SETTLE", "best_alternating", "best_times", "svd_time"]
 
 SETTLE = 0.15
 """Seconds of pause before each timed call: longer than OpenBLAS's spin of its idle
 worker threads (``THREAD_TIMEOUT`` 2^28 cycles, about 0.11 s at 2.4 GHz)."""
+
+
+def best_times(
+    fns: Sequence[Callable[[], object]], repeat: int, settle: float = SETTLE
+) -> list[tuple[float, float]]:
+    """Best wall-clock and best process CPU time of each function, ``(wall, cpu)``, over
+    ``repeat`` rounds, the functions called alternately, each after a pause of
+    ``settle`` seconds (idle BLAS threads; see the module docstring).  On a loaded
+    machine the CPU time is the steadier of the two; with a multithreaded BLAS it also
+    counts the worker threads' spinning during the call."""
+    wall = [np.inf] * len(fns)
+    cpu = [np.inf] * len(fns)
+    for _ in range(repeat):
+        for i, fn in enumerate(fns):
+            if settle > 0:
+                time.sleep(settle)
+            w0, c0 = time.perf_counter(), time.process_time()
+            fn()
+            c1, w1 = time.process_time(), time.perf_counter()
+            wall[i], cpu[i] = min(wall[i], w1 - w0), min(cpu[i], c1 - c0)
+    return list(zip(wall, cpu, strict=True))
 
 
 def best_alternating(

@@ -8,6 +8,7 @@ chunk that they return (:class:`RawRuns`: the closed loop's own layout).
 from __future__ import annotations
 
 import copy
+import hashlib
 import numbers
 import sys
 from collections.abc import Sequence
@@ -22,7 +23,6 @@ from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.discretization import HOLDS, Discretization, discretize, uniform_step
 from geomfdi.simulation.initial_state import state_scaling
-from geomfdi.simulation.lifting import _digest
 from geomfdi.simulation.noise import Noise
 from geomfdi.simulation.schedule import FaultSchedule, input_channels
 
@@ -73,8 +73,12 @@ _MATRICES = ("F", "E", "G", "M", "H", "K")
 
 
 def generator_key(g: ResidualGenerator) -> bytes:
-    """A fingerprint of the matrices of ``g`` (their shapes and values)."""
-    return _digest([np.asarray(getattr(g, name)) for name in _MATRICES])
+    """A fingerprint of the matrices of ``g``: their shapes and their values as floats
+    (what the simulation reads), one hash over the concatenated entries."""
+    mats = [np.asarray(getattr(g, name)) for name in _MATRICES]
+    h = hashlib.blake2b(np.concatenate([a.ravel() for a in mats], dtype=float), digest_size=16)
+    h.update(repr([a.shape for a in mats]).encode())
+    return h.digest()
 
 
 def _checked_generator(
