@@ -179,19 +179,22 @@ _PROGRAM_ENTRIES = 32
 
 def _bank_key(bank: ResidualBank, dt: Any) -> Any:
     """A fingerprint of everything :func:`build_program` reads: the generators' matrices
-    (shapes and values, missing rows in place), the sampling periods and the structure."""
-    h = hashlib.blake2b(digest_size=16)
-    meta: list[Any] = [float(bank.dt), dt]
-    for g in bank.generators:
-        meta.append(None if g is None else float(g.dt))
-        if g is not None:
-            for a in (g.F, g.E, g.G, g.M, g.H, g.K):
-                a = np.ascontiguousarray(a)
-                meta.append((a.shape, a.dtype.str))
-                h.update(a.tobytes())
+    (shapes, and values as floats: one hash over the concatenated entries; missing rows
+    in place), the sampling periods and the structure."""
+    gens = bank.generators
+    mats = [np.asarray(getattr(g, name)) for g in gens if g is not None for name in "FEGMHK"]
+    h = hashlib.blake2b(
+        np.concatenate([a.ravel() for a in mats], dtype=float) if mats else b"", digest_size=16
+    )
     S = np.ascontiguousarray(bank.structure, dtype=bool)
-    meta.append(S.shape)
-    h.update(S.tobytes())
+    h.update(S)
+    meta = (
+        float(bank.dt),
+        dt,
+        [None if g is None else float(g.dt) for g in gens],
+        [a.shape for a in mats],
+        S.shape,
+    )
     h.update(repr(meta).encode())
     return h.digest()
 
