@@ -192,7 +192,10 @@ def test_blas_limit_covers_a_blas_library_loaded_after_the_first_limited_call():
         "f = limit_blas_threads(counts)\n"
         "first = f()\n"
         "import scipy.linalg\n"
-        "print((len(first), sorted(counts().values()), sorted(f().values())))\n"
+        "before = counts()\n"
+        "inside = f()\n"
+        "print((len(first), sorted(before.values()), sorted(inside.values()),\n"
+        "       sorted(counts().values())))\n"
     )
     root = str(Path(__file__).resolve().parents[1])
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "2", "GEOMFDI_BLAS_THREADS": "1"}
@@ -201,7 +204,8 @@ def test_blas_limit_covers_a_blas_library_loaded_after_the_first_limited_call():
         [sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=120
     )
     assert out.returncode == 0, out.stderr
-    n_first, outside, inside = eval(out.stdout.strip().splitlines()[-1])
-    if len(outside) <= n_first or max(outside) < 2:
+    n_first, before, inside, after = eval(out.stdout.strip().splitlines()[-1])
+    if len(before) <= n_first or max(before) < 2:
         pytest.skip("scipy shares numpy's BLAS here, or the BLAS runs one thread only")
-    assert inside == [1] * len(outside)
+    assert inside == [1] * len(before)
+    assert before == after == [2] * len(before)  # set back on return
