@@ -501,7 +501,9 @@ def block_recursion(
     s = 0
     while s < N:
         e = min(s + Lc, N)
-        if e > N - 1 - M or e - s < M:  # the end: whole blocks with data, then the rest
+        # the end: whole lifted blocks with data, then the rest (unlifted, M = 1: the
+        # record's last chunk runs to its end, not a chunk of one more sample)
+        if M > 1 and (e > N - 1 - M or e - s < M):
             e = s + (N - 1 - s) // M * M if N - 1 - s >= M else N
         L = e - s  # samples s .. e-1 of this chunk
         nb = -(-L // M)
