@@ -501,10 +501,11 @@ def block_recursion(
     s = 0
     while s < N:
         e = min(s + Lc, N)
-        # the end: whole lifted blocks with data, then the rest (unlifted, M = 1: the
-        # record's last chunk runs to its end, not a chunk of one more sample)
-        if M > 1 and (e > N - 1 - M or e - s < M):
-            e = s + (N - 1 - s) // M * M if N - 1 - s >= M else N
+        # the end: the last chunk runs to the record's end, its last block partial (the
+        # steps past the data read zeros and only reach states past the end), not a
+        # further chunk for the fewer than M + 1 samples left
+        if e > N - 1 - M:
+            e = N
         L = e - s  # samples s .. e-1 of this chunk
         nb = -(-L // M)
         Lp = nb * M  # steps s .. s+Lp-1 (those past N-2 only reach states past the end)
