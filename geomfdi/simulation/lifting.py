@@ -591,15 +591,18 @@ def block_recursion(
             p = C.shape[0]
             val4 = Y3[:, o0 : o0 + p].reshape(M, p, R, nb).transpose(1, 2, 3, 0)
             dst = dest[:, :, s:e]
-            if Lp == L:
+            nf = L // M  # whole blocks (a partial last one ends the record)
+            if nf:
+                whole = val4[:, :, :nf]
                 if Dm is not None:
-                    np.add(val4, _blocked_view(F[o0 : o0 + p], M), out=_blocked_view(dst, M))
+                    np.add(whole, _blocked_view(F[o0 : o0 + p], M), out=_blocked_view(dst, M))
                 else:
-                    np.copyto(_blocked_view(dst, M), val4)
-            else:
-                dst[...] = val4.reshape(p, R, Lp)[..., :L]
+                    np.copyto(_blocked_view(dst, M), whole)
+            if nf < nb:
+                part = dst[:, :, nf * M :]
+                part[...] = val4[:, :, nf, : L - nf * M]
                 if Dm is not None:
-                    dst += F[o0 : o0 + p]
+                    part += F[o0 : o0 + p, :, nf * M :]
         z = zc[:, :, nb].copy()
         s = e
     if sum(a.nbytes for a in pool.values()) > _WORKSPACE_BYTES:
