@@ -209,3 +209,17 @@ def test_blas_limit_covers_a_blas_library_loaded_after_the_first_limited_call():
         pytest.skip("scipy shares numpy's BLAS here, or the BLAS runs one thread only")
     assert inside == [1] * len(before)
     assert before == after == [2] * len(before)  # set back on return
+
+
+def test_a_diverging_linear_run_is_cut_at_the_bound():
+    """max |x| beyond ``bound`` (either sign) from the first such sample: no residuals,
+    alarms or decisions after it, and the time reported."""
+    p = gf.Plant([[1.0, 0.0], [0.0, 0.5]], [[0.0], [0.0]], np.eye(2))
+    g = gf.ResidualGenerator([[-2.0]], [[-1.0, 0.0]], [[0.0]], [[1.0]], [[1.0, 0.0]], [[0.0]])
+    t = np.linspace(0.0, 10.0, 1001)
+    with pytest.warns(gf.DivergenceWarning, match="diverged"):
+        res = gf.simulate(p, g, t, x0=[-1.0, 0.0], threshold=0.5, bound=1e3)
+    k = int(np.argmax(np.abs(res.x).max(axis=0) > 1e3))
+    assert k > 0 and res.info["diverged"] and res.info["diverged_at"] == t[k]
+    assert np.isnan(res.residuals[:, k:]).all() and np.isfinite(res.residuals[:, :k]).all()
+    assert not res.alarms[:, k:].any()
