@@ -122,25 +122,46 @@ def evaluate_runs(
     window: float,
     eval_start: float,
 ) -> dict[str, np.ndarray]:
-    """Scores and delays (module docstring) of runs ``(R, n, N)``; bank last, ``(R, n+1)``."""
+    """Scores and delays (module docstring) of runs ``(R, n, N)``; bank last, ``(R, n+1)``.
+
+    Only the samples of the two windows are read: the runs of one onset share them
+    (a campaign has few onsets), and ``z = s / h`` is formed there alone.
+    """
     thr = np.asarray(thresholds, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = np.where(np.isfinite(thr)[:, None], statistic / thr[:, None], 0.0)
-    z = np.concatenate([z, z.max(axis=-2, keepdims=True)], axis=-2)  # bank: any residual
+    finite = np.isfinite(thr)[:, None]
+    R, n = statistic.shape[0], statistic.shape[1]
     tol = 1e-9 * max(1.0, float(np.abs(t).max()))
-    on = onsets[:, None]
-    post = (t[None, :] >= on - tol) & (t[None, :] < on + window - tol)
-    pre = (t[None, :] < on - tol) & (t[None, :] >= np.maximum(eval_start, on - window) - tol)
-    if not pre.any(axis=1).all():
-        raise GeomFDIError(
-            "onsets: every onset needs samples before it (after eval_start)", argument="onsets"
-        )
-    neg = -np.inf
-    score_pre = np.where(pre[:, None, :], z, neg).max(axis=-1)
-    score_post = np.where(post[:, None, :], z, neg).max(axis=-1)
-    hit = post[:, None, :] & (z > 1.0)
-    first = np.argmax(hit, axis=-1)
-    delay = np.where(hit.any(axis=-1), t[first] - onsets[:, None], np.nan)
+    score_pre = np.full((R, n + 1), -np.inf)
+    score_post = np.full((R, n + 1), -np.inf)
+    delay = np.full((R, n + 1), np.nan)
+    values, which = np.unique(onsets, return_inverse=True)
+    for o, on in enumerate(values):  # (a loop over the distinct onsets, not the runs)
+        rows = np.flatnonzero(which.ravel() == o)
+        pre = np.flatnonzero((t < on - tol) & (t >= max(eval_start, on - window) - tol))
+        post = np.flatnonzero((t >= on - tol) & (t < on + window - tol))
+        if not pre.size:
+            raise GeomFDIError(
+                "onsets: every onset needs samples before it (after eval_start)",
+                argument="onsets",
+            )
+        for idx, score in ((pre, score_pre), (post, score_post)):
+            if not idx.size:
+                continue
+            # each window is one interval of the grid: a slice
+            sl = slice(int(idx[0]), int(idx[-1]) + 1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                z = np.where(finite, statistic[rows, :, sl] / thr[:, None], 0.0)
+            zmax = z.max(axis=-1)
+            score[rows, :n] = zmax
+            score[rows, n] = zmax.max(axis=-1)
+            if score is score_post:
+                hit = z > 1.0
+                hit_any = z.max(axis=-2) > 1.0  # the bank: its largest residual
+                first = np.argmax(hit, axis=-1)
+                first_any = np.argmax(hit_any, axis=-1)
+                dt = t[sl]
+                delay[rows, :n] = np.where(hit.any(axis=-1), dt[first] - on, np.nan)
+                delay[rows, n] = np.where(hit_any.any(axis=-1), dt[first_any] - on, np.nan)
     return {"score_pre": score_pre, "score_post": score_post, "delay": delay}
 
 
@@ -160,35 +181,29 @@ def isolate_runs(
 
     Alarms before ``eval_start`` (start-up transients) are ignored, as in the scores.
     """
-    from geomfdi.evaluation.decision import MULTIPLE, isolate
+    from geomfdi.evaluation.decision import MULTIPLE
 
     thr = np.asarray(thresholds, dtype=float)
-    R, N = statistic.shape[0], statistic.shape[-1]
+    R = statistic.shape[0]
+    truth = np.asarray(truth)
     tol = 1e-9 * max(1.0, float(np.abs(t).max()))
     alarms = statistic > thr[:, None]  # +inf (missing rows): never
     alarms &= t >= eval_start - tol
-    if rule is None or rule.trivial:
-        iso = isolate(alarms, structure)
-    else:
-        iso = rule.isolation(rule.apply(alarms), structure)
-    on = onsets[:, None]
-    post = (t[None, :] >= on - tol) & (t[None, :] < on + window - tol)
-    dec = iso.isolated
+    dec, suspects = _decisions(alarms, structure, rule)
+    post = _window_mask(t, onsets, window, tol)
     made = post & ((dec >= 0) | (dec == MULTIPLE))
     first = np.argmax(made, axis=-1)
     rows = np.arange(R)
     has = made[rows, first]
     decision = np.where(has, dec[rows, first], -1)
     # a decision is right: the true single fault, or MULTIPLE with the true suspects
-    right = np.zeros((R, N), dtype=bool)
-    for r in range(R):
-        if truth[r] >= 0:
-            right[r] = dec[r] == truth[r]
-        elif truth[r] == MULTIPLE:
-            want = np.zeros(structure.shape[1], dtype=bool)
-            want[list(true_sets[r])] = True
-            same = np.all(iso.suspects[r] == want[:, None], axis=0)
-            right[r] = (dec[r] == MULTIPLE) & same
+    right = (dec == truth[:, None]) & (truth >= 0)[:, None]
+    multi = np.flatnonzero(truth == MULTIPLE)
+    if multi.size:
+        want = np.zeros((multi.size, structure.shape[1]), dtype=bool)
+        for w, r in zip(want, multi, strict=True):
+            w[list(true_sets[r])] = True
+        right[multi] = (dec[multi] == MULTIPLE) & suspects(multi, want)
     right &= post
     k_right = np.argmax(right, axis=-1)
     ok = right[rows, k_right]
@@ -202,18 +217,50 @@ def isolate_runs(
     }
 
 
-def _fault_key(f: Any) -> Any:
-    """The channel that decides a fault signal's structure column (None: not known)."""
-    from geomfdi.simulation.input_faults import AdditiveFault
-    from geomfdi.simulation.signals import SensorFaultSignal
+def _window_mask(t: np.ndarray, onsets: np.ndarray, window: float, tol: float) -> np.ndarray:
+    """``(R, N)``: the samples of each run's detection window ``[onset, onset + W)``."""
+    return (t[None, :] >= onsets[:, None] - tol) & (t[None, :] < onsets[:, None] + window - tol)
 
-    if isinstance(f, SensorFaultSignal):
-        return ("sensor", f.sensor)
-    if isinstance(f, AdditiveFault):
-        return ("fault", id(f.fault))
-    if hasattr(f, "actuator"):
-        return ("actuator", f.actuator)
-    return None
+
+def _decisions(alarms: np.ndarray, structure: np.ndarray, rule: Any) -> tuple[np.ndarray, Any]:
+    """Isolation decisions ``(R, N)`` of alarms ``(R, n, N)`` under ``rule``, and
+    ``suspects(rows, want) -> (len(rows), N)``: whether the suspects of those runs equal
+    ``want`` (len(rows), n_faults) sample by sample.
+
+    Under a persistence rule each distinct held pattern is decided once
+    (:func:`~geomfdi.evaluation.persistence.pattern_table`) and only the decisions are
+    gathered per sample (the suspects only for the runs that ask).
+    """
+    from geomfdi.evaluation.decision import isolate
+    from geomfdi.evaluation.persistence import held_pattern, pattern_table, settle
+
+    coded = None
+    if rule is not None and not rule.trivial:
+        confirmed = rule.apply(alarms)
+        pattern = held_pattern(confirmed, rule.reset) if rule.latch else confirmed
+        coded = pattern_table(pattern, structure)
+    if coded is None:
+        iso = (
+            isolate(alarms, structure)
+            if rule is None or rule.trivial
+            else rule.isolation(rule.apply(alarms), structure)
+        )
+
+        def full(rows: np.ndarray, want: np.ndarray) -> np.ndarray:
+            return np.all(iso.suspects[rows] == want[:, :, None], axis=1)
+
+        return iso.isolated, full
+
+    index, table = coded
+    dec = table.isolated[index]
+    if not (rule.k == 1 and rule.n == 1):
+        dec = settle(dec, rule.k, rule.n, structure.shape[1])
+
+    def by_pattern(rows: np.ndarray, want: np.ndarray) -> np.ndarray:
+        same = np.all(table.suspects.T[None, :, :] == want[:, None, :], axis=-1)  # (rows, U)
+        return np.take_along_axis(same, index[rows], axis=-1)
+
+    return dec, by_pattern
 
 
 def _truth(
@@ -229,16 +276,7 @@ def _truth(
 
     if size == 0 or not faults:
         return -1, frozenset()
-    cols = []
-    for f in faults:
-        key = _fault_key(f)
-        if key is not None and key in cache:
-            cols.append(cache[key])
-            continue
-        (col,) = structure_columns([f], design, plant)
-        if key is not None:
-            cache[key] = col
-        cols.append(col)
+    cols = structure_columns(faults, design, plant, cache)
     if any(c is None for c in cols):
         return -2, frozenset()
     found = frozenset(int(c) for c in cols)

@@ -158,12 +158,8 @@ def simulate_batch(
     R_y = np.zeros((runs, q, N)) if store == "all" else None
     R_yh = np.zeros((runs, q, N)) if store == "all" else None
     R_u = np.zeros((runs, plant.m, N)) if store == "all" else None
-    cache: dict[int, list[int | None]] = {}
-    columns = []
-    for sched in schedules:
-        if id(sched) not in cache:
-            cache[id(sched)] = structure_columns(sched.faults, view.design_faults, plant)
-        columns.append(cache[id(sched)])
+    cache: dict[Any, Any] = {}  # the column of each fault channel (not per run)
+    columns = [structure_columns(sc.faults, view.design_faults, plant, cache) for sc in schedules]
     summary = RunSummary(ctx.t, [sc.faults for sc in schedules], columns, nres, window)
     loop = in_loop(ctx, schedules)
     width = chunk_width(ctx, keep_states=loop, loop=loop)
