@@ -168,11 +168,10 @@ def pattern_codes(pattern: np.ndarray) -> np.ndarray:
     """Each sample's alarm pattern ``(..., n_res, N)`` as an integer ``sum_i a_i 2**i``
     ``(..., N)`` (``n_res <= 62``)."""
     nres = pattern.shape[-2]
-    if nres <= 8:  # one byte per sample, in one pass
-        return np.packbits(pattern, axis=-2, bitorder="little")[..., 0, :]
-    codes = np.zeros(pattern.shape[:-2] + pattern.shape[-1:], dtype=np.int64)
-    for r in range(nres):
-        codes |= pattern[..., r, :].astype(np.int64) << r
+    dtype = np.uint8 if nres <= 8 else np.int64
+    codes = pattern[..., 0, :].astype(dtype)
+    for r in range(1, nres):
+        codes |= pattern[..., r, :].astype(dtype) << dtype(r)
     return codes
 
 

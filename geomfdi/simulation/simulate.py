@@ -203,19 +203,26 @@ def stop_divergent(
     return float(t[k])
 
 
-def noise_streams(ctx: Context, rngs: list[np.random.Generator | None]) -> list[NoiseStream] | None:
-    """One :class:`NoiseStream` per run (``None`` without noise)."""
+def noise_streams(
+    ctx: Context, rngs: list[np.random.Generator | None], pool: list[np.ndarray] | None = None
+) -> list[NoiseStream] | None:
+    """One :class:`NoiseStream` per run (``None`` without noise); ``pool``: buffers
+    shared with the streams of other chunks of runs (see :func:`noise_window`)."""
     if ctx.Lv is None and ctx.Lw is None:
         return None
     rv = ctx.plant.q if ctx.Lv is not None else 0
     rw = ctx.Lw.shape[1] if ctx.Lw is not None else 0
-    return [NoiseStream(rng, rv, rw, ctx.N) for rng in rngs]  # type: ignore[arg-type]
+    return [NoiseStream(rng, rv, rw, ctx.N, pool=pool) for rng in rngs]  # type: ignore[arg-type]
 
 
 def noise_window(
     ctx: Context, streams: list[NoiseStream] | None, s: int, e1: int
 ) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """Measurement ``(q, R, L)`` and process ``(k, R, L)`` noise of samples ``s .. e1-1``."""
+    """Measurement ``(q, R, L)`` and process ``(k, R, L)`` noise of samples ``s .. e1-1``.
+
+    Each run's draws are scaled straight into the window (``L_v z``, ``L_w z``) before
+    the next run's stream is read (streams sharing a buffer pool reuse released blocks).
+    """
     if streams is None:
         return None, None
     L, R = e1 - s, len(streams)
