@@ -252,7 +252,8 @@ def _decisions(alarms: np.ndarray, structure: np.ndarray, rule: Any) -> tuple[np
         return iso.isolated, full
 
     index, table = coded
-    dec = table.isolated[index]
+    small = table.isolated.astype(np.int8) if structure.shape[1] < 127 else table.isolated
+    dec = small[index]  # (bytes when they hold the decisions: cheaper passes below)
     if not (rule.k == 1 and rule.n == 1):
         dec = settle(dec, rule.k, rule.n, structure.shape[1])
 

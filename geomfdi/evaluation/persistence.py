@@ -59,6 +59,11 @@ __all__ = [
 ]
 
 
+#: Windows up to which :func:`k_of_n` and :func:`settle` count by adding shifted copies;
+#: longer ones by a cumulative count.
+SHIFT_WINDOW = 8
+
+
 def k_of_n(flags: Any, k: int, n: int) -> np.ndarray:
     """``out[..., j] = sum(flags[..., j-n+1 : j+1]) >= k`` (time on the last axis).
 
@@ -68,6 +73,11 @@ def k_of_n(flags: Any, k: int, n: int) -> np.ndarray:
     f = np.asarray(flags, dtype=bool)
     if k == 1 and n == 1:
         return f.copy()
+    if n <= SHIFT_WINDOW:  # a short window: n - 1 shifted byte additions
+        c = f.astype(np.uint8)
+        for d in range(1, min(n, f.shape[-1])):
+            c[..., d:] += f[..., :-d]
+        return c >= k
     c = np.cumsum(f, axis=-1, dtype=np.int32)
     win = c.copy()
     win[..., n:] -= c[..., :-n]
@@ -129,7 +139,11 @@ def held_pattern_carry(
         )
     lead, N = a.shape[:-1], a.shape[-1]
     if reset is None:
-        out = np.logical_or.accumulate(a, axis=-1)
+        # held from the first alarm on (argmax stops at the first True)
+        out = np.zeros(a.shape, dtype=bool)
+        if N:
+            first = np.argmax(a, axis=-1)[..., None]
+            out = (np.arange(N) >= first) & np.take_along_axis(a, first, axis=-1)
         if state is not None:
             out |= state[0][..., None]
         held = out[..., -1].copy() if N else (np.zeros(lead, bool) if state is None else state[0])
@@ -181,14 +195,18 @@ def pattern_table(pattern: Any, structure: Any) -> tuple[np.ndarray, Isolation] 
     Returns ``(index, table)``: ``index (..., N)`` gives each sample's row of ``table``,
     the :func:`pattern_decisions` of the distinct patterns in increasing order of their
     codes (:func:`pattern_codes`): ``isolated (U,)``, ``candidates`` and ``suspects``
-    ``(n_faults, U)``.  ``None`` for more than 62 residuals (no integer code).
+    ``(n_faults, U)``.  Up to 8 residuals the table holds every pattern and the index is
+    the code itself; ``None`` for more than 62 residuals (no integer code).
     """
     pattern = np.asarray(pattern, dtype=bool)
     nres = pattern.shape[-2]
     if not 0 < nres <= 62:
         return None
     codes = pattern_codes(pattern)
-    if nres <= TABLE_RESIDUALS:  # the codes met, from one counting pass
+    if nres <= 8:  # a byte per sample: every pattern decided, the code is the index
+        uniq = np.arange(1 << nres)
+        index = codes
+    elif nres <= TABLE_RESIDUALS:  # the codes met, from one counting pass
         uniq = np.flatnonzero(np.bincount(codes.ravel(), minlength=1 << nres))
         lut = np.zeros(1 << nres, dtype=np.intp)
         lut[uniq] = np.arange(uniq.size)
@@ -238,11 +256,6 @@ def _decide_patterns(pattern: np.ndarray, structure: Any) -> Isolation:
         whole = ~np.any(pattern & ~covered, axis=-2)
         raw[unexplained & whole] = MULTIPLE
     return Isolation(raw, iso.candidates, iso.suspects)
-
-
-#: Windows up to which :func:`settle` counts a decision by comparing shifted copies;
-#: longer ones by one cumulative count per decision value.
-SHIFT_WINDOW = 8
 
 
 def settle(raw: np.ndarray, k: int, n: int, n_faults: int) -> np.ndarray:
