@@ -28,7 +28,7 @@ from geomfdi.simulation.initial_state import (
     start_error,
 )
 from geomfdi.simulation.lifting import Drive, _digest, block_recursion
-from geomfdi.simulation.profiles import fault_profiles
+from geomfdi.simulation.profiles import fault_profiles, profile_groups
 from geomfdi.simulation.signals import (
     BiasFault,
     SensorFaultSignal,
@@ -74,6 +74,7 @@ class OpenLoopEngine:
         p = ctx.plant
         n, m, q, nd = p.n, p.m, p.q, p.nd
         self.fault_lists, self.shared = fault_lists, shared
+        self.groups = None if shared else profile_groups(fault_lists)
         K = ctx.ctrl.K if ctx.ctrl.mode == "state" else np.zeros((m, n))
         A_X = p.A - p.B @ K
         nwp = ctx.nwp
@@ -195,7 +196,7 @@ class OpenLoopEngine:
             zero = np.zeros((1, q, e1 - s))
             eta, eta_l, _, _ = fault_profiles(
                 self.fault_lists, ctx.t, zero, q=q, k0=s, k1=e1, holds=holds,
-                sensors=self.need, y0_start=s,
+                sensors=self.need, y0_start=s, groups=self.groups,
             )  # fmt: skip
             eta, eta_l = eta[rows], eta_l[rows]  # (sensors, runs, L)
             delta = 0.5 * (eta[:, :, :-1] + eta_l[:, :, 1:]) if self.foh else eta[:, :, :-1]
@@ -236,6 +237,7 @@ class OpenLoopEngine:
             holds=self.holds,
             sensors=self.need,
             y0_start=s,
+            groups=self.groups,
         )
 
     # ------------------------------------------------------------------ advance

@@ -20,6 +20,7 @@ See the user guide, *Theory: sensor-fault transforms*
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -33,7 +34,7 @@ from geomfdi.simulation.signals import (
     fault_profile,
 )
 
-__all__ = ["fault_profiles", "structure_key"]
+__all__ = ["ProfileGroups", "fault_profiles", "profile_groups", "structure_key"]
 
 _PLAIN = (GainFault, BiasFault, StuckFault)
 
@@ -65,6 +66,46 @@ def structure_key(faults: Sequence[SensorFaultSignal]) -> tuple[Any, ...] | None
     return tuple(key)
 
 
+@dataclass(frozen=True)
+class ProfileGroups:
+    """The runs of a list of fault lists grouped by :func:`structure_key`.
+
+    Attributes
+    ----------
+    groups : list of (ndarray, list, list)
+        Per structure: the runs (indices), the fault list of its first run (the kinds,
+        sensors and windows of all), and per position in the list the gains and
+        biases of the runs ``(G, 1)``.
+    alone : list of int
+        The runs composed one by one.
+    """
+
+    groups: list[tuple[np.ndarray, Sequence[SensorFaultSignal], list[tuple[np.ndarray, ...]]]]
+    alone: list[int]
+
+
+def profile_groups(fault_lists: Sequence[Sequence[SensorFaultSignal]]) -> ProfileGroups:
+    """Group runs by the structure of their fault lists (see :class:`ProfileGroups`);
+    a simulation groups its runs once and composes every time window with the groups."""
+    by_key: dict[Any, list[int]] = {}
+    alone: list[int] = []
+    for r, fl in enumerate(fault_lists):
+        key = structure_key(fl)
+        if key is None:
+            alone.append(r)
+        else:
+            by_key.setdefault(key, []).append(r)
+    groups = []
+    for idx in by_key.values():
+        first = fault_lists[idx[0]]
+        values = []
+        for pos in range(len(first)):
+            vals = np.array([_values(fault_lists[r][pos]) for r in idx], dtype=float)
+            values.append((vals[:, :1], vals[:, 1:]))  # one gain and one bias per run
+        groups.append((np.array(idx, dtype=np.intp), first, values))
+    return ProfileGroups(groups, alone)
+
+
 def fault_profiles(
     fault_lists: Sequence[Sequence[SensorFaultSignal]],
     t: np.ndarray,
@@ -76,6 +117,7 @@ def fault_profiles(
     holds: Sequence[dict[int, np.ndarray]],
     sensors: Sequence[int],
     y0_start: int = 0,
+    groups: ProfileGroups | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``eta, eta_left, lam, lam_left`` (rows, R, L) of ``R`` runs' fault lists.
 
@@ -98,34 +140,28 @@ def fault_profiles(
     sensors : sequence of int
         The rows (every faulty sensor among them).
     y0_start : int
+    groups : ProfileGroups, optional
+        :func:`profile_groups` of ``fault_lists`` (computed when not given).
     """
     R, L = len(fault_lists), k1 - k0
     rows = [int(i) for i in sensors]
     where = {s: j for j, s in enumerate(rows)}
     nq = len(rows)
-    groups: dict[Any, list[int]] = {}
-    alone: list[int] = []
-    for r, fl in enumerate(fault_lists):
-        key = structure_key(fl)
-        if key is None:
-            alone.append(r)
-        else:
-            groups.setdefault(key, []).append(r)
+    groups = profile_groups(fault_lists) if groups is None else groups
     eta = np.ones((nq, R, L))
     eta_l = np.ones((nq, R, L))
     lam = np.zeros((nq, R, L))
     lam_l = np.zeros((nq, R, L))
-    for idx in groups.values():
-        faults = [fault_lists[r] for r in idx]
-        if len(idx) == R:  # one structure (the usual sweep): in place
-            _compose(faults, t, k0, k1, where, (eta, eta_l, lam, lam_l))
+    for idx, first, values in groups.groups:
+        if idx.size == R:  # one structure (the usual sweep): in place
+            _compose(first, values, t, k0, k1, where, (eta, eta_l, lam, lam_l))
             continue
-        part = (np.ones((nq, len(idx), L)), np.ones((nq, len(idx), L)))
-        part += (np.zeros((nq, len(idx), L)), np.zeros((nq, len(idx), L)))
-        _compose(faults, t, k0, k1, where, part)
+        part = (np.ones((nq, idx.size, L)), np.ones((nq, idx.size, L)))
+        part += (np.zeros((nq, idx.size, L)), np.zeros((nq, idx.size, L)))
+        _compose(first, values, t, k0, k1, where, part)
         for full, p in zip((eta, eta_l, lam, lam_l), part, strict=True):
             full[:, idx] = p
-    for r in alone:
+    for r in groups.alone:
         y0r = None if y0 is None else y0[r : r + 1] if y0.shape[0] > 1 else y0
         pr = fault_profile(
             fault_lists[r],
@@ -144,19 +180,21 @@ def fault_profiles(
 
 
 def _compose(
-    faults: list[Sequence[SensorFaultSignal]],
+    first: Sequence[SensorFaultSignal],
+    values: list[tuple[np.ndarray, ...]],
     t: np.ndarray,
     k0: int,
     k1: int,
     where: dict[int, int],
     out: tuple[np.ndarray, ...],
 ) -> None:
-    """Compose the fault lists of one structure into ``out = (eta, eta_l, lam, lam_l)``
-    (rows, G, L), as ``fault_profile`` does run by run."""
+    """Compose the fault lists of one structure (``first``'s faults with the runs'
+    ``values``) into ``out = (eta, eta_l, lam, lam_l)`` (rows, G, L), as
+    ``fault_profile`` does run by run."""
     eta, eta_l, lam, lam_l = out
     L = k1 - k0
     lo = max(k0 - 1, 0)
-    for pos, f in enumerate(faults[0]):
+    for f, (g, bias) in zip(first, values, strict=True):
         if f.sensor not in where:
             raise GeomFDIError(
                 f"sensors: {list(where)} must include every faulty sensor", argument="sensors"
@@ -171,8 +209,6 @@ def _compose(
         b = L - int(np.argmax(on[::-1]))
         sl = slice(a, b)
         i = where[f.sensor]
-        vals = np.array([_values(fl[pos]) for fl in faults], dtype=float)
-        g, bias = vals[:, :1], vals[:, 1:]  # (G, 1): one gain and bias per run
         for ek, lk, mk in ((eta, lam, m[sl]), (eta_l, lam_l, prev[sl])):
             np.multiply(ek[i, :, sl], g, out=ek[i, :, sl], where=mk)
             np.multiply(lk[i, :, sl], g, out=lk[i, :, sl], where=mk)
