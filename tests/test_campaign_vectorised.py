@@ -330,3 +330,15 @@ def test_noise_streams_sharing_buffers_draw_what_each_generator_draws():
             np.testing.assert_array_equal(np.hstack(gv), np.hstack(ref_v))
             np.testing.assert_array_equal(np.hstack(gw), np.hstack(ref_w))
     assert pool  # the released blocks are kept for the next runs
+
+
+@pytest.mark.parametrize("diagonal", [True, False])
+def test_noise_scaling_equals_the_matrix_product(diagonal):
+    from geomfdi.simulation.simulate import _scaling
+
+    rng = np.random.default_rng(2)
+    Lf = np.diag(rng.uniform(1e-3, 2.0, 4)) if diagonal else np.tril(rng.normal(size=(4, 4)))
+    z = rng.standard_normal((4, 5000))
+    out = np.empty((4, 2, 5000))[:, 1]  # a strided destination, as in a window of runs
+    _scaling(Lf)(z, out=out)
+    np.testing.assert_array_equal(out, Lf @ z)
