@@ -180,6 +180,8 @@ def isolate_runs(
     """Isolation of runs ``(R, n, N)``: first decision, outcome, delay (module docstring).
 
     Alarms before ``eval_start`` (start-up transients) are ignored, as in the scores.
+    Every stage of a decision rule is causal (a decision at a sample depends on the
+    samples up to it), so the samples after the last detection window are not read.
     """
     from geomfdi.evaluation.decision import MULTIPLE
 
@@ -187,6 +189,9 @@ def isolate_runs(
     R = statistic.shape[0]
     truth = np.asarray(truth)
     tol = 1e-9 * max(1.0, float(np.abs(t).max()))
+    ends = np.flatnonzero(_window_mask(t, np.unique(onsets), window, tol).any(axis=0))
+    kend = int(ends[-1]) + 1 if ends.size else 1
+    t, statistic = t[:kend], statistic[..., :kend]
     alarms = statistic > thr[:, None]  # +inf (missing rows): never
     alarms &= t >= eval_start - tol
     dec, suspects = _decisions(alarms, structure, rule)
