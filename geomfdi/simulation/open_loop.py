@@ -75,6 +75,7 @@ class OpenLoopEngine:
         n, m, q, nd = p.n, p.m, p.q, p.nd
         self.fault_lists, self.shared = fault_lists, shared
         self.groups = None if shared else profile_groups(fault_lists)
+        self._profiles: tuple[np.ndarray, ...] | None = None  # reused window after window
         K = ctx.ctrl.K if ctx.ctrl.mode == "state" else np.zeros((m, n))
         A_X = p.A - p.B @ K
         nwp = ctx.nwp
@@ -227,7 +228,7 @@ class OpenLoopEngine:
             )
         # one update per fault for the runs of one fault-list structure (a sweep of
         # sizes), run by run otherwise (geomfdi.simulation.profiles)
-        return fault_profiles(
+        self._profiles = fault_profiles(
             self.fault_lists,
             t,
             y0n.transpose(1, 0, 2),
@@ -238,7 +239,9 @@ class OpenLoopEngine:
             sensors=self.need,
             y0_start=s,
             groups=self.groups,
+            out=self._profiles,  # the previous window's arrays (used up by advance)
         )
+        return self._profiles
 
     # ------------------------------------------------------------------ advance
     def advance(

@@ -118,6 +118,7 @@ def fault_profiles(
     sensors: Sequence[int],
     y0_start: int = 0,
     groups: ProfileGroups | None = None,
+    out: tuple[np.ndarray, ...] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``eta, eta_left, lam, lam_left`` (rows, R, L) of ``R`` runs' fault lists.
 
@@ -130,6 +131,7 @@ def fault_profiles(
     fault_lists : sequence of sequences of SensorFaultSignal
         One validated list per run.
     t : ndarray, (N,)
+        The increasing time grid (a plain fault is active on one interval of it).
     y0 : ndarray, (R | 1, q, L0) or None
         Healthy readings from sample ``y0_start`` on (read by the runs composed one by
         one: a stuck sensor holding its reading).
@@ -142,16 +144,24 @@ def fault_profiles(
     y0_start : int
     groups : ProfileGroups, optional
         :func:`profile_groups` of ``fault_lists`` (computed when not given).
+    out : tuple of 4 ndarray, optional
+        Arrays of shape (rows, R, L) to fill and return (a simulation reuses them
+        window after window); new ones when not given or of another shape.
     """
     R, L = len(fault_lists), k1 - k0
     rows = [int(i) for i in sensors]
     where = {s: j for j, s in enumerate(rows)}
     nq = len(rows)
     groups = profile_groups(fault_lists) if groups is None else groups
-    eta = np.ones((nq, R, L))
-    eta_l = np.ones((nq, R, L))
-    lam = np.zeros((nq, R, L))
-    lam_l = np.zeros((nq, R, L))
+    if out is not None and all(x.shape == (nq, R, L) for x in out):
+        eta, eta_l, lam, lam_l = out
+        eta.fill(1.0)
+        eta_l.fill(1.0)
+        lam.fill(0.0)
+        lam_l.fill(0.0)
+    else:
+        eta, eta_l = np.ones((nq, R, L)), np.ones((nq, R, L))
+        lam, lam_l = np.zeros((nq, R, L)), np.zeros((nq, R, L))
     for idx, first, values in groups.groups:
         if idx.size == R:  # one structure (the usual sweep): in place
             _compose(first, values, t, k0, k1, where, (eta, eta_l, lam, lam_l))
@@ -205,11 +215,14 @@ def _compose(
         on = m | prev
         if not on.any():
             continue
-        a = int(np.argmax(on))
-        b = L - int(np.argmax(on[::-1]))
-        sl = slice(a, b)
         i = where[f.sensor]
-        for ek, lk, mk in ((eta, lam, m[sl]), (eta_l, lam_l, prev[sl])):
-            np.multiply(ek[i, :, sl], g, out=ek[i, :, sl], where=mk)
-            np.multiply(lk[i, :, sl], g, out=lk[i, :, sl], where=mk)
-            np.add(lk[i, :, sl], bias, out=lk[i, :, sl], where=mk)
+        unit = bool(np.all(g == 1.0))  # x * 1 == x: a bias fault leaves eta alone
+        for ek, lk, mk in ((eta, lam, m), (eta_l, lam_l, prev)):
+            # the active samples of a plain fault are one interval of the window
+            if not mk.any():
+                continue
+            sl = slice(int(np.argmax(mk)), L - int(np.argmax(mk[::-1])))
+            if not unit:
+                ek[i, :, sl] *= g
+                lk[i, :, sl] *= g
+            lk[i, :, sl] += bias
