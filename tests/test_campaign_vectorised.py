@@ -111,10 +111,13 @@ def test_structure_columns_cached_per_channel_equal_the_matched_ones():
         [gf.BiasFault(0, start=1.0, bias=z), gf.ActuatorBiasFault(1, start=2.0, bias=z)]
         for z in (0.1, 0.2)
     ] + [[gf.BiasFault(1, start=1.0, bias=0.3)], [gf.ActuatorBiasFault(0, start=1.0, bias=1)]]
+    lists += [[gf.AdditiveFault(design[k], start=1.0, size=z)] for k in (0, 2) for z in (1, 2)]
     for fl in lists:
         assert structure_columns(fl, design, plant, cache) == structure_columns(fl, design, plant)
     assert structure_columns(lists[0], design, plant, cache) == [1, 2]
     assert structure_columns(lists[2], design, plant, cache) == [None]
+    got = [structure_columns(fl, design, plant, cache) for fl in lists[4:]]
+    assert got == [[0], [0], [2], [2]]
 
 
 # ------------------------------------------------------------------ evaluation

@@ -148,6 +148,10 @@ def _channel_key(f: FaultSignal, plant: Plant) -> Any:
     signature of an input fault (and its design fault, which it matches by identity)."""
     if isinstance(f, SensorFaultSignal):
         return ("sensor", f.sensor)
+    if isinstance(f, InputFaultSignal) and getattr(f, "fault", None) is not None:
+        return ("fault", id(f.fault))  # an additive fault: its design fault decides
+    if isinstance(f, InputFaultSignal) and hasattr(f, "actuator"):
+        return ("actuator", f.actuator)  # the input's column of B and D
     if isinstance(f, InputFaultSignal):
         Bf, Df = f.signature(plant)
         sig = (Bf.shape, Bf.tobytes(), Df.shape, Df.tobytes())
