@@ -125,7 +125,7 @@ def acceptance(quick: bool = False, short_only: bool = False) -> dict:
     import os
 
     print(f"load average {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
-    s = short_vs_forced_response(N=10**4, repeat=3 if quick else 5)
+    s = short_vs_forced_response(N=10**4, repeat=3 if quick else 9)
     cpu_ratio = s["forced_response_cpu"] / s["simulate_cpu"]
     print(
         f"short record, 1e4 samples, 12-state plant, bank of 10 x order 12: "
