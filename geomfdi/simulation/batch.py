@@ -17,6 +17,7 @@ from geomfdi.evaluation.persistence import as_persistence
 from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.limits import check_allocation, check_runs
 from geomfdi.model.plant import Plant, as_plant
+from geomfdi.simulation.compiled_recursion import batch_runs
 from geomfdi.simulation.context import (
     detection_window_of,
     from_balanced,
@@ -167,7 +168,7 @@ def simulate_batch(
     summary = RunSummary(ctx.t, [sc.faults for sc in schedules], columns, nres, window)
     loop = in_loop(ctx, schedules)
     width = chunk_width(ctx, keep_states=loop, loop=loop)
-    Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size)
+    Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size, min_runs=batch_runs())
     bar = progress_bar(ctx.progress, runs, "runs")
     engines: dict[str, Any] = {}  # an open-loop engine kept for the next chunk of runs
     for a in range(0, runs, Rc):

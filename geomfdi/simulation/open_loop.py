@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from geomfdi.simulation.compiled_recursion import bank_recursion
 from geomfdi.simulation.context import Context, Piece
 from geomfdi.simulation.initial_state import (
     EXACT_TOL,
@@ -333,7 +334,8 @@ class OpenLoopEngine:
         for k, g in gens:
             view = rows[:, k : k + 1].transpose(1, 0, 2) if g.n_outputs == 1 else None
             dests.append([view, None] if ctx.keep_states else [view])
-        res, self.w = block_recursion(
+        # many runs: the compiled kernel (SIMD over the runs), else the numpy recursion
+        res, self.w = bank_recursion(
             self.Fd,
             self.W_all,
             drives,
