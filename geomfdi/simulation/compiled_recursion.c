@@ -12,44 +12,61 @@
  * states x(r, 0) on entry and x(r, L-1) on return, (nS, R) row-major.
  *
  * The runs are taken in groups of GFSIM_G: every operation acts on a "lane" of the group's
- * GFSIM_G values (a vector of the compiler's vector extension, else a loop over the group),
- * so the arithmetic runs in SIMD instructions; the signals are gathered and the outputs
+ * GFSIM_G values (two vectors of the compiler's vector extension, else a loop over the
+ * group), so the arithmetic runs in SIMD instructions; the signals are gathered and the outputs
  * scattered per tile of GFSIM_T samples.  The last group repeats its last run in the
  * missing lanes (computed, never stored).
  */
 #include <stdint.h>
 #include <stdlib.h>
 
-/* runs per group: the lanes of one vector register of the processor built for */
+/* runs per group: two vector registers of the processor built for (two independent
+   operations per coefficient read) */
 #if defined(__AVX512F__)
-#define GFSIM_G 8
+#define GFSIM_W 8
 #elif defined(__AVX__)
-#define GFSIM_G 4
+#define GFSIM_W 4
 #else
-#define GFSIM_G 2
+#define GFSIM_W 2
 #endif
+#define GFSIM_G (2 * GFSIM_W)
 #define GFSIM_T 32 /* samples per tile (signals gathered and outputs scattered per tile) */
 
 #if defined(__GNUC__) || defined(__clang__)
-typedef double gfsim_lane __attribute__((vector_size(GFSIM_G * sizeof(double)), may_alias));
-#define LANE(v, j) ((v)[j])
-#define AXPY(y, a, x) ((y) += (a) * (x))
-#define FILL(y, s) ((y) = gfsim_zero + (s))
-static const gfsim_lane gfsim_zero = {0};
+typedef double gfsim_vec __attribute__((vector_size(GFSIM_W * sizeof(double)), may_alias));
+typedef struct {
+    gfsim_vec v[2];
+} gfsim_lane;
+static const gfsim_vec gfsim_zero = {0};
+#define LANE(x, j) ((x).v[(j) / GFSIM_W][(j) % GFSIM_W])
+#define AXPY(y, a, x)                                                        \
+    do {                                                                     \
+        const double a_ = (a);                                               \
+        (y).v[0] += a_ * (x).v[0];                                           \
+        (y).v[1] += a_ * (x).v[1];                                           \
+    } while (0)
+#define FILL(y, s)                                                           \
+    do {                                                                     \
+        const double s_ = (s);                                               \
+        (y).v[0] = gfsim_zero + s_;                                          \
+        (y).v[1] = gfsim_zero + s_;                                          \
+    } while (0)
 #else
 typedef struct {
     double v[GFSIM_G];
 } gfsim_lane;
-#define LANE(v, j) ((v).v[j])
+#define LANE(x, j) ((x).v[j])
 #define AXPY(y, a, x)                                                        \
     do {                                                                     \
+        const double a_ = (a);                                               \
         int q_;                                                              \
-        for (q_ = 0; q_ < GFSIM_G; ++q_) (y).v[q_] += (a) * (x).v[q_];       \
+        for (q_ = 0; q_ < GFSIM_G; ++q_) (y).v[q_] += a_ * (x).v[q_];        \
     } while (0)
 #define FILL(y, s)                                                           \
     do {                                                                     \
+        const double s_ = (s);                                               \
         int q_;                                                              \
-        for (q_ = 0; q_ < GFSIM_G; ++q_) (y).v[q_] = (s);                    \
+        for (q_ = 0; q_ < GFSIM_G; ++q_) (y).v[q_] = s_;                     \
     } while (0)
 #endif
 

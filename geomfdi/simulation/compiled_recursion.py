@@ -213,7 +213,8 @@ def compiled_block_recursion(
     Drives and feedthrough signals shared by every run (run axis 1) enter as one
     matrix product each per call (``W_s d_s`` over all steps, ``D_s s`` over all
     samples); the kernel adds them and forms the runs' own channels sample by sample,
-    in groups of 8 runs (SIMD lanes), the state in the blocks' own coordinates.
+    in groups of runs as wide as two SIMD registers (8 runs with AVX2), the state in
+    the blocks' own coordinates.
     """
     lib = _library()
     if lib is None:
