@@ -85,7 +85,10 @@ def simulate_batch(
     noise : Noise, optional
         Run ``i`` draws its noise from ``numpy.random.default_rng(seeds[i])``; by default
         the seeds are ``SeedSequence(noise.seed).spawn(runs)``, so run ``i`` equals
-        ``simulate(..., noise=Noise(..., seed=seeds[i]))``.
+        ``simulate(..., noise=Noise(..., seed=seeds[i]))`` up to rounding (the bank of
+        a batch runs in the compiled recursion of
+        :mod:`geomfdi.simulation.compiled_recursion`; see the user guide,
+        *Performance*, ``docs/guide/performance.md``).
     seeds : sequence, optional
         Explicit per-run seeds (integers >= 0 or ``numpy.random.SeedSequence``), one per
         run; needs ``noise``.
