@@ -140,13 +140,15 @@ def bank_recursion(
     direct: tuple[list[np.ndarray], list[list[np.ndarray | None]]] | None = None,
     out: list[list[np.ndarray | None]] | None = None,
     final: bool = False,
+    **options: Any,
 ) -> Any:
     """:func:`~geomfdi.simulation.lifting.block_recursion` of a bank, compiled for many runs.
 
-    Parameters and returns as :func:`compiled_block_recursion`.  The compiled kernel
-    runs when there are two runs or more, the blocks are real, :func:`sim_backend` is
-    ``"c"`` and the kernel builds; otherwise the numpy recursion (the same values to
-    rounding).
+    Parameters and returns as :func:`compiled_block_recursion`; ``options`` go to the
+    numpy recursion (its chunking and lifting options, which the compiled kernel does
+    not need).  The compiled kernel runs when there are two runs or more, the blocks
+    are real, :func:`sim_backend` is ``"c"`` and the kernel builds; otherwise the
+    numpy recursion (the same values to rounding).
     """
     if (
         N > 0
@@ -157,7 +159,9 @@ def bank_recursion(
         lib = _library()
         if lib is not None:
             return _compiled(lib, blocks, W, drives, x0, outputs, N, direct, out, final)
-    return block_recursion(blocks, W, drives, x0, outputs, N, direct=direct, out=out, final=final)
+    return block_recursion(
+        blocks, W, drives, x0, outputs, N, direct=direct, out=out, final=final, **options
+    )
 
 
 def compiled_block_recursion(
