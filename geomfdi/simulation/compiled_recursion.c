@@ -30,7 +30,7 @@
 #define GFSIM_W 2
 #endif
 #define GFSIM_G (2 * GFSIM_W)
-#define GFSIM_T 32 /* samples per tile (signals gathered and outputs scattered per tile) */
+#define GFSIM_T 128 /* samples per tile (signals gathered and outputs scattered per tile) */
 
 #if defined(__GNUC__) || defined(__clang__)
 typedef double gfsim_vec __attribute__((vector_size(GFSIM_W * sizeof(double)), may_alias));
