@@ -313,16 +313,18 @@ class OpenLoopEngine:
                 drives.append(Drive(e, 1))
             sens = self.sens
             if sens:
-                prow = [row[i] for i in sens]
+                # views, not copies, when the rows are consecutive (every sensor with noise)
+                prow, sr = _rows([row[i] for i in sens]), _rows(sens)
                 if foh:
                     delta = 0.5 * (eta[prow, :, :-1] + eta_l[prow, :, 1:])
                 else:
                     delta = eta[prow, :, :-1]
-                rhoL = y[sens, :, :-1] - delta * y0c[sens, :, :-1]
+                rhoL = np.subtract(y[sr, :, :-1], delta * y0c[sr, :, :-1])
                 drives.append(Drive(rhoL))
                 if foh:
-                    rhoR = eta_l[prow, :, 1:] * y0n[sens, :, 1:] + lam_l[prow, :, 1:]
-                    rhoR -= delta * y0c[sens, :, 1:]
+                    rhoR = np.multiply(eta_l[prow, :, 1:], y0n[sr, :, 1:])
+                    rhoR += lam_l[prow, :, 1:]
+                    rhoR -= delta * y0c[sr, :, 1:]
                     drives.append(Drive(rhoR))
             for i in self.chan:
                 scale = delta[sens.index(i)][None] - 1.0
@@ -355,6 +357,13 @@ class OpenLoopEngine:
             if ctx.keep_states:
                 ws[k] = rk[1]
         return Piece(s, X, y, y0n, u, vectors, ws)
+
+
+def _rows(idx: list[int]) -> slice | list[int]:
+    """Row indices as a slice when they are consecutive (a view instead of a copy)."""
+    if idx and idx == list(range(idx[0], idx[0] + len(idx))):
+        return slice(idx[0], idx[0] + len(idx))
+    return idx
 
 
 def _affine(Cm: np.ndarray, X: np.ndarray, Dm: np.ndarray, e: np.ndarray) -> np.ndarray:
