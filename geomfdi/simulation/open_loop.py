@@ -359,13 +359,6 @@ class OpenLoopEngine:
         return Piece(s, X, y, y0n, u, vectors, ws)
 
 
-def _rows(idx: list[int]) -> slice | list[int]:
-    """Row indices as a slice when they are consecutive (a view instead of a copy)."""
-    if idx and idx == list(range(idx[0], idx[0] + len(idx))):
-        return slice(idx[0], idx[0] + len(idx))
-    return idx
-
-
 def _affine(Cm: np.ndarray, X: np.ndarray, Dm: np.ndarray, e: np.ndarray) -> np.ndarray:
     """``Cm X + Dm e`` for state-major ``X`` (n, R, L) and ``e`` (ne, R | 1, L)."""
     n, R, L = X.shape
@@ -374,6 +367,13 @@ def _affine(Cm: np.ndarray, X: np.ndarray, Dm: np.ndarray, e: np.ndarray) -> np.
         ne, Re, _ = e.shape
         out += (Dm @ e.reshape(ne, Re * L)).reshape(Dm.shape[0], Re, L)
     return out
+
+
+def _rows(idx: list[int]) -> slice | list[int]:
+    """Row indices as a slice when they are consecutive (a view instead of a copy)."""
+    if idx and idx == list(range(idx[0], idx[0] + len(idx))):
+        return slice(idx[0], idx[0] + len(idx))
+    return idx
 
 
 _SETUPS: dict[Any, dict[str, Any]] = {}
