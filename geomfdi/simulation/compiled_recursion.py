@@ -109,8 +109,10 @@ def _library() -> Any:
             dll = ctypes.CDLL(str(path))
             fn = dll.gfsim_run
             i64, vp = ctypes.c_int64, ctypes.c_void_p
+            # gfsim_run(nS, R, L, nb, bsize, A, nz, W, dch, fs, fsld, p, ostart, olen, C,
+            #           nd, D, ech, ys, ysld, och, X)
             fn.argtypes = [i64, i64, i64, i64, vp, vp, i64, vp, vp, vp, i64, i64, vp, vp, vp]
-            fn.argtypes += [i64, vp, vp, vp, i64, vp, vp]
+            fn.argtypes = [*fn.argtypes, i64, vp, vp, vp, i64, vp, vp]
             fn.restype = ctypes.c_int
             lib: Any = fn
         except (GeomFDIError, OSError) as exc:
@@ -222,7 +224,9 @@ def compiled_block_recursion(
     """
     lib = _library()
     if lib is None:
-        raise GeomFDIError("backend: no working C compiler for the batch recursion")
+        raise GeomFDIError(
+            "backend: no working C compiler for the batch recursion", argument="backend"
+        )
     return _compiled(lib, blocks, W, drives, x0, outputs, N, direct, out, final)
 
 
@@ -262,15 +266,15 @@ class _Layout:
     dcols: np.ndarray  # which columns of Dall are nonzero (bool)
 
 
-_LAYOUTS: list[tuple[tuple[Any, ...], _Layout]] = []
+_LAYOUTS: list[tuple[tuple[Any, ...], int, _Layout]] = []
 
 
 def _layout(blocks: list[np.ndarray], W: np.ndarray, outputs: Any, dmats: Any, nd: int) -> _Layout:
     """The :class:`_Layout` of these matrices (a hit when the same objects come again:
     a record simulated chunk by chunk; the objects are kept, so their ids stay theirs)."""
-    objs = (blocks, W, outputs, dmats, nd)
-    for key, lay in _LAYOUTS:
-        if all(a is b for a, b in zip(key, objs, strict=True)):
+    objs = (blocks, W, outputs, dmats)
+    for key, n, lay in _LAYOUTS:
+        if n == nd and all(a is b for a, b in zip(key, objs, strict=True)):
             return lay
     sizes = [int(b.shape[0]) for b in blocks]
     Cs, ostart, olen, Drows = [], [], [], []
@@ -300,7 +304,7 @@ def _layout(blocks: list[np.ndarray], W: np.ndarray, outputs: Any, dmats: Any, n
     )
     if len(_LAYOUTS) >= 8:
         _LAYOUTS.pop(0)
-    _LAYOUTS.append((objs, lay))
+    _LAYOUTS.append((objs, nd, lay))
     return lay
 
 
