@@ -279,3 +279,17 @@ def test_simulate_batch_compiled_equals_numpy_path(case, monkeypatch):
     if not near.any():
         assert np.array_equal(a.isolated, b.isolated)
         assert [e for e in a.events] == [e for e in b.events]
+
+
+@needs_cc
+def test_runs_that_differ_only_by_their_initial_states():
+    """No per-run drive or feedthrough channel (the kernel's channel lists are empty)."""
+    sizes, R, N = [2, 3], 6, 250
+    blocks, W, drives, _, outputs, _ = _system(9, sizes, 1, N, scaled=False)
+    x0 = np.random.default_rng(2).standard_normal((sum(sizes), R))
+    got, xf = cr.compiled_block_recursion(blocks, W, drives, x0, outputs, N, final=True)
+    ref, xr = _reference(blocks, W, drives, x0, outputs, N)
+    for g, r in zip(sum(got, []), sum(ref, []), strict=True):
+        _close(g, r)
+    _close(xf, xr)
+    assert not np.allclose(got[0][0][:, 0], got[0][0][:, 1])

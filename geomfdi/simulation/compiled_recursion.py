@@ -399,7 +399,7 @@ def _compiled(
         lay.bs.ctypes.data,
         lay.Apk.ctypes.data,
         Wp.shape[1],
-        Wp.ctypes.data if Wp.size else None,
+        Wp.ctypes.data,  # never NULL: numpy gives empty arrays a buffer
         dch.ctypes.data,
         None if fs is None else fs.ctypes.data,
         0 if fs is None else fs.shape[1],
@@ -408,7 +408,7 @@ def _compiled(
         lay.olen.ctypes.data,
         lay.Cpk.ctypes.data,
         Dp.shape[1],
-        Dp.ctypes.data if Dp.size else None,
+        Dp.ctypes.data,
         ech.ctypes.data,
         None if ys is None else ys.ctypes.data,
         0 if ys is None else ys.shape[1],
