@@ -293,3 +293,16 @@ def test_runs_that_differ_only_by_their_initial_states():
         _close(g, r)
     _close(xf, xr)
     assert not np.allclose(got[0][0][:, 0], got[0][0][:, 1])
+
+
+def test_chunk_plan_cuts_long_records_in_time_for_several_runs():
+    from geomfdi.limits import get_limits
+    from geomfdi.simulation.streaming import MIN_RUN_SAMPLES, chunk_plan
+
+    budget, width, N = get_limits().chunk_memory, 1000.0, 10**6
+    assert chunk_plan(N, 100, width)[0] == 1  # one run at a time, the record cut in time
+    Rc, L = chunk_plan(N, 100, width, min_runs=32)
+    assert Rc == 32 and L >= MIN_RUN_SAMPLES and Rc * L * width <= budget
+    assert chunk_plan(N, 5, width, min_runs=32)[0] == 5  # no more runs than there are
+    # short records: as many whole records as the budget holds (more than min_runs)
+    assert chunk_plan(1000, 100, width, min_runs=32) == (int(budget // width) // 1000, 1000)
