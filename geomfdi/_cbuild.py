@@ -17,10 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import os
-import platform
 import shutil
-import subprocess
-import tempfile
 from pathlib import Path
 
 from geomfdi.errors import GeomFDIError
@@ -47,6 +44,8 @@ def cache_dir() -> Path:
 
 def processor() -> str:
     """What identifies this machine's processor (its instruction set extensions)."""
+    import platform
+
     try:
         with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
             for line in fh:
@@ -86,6 +85,9 @@ def build_library(name: str, files: dict[str, str], main: str, flags: tuple[str,
     GeomFDIError
         No C compiler, or the compiler failed (its message attached).
     """
+    import subprocess
+    import tempfile
+
     cc = compiler()
     if cc is None:
         raise GeomFDIError("backend: no C compiler found ($CC or cc)", argument="backend")
