@@ -55,9 +55,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.linalg as sla
 
-from geomfdi.generators.gains import _tri_solve_many
+from geomfdi.generators.gains import _tri_solve_rows_many, complex_schur
 from geomfdi.synthesis.least_order.injection import mirror_rule
 from geomfdi.synthesis.least_order.quotient import Quotient
 from geomfdi.synthesis.least_order.rational_basis import output_normal_basis, phase_frequencies
@@ -74,14 +73,9 @@ POINTS_PER_POLE = 6
 
 
 def _resolvent_rows(T: np.ndarray, left: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """``left (s I − T)⁻¹`` for an upper triangular complex T at every point (rows).
-
-    Transposed and index-reversed, ``J Tᵀ J`` is upper triangular again: one batched back
-    substitution over all points (:func:`geomfdi.generators.gains._tri_solve_many`).
-    """
-    Tr = T.T[::-1, ::-1]
-    X = _tri_solve_many(Tr, pts, left.T[::-1, :])  # (P, k, rows)
-    return X[:, ::-1, :].transpose(0, 2, 1)
+    """``left (s I − T)⁻¹`` for an upper triangular complex T at every point (rows):
+    :func:`geomfdi.generators.gains._tri_solve_rows_many`."""
+    return _tri_solve_rows_many(T, pts, left)
 
 
 def orthonormal_row(
@@ -108,7 +102,7 @@ def orthonormal_row(
     k = Qm.k
     if Qm.rho != 1 or k == 0:
         raise np.linalg.LinAlgError("the orthonormal-basis realisation needs ρ = 1, k > 0")
-    eig = np.linalg.eigvals(Qm.A0)
+    eig = Qm.eigenvalues
     rule = mirror_rule(eig, dt=dt, omega=omega, relax=relax)
     poles = rule.targets
     Lam, h = output_normal_basis(poles, dt)
@@ -123,7 +117,7 @@ def orthonormal_row(
             "stability degree"
         )
     # data: Q(s) − Q(∞) at the points, through the complex Schur form of A0
-    TA, UA = sla.schur(Qm.A0.astype(complex), output="complex")
+    TA, UA = Qm.schur
     Bq = np.hstack([Qm.Bqy, Qm.Bqu])
     MR = _resolvent_rows(TA, Qm.M @ UA, pts)[:, 0, :]  # M U (sI − T)⁻¹
     UhB = UA.conj().T @ Bq
@@ -143,7 +137,7 @@ def orthonormal_row(
         )
     data = Qpts - Qinf[None, :]
     # basis: h (sI − Λ)⁻¹ through the complex Schur form of Λ
-    TL, UL = sla.schur(Lam.astype(complex), output="complex")
+    TL, UL = complex_schur(Lam)  # Λ is block upper triangular: O(k²)
     Phi = _resolvent_rows(TL, (h @ UL)[None, :], pts)[:, 0, :] @ UL.conj().T
     Ar = np.vstack([(Phi * wts[:, None]).real, (Phi * wts[:, None]).imag])
     Yr = np.vstack([(data * wts[:, None]).real, (data * wts[:, None]).imag])

@@ -93,6 +93,18 @@ class Quotient:
             self.__dict__["_eigenvalues"] = cached
         return cached[1]
 
+    @property
+    def schur(self) -> tuple[np.ndarray, np.ndarray]:
+        """Complex Schur form ``A0 = U T Uᴴ`` as ``(T, U)`` (computed once: every
+        realisation attempt of the row evaluates the quotient's resolvent through it)."""
+        cached = self.__dict__.get("_schur")
+        if cached is None or cached[0] is not self.A0:
+            from geomfdi.generators.gains import complex_schur
+
+            cached = (self.A0, complex_schur(self.A0))
+            self.__dict__["_schur"] = cached
+        return cached[1]
+
 
 def quotient_model(
     A: np.ndarray,

@@ -83,7 +83,8 @@ def phase_frequencies(poles: np.ndarray, dt: float, per: int) -> tuple[np.ndarra
     ``Θ(ω) = Σ_j atan((ω − b_j)/w_j) + atan((ω + b_j)/w_j)`` increases from 0 to
     ``π · #poles`` on ``ω ≥ 0``; its derivative ``ρ(ω)`` is the density of
     ``|h (iω − Λ)⁻¹|²`` (the orthonormal functions behave like ``e^{ikΘ}``).  The points
-    solve ``Θ(ω_i) = π #poles (i + ½)/N`` (bisection in ``atan ω``), ``N = per · k / 2``
+    solve ``Θ(ω_i) = π #poles (i + ½)/N`` (Newton in ``atan ω`` from a grid,
+    safeguarded by bisection of its bracket), ``N = per · k / 2``
     complex points for k real basis functions; weights ``ρ(ω_i)^{-1/2}`` make the
     least-squares problem a discretised inner product.  Clustered poles thus get as many
     points as their share of the phase, not copies of one another's.  Discrete: the
@@ -99,16 +100,38 @@ def phase_frequencies(poles: np.ndarray, dt: float, per: int) -> tuple[np.ndarra
         x = om[:, None]
         return np.sum(np.arctan((x - b) / w) + np.arctan((x + b) / w), axis=1)
 
+    def density(om: np.ndarray) -> np.ndarray:
+        x = om[:, None]
+        return np.sum(w / ((x - b) ** 2 + w * w) + w / ((x + b) ** 2 + w * w), axis=1)
+
     npts = max(1, int(np.ceil(per * k / 2)))
     target = np.pi * c.size * (np.arange(npts) + 0.5) / npts
-    lo, hi = np.zeros(npts), np.full(npts, np.pi / 2)
-    for _ in range(60):  # bisection on φ = atan ω
-        mid = 0.5 * (lo + hi)
-        up = theta(np.tan(mid)) < target
-        lo, hi = np.where(up, mid, lo), np.where(up, hi, mid)
-    om = np.tan(0.5 * (lo + hi))
-    x = om[:, None]
-    dens = np.sum(w / ((x - b) ** 2 + w * w) + w / ((x + b) ** 2 + w * w), axis=1)
+    # bracket and first guess from Θ on a grid in φ = atan ω (Θ increases), then Newton
+    # safeguarded by the bracket
+    grid = np.linspace(0.0, np.pi / 2, 2 * npts + 1)
+    tg = np.maximum.accumulate(theta(np.tan(grid)))
+    idx = np.clip(np.searchsorted(tg, target), 1, grid.size - 1)
+    lo, hi = grid[idx - 1], grid[idx]
+    frac = (target - tg[idx - 1]) / np.maximum(tg[idx] - tg[idx - 1], 1e-300)
+    phi = lo + np.clip(frac, 0.0, 1.0) * (hi - lo)
+    todo = np.arange(npts)
+    tol = 8 * np.finfo(float).eps
+    for _ in range(100):
+        p_, om = phi[todo], np.tan(phi[todo])
+        res = theta(om) - target[todo]
+        up = res < 0
+        lo[todo] = np.where(up, p_, lo[todo])
+        hi[todo] = np.where(up, hi[todo], p_)
+        new = p_ - res / np.maximum(density(om) * (1.0 + om * om), 1e-300)
+        out = ~((new >= lo[todo]) & (new <= hi[todo]))
+        new[out] = 0.5 * (lo[todo][out] + hi[todo][out])
+        phi[todo] = new
+        moving = np.abs(new - p_) > tol * np.maximum(np.abs(p_), 1.0)
+        todo = todo[moving & (hi[todo] - lo[todo] > tol)]
+        if not todo.size:
+            break
+    om = np.tan(phi)
+    dens = density(om)
     wts = 1.0 / np.sqrt(np.maximum(dens, 1e-300))
     pts = np.exp(2j * np.arctan(om)) if dt > 0 else 1j * om
     return pts, wts
