@@ -103,8 +103,10 @@ def observer_staircase(A: np.ndarray, C: np.ndarray) -> Staircase:
     yet in the staircase), with ``U`` acting on those remaining coordinates.  The first
     ``ρ_j`` columns of ``U`` (``ρ_j`` the decided rank) become block j; ``A``, ``C`` and
     ``Z`` are updated on the remaining coordinates by an orthogonal completion of those
-    columns (Householder reflectors, applied without forming the ``n × n`` factor).  The loop stops at a block of
-    rank 0 (the rest is unobservable) or when every coordinate is in the staircase.
+    columns (Householder reflectors, applied without forming the ``n × n`` factor).  The
+    loop stops at a block of rank 0 (the rest is unobservable) or when every coordinate is
+    in the staircase.  A single output is reduced by the blocked Hessenberg reduction
+    (:func:`_single_output`).
     """
     A = np.array(A, dtype=float, copy=True)
     C = np.array(C, dtype=float, copy=True)
