@@ -172,6 +172,27 @@ class PlantFactor:
         bad = np.abs(lam) >= 1.0 if plant.dt > 0 else lam.real >= 0
         self.unstable = [(complex(lam[i]), d * V[:, i]) for i in np.flatnonzero(bad)]
         self._last: tuple[ResidualGenerator, Composite] | None = None
+        # frequencies in the plant's own range (:func:`_boundary_points`, n + 2 of them)
+        # shared by the angle measure of every generator on this plant, with the state
+        # responses to its channels computed once
+        self.plant_points = _boundary_points(
+            max(self.nA, 1e-300), plant.n + 2, np.diag(TA), plant.dt, seed=4321
+        )
+        self._responses: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    def boundary_response(self, Bx: np.ndarray) -> np.ndarray:
+        """``(sI − T_A)⁻¹ U_Aᴴ Bx`` at :attr:`plant_points`, shape ``(n + 2, n, cols)``
+        (zero columns not solved), computed once per channel matrix."""
+        hit = self._responses.get(id(Bx))
+        if hit is not None and hit[0] is Bx:
+            return hit[1]
+        UB = self.UAh @ Bx
+        out = np.zeros((self.plant_points.size, UB.shape[0], UB.shape[1]), dtype=complex)
+        nz = np.flatnonzero(np.any(UB != 0, axis=0))
+        if nz.size:
+            out[:, :, nz] = _tri_solve_many(self.TA, self.plant_points, UB[:, nz])
+        self._responses[id(Bx)] = (Bx, out)
+        return out
 
     def composite(self, g: ResidualGenerator) -> Composite:
         """The :class:`Composite` of ``g`` with this plant; the last one built is kept, so
@@ -223,15 +244,14 @@ class Composite:
         )
         self.scale = max(self.nA, self.nF, self.nE * self.nCp)
         raw = _points(self.scale, self.N + 2, self.eig)
-        # the angle measure probes frequencies (module function _boundary_points) at the
-        # scale of plant and generator, and in the plant's own frequency range (generator
-        # poles may be much faster and would push every point out of it)
-        dt = plant.dt
+        # the angle measure probes frequencies (module function _boundary_points): k + 2 at
+        # the scale of plant and generator, and the plant's own n + 2 (generator poles may
+        # be much faster and would push every point out of its range), shared by every
+        # generator on the plant; together N + 4 > N + 1 distinct points, so a transfer of
+        # degree ≤ N that vanishes at all of them is identically zero
+        self.factor = factor
         self.raw_points = np.concatenate(
-            [
-                _boundary_points(self.scale, self.N + 2, self.eig, dt),
-                _boundary_points(self.scale, self.N + 2, np.diag(self.TA), dt, seed=4321),
-            ]
+            [_boundary_points(self.scale, k + 2, self.eig, plant.dt), factor.plant_points]
         )
         self.points = self._clear_of_rounding(raw)
         self._comp: dict[str, Any] | None = None
@@ -290,8 +310,14 @@ class Composite:
         edges = np.cumsum([0, *widths])
         UB = np.hstack([self.UAh @ c[0] for c in channels])
         pts = self.raw_points
+        own = pts.size - self.factor.plant_points.size  # the row's own points come first
         Qall = self.generator_tf_many(pts)
-        Xall = self._state_response(pts, UB)
+        Xall = np.concatenate(
+            [
+                self._state_response(pts[:own], UB),
+                np.concatenate([self.factor.boundary_response(c[0]) for c in channels], axis=2),
+            ]
+        )
         Yall = self.CUA @ Xall
         nQ = (
             np.linalg.norm(Qall, ord=2, axis=(1, 2))

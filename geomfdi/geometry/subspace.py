@@ -315,7 +315,11 @@ def _extend(
     if B.shape[1]:
         P = P - B @ (B.T @ P)
         P = P - B @ (B.T @ P)
-    U, s, _ = np.linalg.svd(P, full_matrices=False)
+    if P.shape[1] == 1:  # one column: its SVD is its norm and direction
+        nP = float(np.linalg.norm(P))
+        U, s = P / (nP if nP > 0 else 1.0), np.array([nP])
+    else:
+        U, s, _ = np.linalg.svd(P, full_matrices=False)
     r = rank_decision(s, scale, n, what=what, noise=noise).rank
     return U[:, :r], extraction_noise(s[r - 1] if r else 0.0, scale)
 

@@ -106,47 +106,54 @@ def orthonormal_row(
     rule = mirror_rule(eig, dt=dt, omega=omega, relax=relax)
     poles = rule.targets
     Lam, h = output_normal_basis(poles, dt)
-    pts, wts = phase_frequencies(poles, dt, POINTS_PER_POLE)
     lam_m, mu_m = eig[rule.moved], poles[rule.moved]
-    f = np.prod((pts[:, None] - lam_m[None, :]) / (pts[:, None] - mu_m[None, :]), axis=1)
-    fa = np.abs(f)
-    if not np.max(fa) <= SPREAD_MAX * 1e6 * max(float(np.min(fa)), 1e-300):
-        raise np.linalg.LinAlgError(  # clearly unresolved: no resolvent needed to tell
-            "orthonormal-basis realisation: the row's frequency response spans "
-            f"{np.log10(np.max(fa) / max(float(np.min(fa)), 1e-300)):.0f} decades at this "
-            "stability degree"
-        )
-    # data: Q(s) − Q(∞) at the points, through the complex Schur form of A0
     TA, UA = Qm.schur
     Bq = np.hstack([Qm.Bqy, Qm.Bqu])
-    MR = _resolvent_rows(TA, Qm.M @ UA, pts)[:, 0, :]  # M U (sI − T)⁻¹
+    MU = Qm.M @ UA
     UhB = UA.conj().T @ Bq
     Hrow = Qm.H[0]
     q = Hrow.size
     Qinf = np.concatenate([Hrow, -Hrow @ Du])
-    Qpts = f[:, None] * (Qinf[None, :] - MR @ UhB)
-    size = np.linalg.norm(Qpts, axis=1)
-    spread = float(np.max(size) / max(float(np.min(size)), 1e-300))
-    if not spread <= SPREAD_MAX:
-        # mirroring far from the axis makes |f(iω)| exponentially small where many
-        # lightly damped eigenvalues cluster: the response is not resolved in floating
-        # point there (a larger relaxation mirrors closer to the axis)
-        raise np.linalg.LinAlgError(
-            f"orthonormal-basis realisation: the row's frequency response spans "
-            f"{np.log10(spread):.0f} decades at this stability degree"
-        )
+
+    def response(pts: np.ndarray) -> np.ndarray:
+        """``Q(s)`` at the points, through the complex Schur form of A0 (module Notes)."""
+        f = np.prod((pts[:, None] - lam_m[None, :]) / (pts[:, None] - mu_m[None, :]), axis=1)
+        fa = np.abs(f)
+        if not np.max(fa) <= SPREAD_MAX * 1e6 * max(float(np.min(fa)), 1e-300):
+            raise np.linalg.LinAlgError(  # clearly unresolved: no resolvent needed to tell
+                "orthonormal-basis realisation: the row's frequency response spans "
+                f"{np.log10(np.max(fa) / max(float(np.min(fa)), 1e-300)):.0f} decades at "
+                "this stability degree"
+            )
+        MR = _resolvent_rows(TA, MU, pts)[:, 0, :]  # M U (sI − T)⁻¹
+        Qpts = f[:, None] * (Qinf[None, :] - MR @ UhB)
+        size = np.linalg.norm(Qpts, axis=1)
+        spread = float(np.max(size) / max(float(np.min(size)), 1e-300))
+        if not spread <= SPREAD_MAX:
+            # mirroring far from the axis makes |f(iω)| exponentially small where many
+            # lightly damped eigenvalues cluster: the response is not resolved in floating
+            # point there (a larger relaxation mirrors closer to the axis)
+            raise np.linalg.LinAlgError(
+                f"orthonormal-basis realisation: the row's frequency response spans "
+                f"{np.log10(spread):.0f} decades at this stability degree"
+            )
+        return Qpts
+
+    # every POINTS_PER_POLE-th sample first: a spread it shows, the whole set shows too
+    response(phase_frequencies(poles, dt, POINTS_PER_POLE, every=POINTS_PER_POLE)[0])
+    pts, wts = phase_frequencies(poles, dt, POINTS_PER_POLE)
+    Qpts = response(pts)
     data = Qpts - Qinf[None, :]
     # basis: h (sI − Λ)⁻¹ through the complex Schur form of Λ
     TL, UL = complex_schur(Lam)  # Λ is block upper triangular: O(k²)
     Phi = _resolvent_rows(TL, (h @ UL)[None, :], pts)[:, 0, :] @ UL.conj().T
     Ar = np.vstack([(Phi * wts[:, None]).real, (Phi * wts[:, None]).imag])
     Yr = np.vstack([(data * wts[:, None]).real, (data * wts[:, None]).imag])
-    Br, *_ = np.linalg.lstsq(Ar, Yr, rcond=None)
+    Br, _, _, sv = np.linalg.lstsq(Ar, Yr, rcond=None)
     ny = max(float(np.linalg.norm(Yr)), 1e-300)
     misfit = float(np.linalg.norm(Ar @ Br - Yr)) / ny
     if not np.isfinite(misfit):
         raise np.linalg.LinAlgError("orthonormal-basis fit: non-finite coefficients")
-    sv = np.linalg.svd(Ar, compute_uv=False)
     cert = dict(certificate)
     cert["realisation"] = "orthonormal basis"
     cert["injection"] = {
