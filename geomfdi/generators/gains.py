@@ -179,6 +179,33 @@ class PlantFactor:
             max(self.nA, 1e-300), plant.n + 2, np.diag(TA), plant.dt, seed=4321
         )
         self._responses: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        # the random-point measure likewise: n + 2 random points in the plant's range and
+        # the plant's responses there (to the random probe of Composite._clear_of_rounding
+        # and to each channel), shared by every generator on the plant
+        va = np.random.default_rng(7).standard_normal(plant.n)
+        self.UAva = self.UAh @ (va / max(np.linalg.norm(va), 1e-300))
+        self.plant_random = _points(max(self.nA, 1e-300), plant.n + 2, np.diag(TA), seed=54321)
+        self._random: dict[int, tuple[Any, np.ndarray]] = {}
+
+    def random_response(self, Bx: np.ndarray | None) -> np.ndarray:
+        """``C U_A (sI − T_A)⁻¹ U_Aᴴ Bx`` at :attr:`plant_random`, shape ``(n + 2, q, cols)``
+        (``Bx = None``: the state response to the probe ``U_Aᴴ v``, ``(n + 2, n, 1)``),
+        computed once per channel matrix."""
+        key = id(Bx)
+        hit = self._random.get(key)
+        if hit is not None and hit[0] is Bx:
+            return hit[1]
+        pts = self.plant_random
+        if Bx is None:
+            out = _tri_solve_many(self.TA, pts, self.UAva[:, None])
+        else:
+            UB = self.UAh @ Bx
+            out = np.zeros((pts.size, self.CUA.shape[0], UB.shape[1]), dtype=complex)
+            nz = np.flatnonzero(np.any(UB != 0, axis=0))
+            if nz.size:
+                out[:, :, nz] = self.CUA @ _tri_solve_many(self.TA, pts, UB[:, nz])
+        self._random[key] = (Bx, out)
+        return out
 
     def boundary_response(self, Bx: np.ndarray) -> np.ndarray:
         """``(sI − T_A)⁻¹ U_Aᴴ Bx`` at :attr:`plant_points`, shape ``(n + 2, n, cols)``
@@ -237,13 +264,16 @@ class Composite:
             eig.append(np.diag(self.TF))
         self.eig = np.concatenate(eig)
         rng = np.random.default_rng(7)
-        va, vf = rng.standard_normal(n), rng.standard_normal(k)
-        self.UAva = self.UAh @ (va / max(np.linalg.norm(va), 1e-300))
+        rng.standard_normal(n)  # the plant's probe (factor.UAva) is drawn first
+        vf = rng.standard_normal(k)
+        self.UAva = factor.UAva
         self.UFvf = (
             UF.conj().T @ (vf / max(np.linalg.norm(vf), 1e-300)) if k else np.zeros(0, complex)
         )
         self.scale = max(self.nA, self.nF, self.nE * self.nCp)
-        raw = _points(self.scale, self.N + 2, self.eig)
+        # random points: k + 2 at the scale of plant and generator, and the plant's own
+        # n + 2 (shared, responses computed once): N + 4 > N + 1 in all
+        raw = np.concatenate([_points(self.scale, k + 2, self.eig), factor.plant_random])
         # the angle measure probes frequencies (module function _boundary_points): k + 2 at
         # the scale of plant and generator, and the plant's own n + 2 (generator poles may
         # be much faster and would push every point out of its range), shared by every
@@ -253,7 +283,7 @@ class Composite:
         self.raw_points = np.concatenate(
             [_boundary_points(self.scale, k + 2, self.eig, plant.dt), factor.plant_points]
         )
-        self.points = self._clear_of_rounding(raw)
+        self.points = self._clear_of_rounding(raw, shared=factor.plant_random.size)
         self._comp: dict[str, Any] | None = None
         self._tf: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
@@ -351,7 +381,7 @@ class Composite:
                 best[c] = float(np.max(nQV[sel] / (nQ[sel] * nV[sel])))
         return best
 
-    def _clear_of_rounding(self, points: np.ndarray) -> np.ndarray:
+    def _clear_of_rounding(self, points: np.ndarray, shared: int = 0) -> np.ndarray:
         """Push points out of the region where rounding in A or F shows.
 
         Near a defective or ill-conditioned eigenvalue (e.g. a Jordan block at 0, whose
@@ -359,16 +389,27 @@ class Composite:
         a cancelled channel to far above ``LEAK_TOL``.  A point is doubled until
         ``eps N scale r ≤ LEAK_TOL / 100``, with ``r = r_A + r_F + r_F ‖E‖ ‖C‖ r_A`` (a
         bound of the interconnection's resolvent from the fixed random probes
-        ``r_A = ‖(sI − A)⁻¹ v‖``, ``r_F = ‖(sI − F)⁻¹ w‖``).
+        ``r_A = ‖(sI − A)⁻¹ v‖``, ``r_F = ‖(sI − F)⁻¹ w‖``).  The last ``shared`` points
+        are the plant's shared random points: ``r_A`` there is the factor's.
         """
         pts = np.asarray(points, dtype=complex).copy()
         todo = np.arange(pts.size)
         lim = LEAK_TOL / 100 / (_EPS * self.N * max(self.scale, 1.0))
+        first = True
         for _ in range(60):
             if not todo.size:
                 break
             s = pts[todo]
-            ra = np.linalg.norm(_tri_solve_many(self.TA, s, self.UAva[:, None]), axis=(1, 2))
+            if first and shared:
+                own = pts.size - shared
+                ra = np.empty(s.size)
+                ra[:own] = np.linalg.norm(
+                    _tri_solve_many(self.TA, s[:own], self.UAva[:, None]), axis=(1, 2)
+                )
+                ra[own:] = np.linalg.norm(self.factor.random_response(None), axis=(1, 2))
+            else:
+                ra = np.linalg.norm(_tri_solve_many(self.TA, s, self.UAva[:, None]), axis=(1, 2))
+            first = False
             if self.k:
                 rf = np.linalg.norm(_tri_solve_many(self.TF, s, self.UFvf[:, None]), axis=(1, 2))
             else:
@@ -445,7 +486,16 @@ class Composite:
         best = np.zeros(len(channels))
         pts = self.points
         P, q = pts.size, self.g.q
-        Yall = self._plant_response(pts, UB)
+        # the row's own points, then the plant's shared ones (responses computed once;
+        # a shared point moved clear of rounding is solved here)
+        f = self.factor
+        own = P - f.plant_random.size
+        probe = self.CUA @ f.random_response(None)
+        shared = np.concatenate([f.random_response(c[0]) for c in channels] + [probe], axis=2)
+        moved = np.flatnonzero(pts[own:] != f.plant_random)
+        if moved.size:
+            shared[moved] = self._plant_response(pts[own:][moved], UB)
+        Yall = np.concatenate([self._plant_response(pts[:own], UB), shared])
         cr = np.linalg.norm(Yall[:, :, -1], axis=1)
         Qall = self.generator_tf_many(pts)
         Gy, Gu = Qall[:, :, :q], Qall[:, :, q:]
