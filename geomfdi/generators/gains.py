@@ -334,21 +334,43 @@ class Composite:
         (:func:`_boundary_points`): the measure is that of the frequency response.
         """
         best = np.zeros(len(channels))
-        if not channels:
-            return best
         widths = [c[0].shape[1] for c in channels]
+        if not channels or not all(widths):
+            if channels and any(widths):
+                keep = [c for c, w in enumerate(widths) if w]
+                best[keep] = self.angle_gains([channels[c] for c in keep])
+            return best
         edges = np.cumsum([0, *widths])
         UB = np.hstack([self.UAh @ c[0] for c in channels])
         pts = self.raw_points
-        own = pts.size - self.factor.plant_points.size  # the row's own points come first
+        P, q, m = pts.size, self.g.q, self.g.m
+        own = P - self.factor.plant_points.size  # the row's own points come first
         Qall = self.generator_tf_many(pts)
-        Xall = np.concatenate(
-            [
-                self._state_response(pts[:own], UB),
-                np.concatenate([self.factor.boundary_response(c[0]) for c in channels], axis=2),
-            ]
-        )
-        Yall = self.CUA @ Xall
+        # every channel at once: the response V = [C (sI − A)⁻¹ Bx + Dx; I_x] of all
+        # columns, Q V in one product; the per-channel norms are sums over its columns
+        Y = np.empty((P, q, edges[-1]), dtype=complex)
+        Y[:] = np.hstack([c[1] for c in channels])[None, :, :]
+        nX2 = np.zeros((P, edges[-1]))
+        nz = np.flatnonzero(np.any(UB != 0, axis=0))  # state-side columns
+        if nz.size:
+            shared = np.concatenate([self.factor.boundary_response(c[0]) for c in channels], 2)
+            X = np.concatenate([_tri_solve_many(self.TA, pts[:own], UB[:, nz]), shared[:, :, nz]])
+            Y[:, :, nz] += self.CUA @ X
+            nX2[:, nz] = np.sum(np.abs(X) ** 2, axis=1)
+        U = np.zeros((m, edges[-1]))
+        for c, ch in enumerate(channels):
+            if ch[2]:
+                U[:, edges[c] : edges[c + 1]] = np.eye(m)
+        V = np.concatenate([Y, np.broadcast_to(U, (P, m, edges[-1]))], axis=1)
+        QV = Qall @ V
+
+        def per_channel(sq: np.ndarray) -> np.ndarray:  # (P, columns) → (P, channels)
+            return np.sqrt(np.add.reduceat(sq, edges[:-1], axis=1))
+
+        nY = per_channel(np.sum(np.abs(Y) ** 2, axis=1))
+        nXc = per_channel(nX2)
+        nV = per_channel(np.sum(np.abs(V) ** 2, axis=1))
+        nQV = per_channel(np.sum(np.abs(QV) ** 2, axis=1))
         nQ = (
             np.linalg.norm(Qall, ord=2, axis=(1, 2))
             if Qall.shape[1] > 1
@@ -356,29 +378,19 @@ class Composite:
         )
         ok = nQ > 0
         for c, ch in enumerate(channels):
-            Y = Yall[:, :, edges[c] : edges[c + 1]] + ch[1][None, :, :]
-            w = Y.shape[2]
+            w, blk = widths[c], slice(edges[c], edges[c + 1])
+            if w > 1:  # spectral norms of the channel's block (Frobenius above)
+                nV[:, c] = np.linalg.norm(V[:, :, blk], ord=2, axis=(1, 2))
+                if Qall.shape[1] > 1:
+                    nQV[:, c] = np.linalg.norm(QV[:, :, blk], ord=2, axis=(1, 2))
             # a channel whose response in y is rounding of a cancellation (a fault direction
             # in ker C ∩ an A-invariant subspace) reaches no residual: its "angle" there is
             # that of rounding noise, not a leak
-            X = Xall[:, :, edges[c] : edges[c + 1]]
-            nY = np.linalg.norm(Y.reshape(pts.size, -1), axis=1)
-            refY = self.nCp * np.linalg.norm(X.reshape(pts.size, -1), axis=1) + _norm2(ch[1])
-            seen = nY > 1e2 * _EPS * self.N * refY
-            U = np.eye(self.g.m) if ch[2] else np.zeros((self.g.m, w))
-            V = np.concatenate([Y, np.broadcast_to(U, (pts.size, *U.shape))], axis=1)
-            QV = Qall @ V
-            if w == 1:
-                nV = np.linalg.norm(V[:, :, 0], axis=1)
-            else:
-                nV = np.linalg.norm(V, ord=2, axis=(1, 2))
-            if w == 1 or Qall.shape[1] == 1:
-                nQV = np.linalg.norm(QV.reshape(pts.size, -1), axis=1)
-            else:
-                nQV = np.linalg.norm(QV, ord=2, axis=(1, 2))
-            sel = ok & (nV > 0) & (seen | bool(ch[2]))
+            refY = self.nCp * nXc[:, c] + _norm2(ch[1])
+            seen = nY[:, c] > 1e2 * _EPS * self.N * refY
+            sel = ok & (nV[:, c] > 0) & (seen | bool(ch[2]))
             if np.any(sel):
-                best[c] = float(np.max(nQV[sel] / (nQ[sel] * nV[sel])))
+                best[c] = float(np.max(nQV[sel, c] / (nQ[sel] * nV[sel, c])))
         return best
 
     def _clear_of_rounding(self, points: np.ndarray, shared: int = 0) -> np.ndarray:
