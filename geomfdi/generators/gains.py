@@ -6,11 +6,14 @@ The composite of plant and generator (faults ``x' = … + Bf f``, ``y = … + Df
     r       = [−H C, M] [x; w] + [K − H D, −H Dd, −H Df] [u; d; f]
 
 A transfer is "identically zero" when its relative gain stays at rounding level at
-``order + 2`` random complex points (plant and generator evaluated apart) or when the output
-map annihilates the orthonormal Krylov subspace of the composite (``method="krylov"``).
-The plant's complex Schur form is computed once per plant (:class:`PlantFactor`) and
-shared by every row of a bank.  See the user guide, *Theory: verification*
-(``docs/theory/verification.md``).
+``k + 2`` random complex points of the generator's scale and the plant's own ``n + 2``
+(plant and generator evaluated apart: ``n + k + 4`` points, more than a non-zero transfer of
+the composite's degree ``n + k`` can vanish at) or when the output map annihilates the
+orthonormal Krylov subspace of the composite (``method="krylov"``).  The plant's complex
+Schur form, its ``n + 2`` points and its responses there are computed once per plant
+(:class:`PlantFactor`) and shared by every row of a bank; a row's own resolvent
+``M (sI − F)⁻¹`` is solved row-wise, ``O(k²)`` per point.  See the user guide, *Theory:
+verification* (``docs/theory/verification.md``).
 """
 
 from __future__ import annotations
@@ -238,7 +241,8 @@ class Composite:
     ``T(s) = G_y(s) P(s) (+ G_u(s))`` with ``P(s) = C (sI − A)⁻¹ Bx + Dy`` and the
     generator's ``G_y(s) = −M (sI − F)⁻¹ E − H``, ``G_u(s) = M (sI − F)⁻¹ G + K``; the
     complex Schur forms of A and F turn every resolvent into a triangular solve, so each
-    of the ``order + 2`` points costs O(n² + k²) per column.  The Krylov test works on
+    point costs O(k²) per residual row and O(n²) per plant column (the plant's share of the
+    points is solved once per plant, :class:`PlantFactor`).  The Krylov test works on
     the interconnection ``A_c = [[A, 0], [−E C, F]]``, ``C_c = [−H C, M]``, where an
     input ``(Bx, Dy)`` (entering the generator also through ``(Gx, Kx)``) has
     ``B_c = [Bx; −E Dy + Gx]``, ``D_c = −H Dy + Kx`` (built on first use).
