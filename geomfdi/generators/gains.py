@@ -66,19 +66,15 @@ def _tri_solve_many(T: np.ndarray, pts: np.ndarray, X: np.ndarray) -> np.ndarray
     for a0 in range(0, P, step):
         s = pts[a0 : a0 + step]
         m = s.size
+        W = np.repeat(1.0 / (s[None, :] - d[:, None]), c, axis=1)  # 1/(s − t_ii), (n, m c)
         Y = np.empty((n, m * c), dtype=complex)
         for b in range(n, 0, -nb):
             a = max(0, b - nb)
             R = np.broadcast_to(X[a:b, None, :], (b - a, m, c)).reshape(b - a, m * c)
-            if b < n:
-                R = R + T[a:b, b:] @ Y[b:]
-            else:
-                R = R.astype(complex)
-            for i in range(b - 1, a - 1, -1):
-                rhs = R[i - a]
-                if i < b - 1:
-                    rhs = rhs + T[i, i + 1 : b] @ Y[i + 1 : b]
-                Y[i] = (rhs.reshape(m, c) / (s - d[i])[:, None]).reshape(m * c)
+            R = R + T[a:b, b:] @ Y[b:] if b < n else R.astype(complex)
+            Y[b - 1] = R[b - 1 - a] * W[b - 1]
+            for i in range(b - 2, a - 1, -1):
+                Y[i] = (R[i - a] + T[i, i + 1 : b] @ Y[i + 1 : b]) * W[i]
         out[a0 : a0 + step] = Y.reshape(n, m, c).transpose(1, 0, 2)
     return out
 
@@ -419,9 +415,9 @@ class Composite:
             if first and shared:
                 own = pts.size - shared
                 ra = np.empty(s.size)
-                ra[:own] = np.linalg.norm(
-                    _tri_solve_many(self.TA, s[:own], self.UAva[:, None]), axis=(1, 2)
-                )
+                Xp = _tri_solve_many(self.TA, s[:own], self.UAva[:, None])
+                self._probe = (s[:own].copy(), Xp)  # point_gains reuses it where unmoved
+                ra[:own] = np.linalg.norm(Xp, axis=(1, 2))
                 ra[own:] = np.linalg.norm(self.factor.random_response(None), axis=(1, 2))
             else:
                 ra = np.linalg.norm(_tri_solve_many(self.TA, s, self.UAva[:, None]), axis=(1, 2))
@@ -472,6 +468,13 @@ class Composite:
         hit = self._tf.get(id(pts))
         if hit is not None and hit[0] is pts:
             return hit[1]
+        own = pts is self.points or pts is self.raw_points
+        if own and self.k and not self._tf:  # both point sets in one solve
+            both = self.generator_tf_many(np.concatenate([self.points, self.raw_points]))
+            P = self.points.size
+            self._tf[id(self.points)] = (self.points, both[:P])
+            self._tf[id(self.raw_points)] = (self.raw_points, both[P:])
+            return self._tf[id(pts)][1]
         g = self.g
         D = np.hstack([-g.H, g.K]).astype(complex)
         if not self.k:
@@ -480,7 +483,7 @@ class Composite:
             out = D[None, :, :] + _tri_solve_rows_many(self.TF, pts, self.MUF) @ self.UFEG
         else:
             out = D[None, :, :] + self.MUF @ _tri_solve_many(self.TF, pts, self.UFEG)
-        if pts is self.points or pts is self.raw_points:
+        if own:
             self._tf[id(pts)] = (pts, out)
         return out
 
@@ -511,7 +514,16 @@ class Composite:
         moved = np.flatnonzero(pts[own:] != f.plant_random)
         if moved.size:
             shared[moved] = self._plant_response(pts[own:][moved], UB)
-        Yall = np.concatenate([self._plant_response(pts[:own], UB), shared])
+        Yown = np.empty((own, q, UB.shape[1]), dtype=complex)
+        Yown[:, :, :-1] = self._plant_response(pts[:own], UB[:, :-1])
+        p0, Xp = getattr(self, "_probe", (np.zeros(0), None))
+        same = p0.size == own and Xp is not None
+        kept = (pts[:own] == p0) if same else np.zeros(own, dtype=bool)
+        if np.any(kept):
+            Yown[kept, :, -1:] = self.CUA @ Xp[kept]  # type: ignore[index]
+        if not np.all(kept):
+            Yown[~kept, :, -1:] = self._plant_response(pts[:own][~kept], UB[:, -1:])
+        Yall = np.concatenate([Yown, shared])
         cr = np.linalg.norm(Yall[:, :, -1], axis=1)
         Qall = self.generator_tf_many(pts)
         Gy, Gu = Qall[:, :, :q], Qall[:, :, q:]
