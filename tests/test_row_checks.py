@@ -26,7 +26,11 @@ from geomfdi.geometry.staircase import observer_staircase
 from geomfdi.model.faults import fault_matrices
 from geomfdi.synthesis.build import check_angles
 from geomfdi.synthesis.construction import _NumericalDesignError
-from geomfdi.synthesis.least_order.rational_basis import output_normal_basis, phase_frequencies
+from geomfdi.synthesis.least_order.rational_basis import (
+    output_normal_basis,
+    output_normal_rows,
+    phase_frequencies,
+)
 
 
 def _chain(N: int = 15, q: int = 4, zeta: float = 0.01) -> gf.Plant:
@@ -181,3 +185,17 @@ def test_phase_frequencies_equispaced_in_phase_and_subsets(dt):
     sub, _ = phase_frequencies(poles, dt, 6, every=6)
     np.testing.assert_allclose(sub, pts[::6], rtol=1e-12)
     assert np.all(wts > 0)
+
+
+@pytest.mark.parametrize("dt", [0.0, 0.1])
+def test_output_normal_rows_match_the_resolvent_of_the_basis(dt):
+    rng = np.random.default_rng(4)
+    w = rng.uniform(0.1, 2.0, 12)
+    poles = np.concatenate([-0.01 + 1j * w, -0.01 - 1j * w, [-0.5, -3.0, -0.02]])
+    if dt:
+        poles = np.exp(poles * dt)
+    Lam, h = output_normal_basis(poles, dt)
+    pts = np.exp(1j * rng.uniform(0.1, 3.0, 20)) if dt else 1j * rng.uniform(0.01, 3.0, 20)
+    ref = np.array([h @ np.linalg.inv(z * np.eye(h.size) - Lam) for z in pts])
+    got = output_normal_rows(poles, dt, pts)
+    np.testing.assert_allclose(got, ref, atol=1e-12 * np.abs(ref).max())

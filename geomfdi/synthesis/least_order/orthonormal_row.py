@@ -56,10 +56,14 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.generators.gains import _tri_solve_rows_many, complex_schur
+from geomfdi.generators.gains import _tri_solve_rows_many
 from geomfdi.synthesis.least_order.injection import mirror_rule
 from geomfdi.synthesis.least_order.quotient import Quotient
-from geomfdi.synthesis.least_order.rational_basis import output_normal_basis, phase_frequencies
+from geomfdi.synthesis.least_order.rational_basis import (
+    output_normal_basis,
+    output_normal_rows,
+    phase_frequencies,
+)
 from geomfdi.synthesis.least_order.search import LeastOrderRow
 
 __all__ = ["orthonormal_row", "POINTS_PER_POLE", "SPREAD_MAX"]
@@ -144,9 +148,8 @@ def orthonormal_row(
     pts, wts = phase_frequencies(poles, dt, POINTS_PER_POLE)
     Qpts = response(pts)
     data = Qpts - Qinf[None, :]
-    # basis: h (sI − Λ)⁻¹ through the complex Schur form of Λ
-    TL, UL = complex_schur(Lam)  # Λ is block upper triangular: O(k²)
-    Phi = _resolvent_rows(TL, (h @ UL)[None, :], pts)[:, 0, :] @ UL.conj().T
+    # basis: h (sI − Λ)⁻¹ block by block (O(k) per point)
+    Phi = output_normal_rows(poles, dt, pts)
     Ar = np.vstack([(Phi * wts[:, None]).real, (Phi * wts[:, None]).imag])
     Yr = np.vstack([(data * wts[:, None]).real, (data * wts[:, None]).imag])
     Br, _, _, sv = np.linalg.lstsq(Ar, Yr, rcond=None)

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["output_normal_basis", "phase_frequencies"]
+__all__ = ["output_normal_basis", "output_normal_rows", "phase_frequencies"]
 
 
 def _pairs_first(poles: np.ndarray) -> np.ndarray:
@@ -74,6 +74,48 @@ def output_normal_basis(poles: np.ndarray, dt: float) -> tuple[np.ndarray, np.nd
         X = np.linalg.inv(np.eye(k) - Lam)
         return (np.eye(k) + Lam) @ X, np.sqrt(2.0) * (h @ X)
     return Lam, h
+
+
+def output_normal_rows(poles: np.ndarray, dt: float, pts: np.ndarray) -> np.ndarray:
+    """``h (sI − Λ)⁻¹`` of :func:`output_normal_basis` at every point, ``O(k)`` per point.
+
+    ``x = h (sI − Λ)⁻¹`` solves ``x (sI − blockdiag(Λ_i)) + x U = h`` with U the block
+    strictly upper part of ``hᵀ h``, and ``(x U)_j = σ_j h_j``, ``σ_j = Σ_{i<j} x_i · h_i``:
+    block by block, ``x_j = (1 − σ_j) h_j (sI − Λ_j)⁻¹`` (``1 − σ_j`` is the all-pass
+    product of the earlier blocks).  Discrete: the continuous rows at
+    ``s = (z − 1)/(z + 1)`` times ``√2 / (z + 1)`` (the bilinear map of the basis).
+
+    Returns
+    -------
+    ndarray, shape (P, k)
+        Row p is the basis at ``pts[p]``, in the order of :func:`output_normal_basis`.
+    """
+    p = _pairs_first(poles)
+    z = np.asarray(pts, dtype=complex)
+    s = z
+    if dt > 0:
+        p = (p - 1.0) / (p + 1.0)
+        s = (z - 1.0) / (z + 1.0)
+    k = p.size
+    out = np.empty((z.size, k), dtype=complex)
+    sig = np.zeros(z.size, dtype=complex)
+    i = 0
+    while i < k:
+        if p[i].imag > 0:  # Λ_i = [[2σ, |p|], [−|p|, 0]], h_i = [2√(−σ), 0]
+            sr, ap = p[i].real, abs(p[i])
+            h1 = 2.0 * np.sqrt(-sr)
+            f = (1.0 - sig) * h1 / (s * (s - 2.0 * sr) + ap * ap)
+            out[:, i], out[:, i + 1] = f * s, f * ap
+            sig = sig + out[:, i] * h1
+            i += 2
+        else:
+            hj = np.sqrt(-2.0 * p[i].real)
+            out[:, i] = (1.0 - sig) * hj / (s - p[i].real)
+            sig = sig + out[:, i] * hj
+            i += 1
+    if dt > 0:
+        out *= (np.sqrt(2.0) / (z + 1.0))[:, None]
+    return out
 
 
 def phase_frequencies(
