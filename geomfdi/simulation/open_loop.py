@@ -28,6 +28,7 @@ from geomfdi.simulation.initial_state import (
     start_error,
 )
 from geomfdi.simulation.lifting import Drive, _digest, block_recursion
+from geomfdi.simulation.profiles import fault_profiles, profile_groups
 from geomfdi.simulation.signals import (
     BiasFault,
     SensorFaultSignal,
@@ -73,6 +74,8 @@ class OpenLoopEngine:
         p = ctx.plant
         n, m, q, nd = p.n, p.m, p.q, p.nd
         self.fault_lists, self.shared = fault_lists, shared
+        self.groups = None if shared else profile_groups(fault_lists)
+        self._profiles: tuple[np.ndarray, ...] | None = None  # reused window after window
         K = ctx.ctrl.K if ctx.ctrl.mode == "state" else np.zeros((m, n))
         A_X = p.A - p.B @ K
         nwp = ctx.nwp
@@ -180,23 +183,25 @@ class OpenLoopEngine:
         """Sensors whose interval gain ``delta`` differs from 1 somewhere on the grid
         (each gets an exact drive channel), found window by window."""
         ctx, N, q = self.ctx, self.ctx.N, self.ctx.plant.q
+        # a bias fault leaves eta = 1: only the sensors of the other faults can have a gain
+        cand = {f.sensor for fl in self.fault_lists for f in fl if not isinstance(f, BiasFault)}
+        cand = sorted(cand & set(self.sens))
+        if not cand:
+            return []
+        rows = [self.row[i] for i in cand]
+        step = max(int(chunk), 2)
+        holds: list[dict[int, np.ndarray]] = [{} for _ in self.fault_lists]
         out: set[int] = set()
-        for fl in self.fault_lists:
-            cand = sorted({f.sensor for f in fl if not isinstance(f, BiasFault)} & set(self.sens))
-            if not cand:
-                continue
-            rows = [self.row[i] for i in cand]
-            step = max(int(chunk), 2)
-            holds: dict[int, np.ndarray] = {}
-            for s in range(0, max(N - 1, 1), step):
-                e1 = min(s + step + 1, N)
-                zero = np.zeros((1, q, e1 - s))
-                prof = fault_profile(
-                    fl, ctx.t, zero, q=q, k0=s, k1=e1, holds=holds, sensors=self.need, y0_start=s
-                )
-                eta, eta_l = prof.eta[rows], prof.eta_left[rows]
-                delta = 0.5 * (eta[:, :-1] + eta_l[:, 1:]) if self.foh else eta[:, :-1]
-                out.update(i for j, i in enumerate(cand) if np.any(delta[j] != 1))
+        for s in range(0, max(N - 1, 1), step):
+            e1 = min(s + step + 1, N)
+            zero = np.zeros((1, q, e1 - s))
+            eta, eta_l, _, _ = fault_profiles(
+                self.fault_lists, ctx.t, zero, q=q, k0=s, k1=e1, holds=holds,
+                sensors=self.need, y0_start=s, groups=self.groups,
+            )  # fmt: skip
+            eta, eta_l = eta[rows], eta_l[rows]  # (sensors, runs, L)
+            delta = 0.5 * (eta[:, :, :-1] + eta_l[:, :, 1:]) if self.foh else eta[:, :, :-1]
+            out.update(i for j, i in enumerate(cand) if np.any(delta[j] != 1))
         return sorted(out)
 
     def _profile(self, s: int, e1: int, y0n: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -221,27 +226,22 @@ class OpenLoopEngine:
                 prof.lam.transpose(1, 0, 2),
                 prof.lam_left.transpose(1, 0, 2),
             )
-        y0r = y0n.transpose(1, 0, 2)
-        profs = [
-            fault_profile(
-                fl,
-                t,
-                y0r[r : r + 1] if y0r.shape[0] > 1 else y0r,
-                q=q,
-                k0=s,
-                k1=e1,
-                holds=self.holds[r],
-                sensors=self.need,
-                y0_start=s,
-            )
-            for r, fl in enumerate(self.fault_lists)
-        ]
-        return (
-            np.stack([pr.eta for pr in profs], axis=1),
-            np.stack([pr.eta_left for pr in profs], axis=1),
-            np.concatenate([pr.lam[-1:].transpose(1, 0, 2) for pr in profs], axis=1),
-            np.concatenate([pr.lam_left[-1:].transpose(1, 0, 2) for pr in profs], axis=1),
+        # one update per fault for the runs of one fault-list structure (a sweep of
+        # sizes), run by run otherwise (geomfdi.simulation.profiles)
+        self._profiles = fault_profiles(
+            self.fault_lists,
+            t,
+            y0n.transpose(1, 0, 2),
+            q=q,
+            k0=s,
+            k1=e1,
+            holds=self.holds,
+            sensors=self.need,
+            y0_start=s,
+            groups=self.groups,
+            out=self._profiles,  # the previous window's arrays (used up by advance)
         )
+        return self._profiles
 
     # ------------------------------------------------------------------ advance
     def advance(
