@@ -64,17 +64,22 @@ def _phases(p: gf.Plant) -> dict[str, float]:
     _design(p)
     pr.disable()
     st = pstats.Stats(pr).stats  # type: ignore[attr-defined]
+    from geomfdi.generators.gains import PlantFactor
+
+    pf = PlantFactor.__init__.__code__
     want = {
         "quotient (S*)": ("build.py", "_quotient"),
         "least-order search": ("build.py", "_search"),
-        "realise": ("search.py", "realise_on_plant"),
+        "realisation (ONB fit)": ("orthonormal_row.py", "orthonormal_row"),
         "checks of a row": ("build.py", "_finish"),
-        "strength": ("build.py", "weak_targets"),
-        "plant factor": ("gains.py", "__init__"),
+        "strength verdict": ("build.py", "weak_targets"),
     }
     out = {}
     for label, (file, fn) in want.items():
         out[label] = sum(v[3] for k, v in st.items() if k[0].endswith(file) and k[2] == fn)
+    out["plant factor (once)"] = sum(
+        v[3] for k, v in st.items() if k[0] == pf.co_filename and k[1] == pf.co_firstlineno
+    )
     out["total (profiled)"] = sum(v[3] for k, v in st.items() if k[2] == "design_sensor_bank")
     return out
 
