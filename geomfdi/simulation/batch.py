@@ -15,6 +15,7 @@ from geomfdi.evaluation.persistence import as_persistence
 from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.limits import check_allocation, check_runs
 from geomfdi.model.plant import Plant, as_plant
+from geomfdi.simulation.compiled_recursion import batch_runs
 from geomfdi.simulation.context import (
     detection_window_of,
     from_balanced,
@@ -82,7 +83,10 @@ def simulate_batch(
     noise : Noise, optional
         Run ``i`` draws its noise from ``numpy.random.default_rng(seeds[i])``; by default
         the seeds are ``SeedSequence(noise.seed).spawn(runs)``, so run ``i`` equals
-        ``simulate(..., noise=Noise(..., seed=seeds[i]))``.
+        ``simulate(..., noise=Noise(..., seed=seeds[i]))`` up to rounding (the bank of
+        a batch runs in the compiled recursion of
+        :mod:`geomfdi.simulation.compiled_recursion`; see the user guide,
+        *Performance*, ``docs/guide/performance.md``).
     seeds : sequence, optional
         Explicit per-run seeds (integers >= 0 or ``numpy.random.SeedSequence``), one per
         run; needs ``noise``.
@@ -161,7 +165,7 @@ def simulate_batch(
     summary = RunSummary(ctx.t, [sc.faults for sc in schedules], columns, nres, window)
     loop = in_loop(ctx, schedules)
     width = chunk_width(ctx, keep_states=loop, loop=loop)
-    Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size)
+    Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size, min_runs=batch_runs())
     bar = progress_bar(ctx.progress, runs, "runs")
     kept: dict[str, Any] = {}  # for the next chunk of runs: open-loop engine, noise buffers
     for a in range(0, runs, Rc):

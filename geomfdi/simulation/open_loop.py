@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from geomfdi.simulation.compiled_recursion import bank_recursion
 from geomfdi.simulation.context import Context, Piece
 from geomfdi.simulation.initial_state import (
     EXACT_TOL,
@@ -312,16 +313,18 @@ class OpenLoopEngine:
                 drives.append(Drive(e, 1))
             sens = self.sens
             if sens:
-                prow = [row[i] for i in sens]
+                # views, not copies, when the rows are consecutive (every sensor with noise)
+                prow, sr = _rows([row[i] for i in sens]), _rows(sens)
                 if foh:
                     delta = 0.5 * (eta[prow, :, :-1] + eta_l[prow, :, 1:])
                 else:
                     delta = eta[prow, :, :-1]
-                rhoL = y[sens, :, :-1] - delta * y0c[sens, :, :-1]
+                rhoL = np.subtract(y[sr, :, :-1], delta * y0c[sr, :, :-1])
                 drives.append(Drive(rhoL))
                 if foh:
-                    rhoR = eta_l[prow, :, 1:] * y0n[sens, :, 1:] + lam_l[prow, :, 1:]
-                    rhoR -= delta * y0c[sens, :, 1:]
+                    rhoR = np.multiply(eta_l[prow, :, 1:], y0n[sr, :, 1:])
+                    rhoR += lam_l[prow, :, 1:]
+                    rhoR -= delta * y0c[sr, :, 1:]
                     drives.append(Drive(rhoR))
             for i in self.chan:
                 scale = delta[sens.index(i)][None] - 1.0
@@ -333,7 +336,8 @@ class OpenLoopEngine:
         for k, g in gens:
             view = rows[:, k : k + 1].transpose(1, 0, 2) if g.n_outputs == 1 else None
             dests.append([view, None] if ctx.keep_states else [view])
-        res, self.w = block_recursion(
+        # many runs: the compiled kernel (SIMD over the runs), else the numpy recursion
+        res, self.w = bank_recursion(
             self.Fd,
             self.W_all,
             drives,
@@ -363,6 +367,13 @@ def _affine(Cm: np.ndarray, X: np.ndarray, Dm: np.ndarray, e: np.ndarray) -> np.
         ne, Re, _ = e.shape
         out += (Dm @ e.reshape(ne, Re * L)).reshape(Dm.shape[0], Re, L)
     return out
+
+
+def _rows(idx: list[int]) -> slice | list[int]:
+    """Row indices as a slice when they are consecutive (a view instead of a copy)."""
+    if idx and idx == list(range(idx[0], idx[0] + len(idx))):
+        return slice(idx[0], idx[0] + len(idx))
+    return idx
 
 
 _SETUPS: dict[Any, dict[str, Any]] = {}

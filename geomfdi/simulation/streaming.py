@@ -44,10 +44,17 @@ __all__ = ["DecisionStream", "RunSummary", "chunk_plan", "time_chunks"]
 
 #: The fewest samples of a time chunk (each chunk costs a fixed Python overhead).
 MIN_CHUNK = 16
+#: The fewest samples per run of a chunk that holds several runs cut in time.
+MIN_RUN_SAMPLES = 1024
 
 
 def chunk_plan(
-    N: int, runs: int, width: float, *, runs_per_chunk: int | None = None
+    N: int,
+    runs: int,
+    width: float,
+    *,
+    runs_per_chunk: int | None = None,
+    min_runs: int = 1,
 ) -> tuple[int, int]:
     """Runs and samples per chunk so that one chunk's arrays fit the memory budget.
 
@@ -62,6 +69,11 @@ def chunk_plan(
         decision array that lives while a chunk is processed).
     runs_per_chunk : int, optional
         Runs per chunk fixed by the caller (``simulate_batch(chunk_size=...)``).
+    min_runs : int
+        Runs per chunk wanted at least (when ``runs`` allows, and each run keeps
+        :data:`MIN_RUN_SAMPLES` samples or more per chunk): the compiled batch
+        recursion vectorises over the runs of a chunk, so long records are cut in time
+        rather than simulated one run at a time.
 
     Returns
     -------
@@ -69,12 +81,13 @@ def chunk_plan(
         With ``budget = gf.limits.get_limits().chunk_memory``, ``runs_per_chunk *
         samples_per_chunk * width <= budget`` (at least one run and
         :data:`MIN_CHUNK` samples): whole records of several runs when they fit,
-        otherwise one run (or the given number) and the time axis cut.
+        otherwise ``min_runs`` runs (or the given number) and the time axis cut.
     """
     budget = float(get_limits().chunk_memory)
     cells = max(int(budget // max(width, 1.0)), 1)  # run-samples per chunk
     if runs_per_chunk is None:
-        runs_per_chunk = max(1, min(runs, cells // max(N, 1)))
+        wanted = min(int(min_runs), cells // MIN_RUN_SAMPLES)
+        runs_per_chunk = max(1, min(runs, max(cells // max(N, 1), wanted)))
     L = max(MIN_CHUNK, cells // runs_per_chunk)
     return int(runs_per_chunk), int(min(L, N))
 
