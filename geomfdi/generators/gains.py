@@ -155,8 +155,9 @@ class PlantFactor:
     The state is balanced first (:func:`geomfdi.geometry.balancing.state_scaling`,
     ``Ã = D⁻¹ A D``), so that transfers of a badly scaled realisation are evaluated as
     accurately as those of a well-scaled one: ``A = (D U) T_A (D U)⁻¹``.  Attributes
-    ``TA``, ``UAh`` (= U_Aᴴ D⁻¹), ``CUA`` (= C D U_A) and ``unstable``: the plant's unstable
-    eigenvalues (Re λ ≥ 0, or |λ| ≥ 1 when dt > 0) with their eigenvectors.
+    ``TA``, ``UA``, ``d`` (the diagonal of D), ``UAh`` (= U_Aᴴ D⁻¹), ``CUA`` (= C D U_A) and
+    ``unstable``: the plant's unstable eigenvalues (Re λ ≥ 0, or |λ| ≥ 1 when dt > 0) with
+    their eigenvectors.
     """
 
     def __init__(self, plant: Plant) -> None:
@@ -164,7 +165,7 @@ class PlantFactor:
         d = state_scaling(A, np.hstack([plant.B, plant.Bd]), plant.C)
         Ab = A * d[None, :] / d[:, None]
         TA, UA = complex_schur(Ab)
-        self.plant = plant
+        self.plant, self.d, self.UA = plant, d, UA
         self.TA, self.UAh, self.CUA = TA, UA.conj().T / d[None, :], (plant.C * d[None, :]) @ UA
         self.nA, self.nCp = _norm2(TA), _norm2(self.CUA)  # balanced
         lam, V = np.linalg.eig(Ab) if plant.n else (np.zeros(0), np.zeros((0, 0)))

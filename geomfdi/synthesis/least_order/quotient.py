@@ -67,6 +67,9 @@ class Quotient:
     identities: dict[str, float] = field(default_factory=dict)
     rtol: float | None = None
     """The tolerance S* was decided with when it differs from the one in force."""
+    plant_schur: tuple[np.ndarray, np.ndarray] | None = None
+    """Complex Schur form ``(T, U)`` of the (balanced) plant matrix A, when at hand: a
+    quotient that is A in rotated coordinates takes its Schur form from it (:attr:`schur`)."""
 
     @property
     def k(self) -> int:
@@ -112,9 +115,45 @@ class Quotient:
         if cached is None or cached[0] is not self.A0:
             from geomfdi.generators.gains import complex_schur
 
-            cached = (self.A0, complex_schur(self.A0))
+            TU = _schur_from_plant(self.A0, self.P, self.plant_schur)
+            cached = (self.A0, TU if TU is not None else complex_schur(self.A0))
             self.__dict__["_schur"] = cached
         return cached[1]
+
+
+SCHUR_REUSE_TOL = 100.0
+"""Backward error, in units of ``n ε ‖A0‖``, below which the plant's Schur form is taken
+for the quotient's (:func:`_schur_from_plant`)."""
+
+
+def _schur_from_plant(
+    A0: np.ndarray, P: np.ndarray, TU: tuple[np.ndarray, np.ndarray] | None
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(T0, W)`` with ``A0 = W T0 Wᴴ`` from the plant's ``A = U T Uᴴ``, or None.
+
+    When S* lies in the coordinates of decoupled feedthrough only (nothing of the plant's
+    state is factored out: ``P`` square with orthonormal rows), the quotient is the plant
+    in rotated coordinates, ``A0 = P A Pᵀ``, and ``W = P U`` is a Schur basis of it.  The
+    form is accepted only when it is one to working accuracy: ``P Pᵀ = I`` and the part
+    of ``Wᴴ A0 W`` below the diagonal at most ``SCHUR_REUSE_TOL · k ε ‖A0‖_F`` (the
+    backward error of the QR algorithm itself, Golub & Van Loan 2013, §7.5.6), which is
+    then dropped.  One ``O(k³)`` product instead of the QR algorithm.
+    """
+    if TU is None or not A0.size:
+        return None
+    T, U = TU
+    k = A0.shape[0]
+    if P.shape != (k, k) or T.shape != (k, k):
+        return None
+    tol = SCHUR_REUSE_TOL * k * float(np.finfo(float).eps)
+    if float(np.max(np.abs(P @ P.T - np.eye(k)))) > tol:
+        return None
+    W = P @ U
+    T0 = W.conj().T @ (A0 @ W)
+    low = np.tril(T0, -1)
+    if not float(np.linalg.norm(low)) <= tol * float(np.linalg.norm(A0)):
+        return None
+    return np.triu(T0), W
 
 
 def quotient_model(
