@@ -25,6 +25,7 @@ import numpy as np
 import scipy.linalg
 
 from geomfdi.generators.generator import ResidualGenerator
+from geomfdi.generators.output_normal import column_resolvent, output_normal_blocks, rows_resolvent
 from geomfdi.generators.realization import reachable_subspace
 from geomfdi.geometry.balancing import state_scaling
 from geomfdi.geometry.subspace import _norm2
@@ -268,9 +269,10 @@ class Composite:
         rng.standard_normal(n)  # the plant's probe (factor.UAva) is drawn first
         vf = rng.standard_normal(k)
         self.UAva = factor.UAva
-        self.UFvf = (
-            UF.conj().T @ (vf / max(np.linalg.norm(vf), 1e-300)) if k else np.zeros(0, complex)
-        )
+        self.vf = vf / max(np.linalg.norm(vf), 1e-300)
+        self.UFvf = UF.conj().T @ self.vf if k else np.zeros(0, complex)
+        # a generator in output-normal form: its resolvents in O(k) per point
+        self.on_blocks = output_normal_blocks(g.F, g.M) if k else None
         self.scale = max(self.nA, self.nF, self.nE * self.nCp)
         # random points: k + 2 at the scale of plant and generator, and the plant's own
         # n + 2 (shared, responses computed once): N + 4 > N + 1 in all
@@ -423,7 +425,12 @@ class Composite:
             else:
                 ra = np.linalg.norm(_tri_solve_many(self.TA, s, self.UAva[:, None]), axis=(1, 2))
             first = False
-            if self.k:
+            if self.on_blocks is not None:  # ‖(sI − F)⁻¹ w‖ in F's own coordinates
+                g = self.g
+                rf = np.linalg.norm(
+                    column_resolvent(g.F, g.M[0], self.on_blocks, s, self.vf), axis=1
+                )
+            elif self.k:
                 rf = np.linalg.norm(_tri_solve_many(self.TF, s, self.UFvf[:, None]), axis=(1, 2))
             else:
                 rf = np.zeros(s.size)
@@ -480,6 +487,9 @@ class Composite:
         D = np.hstack([-g.H, g.K]).astype(complex)
         if not self.k:
             out = np.broadcast_to(D, (pts.size, *D.shape)).copy()
+        elif self.on_blocks is not None:  # M (sI − F)⁻¹ in O(k) per point
+            rows = rows_resolvent(g.F, g.M[0], self.on_blocks, pts)
+            out = D[None, :, :] + (rows @ np.hstack([-g.E, g.G]))[:, None, :]
         elif self.MUF.shape[0] < self.UFEG.shape[1]:
             out = D[None, :, :] + _tri_solve_rows_many(self.TF, pts, self.MUF) @ self.UFEG
         else:
