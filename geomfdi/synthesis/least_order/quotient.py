@@ -133,11 +133,12 @@ def _schur_from_plant(
 
     When S* lies in the coordinates of decoupled feedthrough only (nothing of the plant's
     state is factored out: ``P`` square with orthonormal rows), the quotient is the plant
-    in rotated coordinates, ``A0 = P A Pᵀ``, and ``W = P U`` is a Schur basis of it.  The
-    form is accepted only when it is one to working accuracy: ``P Pᵀ = I`` and the part
-    of ``Wᴴ A0 W`` below the diagonal at most ``SCHUR_REUSE_TOL · k ε ‖A0‖_F`` (the
-    backward error of the QR algorithm itself, Golub & Van Loan 2013, §7.5.6), which is
-    then dropped.  One ``O(k³)`` product instead of the QR algorithm.
+    in rotated coordinates, ``A0 = P A Pᵀ``, and ``(T, W = P U)`` is a Schur form of it.
+    The form is accepted only when it is one to working accuracy: ``P Pᵀ = I`` and
+    ``‖Wᴴ A0 W − T‖_F ≤ SCHUR_REUSE_TOL · k ε ‖A0‖_F`` (the backward error of the QR
+    algorithm itself, Golub & Van Loan 2013, §7.5.6).  One ``O(k³)`` product instead of
+    the QR algorithm; the rows of a bank on one plant share T, hence their eigenvalues
+    bit for bit.
     """
     if TU is None or not A0.size:
         return None
@@ -149,11 +150,10 @@ def _schur_from_plant(
     if float(np.max(np.abs(P @ P.T - np.eye(k)))) > tol:
         return None
     W = P @ U
-    T0 = W.conj().T @ (A0 @ W)
-    low = np.tril(T0, -1)
-    if not float(np.linalg.norm(low)) <= tol * float(np.linalg.norm(A0)):
+    err = float(np.linalg.norm(W.conj().T @ (A0 @ W) - T))
+    if not err <= tol * float(np.linalg.norm(A0)):
         return None
-    return np.triu(T0), W
+    return T, W
 
 
 def quotient_model(
