@@ -144,6 +144,11 @@ def complex_schur(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return _real_to_complex_schur(T, Z)
 
 
+UNSTABLE_MARGIN = 1e-3
+"""Distance (relative to ``‖A‖``) from the stability boundary beyond which the Schur
+values of a plant are taken as stable without an eigen-decomposition (the computed
+eigenvalues of a Jordan block of size m spread by ``(ε ‖A‖)^{1/m}``)."""
+
 LEAK_TOL = 1e-8
 """Relative gain below which a transfer counts as identically zero."""
 
@@ -169,7 +174,15 @@ class PlantFactor:
         self.plant, self.d, self.UA = plant, d, UA
         self.TA, self.UAh, self.CUA = TA, UA.conj().T / d[None, :], (plant.C * d[None, :]) @ UA
         self.nA, self.nCp = _norm2(TA), _norm2(self.CUA)  # balanced
-        lam, V = np.linalg.eig(Ab) if plant.n else (np.zeros(0), np.zeros((0, 0)))
+        # the eigenvectors are needed only near or beyond the stability boundary: Schur
+        # values clear of it by UNSTABLE_MARGIN ‖A‖ (more than the spread of a defective
+        # eigenvalue under rounding) leave no unstable mode to find
+        lt, margin = np.diag(TA), UNSTABLE_MARGIN * max(self.nA, 1e-300)
+        near = np.abs(lt) >= 1.0 - margin if plant.dt > 0 else lt.real >= -margin
+        if np.any(near):
+            lam, V = np.linalg.eig(Ab)
+        else:
+            lam, V = np.zeros(0), np.zeros((plant.n, 0))
         bad = np.abs(lam) >= 1.0 if plant.dt > 0 else lam.real >= 0
         self.unstable = [(complex(lam[i]), d * V[:, i]) for i in np.flatnonzero(bad)]
         self._last: tuple[ResidualGenerator, Composite] | None = None
