@@ -107,6 +107,12 @@ class Quotient:
             self.__dict__["_eigenvalues"] = cached
         return cached[1]
 
+    def resolvent_rows(self, points: np.ndarray) -> list[np.ndarray]:
+        """``M (sI − A0)⁻¹`` (ρ × k) at every point: above ``SCHUR_EIG_MIN`` states by
+        triangular solves on the complex Schur form (:attr:`schur`, ``O(ρ k²)`` per
+        point), else by one dense solve per point."""
+        return _resolvent_rows(self, points)
+
     @property
     def schur(self) -> tuple[np.ndarray, np.ndarray]:
         """Complex Schur form ``A0 = U T Uᴴ`` as ``(T, U)`` (computed once: every
@@ -124,6 +130,19 @@ class Quotient:
 SCHUR_REUSE_TOL = 100.0
 """Backward error, in units of ``n ε ‖A0‖``, below which the plant's Schur form is taken
 for the quotient's (:func:`_schur_from_plant`)."""
+
+
+def _resolvent_rows(Qm: Quotient, points: np.ndarray) -> list[np.ndarray]:
+    k, M = Qm.k, Qm.M
+    if k <= SCHUR_EIG_MIN:
+        return [
+            np.linalg.solve((s * np.eye(k) - Qm.A0).T, M.T).T if k else M[:, :0] for s in points
+        ]
+    T, U = Qm.schur
+    from geomfdi.generators.gains import _tri_solve_rows_many
+
+    pts = np.asarray(points, dtype=complex)
+    return list(_tri_solve_rows_many(T, pts, M @ U) @ U.conj().T)
 
 
 def _schur_from_plant(
