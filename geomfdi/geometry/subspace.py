@@ -62,6 +62,8 @@ def _norm2(M: np.ndarray) -> float:
     are remembered by content (:data:`_NORM_MEMO`): the same entries give the same norm
     without a second SVD."""
     M = np.asarray(M)
+    if M.ndim == 2 and min(M.shape) == 1:  # a row or a column: its Euclidean norm
+        return float(np.linalg.norm(M))
     if M.size < _NORM_MEMO_MIN:
         return float(np.linalg.norm(M, 2)) if M.size else 0.0
     C = np.ascontiguousarray(M)

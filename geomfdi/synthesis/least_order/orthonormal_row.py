@@ -101,27 +101,25 @@ class _Basis:
 
     @property
     def fit(self) -> tuple[np.ndarray, ...]:
-        """``(pts, wts, Ar, U, s, Vt)``: the samples, weights, the real weighted basis
-        matrix ``Ar`` and its thin SVD."""
+        """``(pts, wts, Ar, Q, U, s, Vt)``: the samples, weights, the real weighted basis
+        matrix ``Ar`` and its thin SVD ``Ar = (Q U) diag(s) Vt`` (through ``Ar = Q R``)."""
         if self._fit is None:
             pts, wts = phase_frequencies(self.poles, self.dt, POINTS_PER_POLE)
             Phi = output_normal_rows(self.poles, self.dt, pts) * wts[:, None]
             Ar = np.vstack([Phi.real, Phi.imag])
-            U, sv, Vt = np.linalg.svd(Ar, full_matrices=False)
-            self._fit = (pts, wts, Ar, U, sv, Vt)
+            Q, R = np.linalg.qr(Ar)  # Ar = Q R = (Q U) S Vᵀ with R = U S Vᵀ
+            U, sv, Vt = np.linalg.svd(R)
+            self._fit = (pts, wts, Ar, Q, U, sv, Vt)
         return self._fit
 
     def solve(self, Yr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Least-squares ``Ar B = Yr`` and the singular values of ``Ar``: the minimum-norm
         solution with singular values at or below ``ε max(rows, cols) σ_1`` dropped (the
         cut-off of ``numpy.linalg.lstsq`` with ``rcond=None``)."""
-        _, _, Ar, U, sv, Vt = self.fit
-        r = (
-            int(np.count_nonzero(sv > np.finfo(float).eps * max(Ar.shape) * sv[0]))
-            if sv.size
-            else 0
-        )
-        return Vt[:r].T @ ((U[:, :r].T @ Yr) / sv[:r, None]), sv
+        _, _, Ar, Q, U, sv, Vt = self.fit
+        cut = np.finfo(float).eps * max(Ar.shape) * (sv[0] if sv.size else 0.0)
+        r = int(np.count_nonzero(sv > cut))
+        return Vt[:r].T @ ((U[:, :r].T @ (Q.T @ Yr)) / sv[:r, None]), sv
 
 
 _BASES: dict[tuple[bytes, float], _Basis] = {}
