@@ -213,3 +213,10 @@ def test_bad_frequencies_and_gain_tol():
         gf.structure_orders(plant, faults, [[1, 1]], frequencies=[0], gain_tol=1.5)
     assert exc.value.argument == "gain_tol"
     assert gf.structure_orders(plant, faults, [[0, 0]], frequencies=[0]).tolist() == [-1]
+
+
+def test_isolability_costs_rows_at_their_strong_orders():
+    plant, fault = washout_plant()
+    assert gf.isolability_analysis(plant, [fault]).orders.tolist() == [1]
+    rep = gf.isolability_analysis(plant, [fault], frequencies=[0])
+    assert rep.orders.tolist() == [2] and rep.suggested.total_order == 2

@@ -20,7 +20,7 @@ least strong order is the least degree ν, from its least weak order on, whose p
 (:func:`geomfdi.synthesis.least_order.strong.strong_least_degree`): the numerators
 ``p_j = v G_j`` with ``p_j(λ₀) = 0`` form a proper subspace of ``P_ν`` for each pair, and
 finitely many proper subspaces cannot cover it, so a generic residual of degree ν is strong
-for every pair at once (Varga 2017, §3.5 and §5.2: strong fault detectability).
+for every pair at once (Varga 2017, §3.5 and Chapter 5: strong fault detectability).
 """
 
 from __future__ import annotations
