@@ -110,6 +110,18 @@ static int gfmon_py_get(PyObject *o, double *dst, Py_ssize_t n)
     Py_buffer v;
     Py_ssize_t i;
     int ok;
+    if (PyArray_Check(o)) { /* read in place: no buffer export (its format string) */
+        PyArrayObject *arr = (PyArrayObject *)o;
+        const char *p = PyArray_BYTES(arr);
+        npy_intp st;
+        if (PyArray_NDIM(arr) != 1 || PyArray_DIM(arr, 0) != n
+            || PyArray_TYPE(arr) != NPY_DOUBLE || !PyArray_ISNOTSWAPPED(arr))
+            return 0;
+        st = PyArray_STRIDE(arr, 0);
+        for (i = 0; i < n; ++i) /* strided: a column of a (q, L) record */
+            memcpy(dst + i, p + i * st, sizeof(double));
+        return 1;
+    }
     if (PyObject_GetBuffer(o, &v, PyBUF_RECORDS_RO) != 0) {
         PyErr_Clear();
         return 0;
@@ -332,6 +344,8 @@ def _bind(dll: ctypes.CDLL, path: Path, pycall: Any, monitor: Any) -> tuple[Any,
         def step(y: Any, u: Any = None) -> MonitorStep:
             out = fast(y, u)  # None: y or u to convert
             return convert_step(y, u) if out is None else out
+
+        step.fast = fast  # type: ignore[attr-defined]  # Monitor.step calls it first
 
     def feed(Y: Any, U: Any = None) -> MonitorOutput:
         Y, U = chunks(Y, U, q, m)

@@ -113,11 +113,11 @@ class OpenLoopEngine:
         # ---- the bank's matrices: they depend on the models and the time grid only, so
         # repeated simulations of the same bank (short records, Monte-Carlo loops) reuse
         # them (the warnings and info entries of the set-up are replayed)
-        mats = [A_X, B_X, Cy0, Dy0, Cu, Du, dis.Ad]
-        mats += [x for _, g in gens for x in (g.F, g.E, g.G, g.M, g.H, g.K)]
+        # (the generators by their fingerprints from the bank's checks: balanced
+        # matrices are a function of them)
         key = (
-            _digest(mats),
-            tuple(k for k, _ in gens),
+            _digest([A_X, B_X, Cy0, Dy0, Cu, Du, dis.Ad]),
+            tuple(_generator_key(ctx, k, g) for k, g in gens),
             ctx.discrete,
             ctx.consistent,
             ctx.keep_states,
@@ -126,6 +126,7 @@ class OpenLoopEngine:
             tuple(self.sens),
             tuple(chan),
         )
+        self.key = key
         setup = _SETUPS.get(key)
         if setup is None:
             with warnings.catch_warnings(record=True) as caught:
@@ -287,7 +288,9 @@ class OpenLoopEngine:
         dX = [Drive(e), Drive(e, 1)] if foh else [Drive(e)]
         # the state only; the readings and inputs from it by two plain products (cheaper
         # than lifting them: fewer lifted outputs per state)
-        ((X,),) = block_recursion([self.dis.Ad], self.WX, dX, self.x, [[np.eye(n)]], L)
+        ((X,),) = block_recursion(
+            [self.dis.Ad], self.WX, dX, self.x, [[np.eye(n)]], L, key=("plant", self.key)
+        )
         y0c = _affine(self.Cy0, X, self.Dy0, e)
         u = _affine(self.Cu, X, self.Du, e)
         self.x = np.ascontiguousarray(X[:, :, -1])
@@ -347,6 +350,7 @@ class OpenLoopEngine:
             direct=([y, u, X] if self.decoupled else [y, u], self.dmats),
             out=dests,
             final=True,
+            key=("bank", self.key),
         )
         vectors: list[np.ndarray | None] = [None] * len(ctx.view.generators)
         ws: list[np.ndarray | None] = [None] * len(ctx.view.generators)
@@ -357,6 +361,15 @@ class OpenLoopEngine:
             if ctx.keep_states:
                 ws[k] = rk[1]
         return Piece(s, X, y, y0n, u, vectors, ws)
+
+
+def _generator_key(ctx: Context, k: int, g: Any) -> bytes:
+    """Fingerprint of generator ``k``'s matrices: the one of the bank's checks (of the
+    bank's own matrices, which determine the balanced ones), else a digest of ``g``'s."""
+    keys = ctx.view.keys
+    if k < len(keys) and keys[k] is not None:
+        return keys[k]
+    return _digest([g.F, g.E, g.G, g.M, g.H, g.K])
 
 
 def _affine(Cm: np.ndarray, X: np.ndarray, Dm: np.ndarray, e: np.ndarray) -> np.ndarray:

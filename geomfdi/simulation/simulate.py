@@ -178,8 +178,11 @@ def stop_divergent(
     from geomfdi.evaluation.decision import NO_ALARM
     from geomfdi.simulation.nonlinear import DivergenceWarning
 
-    mag = np.max(np.abs(x), axis=0, initial=0.0) if x.shape[0] else np.zeros(t.size)
-    mag = np.where(np.all(np.isfinite(x), axis=0), mag, np.inf)
+    if x.shape[0]:  # max |x| per sample without a temporary |x| of the record's size
+        mag = np.maximum(np.max(x, axis=0), -np.min(x, axis=0))
+        mag[np.isnan(mag)] = np.inf  # max propagates nan: a non-finite state is inf here
+    else:
+        mag = np.zeros(t.size)
     if bound is None:
         onsets = [f.start for f in faults if getattr(f, "start", None) is not None]
         k_on = int(np.searchsorted(t, min(onsets))) if onsets else t.size
