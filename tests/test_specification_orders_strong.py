@@ -220,3 +220,32 @@ def test_isolability_costs_rows_at_their_strong_orders():
     assert gf.isolability_analysis(plant, [fault]).orders.tolist() == [1]
     rep = gf.isolability_analysis(plant, [fault], frequencies=[0])
     assert rep.orders.tolist() == [2] and rep.suggested.total_order == 2
+
+
+def chain_plant(k, a=1.0):
+    """The washout on y1 (order 1, blind at DC) beside a k-th order lag observed by y2:
+    strong at DC only at order k (the minimal-basis vector of degree k)."""
+    n = 1 + k
+    A = np.zeros((n, n))
+    A[0, 0] = -a
+    for i in range(1, k):
+        A[i, i + 1] = 1.0
+    A[k, 1:] = -np.poly(-np.linspace(0.5, 2.0, k))[1:][::-1]
+    C = np.zeros((2, n))
+    C[0, 0] = C[1, 1] = 1.0
+    Bf = np.zeros(n)
+    Bf[0] = Bf[k] = 1.0
+    return gf.Plant(A, None, C), gf.Fault(Bf, [-1.0 / a, 0.0])
+
+
+@pytest.mark.parametrize("k", [2, 3, 4, 6])
+def test_strong_order_is_the_lag_order(k):
+    plant, fault = chain_plant(k)
+    assert gf.structure_orders(plant, [fault], [[1]]).tolist() == [1]
+    assert gf.structure_orders(plant, [fault], [[1]], frequencies=[0]).tolist() == [k]
+    if k <= 4:  # the design raises a weak row by at most three degrees
+        g = gf.design_bank(plant, [fault], [[1]]).generators[0]
+        assert g.F.shape[0] == k
+        assert abs(fault_response(g, plant, fault, 0.0)) > 1e-3 * abs(
+            fault_response(g, plant, fault, 1j)
+        )
