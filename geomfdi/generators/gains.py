@@ -12,7 +12,8 @@ the composite's degree ``n + k`` can vanish at) or when the output map annihilat
 orthonormal Krylov subspace of the composite (``method="krylov"``).  The plant's complex
 Schur form, its ``n + 2`` points and its responses there are computed once per plant
 (:class:`PlantFactor`) and shared by every row of a bank; a row's own resolvent
-``M (sI − F)⁻¹`` is solved row-wise, ``O(k²)`` per point.  See the user guide, *Theory:
+``M (sI − F)⁻¹`` is solved row-wise, ``O(k²)`` per point, or ``O(k)`` for a generator in
+output-normal form (:mod:`geomfdi.generators.output_normal`).  See the user guide, *Theory:
 verification* (``docs/theory/verification.md``).
 """
 
