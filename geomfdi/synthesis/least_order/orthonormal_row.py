@@ -134,7 +134,10 @@ def _basis(poles: np.ndarray, dt: float) -> _Basis:
         hit = _Basis(np.array(poles, dtype=complex), dt)
     _BASES[key] = hit  # most recent last
     while len(_BASES) > _BASES_KEPT:
-        _BASES.pop(next(iter(_BASES)))
+        try:
+            _BASES.pop(next(iter(_BASES)), None)
+        except (RuntimeError, StopIteration):  # another thread changed it
+            break
     return hit
 
 
