@@ -43,7 +43,6 @@ checked to be identical.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import time
@@ -148,6 +147,9 @@ class _Pinned:
     def submit(self, fn: Any, *args: Any) -> Any:
         return self.client.submit(fn, *args, workers=self.workers, pure=False)
 
+    def nthreads(self) -> dict[str, int]:
+        return {w: n for w, n in self.client.nthreads().items() if w in self.workers}
+
 
 def _dask() -> Any:
     if "client" not in _STATE:
@@ -172,7 +174,7 @@ def main(argv: list[str]) -> dict[str, Any]:
     ap.add_argument("--samples", type=int, default=10_000)
     ap.add_argument("--loop-runs", type=int, default=100)
     ap.add_argument("--block", type=int, default=64)
-    ap.add_argument("--blocks-per-task", type=int, default=1)
+    ap.add_argument("--blocks-per-task", default="auto", help="an integer, or auto (the default)")
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--no-dask", action="store_true")
     ap.add_argument("--quick", action="store_true", help="256 runs x 2000 samples, 1 repeat")
@@ -186,12 +188,11 @@ def main(argv: list[str]) -> dict[str, Any]:
     camp, ctx = setup(args.runs, args.samples, args.block)
     total = camp.grid()["run"].size
     nblocks = len(camp.blocks())
-    per = args.blocks_per_task
-    tasks = math.ceil(nblocks / per)
+    per = args.blocks_per_task if args.blocks_per_task == "auto" else int(args.blocks_per_task)
     print(
         f"campaign: {total} runs x {args.samples} samples, bank of 3 (Hou-Wen-Chen, exact), "
         f"chi-square test (isolation {RULE.k} of {RULE.n} samples, held pattern), "
-        f"{nblocks} blocks of {args.block} runs, {tasks} tasks of {per} block(s)"
+        f"{nblocks} blocks of {args.block} runs, blocks per task: {per}"
     )
     print(f"machine: {os.cpu_count()} CPUs, BLAS threads in this process: {blas}")
     # every method is a function of the campaign: a small one (8 blocks of 5 runs, so
@@ -231,6 +232,8 @@ def main(argv: list[str]) -> dict[str, Any]:
     if "client" in _STATE:
         fut = _STATE["client"].submit(_block_seconds, job, block, pure=False)
         where["a Dask worker"] = fut.result()
+        fut = _STATE["client"].submit(_block_seconds, job, block, False, pure=False)
+        where["a Dask worker without the allocator set-up"] = fut.result()
         env = _STATE["client"].run(_worker_env)
         print(f"Dask worker environment: {next(iter(env.values()))}")
     print(
@@ -239,6 +242,7 @@ def main(argv: list[str]) -> dict[str, Any]:
     best: dict[str, float] = {}
     load: dict[str, tuple[float, float, float]] = {}
     tables: dict[str, Any] = {}
+    stats: dict[str, dict[str, Any]] = {}
     try:
         for _ in range(args.repeats):
             for name, fn in methods.items():
@@ -251,6 +255,8 @@ def main(argv: list[str]) -> dict[str, Any]:
                     best[name], load[name] = dt, la
                 if name != "loop":
                     tables[name] = out.table
+                    if best[name] == dt:
+                        stats[name] = out.info["executor"]
     finally:
         for p in pools.values():
             p.shutdown()
@@ -271,22 +277,45 @@ def main(argv: list[str]) -> dict[str, Any]:
                 f"(load before: {load[one][0]:.2f} / {load[two][0]:.2f}; "
                 f"{os.cpu_count()} CPUs)"
             )
-    if "processes, 1 worker" in best:
-        over = (best["processes, 1 worker"] - best["serial"]) / tasks
-        print(f"per-task overhead (processes, 1 worker - serial) / tasks: {1e3 * over:.1f} ms")
+    # per-task overhead: slot time not spent computing (scheduling, shipping, idle slots
+    # at the end), per task; and against serial (the 1-worker cases)
+    print(
+        f"{'executor':<20} {'tasks':>6} {'blocks/task':>12} {'compute [s]':>12} "
+        f"{'overhead/task [ms]':>19} {'share':>6} {'(t - serial)/task [ms]':>23}"
+    )
+    for name, st in stats.items():
+        if name == "serial":
+            continue
+        slots = 1 if "1 worker" in name else 2
+        idle = best[name] * slots - st["compute_seconds"]
+        vs = (best[name] - best["serial"]) / st["tasks"] if slots == 1 else float("nan")
+        print(
+            f"{name:<20} {st['tasks']:>6} {st['blocks_per_task']:>12} "
+            f"{st['compute_seconds']:>12.2f} {1e3 * idle / st['tasks']:>19.1f} "
+            f"{idle / (best[name] * slots):>6.1%} {1e3 * vs:>23.1f}"
+        )
+    if "dask, 2 workers" in best and "processes, 2 workers" in best:
+        ratio = best["processes, 2 workers"] / best["dask, 2 workers"]
+        print(
+            f"dask vs processes, 2 workers: t(processes) / t(dask) = {ratio:.2f}x (>= 0.9 wanted)"
+        )
     ref = tables["serial"]
     same = all(tb.equals(ref) for tb in tables.values())
     print(f"identical tables (serial, processes, dask): {same}")
     print("* timed on the first runs of the grid and extrapolated linearly to all runs")
     if dask_note:
         print(dask_note)
-    return {"best": best, "load": load, "identical": same}
+    return {"best": best, "load": load, "identical": same, "executors": stats}
 
 
-def _block_seconds(job: dict[str, Any], block: Any) -> float:
-    """Seconds to simulate and evaluate one block where this function runs."""
+def _block_seconds(job: dict[str, Any], block: Any, as_task: bool = True) -> float:
+    """Seconds to simulate and evaluate one block where this function runs (as a task
+    does, or with the worker's own allocator settings)."""
+    from geomfdi.campaign.executors import run_items
     from geomfdi.campaign.runner import _run_block
 
+    if as_task:
+        return run_items(_run_block, job, [block])[1]
     t0 = time.perf_counter()
     _run_block(job, block)
     return time.perf_counter() - t0
