@@ -1,7 +1,7 @@
 """Campaign throughput against a loop of ``gf.simulate`` calls, and scaling to 2 workers.
 
 Workload: the closed loop of Hou, Wen & Chen (2011, section 4) with its exact
-bank of three residual generators (``examples/seed001.toml``), measurement noise 0.01 on
+bank of three residual generators (``examples/hou_wen_chen.toml``), measurement noise 0.01 on
 every sensor, ``10^4`` samples per run (20 s at 2 ms), a bias on sensor 1 at 8 s swept over
 10 sizes x 1000 noise seeds = ``10^4`` runs, every run evaluated by the windowed chi-square
 test (50 samples, analytic threshold) into the campaign table (scores, detection, delay,
@@ -75,7 +75,7 @@ def _limit_threads(n: int | None) -> None:
 
 
 def setup(runs: int, samples: int, block: int) -> tuple[gf.Campaign, dict[str, Any]]:
-    spec = load_model(ROOT / "examples" / "seed001.toml")
+    spec = load_model(ROOT / "examples" / "hou_wen_chen.toml")
     bank = design_all(spec)["exact"]
     t = 0.002 * np.arange(samples)
     onset = float(t[int(0.4 * samples)])

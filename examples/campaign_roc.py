@@ -28,8 +28,8 @@ from geomfdi.io.modelfile import load_model
 ROOT = Path(__file__).resolve().parent
 
 
-def seed001_campaigns(runs: int) -> list[tuple[str, gf.Campaign]]:
-    spec = load_model(ROOT / "seed001.toml")
+def hou_wen_chen_campaigns(runs: int) -> list[tuple[str, gf.Campaign]]:
+    spec = load_model(ROOT / "hou_wen_chen.toml")
     bank = design_all(spec)["exact"]
     t = spec.t[spec.t <= 11.0 + 1e-9]
     noise = gf.Noise(measurement=0.01, seed=2011)
@@ -61,7 +61,7 @@ def seed001_campaigns(runs: int) -> list[tuple[str, gf.Campaign]]:
         runs=max(1, runs // 3),
         **common,
     )
-    return [("seed001", nominal), ("seed001_uncertain", uncertain)]
+    return [("hou_wen_chen", nominal), ("hou_wen_chen_uncertain", uncertain)]
 
 
 def main(argv: list[str] | None = None) -> dict[str, gf.CampaignResult]:
@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> dict[str, gf.CampaignResult]:
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args(argv)
     motor = load_campaign(ROOT / "discrete_disturbance.toml", runs=args.runs)
-    jobs = [*seed001_campaigns(args.runs), ("discrete_disturbance", motor.campaign)]
+    jobs = [*hou_wen_chen_campaigns(args.runs), ("discrete_disturbance", motor.campaign)]
     results = {}
     for name, campaign in jobs:
         res = campaign.run(args.executor, workers=args.workers)

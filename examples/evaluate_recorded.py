@@ -1,7 +1,7 @@
 """Evaluate a residual bank on recorded data: design, record a faulty run, evaluate, plot.
 
 1. Design a sensor-fault bank on the sampled plant of Hou, Wen & Chen (2011), section 4
-   (``examples/seed001.toml``, zero-order hold at 10 ms).
+   (``examples/hou_wen_chen.toml``, zero-order hold at 10 ms).
 2. Record a healthy and a faulty closed-loop run (state feedback from the model file, a
    gain fault on sensor 0 at 8 s, measurement noise, a few dropped samples) to CSV.
 3. Read the CSVs back; calibrate thresholds on the healthy one (false-alarm rate 1e-3),
@@ -71,7 +71,7 @@ def evaluate(bank: gf.ResidualBank, data: Any, **kw: Any) -> Any:
 def main(out_dir: str) -> Any:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    spec = load_model(HERE / "seed001.toml")
+    spec = load_model(HERE / "hou_wen_chen.toml")
     p, dt = spec.plant, 0.01
     Ad, Bd, Cd, _, _ = cont2discrete((p.A, p.B, p.C, np.zeros((p.q, p.m))), dt)
     plant = gf.Plant(Ad, Bd, Cd, dt=dt)
@@ -109,8 +109,8 @@ def main(out_dir: str) -> Any:
 
     bank.save(out / "bank.json")
     mon = gf.Monitor(bank, threshold=threshold, persistence=(3, 5))
-    gf.codegen.c(mon, "seed001_monitor", out / "c")
-    gf.codegen.python(mon, "seed001_monitor", out / "python")
+    gf.codegen.c(mon, "hou_wen_chen_monitor", out / "c")
+    gf.codegen.python(mon, "hou_wen_chen_monitor", out / "python")
     return res
 
 

@@ -123,7 +123,7 @@ def main(argv: Sequence[str] | None = None) -> dict:
 
     results = {}
     for sigma in args.sigma:
-        res = gf.parity.seed004_experiment(sigma, args.runs, rng, pfa=args.pfa)
+        res = gf.parity.qin_niu_experiment(sigma, args.runs, rng, pfa=args.pfa)
         results[sigma] = res
         print(res.table(detail=args.detail))
         print()

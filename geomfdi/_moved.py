@@ -5,6 +5,10 @@
 new path; ``from geomfdi.synthesis.generator import ResidualBank`` therefore gives the same
 class as ``from geomfdi.generators import ResidualBank``.  The finder answers only for the
 names in :data:`MOVED`; it is installed on ``import geomfdi``.
+
+Renamed public names work the same way: :func:`renamed` gives a module the
+``__getattr__`` that returns the new object for an old name, after a
+:class:`DeprecationWarning` naming the new one.
 """
 
 from __future__ import annotations
@@ -13,9 +17,11 @@ import importlib
 import importlib.machinery
 import sys
 import warnings
+from collections.abc import Callable
 from types import ModuleType
+from typing import Any
 
-__all__ = ["MOVED", "install"]
+__all__ = ["MOVED", "RENAMED", "install", "renamed"]
 
 MOVED: dict[str, str] = {
     "geomfdi.synthesis.generator": "geomfdi.generators.generator",
@@ -39,6 +45,45 @@ MOVED: dict[str, str] = {
     "geomfdi.verification.norms": "geomfdi.generators.norms",
 }
 """Old module path -> the module that now holds its code."""
+
+RENAMED: dict[str, str] = {
+    "seed004_experiment": "qin_niu_experiment",
+    "Seed004Result": "QinNiuResult",
+    "plot_seed004": "plot_qin_niu",
+    "SEED004_KINDS": "QIN_NIU_KINDS",
+    "SEED004_METHODS": "QIN_NIU_METHODS",
+}
+"""Old public name -> its new name (the experiment of Qin & Niu 1999)."""
+
+
+def renamed(module: str, names: dict[str, str] | None = None) -> Callable[[str], Any]:
+    """A module ``__getattr__`` answering the old names of :data:`RENAMED` (or ``names``).
+
+    Parameters
+    ----------
+    module : str
+        The module's ``__name__``; the new object is read from it.
+    names : dict, optional
+        Old name -> new name; by default the entries of :data:`RENAMED`.
+
+    Returns
+    -------
+    callable
+        ``__getattr__(name)``: the object now called ``names[name]``, after a
+        :class:`DeprecationWarning`; :class:`AttributeError` for any other name.
+    """
+    table = RENAMED if names is None else names
+
+    def __getattr__(name: str) -> Any:
+        new = table.get(name)
+        if new is None or not hasattr(sys.modules[module], new):
+            raise AttributeError(f"module {module!r} has no attribute {name!r}")
+        warnings.warn(
+            f"{module}.{name} is deprecated; use {module}.{new}", DeprecationWarning, stacklevel=2
+        )
+        return getattr(sys.modules[module], new)
+
+    return __getattr__
 
 
 class _AliasLoader:

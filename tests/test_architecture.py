@@ -371,7 +371,7 @@ def test_citation_checker_finds_planted_citations(tmp_path):
     src.write_text(
         '"""See math.md §3."""\n'
         "def f():\n    '''As in seed 001, eq. 3.'''\n    return 1  # ../shared/notes\n"
-        'x = "seed 001"  # Hou, Wen & Chen 2011; examples/seed001.toml\n',
+        'x = "seed 001"  # Hou, Wen & Chen 2011; examples/hou_wen_chen.toml\n',
         encoding="utf-8",
     )
     assert [h.split(": ")[1] for h in _outside_citations(src)] == [

@@ -18,7 +18,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 @pytest.fixture(scope="module")
 def seed001():
-    spec = load_model(EXAMPLES / "seed001.toml")
+    spec = load_model(EXAMPLES / "hou_wen_chen.toml")
     return spec, design_all(spec)["exact"]
 
 

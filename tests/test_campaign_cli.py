@@ -47,7 +47,10 @@ def test_cli_campaign_writes_tables_and_figures(tmp_path, capsys):
 
 
 def test_cli_campaign_errors(tmp_path, capsys):
-    assert main(["campaign", str(ROOT / "examples" / "seed001.toml"), "--out", str(tmp_path)]) == 2
+    assert (
+        main(["campaign", str(ROOT / "examples" / "hou_wen_chen.toml"), "--out", str(tmp_path)])
+        == 2
+    )
     assert "no [campaign] table" in capsys.readouterr().err
     bad = tmp_path / "bad.toml"
     text = (ROOT / "examples" / "discrete_disturbance.toml").read_text()
@@ -84,15 +87,15 @@ def test_campaign_example_script_saves_the_figures(tmp_path):
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     results = mod.main([str(tmp_path), "--runs", "2"])
-    assert set(results) == {"seed001", "seed001_uncertain", "discrete_disturbance"}
+    assert set(results) == {"hou_wen_chen", "hou_wen_chen_uncertain", "discrete_disturbance"}
     pngs = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*.png"))
-    assert "seed001/roc_bias-on-sensor-0.png" in pngs
+    assert "hou_wen_chen/roc_bias-on-sensor-0.png" in pngs
     assert "discrete_disturbance/detection_gain-on-sensor-2.png" in pngs
     # ROC and detection figures per scenario, and one confusion matrix per campaign
-    assert "seed001/confusion.png" in pngs
+    assert "hou_wen_chen/confusion.png" in pngs
     assert len(pngs) == 3 * 2 + 2 + 2 * 2 + 3
     # a large bias on sensor 1 of Hou, Wen & Chen (2011) is always detected
-    s = results["seed001"].summary().xs("bank", level="residual")
+    s = results["hou_wen_chen"].summary().xs("bank", level="residual")
     assert s.loc[("bias on sensor 1", 0.03), "pd"] == 1.0
 
 

@@ -92,9 +92,11 @@ def test_run_every_example(model: Path, tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_seed001_reference_numbers(tmp_path: Path) -> None:
-    out = tmp_path / "seed001"
+    out = tmp_path / "hou_wen_chen"
     assert (
-        cli.main(["run", str(ROOT / "examples" / "seed001.toml"), "--out", str(out), "--quiet"])
+        cli.main(
+            ["run", str(ROOT / "examples" / "hou_wen_chen.toml"), "--out", str(out), "--quiet"]
+        )
         == 0
     )
     _, summary = _check_outputs(out)
@@ -123,7 +125,7 @@ def test_run_writes_to_working_directory_by_default(tmp_path: Path) -> None:
 
 
 def test_design_json_lists_generator_matrices(capsys: pytest.CaptureFixture[str]) -> None:
-    code = cli.main(["design", str(ROOT / "examples" / "seed001.toml"), "--json"])
+    code = cli.main(["design", str(ROOT / "examples" / "hou_wen_chen.toml"), "--json"])
     assert code == 0
     data = json.loads(capsys.readouterr().out)
     assert data["plant"] == {"n": 3, "m": 3, "q": 3, "dt": 0.0}
@@ -150,7 +152,7 @@ def test_design_json_lists_generator_matrices(capsys: pytest.CaptureFixture[str]
 
 
 def test_verify_json_reports_paper_leakage(capsys: pytest.CaptureFixture[str]) -> None:
-    code = cli.main(["verify", str(ROOT / "examples" / "seed001.toml"), "--json"])
+    code = cli.main(["verify", str(ROOT / "examples" / "hou_wen_chen.toml"), "--json"])
     assert code == 0
     data = json.loads(capsys.readouterr().out)
     assert "simulation" not in data
@@ -484,7 +486,7 @@ def test_example_sensor_labels_are_the_0_based_indices(model: Path) -> None:
 
 
 def test_report_numbers_sensors_from_0(capsys: pytest.CaptureFixture[str]) -> None:
-    assert cli.main(["design", str(ROOT / "examples" / "seed001.toml"), "--no-plots"]) == 0
+    assert cli.main(["design", str(ROOT / "examples" / "hou_wen_chen.toml"), "--no-plots"]) == 0
     report = capsys.readouterr().out
     assert "numbered from 0" in report
     assert "| r0 | 1 | 0 | ok |" in report  # the paper's first residual sees sensor 0

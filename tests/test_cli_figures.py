@@ -14,7 +14,7 @@ import pytest
 from geomfdi.io.figures import _Figures
 
 ROOT = Path(__file__).resolve().parents[1]
-SEED001 = ROOT / "examples" / "seed001.toml"
+SEED001 = ROOT / "examples" / "hou_wen_chen.toml"
 
 DRIVER = """
 import json, sys

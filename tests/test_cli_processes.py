@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 MODEL = re.sub(
     r'^name = ".*"$',
     'name = "$x^{$"',
-    (ROOT / "examples" / "seed001.toml").read_text(encoding="utf-8"),
+    (ROOT / "examples" / "hou_wen_chen.toml").read_text(encoding="utf-8"),
     flags=re.MULTILINE,
 )
 

@@ -310,7 +310,7 @@ def test_persistence_removes_the_coincidental_isolation_of_three_simultaneous_fa
 
     from geomfdi.io.modelfile import load_model
 
-    spec = load_model(Path(__file__).parents[1] / "examples" / "seed001.toml")
+    spec = load_model(Path(__file__).parents[1] / "examples" / "hou_wen_chen.toml")
     (sc,) = [s for s in spec.scenarios if s.name.startswith("gain steps on all three")]
     kw = dict(faults=sc.faults, x0=spec.x0, controller=spec.K, threshold=spec.threshold)
     full = gf.design_bank(spec.plant, spec.faults, spec.structure, method="full")

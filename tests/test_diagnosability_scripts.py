@@ -51,7 +51,7 @@ def test_model23_example(tmp_path):
 
 
 def test_bank_example_prints_joint_and_structured_tables(capsys):
-    ex = _load("examples/diagnosability_bank_seed001.py")
+    ex = _load("examples/diagnosability_bank_hou_wen_chen.py")
     out = ex.main(["--window", "20"])
     text = capsys.readouterr().out
     assert "structured KL indices" in text and "raw outputs" in text

@@ -335,7 +335,7 @@ def test_example_evaluate_recorded(tmp_path: Path) -> None:
     assert "first alarm 8.0" in proc.stdout
     for name in ("residuals.png", "isolation.png", "recorded.csv", "bank.json"):
         assert (tmp_path / name).stat().st_size > 500
-    assert (tmp_path / "c" / "seed001_monitor.c").exists()
+    assert (tmp_path / "c" / "hou_wen_chen_monitor.c").exists()
 
 
 def test_alarm_episodes_match_their_definition() -> None:

@@ -126,7 +126,7 @@ def test_rates_vs_fault_size_and_plot():
 
 
 def test_seed_004_experiment_small_run():
-    res = gf.parity.seed004_experiment(sigma=0.0005, n_runs=400, rng=12)
+    res = gf.parity.qin_niu_experiment(sigma=0.0005, n_runs=400, rng=12)
     kinds = res.kinds
     assert len(res.cases) == 12 + 3 * 15
     summ = res.summary()

@@ -243,7 +243,7 @@ def test_seed001_three_faults_multiple_chunked():
 
     from geomfdi.io.modelfile import load_model
 
-    spec = load_model(Path(__file__).parents[1] / "examples" / "seed001.toml")
+    spec = load_model(Path(__file__).parents[1] / "examples" / "hou_wen_chen.toml")
     (sc,) = [s for s in spec.scenarios if s.name.startswith("gain steps on all three")]
     bank = gf.design_bank(spec.plant, spec.faults, spec.structure, method="full")
     kw = dict(

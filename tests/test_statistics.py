@@ -24,7 +24,7 @@ def motor():
 
 @pytest.fixture(scope="module")
 def seed001_bank():
-    spec = load_model(EXAMPLES / "seed001.toml")
+    spec = load_model(EXAMPLES / "hou_wen_chen.toml")
     return spec, design_all(spec)["exact"]
 
 

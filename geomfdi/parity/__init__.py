@@ -18,6 +18,7 @@ Layer: a side branch on measurements as arrays.  It may import the base modules 
 inside functions, :mod:`geomfdi.plotting`.
 """
 
+from geomfdi._moved import renamed as _renamed
 from geomfdi.parity.configs import (
     MAGIC_HALF_ANGLE,
     axis_cosines,
@@ -30,7 +31,7 @@ from geomfdi.parity.configs import (
     tetrahedron,
 )
 from geomfdi.parity.decision import METHODS
-from geomfdi.parity.dodecahedron_experiment import seed004_experiment
+from geomfdi.parity.dodecahedron_experiment import qin_niu_experiment
 from geomfdi.parity.estimation import FaultEstimate, StateEstimate, estimate_faults, estimate_state
 from geomfdi.parity.model import ParityFDI
 from geomfdi.parity.montecarlo import (
@@ -45,9 +46,9 @@ from geomfdi.parity.results import (
     ConfigurationCapability,
     IsolationRates,
     ParityDiagnosis,
+    QinNiuResult,
     RateCurve,
     RateEstimate,
-    Seed004Result,
 )
 from geomfdi.parity.sequential import (
     SEQUENTIAL_METHODS,
@@ -64,7 +65,7 @@ from geomfdi.parity.sprt import (
     wald_rate,
 )
 from geomfdi.parity.thresholds import chi2_threshold, normal_threshold, opt_false_alarm_bound
-from geomfdi.plotting.parity import plot_rates, plot_roc, plot_seed004
+from geomfdi.plotting.parity import plot_qin_niu, plot_rates, plot_roc
 
 __all__ = [
     "ParityFDI",
@@ -73,7 +74,7 @@ __all__ = [
     "RateEstimate",
     "IsolationRates",
     "RateCurve",
-    "Seed004Result",
+    "QinNiuResult",
     "chi2_threshold",
     "normal_threshold",
     "opt_false_alarm_bound",
@@ -82,7 +83,7 @@ __all__ = [
     "correct_isolation_rate",
     "rates_vs_fault_size",
     "plot_rates",
-    "plot_seed004",
+    "plot_qin_niu",
     "METHODS",
     "SEQUENTIAL_METHODS",
     "windowed_statistic",
@@ -98,7 +99,7 @@ __all__ = [
     "StateEstimate",
     "estimate_faults",
     "estimate_state",
-    "seed004_experiment",
+    "qin_niu_experiment",
     "dodecahedron",
     "cone",
     "tetrahedron",
@@ -112,3 +113,5 @@ __all__ = [
     "roc_curves",
     "plot_roc",
 ]
+
+__getattr__ = _renamed(__name__)  # the old names of the Qin & Niu experiment, deprecated

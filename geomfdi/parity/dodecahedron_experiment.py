@@ -11,25 +11,26 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._moved import renamed as _renamed
 from geomfdi._validation import as_int, as_positive
 from geomfdi.parity._input import _as_rng
 from geomfdi.parity.configs import dodecahedron
 from geomfdi.parity.model import ParityFDI
 from geomfdi.parity.montecarlo import _method_spec, correct_isolation_rate
 from geomfdi.parity.multiple import _subset_info
-from geomfdi.parity.results import Seed004Result
+from geomfdi.parity.results import QinNiuResult
 
-__all__ = ["seed004_experiment", "SEED004_KINDS", "SEED004_METHODS"]
+__all__ = ["qin_niu_experiment", "QIN_NIU_KINDS", "QIN_NIU_METHODS"]
 
 
-SEED004_KINDS = (
+QIN_NIU_KINDS = (
     "single fault, +/-0.01",
     "two faults, very different (0.05, 0.005)",
     "two faults, equal, same sign (0.1, 0.1)",
     "two faults, equal, opposite sign (0.1, -0.1)",
 )
 
-SEED004_METHODS = (
+QIN_NIU_METHODS = (
     ("paper search (Qin-Niu)", "search", 2),
     ("two-fault GLR", "glr", 2),
     ("sequential GLT", "glt", 2),
@@ -51,14 +52,14 @@ def _equivalent(pf: ParityFDI, f: np.ndarray) -> list[frozenset[int]]:
     return alts
 
 
-def seed004_experiment(
+def qin_niu_experiment(
     sigma: float = 0.001,
     n_runs: int = 20000,
     rng: Any = None,
     *,
     pfa: float = 1e-3,
-    methods: Sequence[Any] = SEED004_METHODS,
-) -> Seed004Result:
+    methods: Sequence[Any] = QIN_NIU_METHODS,
+) -> QinNiuResult:
     """Reproduce Qin & Niu (1999)'s dodecahedron experiment as correct-isolation rates.
 
     Six gyros on the dodecahedron (:func:`dodecahedron`, the paper's numbering), white
@@ -84,7 +85,7 @@ def seed004_experiment(
 
     Returns
     -------
-    Seed004Result
+    QinNiuResult
         ``.table()`` prints the rates; ``.plot()`` draws them.
 
     Notes
@@ -104,13 +105,13 @@ def seed004_experiment(
     cases: list[tuple[str, dict[int, float]]] = []
     for j in range(m):
         for sgn in (1.0, -1.0):
-            cases.append((SEED004_KINDS[0], {j: 0.01 * sgn}))
+            cases.append((QIN_NIU_KINDS[0], {j: 0.01 * sgn}))
     for i, j in itertools.combinations(range(m), 2):
-        cases.append((SEED004_KINDS[1], {i: 0.05, j: 0.005}))
+        cases.append((QIN_NIU_KINDS[1], {i: 0.05, j: 0.005}))
     for i, j in itertools.combinations(range(m), 2):
-        cases.append((SEED004_KINDS[2], {i: 0.1, j: 0.1}))
+        cases.append((QIN_NIU_KINDS[2], {i: 0.1, j: 0.1}))
     for i, j in itertools.combinations(range(m), 2):
-        cases.append((SEED004_KINDS[3], {i: 0.1, j: -0.1}))
+        cases.append((QIN_NIU_KINDS[3], {i: 0.1, j: -0.1}))
     out = []
     for kind, fdict in cases:
         f = np.zeros(m)
@@ -123,6 +124,9 @@ def seed004_experiment(
         out.append(
             {"kind": kind, "faults": fdict, "rates": rates, "alternatives": _equivalent(pf, f)}
         )
-    return Seed004Result(
-        out, tuple(lab for lab, _, _ in specs), sigma, float(pfa), n_runs, SEED004_KINDS
+    return QinNiuResult(
+        out, tuple(lab for lab, _, _ in specs), sigma, float(pfa), n_runs, QIN_NIU_KINDS
     )
+
+
+__getattr__ = _renamed(__name__)  # the old names of the Qin & Niu experiment, deprecated

@@ -8,9 +8,10 @@ The implementation is split by concept: :mod:`~geomfdi.parity.model` (the
 :mod:`geomfdi.plotting.parity`.
 """
 
+from geomfdi._moved import renamed as _renamed
 from geomfdi.parity.configs import MAGIC_HALF_ANGLE, cone, dodecahedron, tetrahedron
 from geomfdi.parity.decision import METHODS
-from geomfdi.parity.dodecahedron_experiment import seed004_experiment
+from geomfdi.parity.dodecahedron_experiment import qin_niu_experiment
 from geomfdi.parity.model import ParityFDI
 from geomfdi.parity.montecarlo import (
     correct_isolation_rate,
@@ -22,9 +23,9 @@ from geomfdi.parity.results import (
     ConfigurationCapability,
     IsolationRates,
     ParityDiagnosis,
+    QinNiuResult,
     RateCurve,
     RateEstimate,
-    Seed004Result,
 )
 from geomfdi.parity.thresholds import chi2_threshold, normal_threshold, opt_false_alarm_bound
 from geomfdi.plotting.parity import plot_rates
@@ -36,7 +37,7 @@ __all__ = [
     "RateEstimate",
     "IsolationRates",
     "RateCurve",
-    "Seed004Result",
+    "QinNiuResult",
     "METHODS",
     "chi2_threshold",
     "normal_threshold",
@@ -49,6 +50,8 @@ __all__ = [
     "false_alarm_rate",
     "correct_isolation_rate",
     "rates_vs_fault_size",
-    "seed004_experiment",
+    "qin_niu_experiment",
     "plot_rates",
 ]
+
+__getattr__ = _renamed(__name__)  # the old names of the Qin & Niu experiment, deprecated

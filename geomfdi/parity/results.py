@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._moved import renamed as _renamed
 from geomfdi._validation import as_probability
 
 __all__ = [
@@ -19,7 +20,7 @@ __all__ = [
     "RateEstimate",
     "IsolationRates",
     "RateCurve",
-    "Seed004Result",
+    "QinNiuResult",
 ]
 
 
@@ -279,8 +280,8 @@ class RateCurve:
 
 
 @dataclass(frozen=True)
-class Seed004Result:
-    """Correct-isolation rates of the Qin & Niu (1999) experiment (see :func:`seed004_experiment`).
+class QinNiuResult:
+    """Correct-isolation rates of the Qin & Niu (1999) experiment (see :func:`qin_niu_experiment`).
 
     Attributes
     ----------
@@ -365,8 +366,11 @@ class Seed004Result:
     def plot(self, ax: Any = None) -> Any:
         """Grouped bar chart of the mean correct-isolation rate per family and method.
 
-        See :func:`geomfdi.plotting.parity.plot_seed004`.
+        See :func:`geomfdi.plotting.parity.plot_qin_niu`.
         """
-        from geomfdi.plotting.parity import plot_seed004
+        from geomfdi.plotting.parity import plot_qin_niu
 
-        return plot_seed004(self, ax=ax)
+        return plot_qin_niu(self, ax=ax)
+
+
+__getattr__ = _renamed(__name__)  # the old names of the Qin & Niu experiment, deprecated

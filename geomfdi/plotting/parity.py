@@ -9,7 +9,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
-__all__ = ["plot_rates", "plot_seed004", "plot_roc"]
+from geomfdi._moved import renamed as _renamed
+
+__all__ = ["plot_rates", "plot_qin_niu", "plot_roc"]
 
 # What the figures read of the parity results (the results call these functions from
 # their ``plot`` methods; this module does not import the results' modules back).
@@ -26,8 +28,8 @@ class RateCurveLike(Protocol):
     pfa: float
 
 
-class Seed004ResultLike(Protocol):
-    """The fields of a :class:`~geomfdi.parity.results.Seed004Result` the figure reads."""
+class QinNiuResultLike(Protocol):
+    """The fields of a :class:`~geomfdi.parity.results.QinNiuResult` the figure reads."""
 
     methods: tuple[str, ...]
     kinds: tuple[str, ...]
@@ -92,13 +94,13 @@ def plot_rates(curve: RateCurveLike, ax: Any = None) -> Any:
     return fig
 
 
-def plot_seed004(result: Seed004ResultLike, ax: Any = None) -> Any:
+def plot_qin_niu(result: QinNiuResultLike, ax: Any = None) -> Any:
     """Grouped bar chart of the mean correct-isolation rate per family and method.
 
     Parameters
     ----------
-    result : Seed004Result
-        From :func:`geomfdi.parity.seed004_experiment`.
+    result : QinNiuResult
+        From :func:`geomfdi.parity.qin_niu_experiment`.
     ax : matplotlib Axes, optional
 
     Returns
@@ -143,3 +145,6 @@ def plot_roc(curve: RocCurveLike, ax: Any = None) -> Any:
     ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
+
+
+__getattr__ = _renamed(__name__)  # the old names of the Qin & Niu experiment, deprecated

@@ -13,7 +13,7 @@ The paper bank keeps more of the output information (its joint indices are close
 raw outputs'), but its residuals 2 and 3 leak the other sensors: on them ``FI = 0``.  See
 the user guide, *Theory: diagnosability* (``docs/theory/diagnosability.md``).
 
-Run:  python examples/diagnosability_bank_seed001.py [--window 40]
+Run:  python examples/diagnosability_bank_hou_wen_chen.py [--window 40]
 """
 
 from __future__ import annotations

@@ -12,14 +12,14 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def _load():
     spec = importlib.util.spec_from_file_location(
-        "seed001_compare", ROOT / "examples" / "seed001_compare.py"
+        "hou_wen_chen_compare", ROOT / "examples" / "hou_wen_chen_compare.py"
     )
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
 
 
-def test_seed001_compare_reproduces_reference(tmp_path):
+def test_hou_wen_chen_compare_reproduces_reference(tmp_path):
     peaks = _load().run(tmp_path)
     paper = next(v for k, v in peaks.items() if k.startswith("paper"))
     exact = next(v for k, v in peaks.items() if k.startswith("exact"))
@@ -28,6 +28,6 @@ def test_seed001_compare_reproduces_reference(tmp_path):
     # the exact design: r2 = r3 = 0 (rounding level), r1 sees the fault
     assert exact[0] > 0.06
     assert np.all(exact[1:] < 1e-9)
-    png = tmp_path / "seed001_residuals.png"
+    png = tmp_path / "hou_wen_chen_residuals.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert png.stat().st_size > 10_000

@@ -4,9 +4,9 @@ sensor 0 at 8 s
 
 Closed loop u = v - K x with the numbers of Hou, Wen, Chen (2011), section 4.  Both banks
 are scaled like the paper (unit first Markov parameter: M = 1, p_j L_j = +-1), so the
-paper's threshold 0.06 applies.  Saves ``seed001_residuals.png`` into ``--out``.
+paper's threshold 0.06 applies.  Saves ``hou_wen_chen_residuals.png`` into ``--out``.
 
-Run: ``python examples/seed001_compare.py --out DIR``
+Run: ``python examples/hou_wen_chen_compare.py --out DIR``
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def run(out: Path) -> dict[str, np.ndarray]:
         axes[2, col].set_xlabel("t [s]")
     fig.suptitle("Sensor 0 gain fault (eta = 1.5, lambda = 0.02) at t = 8 s; threshold 0.06")
     out.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out / "seed001_residuals.png", dpi=110)
+    fig.savefig(out / "hou_wen_chen_residuals.png", dpi=110)
     return peaks
 
 
@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     for name, p in run(args.out).items():
         print(f"{name:28s} max|r| on [8, 20] s: " + ", ".join(f"{x:.4f}" for x in p))
-    print(f"figure: {args.out / 'seed001_residuals.png'}")
+    print(f"figure: {args.out / 'hou_wen_chen_residuals.png'}")
 
 
 if __name__ == "__main__":
