@@ -21,14 +21,19 @@ the best of ``--repeats`` is kept):
   processes; the 1-worker case pins every task to one worker (skipped without
   ``distributed`` or with ``--no-dask``).
 
-A task carries ``--blocks-per-task`` blocks (default 1: a block of 64 runs x 10^4
-samples is already about half a second of vectorised work, against milliseconds of
-per-task overhead -- pickling the job and the results, scheduling); many equal tasks keep
-the two workers equally busy to the end.  The per-task overhead is estimated as
-``(t(processes, 1 worker) - t(serial)) / tasks``.  The scaling ratio ``t(1 worker) /
-t(2 workers)`` is reported per executor with the machine's load average
-(``os.getloadavg``) read before every timed run: on a machine whose 2 cores are busy with
-other work the ratio cannot reach 2, so the load is part of the result.
+A task carries ``--blocks-per-task`` blocks (default ``auto``: sized by
+``Campaign.run`` from the first task's measured block time so that the per-task overhead
+stays under 10 % while every worker gets about 4 tasks; a block of 64 runs x 10^4
+samples is about half a second of vectorised work, against milliseconds of per-task
+overhead, so a task is one block).  The job goes once to every worker (see
+``geomfdi.campaign.executors``).  Per executor the benchmark prints the tasks, the
+blocks per task, the compute seconds summed over the tasks (measured in the workers) and
+the per-task overhead ``(t * workers - compute) / tasks`` (scheduling, shipping and the
+slots left idle at the end), with ``(t(1 worker) - t(serial)) / tasks`` for the 1-worker
+cases, and the ratio ``t(processes, 2 workers) / t(dask, 2 workers)``.  The scaling
+ratio ``t(1 worker) / t(2 workers)`` is reported per executor with the machine's load
+average (``os.getloadavg``) read before every timed run: on a machine whose 2 cores are
+busy with other work the ratio cannot reach 2, so the load is part of the result.
 
 Everything runs twice (``benchmarks/_threads.py``): one BLAS thread, then the default
 threads (worker processes inherit the limit through their initializer; Dask sets one
