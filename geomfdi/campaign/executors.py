@@ -401,6 +401,7 @@ def execute(
                     rnd.submit(span)
                 for k in range(len(rnd.futures)):
                     rnd.collect(k, done)
+            stats.setdefault("planned", len(spans))
             stats["tasks"] += len(rnd.futures)
             stats["compute_seconds"] += sum(rnd.seconds)
             if not rnd.lost:
@@ -408,7 +409,7 @@ def execute(
             if attempt == RETRIES:
                 raise CampaignIncompleteError(
                     f"executor: workers lost {RETRIES + 1} times ({rnd.why}); "
-                    f"{len(rnd.lost)} of {len(spans)} tasks not done",
+                    f"{len(rnd.lost)} of {stats['planned']} tasks not done",
                     partial=partial(done) if partial is not None else None,
                     argument="executor",
                 )
@@ -420,6 +421,7 @@ def execute(
         if own is not None:
             own.shutdown()
     stats.setdefault("items_per_task", per)
+    del stats["planned"]
     return done, stats
 
 
