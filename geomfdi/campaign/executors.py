@@ -337,22 +337,73 @@ class _Round:
             return
         self.futures.append((span, fut, time.perf_counter()))
 
-    def collect(self, k: int, done: dict[int, list[Any]]) -> None:
-        span, fut, t0 = self.futures[k]
-        try:
-            out, seconds = fut.result()
-        except Exception as exc:
-            if not lost_worker(exc):
-                raise
-            self.lost.append(span)
-            self.why = f"{type(exc).__name__}: {exc}"
-            return
+    def _failed(self, span: tuple[int, int], exc: BaseException) -> None:
+        if not lost_worker(exc):
+            raise exc
+        self.lost.append(span)
+        self.why = f"{type(exc).__name__}: {exc}"
+
+    def _store(self, k: int, out: list[Any], seconds: float, done: dict[int, list[Any]]) -> None:
+        span, _, t0 = self.futures[k]
         if k == 0:
             self.overheads.append(time.perf_counter() - t0 - seconds)
         self.seconds.append(seconds)
         done[span[0]] = out
         if self.bar is not None:
             self.bar.update(span[1] - span[0])
+
+    def collect(self, k: int, done: dict[int, list[Any]]) -> None:
+        """The outcome of task ``k`` (waiting for it)."""
+        span, fut, _ = self.futures[k]
+        try:
+            out, seconds = fut.result()
+        except Exception as exc:
+            self._failed(span, exc)
+            return
+        self._store(k, out, seconds, done)
+
+    def collect_from(self, start: int, done: dict[int, list[Any]]) -> None:
+        """The outcomes of tasks ``start, ...``: one by one, or for Dask futures all
+        fetched in one ``gather`` once every task has finished (one message per worker
+        instead of one round trip per task)."""
+        ks = range(start, len(self.futures))
+        if not ks:
+            return
+        if not type(self.futures[start][1]).__module__.startswith("distributed"):
+            for k in ks:
+                self.collect(k, done)
+            return
+        from distributed import as_completed
+
+        index = {self.futures[k][1].key: k for k in ks}
+        finished = []
+        for fut in as_completed([self.futures[k][1] for k in ks]):
+            k = index[fut.key]
+            if fut.status != "finished":
+                try:
+                    exc = fut.exception()
+                except Exception as err:  # a cancelled future raises instead
+                    exc = err
+                self._failed(self.futures[k][0], exc)
+                continue
+            finished.append(k)
+            if self.bar is not None:
+                self.bar.update(self.futures[k][0][1] - self.futures[k][0][0])
+        if finished:
+            futs = [self.futures[k][1] for k in finished]
+            bar, self.bar = self.bar, None  # (counted above)
+            try:
+                outs = futs[0].client.gather(futs)
+            except Exception as exc:  # a worker lost with results: task by task
+                if not lost_worker(exc):
+                    raise
+                for k in finished:
+                    self.collect(k, done)
+            else:
+                for k, (out, seconds) in zip(finished, outs, strict=True):
+                    self._store(k, out, seconds, done)
+            finally:
+                self.bar = bar
 
 
 def execute(
@@ -399,8 +450,7 @@ def execute(
             else:
                 for span in spans:
                     rnd.submit(span)
-                for k in range(len(rnd.futures)):
-                    rnd.collect(k, done)
+                rnd.collect_from(0, done)
             stats.setdefault("planned", len(spans))
             stats["tasks"] += len(rnd.futures)
             stats["compute_seconds"] += sum(rnd.seconds)
@@ -445,7 +495,6 @@ def _adaptive(
     rest = _spans(first[-1][1], n, per)
     for span in rest:
         rnd.submit(span)
-    for k in range(collected, len(rnd.futures)):
-        rnd.collect(k, done)
+    rnd.collect_from(collected, done)
     stats["items_per_task"] = per
     return first + rest
