@@ -379,12 +379,8 @@ class _Round:
         finished = []
         for fut in as_completed([self.futures[k][1] for k in ks]):
             k = index[fut.key]
-            if fut.status != "finished":
-                try:
-                    exc = fut.exception()
-                except Exception as err:  # a cancelled future raises instead
-                    exc = err
-                self._failed(self.futures[k][0], exc)
+            if fut.status != "finished":  # an error, a lost or recomputed task
+                self.collect(k, done)
                 continue
             finished.append(k)
             if self.bar is not None:
