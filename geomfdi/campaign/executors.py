@@ -16,7 +16,9 @@ every worker process:
 
 A task then carries only its blocks (the indices of its runs with their scenario, size,
 onset and repetition: a few kB) and brings back the table numbers of its runs (scores,
-delays, isolation; never residuals or statistics).
+delays, isolation; never residuals or statistics).  Dask results stay on the workers
+until every task is done and come back in one ``gather`` (one message per worker rather
+than a round trip per task).
 
 **Task size** (``blocks_per_task="auto"``).  A task costs its blocks' compute time plus a
 fixed overhead ``o`` (submitting, scheduling, shipping the blocks and the results).  The
@@ -65,7 +67,10 @@ __all__ = [
     "RETRIES",
     "TASKS_PER_WORKER",
     "Shipped",
+    "allocator_for_arrays",
     "execute",
+    "install",
+    "lost_worker",
     "run_items",
     "task_size",
     "worker_slots",
