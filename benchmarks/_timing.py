@@ -1,9 +1,26 @@
 """Timing helpers shared by the benchmark scripts.
 
-* :func:`best_alternating`: the best CPU time (``time.process_time``) of each of several
-  functions, called alternately so that a load change on a shared machine hits them all;
+* :func:`best_alternating`: the best wall-clock time of each of several functions, called
+  alternately (so that a load change on a shared machine hits them all), each call
+  started after the BLAS worker threads have gone idle (:data:`SETTLE`);
+  :func:`best_times`: the same calls timed by both clocks (wall and process CPU);
 * :func:`svd_time`: the best wall-clock time of one dense ``n x n`` SVD, the yardstick the
   synthesis benchmarks report their design times against.
+
+Why wall-clock after a pause, not CPU time back to back: a multithreaded OpenBLAS keeps
+its worker threads spinning (busy-waiting for the next call) for about 2^28 cycles,
+~0.1 s, after its last call.  Timed back to back with ``time.process_time`` (the whole
+process's CPU time), a fast candidate timed right after a baseline that used the BLAS's
+default threads (``control.forced_response`` of a 132-state system: one multithreaded
+``gemv`` per sample) was charged that spinning: a 7 ms ``gf.simulate`` measured 13 ms and
+more, half of its ratio, although it runs with one BLAS thread itself.  The same CPU
+clock also charges a multithreaded baseline for its workers' spinning during its own
+call, time its user does not wait for.  So every call starts on an idle BLAS (a pause of
+``SETTLE`` seconds before it) and is timed by the wall clock, the time its caller waits;
+the best of ``repeat`` calls discards the rounds slowed by other processes.  Code that
+runs on one thread (no multithreaded BLAS in any of the timed functions: the online
+monitor) may pass ``clock=time.process_time`` instead: after the pause its CPU time is
+its own, and it is less disturbed by other processes than the wall clock.
 """
 
 from __future__ import annotations
@@ -13,17 +30,51 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-__all__ = ["best_alternating", "svd_time"]
+__all__ = ["SETTLE", "best_alternating", "best_times", "svd_time"]
+
+SETTLE = 0.15
+"""Seconds of pause before each timed call: longer than OpenBLAS's spin of its idle
+worker threads (``THREAD_TIMEOUT`` 2^28 cycles, about 0.11 s at 2.4 GHz)."""
 
 
-def best_alternating(fns: Sequence[Callable[[], object]], repeat: int) -> list[float]:
-    """Best CPU time of each function over ``repeat`` rounds, the functions called alternately."""
+def best_times(
+    fns: Sequence[Callable[[], object]], repeat: int, settle: float = SETTLE
+) -> list[tuple[float, float]]:
+    """Best wall-clock and best process CPU time of each function, ``(wall, cpu)``, over
+    ``repeat`` rounds, the functions called alternately, each after a pause of
+    ``settle`` seconds (idle BLAS threads; see the module docstring).  On a loaded
+    machine the CPU time is the steadier of the two; with a multithreaded BLAS it also
+    counts the worker threads' spinning during the call."""
+    wall = [np.inf] * len(fns)
+    cpu = [np.inf] * len(fns)
+    for _ in range(repeat):
+        for i, fn in enumerate(fns):
+            if settle > 0:
+                time.sleep(settle)
+            w0, c0 = time.perf_counter(), time.process_time()
+            fn()
+            c1, w1 = time.process_time(), time.perf_counter()
+            wall[i], cpu[i] = min(wall[i], w1 - w0), min(cpu[i], c1 - c0)
+    return list(zip(wall, cpu, strict=True))
+
+
+def best_alternating(
+    fns: Sequence[Callable[[], object]],
+    repeat: int,
+    settle: float = SETTLE,
+    clock: Callable[[], float] = time.perf_counter,
+) -> list[float]:
+    """Best time of each function over ``repeat`` rounds by ``clock`` (the wall clock by
+    default), the functions called alternately, each after a pause of ``settle`` seconds
+    (idle BLAS threads; see the module docstring)."""
     best = [np.inf] * len(fns)
     for _ in range(repeat):
         for i, fn in enumerate(fns):
-            t0 = time.process_time()
+            if settle > 0:
+                time.sleep(settle)
+            t0 = clock()
             fn()
-            best[i] = min(best[i], time.process_time() - t0)
+            best[i] = min(best[i], clock() - t0)
     return best
 
 

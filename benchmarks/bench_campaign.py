@@ -35,6 +35,13 @@ ratio ``t(1 worker) / t(2 workers)`` is reported per executor with the machine's
 average (``os.getloadavg``) read before every timed run: on a machine whose 2 cores are
 busy with other work the ratio cannot reach 2, so the load is part of the result.
 
+The ``floor`` section: the flops of one run-sample of the campaign's arithmetic
+(:func:`flops_per_sample`: plant, bank of 3, chi-square statistic) times the run-samples,
+divided by the measured rate of a 1000 x 1000 matrix product (in the same thread mode):
+the time the arithmetic alone would take at GEMM speed.  The serial campaign is reported
+against it, and so is drawing the measurement noise alone (``q`` standard normals per
+run-sample from each run's own generator, as ``gf.simulate`` draws them).
+
 Everything runs twice (``benchmarks/_threads.py``): one BLAS thread, then the default
 threads (worker processes inherit the limit through their initializer; Dask sets one
 thread per worker process itself).  The tables of the serial and the parallel runs are
@@ -107,6 +114,87 @@ def setup(runs: int, samples: int, block: int) -> tuple[gf.Campaign, dict[str, A
         persistence=RULE,
     )
     return camp, {"spec": spec, "bank": bank, "t": t, "test": test, "window": window}
+
+
+def flops_per_sample(ctx: dict[str, Any]) -> dict[str, int]:
+    """Floating-point operations of one run-sample of the campaign's arithmetic, a
+    multiply-add counted as 2 (as in a GEMM's ``2 n^3``), the bank's generators as
+    separate blocks (what they are), every matrix dense otherwise:
+
+    * plant: ``x+ = A_d x + B_d u`` (``u = -K x + r`` with state feedback), the readings
+      ``y = C x + D u + v``;
+    * bank: per generator ``w+ = F w - E y + G u``, ``r = M w - H y + K u``;
+    * chi-square: ``r^2``, the running sum and the window's difference per residual.
+    """
+    p, gens = ctx["spec"].plant, [g for g in ctx["bank"].generators if g is not None]
+    n, m, q = p.n, p.m, p.q
+    out = {
+        "plant": 2 * n * (n + m) + (2 * m * n if ctx["spec"].K is not None else 0),
+        "readings": 2 * q * (n + m) + q,
+        "bank states": sum(2 * g.order * (g.order + q + m) for g in gens),
+        "residuals": sum(2 * g.n_outputs * (g.order + q + m) for g in gens),
+        "chi-square": 3 * len(gens),
+    }
+    out["total"] = sum(out.values())
+    return out
+
+
+def gemm_rate(size: int = 1000, repeats: int = 3) -> float:
+    """Measured flop rate (flop/s) of a ``size x size`` matrix product in this process
+    (its BLAS threads), the best of ``repeats``."""
+    rng = np.random.default_rng(0)
+    a, b = rng.standard_normal((size, size)), rng.standard_normal((size, size))
+    a @ b
+    best = min(_seconds(lambda: a @ b) for _ in range(repeats))
+    return 2.0 * size**3 / best
+
+
+def noise_seconds(camp: gf.Campaign, ctx: dict[str, Any], runs: int) -> float:
+    """Seconds to draw the measurement noise alone (``q`` standard normals per
+    run-sample, each run from its own ``default_rng(seed)``, as the campaign does) for
+    ``runs`` runs, extrapolated to the campaign's runs."""
+    q, N = ctx["spec"].plant.q, ctx["t"].size
+    root = np.random.SeedSequence(camp.noise.seed)
+    buf = np.empty((q, N))
+
+    def draw() -> None:
+        for r in range(runs):
+            seed = np.random.SeedSequence(root.entropy, spawn_key=(r,))
+            np.random.default_rng(seed).standard_normal(out=buf)
+
+    total = camp.grid()["run"].size
+    return min(_seconds(draw) for _ in range(2)) * total / runs
+
+
+def _seconds(fn: Any) -> float:
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
+
+
+def print_floor(camp: gf.Campaign, ctx: dict[str, Any], serial: float) -> dict[str, float]:
+    """The ``floor`` section: flops per sample x run-samples / measured GEMM rate."""
+    fl = flops_per_sample(ctx)
+    total = camp.grid()["run"].size
+    samples = total * ctx["t"].size
+    rate = gemm_rate()
+    floor = fl["total"] * samples / rate
+    noise = noise_seconds(camp, ctx, min(total, 256))
+    parts = ", ".join(f"{k} {v}" for k, v in fl.items() if k != "total")
+    print(f"floor: {fl['total']} flops per run-sample ({parts})")
+    print(
+        f"floor: GEMM 1000x1000 {rate / 1e9:.1f} GFlop/s -> {fl['total']} x {samples:.3g} "
+        f"run-samples = {floor:.2f} s"
+    )
+    print(
+        f"floor: serial {serial:.2f} s = {serial / floor:.1f}x the floor, "
+        f"{1e9 * serial / samples:.0f} ns per run-sample"
+    )
+    print(
+        f"floor: drawing the noise alone ({ctx['spec'].plant.q} normals per run-sample) "
+        f"{noise:.2f} s = {noise / floor:.1f}x the floor"
+    )
+    return {"floor": floor, "noise": noise, "gemm": rate, "flops": fl["total"]}
 
 
 def loop_baseline(camp: gf.Campaign, ctx: dict[str, Any], n: int) -> float:
@@ -323,9 +411,17 @@ def main(argv: list[str]) -> dict[str, Any]:
     same = all(tb.equals(ref) for tb in tables.values())
     print(f"identical tables (serial, processes, dask): {same}")
     print("* timed on the first runs of the grid and extrapolated linearly to all runs")
+    floor = print_floor(camp, ctx, best["serial"]) if "serial" in best else None
     if dask_note:
         print(dask_note)
-    return {"best": best, "load": load, "identical": same, "executors": stats, "paired": paired}
+    return {
+        "best": best,
+        "load": load,
+        "identical": same,
+        "floor": floor,
+        "executors": stats,
+        "paired": paired,
+    }
 
 
 def _block_seconds(job: dict[str, Any], block: Any, as_task: bool = True) -> float:

@@ -38,7 +38,8 @@ process their time axis in chunks sized from ``gf.limits`` ``chunk_memory``.
 
 ``--acceptance`` prints only the throughput ratios of ``benchmarks/_throughput.py`` (a
 short record of a 12-state plant and a bank of 120 generator states against
-``forced_response``; ``simulate_batch`` against a loop of ``simulate``).
+``forced_response``; ``simulate_batch`` against a loop of ``simulate``); with
+``--short-only``, the short record alone.
 
 Run ``python benchmarks/bench_simulation.py`` (``--quick`` for a smoke run, ``--full`` to
 time ``forced_response`` at every size instead of extrapolating, ``--memory`` for the
@@ -452,6 +453,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
         action="store_true",
         help="only the throughput ratios: short record vs forced_response, batch vs loop",
     )
+    ap.add_argument(
+        "--short-only", action="store_true", help="acceptance: the short-record ratio alone"
+    )
     ap.add_argument("--samples", type=float, default=1e7, help="memory: one record's length")
     ap.add_argument("--batch-samples", type=float, default=1e6, help="memory: run length")
     ap.add_argument("--runs", type=int, default=100, help="memory: batch runs")
@@ -467,7 +471,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     if args.acceptance:
         from _throughput import acceptance
 
-        return [acceptance(quick=args.quick)]
+        return [acceptance(quick=args.quick, short_only=args.short_only)]
     if args.quick:
         kw = dict(
             sizes=(10**3, 10**4),

@@ -78,7 +78,7 @@ _register(
     "StackedWindow",
 )
 _register("geomfdi.diagnosability.tables", "diagnosability_table")
-_register("geomfdi.errors", "IsolabilityWarning")
+_register("geomfdi.errors", "IsolabilityWarning", "BackendFallbackWarning")
 _register(
     "geomfdi.evaluation.covariance",
     "ResidualNoiseModel",
@@ -308,7 +308,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         StackedWindow,
     )  # noqa: F401
     from geomfdi.diagnosability.tables import diagnosability_table  # noqa: F401
-    from geomfdi.errors import IsolabilityWarning  # noqa: F401
+    from geomfdi.errors import BackendFallbackWarning, IsolabilityWarning  # noqa: F401
     from geomfdi.evaluation.covariance import (
         ResidualNoiseModel,
         residual_noise_model,

@@ -21,6 +21,7 @@ from __future__ import annotations
 import contextvars
 import functools
 import os
+import sys
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -36,6 +37,8 @@ _inside: contextvars.ContextVar[bool] = contextvars.ContextVar(
     "geomfdi_blas_limited", default=False
 )
 _controller: Any = None
+_blas: list[Any] = []  # its BLAS libraries (threadpoolctl's LibController objects)
+_modules_seen = -1  # len(sys.modules) when _controller was made
 
 
 def _parse(value: Any, name: str) -> int | None:
@@ -94,11 +97,21 @@ def get_blas_threads() -> int | None:
 
 
 def _get_controller() -> Any:
-    global _controller
-    if _controller is None:
+    """threadpoolctl's controller of the BLAS libraries loaded now.
+
+    A controller knows the libraries loaded when it was made (scipy's OpenBLAS is a
+    library of its own, loaded with ``scipy.linalg``, often after the first limited
+    call), so it is made again whenever modules were imported since: a new BLAS comes
+    with an import.  Cost: one ``len(sys.modules)`` per call once the imports settle.
+    """
+    global _controller, _blas, _modules_seen
+    seen = len(sys.modules)
+    if _controller is None or seen != _modules_seen:
         from threadpoolctl import ThreadpoolController
 
         _controller = ThreadpoolController()
+        _blas = [lc for lc in _controller.lib_controllers if lc.user_api == "blas"]
+        _modules_seen = len(sys.modules)  # after threadpoolctl's own import
     return _controller
 
 
@@ -106,7 +119,11 @@ def limit_blas_threads(func: F) -> F:
     """Decorator: run ``func`` with the BLAS limited to :func:`get_blas_threads` threads.
 
     Nested decorated calls switch the limit once (at the outermost call); with
-    ``set_blas_threads(None)`` the wrapper only forwards the call.
+    ``set_blas_threads(None)`` the wrapper only forwards the call.  Each BLAS library
+    (threadpoolctl's controllers) is set only when its thread count differs from the
+    limit, and set back on return: a few microseconds per call (a short record, a
+    monitor's chunk of a few samples), nothing to set when the BLAS already runs one
+    thread.
     """
 
     @functools.wraps(func)
@@ -115,10 +132,18 @@ def limit_blas_threads(func: F) -> F:
         if limit is None or _inside.get():
             return func(*args, **kwargs)
         token = _inside.set(True)
+        changed = []
         try:
-            with _get_controller().limit(limits=limit, user_api="blas"):
-                return func(*args, **kwargs)
+            _get_controller()
+            for lc in _blas:
+                old = lc.get_num_threads()
+                if old is not None and old != limit:
+                    lc.set_num_threads(limit)
+                    changed.append((lc, old))
+            return func(*args, **kwargs)
         finally:
+            for lc, old in reversed(changed):
+                lc.set_num_threads(old)
             _inside.reset(token)
 
     return wrapper  # type: ignore[return-value]

@@ -25,6 +25,7 @@ __all__ = [
     "ResourceLimitError",
     "CampaignIncompleteError",
     "IsolabilityWarning",
+    "BackendFallbackWarning",
 ]
 
 
@@ -168,4 +169,13 @@ class IsolabilityWarning(UserWarning):
     Issued by :func:`geomfdi.design_bank` before the design; see
     :func:`geomfdi.isolability_analysis` and the user guide, *Choosing a structure*
     (``docs/guide/choosing-a-structure.md``).
+    """
+
+
+class BackendFallbackWarning(RuntimeWarning):
+    """A compiled path (``backend="c"``) is not available; the numpy path runs instead.
+
+    Issued once per process by the simulator's compiled batch recursion and by
+    :class:`geomfdi.Monitor` when no C compiler works (the results are the same to
+    rounding); see the user guide, *Performance* (``docs/guide/performance.md``).
     """

@@ -305,6 +305,22 @@ def test_layers():
     assert bad == []
 
 
+def test_compiled_recursion_never_imports_deployment():
+    """The simulator's compiled recursion and the compiled monitor share the build and
+    cache helpers of ``geomfdi._cbuild``, a module below both (it imports only
+    ``geomfdi.errors``); the compiled recursion never loads the deployment code."""
+    graph = _graph()
+    seen, todo = set(), ["geomfdi.simulation.compiled_recursion"]
+    while todo:  # everything it imports, at module level or lazily
+        m = todo.pop()
+        if m not in seen and m != "geomfdi":
+            seen.add(m)
+            todo += sorted(graph.get(m, ()))
+    assert not any(_in(m, ("geomfdi.deployment",)) for m in seen), sorted(seen)
+    assert graph["geomfdi._cbuild"] == {"geomfdi.errors"}
+    assert "geomfdi._cbuild" in graph["geomfdi.deployment.compiled"]
+
+
 def test_generators_never_import_synthesis_even_lazily():
     for m, p in MODULES.items():
         if _in(m, ("geomfdi.generators",)):

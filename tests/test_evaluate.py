@@ -473,3 +473,27 @@ def test_cli_saved_bank_per_residual_thresholds_and_progress(
     assert "one value or 3" in capsys.readouterr().err
     code = ["codegen", str(model), "--lang", "python", "--out", str(tmp_path / "py")]
     assert main([*code, "--bank", str(tmp_path / "bank.json"), "--progress", "--quiet"]) == 0
+
+
+def test_the_fused_program_is_kept_by_the_banks_values(dbank: gf.ResidualBank) -> None:
+    """A bank evaluated again reuses its fused form (read-only arrays); a matrix changed
+    in place gives another form and the residuals of a fresh bank with that matrix."""
+    from dataclasses import replace
+
+    from geomfdi.deployment.program import build_program
+
+    rng = np.random.default_rng(3)
+    g0 = next(g for g in dbank.generators if g is not None)
+    Y, U = rng.normal(size=(g0.q, 50)), rng.normal(size=(g0.m, 50))
+    gens = [None if g is None else replace(g, E=g.E.copy()) for g in dbank.generators]
+    bank = replace(dbank, generators=gens)
+    p1 = build_program(bank)
+    assert build_program(bank) is p1 and not p1.A.flags.writeable
+    before = gf.evaluate(bank, Y, U, dt=bank.dt).residuals
+    g = next(g for g in gens if g is not None)
+    g.E[0, 0] += 0.5
+    assert build_program(bank) is not p1
+    after = gf.evaluate(bank, Y, U, dt=bank.dt).residuals
+    fresh = replace(bank, generators=[None if h is None else replace(h) for h in gens])
+    np.testing.assert_array_equal(after, gf.evaluate(fresh, Y, U, dt=bank.dt).residuals)
+    assert not np.allclose(before, after)

@@ -246,3 +246,30 @@ def test_block_recursion_runs_come_from_scales_too():
     assert out.shape == (1, 3, 6)
     # x[k+1] = 0.5 x[k] + s: run r converges to 2 r
     assert np.allclose(out[0, :, -1], np.arange(3.0) * 2 * (1 - 0.5**5))
+
+
+@pytest.mark.parametrize("lift", [1, 3, 8])
+@pytest.mark.parametrize("N", [2, 9, 50, 53])
+def test_block_recursion_final_state_and_record_end(lift, N):
+    """The last chunk ends the record whatever its length against the lifting factor
+    (a partial last block): outputs and the final state of the naive loop."""
+    from geomfdi.simulation.lifting import Drive, block_recursion
+
+    rng = np.random.default_rng(N)
+    A = np.array([[0.9, 0.3, 0.0], [-0.3, 0.9, 0.1], [0.0, 0.0, 0.5]])
+    W = rng.standard_normal((3, 3))
+    d = rng.standard_normal((1, 2, N))
+    scale = rng.standard_normal((1, 2, N - 1))
+    drives = [Drive(d), Drive(d, 1), Drive(d, 0, scale)]
+    x0 = rng.standard_normal((3, 2))
+    x, traj = x0.copy(), [x0.copy()]
+    for k in range(N - 1):
+        x = A @ x + W @ np.vstack([d[:, :, k], d[:, :, k + 1], scale[:, :, k] * d[:, :, k]])
+        traj.append(x.copy())
+    traj = np.stack(traj, axis=-1)
+    for chunk in (None, 6):
+        (out,), last = block_recursion(
+            [A], W, drives, x0, [[np.eye(3)]], N, chunk=chunk, lift=lift, final=True
+        )
+        np.testing.assert_allclose(out[0], traj, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(last, traj[:, :, -1], rtol=1e-12, atol=1e-12)

@@ -46,7 +46,8 @@ def test_a_python_control_system_is_a_plant_with_its_names():
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc)")
-def test_names_round_trip_from_python_control_to_generated_code(tmp_path):
+def test_names_round_trip_from_python_control_to_generated_code(tmp_path, monkeypatch):
+    monkeypatch.setenv("GEOMFDI_CACHE_DIR", str(tmp_path / "cache"))
     plant, h, Q = _named_plant()
     faults = [gf.SensorFault(name) for name in OUTPUTS]
     bank = gf.design_bank(plant, faults, 1 - np.eye(3))
@@ -84,6 +85,20 @@ def test_names_round_trip_from_python_control_to_generated_code(tmp_path):
     np.testing.assert_array_equal(Al, res.alarms)
     np.testing.assert_array_equal(iso, res.isolated)
     np.testing.assert_allclose(R, res.residuals, atol=1e-12)
+    # the compiled Monitor: the same decisions from named samples and from float64
+    # vectors in physical units (the operating point subtracted before the C step)
+    monc = gf.Monitor(bank, threshold=thr, persistence=(2, 3), backend="c")
+    assert monc.backend == "c"
+    named = [monc.step(dict(row)).alarms for row in back[[*OUTPUTS, *INPUTS]].to_dict("records")]
+    monc.reset()
+    vectors = [monc.step(Y[:, k].copy(), U[:, k].copy()).alarms for k in range(Y.shape[1])]
+    np.testing.assert_array_equal(np.array(named).T, res.alarms)
+    np.testing.assert_array_equal(np.array(vectors).T, res.alarms)
+    monc.reset()
+    np.testing.assert_array_equal(monc.feed(Y, U).alarms, res.alarms)
+    monc.reset()
+    fed = monc.feed({name: back[name].to_numpy() for name in [*OUTPUTS, *INPUTS]})
+    np.testing.assert_array_equal(fed.isolated, res.isolated)
     # generated Python: the same
     path = gf.codegen.python(mon, "tank_monitor_py", tmp_path / "py")
     mod = load_script(path, "tank_monitor_py")

@@ -173,3 +173,53 @@ def test_simulate_limits_blas_to_one_thread_unless_opted_out():
         assert inside() == before
     finally:
         gf.set_blas_threads(old)
+
+
+def test_blas_limit_covers_a_blas_library_loaded_after_the_first_limited_call():
+    """scipy's OpenBLAS is a library of its own, loaded with ``scipy.linalg``: a limited
+    call made before it was loaded must not leave it out of the later limits."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = (
+        "import numpy\n"
+        "from threadpoolctl import threadpool_info\n"
+        "from geomfdi._threads import limit_blas_threads\n"
+        "counts = lambda: {p['filepath']: p['num_threads'] for p in threadpool_info()\n"
+        "                  if p['user_api'] == 'blas'}\n"
+        "f = limit_blas_threads(counts)\n"
+        "first = f()\n"
+        "import scipy.linalg\n"
+        "before = counts()\n"
+        "inside = f()\n"
+        "print((len(first), sorted(before.values()), sorted(inside.values()),\n"
+        "       sorted(counts().values())))\n"
+    )
+    root = str(Path(__file__).resolve().parents[1])
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "2", "GEOMFDI_BLAS_THREADS": "1"}
+    env["PYTHONPATH"] = os.pathsep.join([root, env.get("PYTHONPATH", "")])
+    out = subprocess.run(
+        [sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=120
+    )
+    assert out.returncode == 0, out.stderr
+    n_first, before, inside, after = eval(out.stdout.strip().splitlines()[-1])
+    if len(before) <= n_first or max(before) < 2:
+        pytest.skip("scipy shares numpy's BLAS here, or the BLAS runs one thread only")
+    assert inside == [1] * len(before)
+    assert before == after == [2] * len(before)  # set back on return
+
+
+def test_a_diverging_linear_run_is_cut_at_the_bound():
+    """max |x| beyond ``bound`` (either sign) from the first such sample: no residuals,
+    alarms or decisions after it, and the time reported."""
+    p = gf.Plant([[1.0, 0.0], [0.0, 0.5]], [[0.0], [0.0]], np.eye(2))
+    g = gf.ResidualGenerator([[-2.0]], [[-1.0, 0.0]], [[0.0]], [[1.0]], [[1.0, 0.0]], [[0.0]])
+    t = np.linspace(0.0, 10.0, 1001)
+    with pytest.warns(gf.DivergenceWarning, match="diverged"):
+        res = gf.simulate(p, g, t, x0=[-1.0, 0.0], threshold=0.5, bound=1e3)
+    k = int(np.argmax(np.abs(res.x).max(axis=0) > 1e3))
+    assert k > 0 and res.info["diverged"] and res.info["diverged_at"] == t[k]
+    assert np.isnan(res.residuals[:, k:]).all() and np.isfinite(res.residuals[:, :k]).all()
+    assert not res.alarms[:, k:].any()

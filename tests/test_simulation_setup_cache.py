@@ -10,6 +10,7 @@ from test_simulation import K_FB, X0, paper_generator, v_ext
 
 import geomfdi as gf
 from geomfdi.simulation import open_loop
+from geomfdi.simulation.initial_state import state_scaling
 
 T = np.arange(0, 4.0005, 1e-3)
 
@@ -67,3 +68,30 @@ def test_set_up_warnings_are_replayed(seed001):
     with warnings.catch_warnings():
         warnings.simplefilter("error", gf.InitialStateWarning)
         gf.simulate(seed001, g, T[::50], v_ext, x0=X0, controller=K_FB)  # a good one: silent
+
+
+def test_a_generator_changed_in_place_is_checked_and_balanced_again(seed001):
+    """The bank's checks and balancing are kept by the values of its matrices: an
+    in-place change is seen (a non-finite entry is refused, a finite one simulated as
+    a fresh generator with those matrices would be)."""
+    A, B, C = seed001.A, seed001.B, seed001.C
+    Ci = np.linalg.inv(C)
+    F = np.array([[-2.0, 1e4], [0.0, -3.0]])  # badly scaled states: balanced
+    P = np.array([[1.0, -2.0, 0.5], [0.3, 1.0, -1.0]]) * np.array([[1e3], [1e-1]])
+    Mw = np.array([[1.0, 2.0]])
+    g = gf.ResidualGenerator(F, (F @ P - P @ A) @ Ci, P @ B, Mw, Mw @ P @ Ci, np.zeros((1, 3)))
+    assert not np.all(state_scaling(g.F) == 1.0)
+    f = [gf.BiasFault(1, start=2.0, bias=0.05)]
+    a = gf.simulate(seed001, g, T, v_ext, x0=X0, faults=f)
+    assert g.F.flags.writeable and g.E.flags.writeable  # the user's arrays untouched
+    g.E *= 1.1  # no longer decoupled: the residual changes
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gf.InitialStateWarning)
+        b = gf.simulate(seed001, g, T, v_ext, x0=X0, faults=f)
+        fresh = gf.ResidualGenerator(g.F.copy(), g.E.copy(), g.G, g.M, g.H, g.K)
+        c = gf.simulate(seed001, fresh, T, v_ext, x0=X0, faults=f)
+    assert not np.allclose(a.residuals, b.residuals)
+    np.testing.assert_array_equal(b.residuals, c.residuals)
+    g.F[0, 0] = np.nan
+    with pytest.raises(gf.errors.NonFiniteError, match="generator 0 has a non-finite entry in F"):
+        gf.simulate(seed001, g, T, v_ext, x0=X0, faults=f)

@@ -47,11 +47,12 @@ import numpy as np
 
 from geomfdi._validation import as_int, as_positive
 from geomfdi.campaign.executors import RETRIES
+from geomfdi.campaign.scoring import evaluate_runs, isolate_runs
 from geomfdi.campaign.spec import Scenario, Uncertainty
 from geomfdi.errors import GeomFDIError, ResourceLimitError
 from geomfdi.limits import estimate_bytes
 
-__all__ = ["Campaign", "TABLE_ROW_BYTES", "RETRIES"]
+__all__ = ["Campaign", "TABLE_ROW_BYTES", "RETRIES", "evaluate_runs", "isolate_runs"]
 
 TABLE_ROW_BYTES = 160
 """Bytes of one row of a campaign's table (one run and residual: its numbers, the
@@ -97,108 +98,6 @@ def _signal_array(value: Any, t: np.ndarray, rows: int, name: str) -> np.ndarray
     return arr
 
 
-def evaluate_runs(
-    t: np.ndarray,
-    statistic: np.ndarray,
-    thresholds: np.ndarray,
-    onsets: np.ndarray,
-    window: float,
-    eval_start: float,
-) -> dict[str, np.ndarray]:
-    """Scores and delays (module docstring) of runs ``(R, n, N)``; bank last, ``(R, n+1)``."""
-    thr = np.asarray(thresholds, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = np.where(np.isfinite(thr)[:, None], statistic / thr[:, None], 0.0)
-    z = np.concatenate([z, z.max(axis=-2, keepdims=True)], axis=-2)  # bank: any residual
-    tol = 1e-9 * max(1.0, float(np.abs(t).max()))
-    on = onsets[:, None]
-    post = (t[None, :] >= on - tol) & (t[None, :] < on + window - tol)
-    pre = (t[None, :] < on - tol) & (t[None, :] >= np.maximum(eval_start, on - window) - tol)
-    if not pre.any(axis=1).all():
-        raise GeomFDIError(
-            "onsets: every onset needs samples before it (after eval_start)", argument="onsets"
-        )
-    neg = -np.inf
-    score_pre = np.where(pre[:, None, :], z, neg).max(axis=-1)
-    score_post = np.where(post[:, None, :], z, neg).max(axis=-1)
-    hit = post[:, None, :] & (z > 1.0)
-    first = np.argmax(hit, axis=-1)
-    delay = np.where(hit.any(axis=-1), t[first] - onsets[:, None], np.nan)
-    return {"score_pre": score_pre, "score_post": score_post, "delay": delay}
-
-
-def isolate_runs(
-    t: np.ndarray,
-    statistic: np.ndarray,
-    thresholds: np.ndarray,
-    structure: np.ndarray,
-    rule: Any,
-    truth: np.ndarray,
-    true_sets: list[frozenset[int]],
-    onsets: np.ndarray,
-    window: float,
-    eval_start: float = -np.inf,
-) -> dict[str, np.ndarray]:
-    """Isolation of runs ``(R, n, N)``: first decision, outcome, delay (module docstring).
-
-    Alarms before ``eval_start`` (start-up transients) are ignored, as in the scores.
-    """
-    from geomfdi.evaluation.decision import MULTIPLE, isolate
-
-    thr = np.asarray(thresholds, dtype=float)
-    R, N = statistic.shape[0], statistic.shape[-1]
-    tol = 1e-9 * max(1.0, float(np.abs(t).max()))
-    alarms = statistic > thr[:, None]  # +inf (missing rows): never
-    alarms &= t >= eval_start - tol
-    if rule is None or rule.trivial:
-        iso = isolate(alarms, structure)
-    else:
-        iso = rule.isolation(rule.apply(alarms), structure)
-    on = onsets[:, None]
-    post = (t[None, :] >= on - tol) & (t[None, :] < on + window - tol)
-    dec = iso.isolated
-    made = post & ((dec >= 0) | (dec == MULTIPLE))
-    first = np.argmax(made, axis=-1)
-    rows = np.arange(R)
-    has = made[rows, first]
-    decision = np.where(has, dec[rows, first], -1)
-    # a decision is right: the true single fault, or MULTIPLE with the true suspects
-    right = np.zeros((R, N), dtype=bool)
-    for r in range(R):
-        if truth[r] >= 0:
-            right[r] = dec[r] == truth[r]
-        elif truth[r] == MULTIPLE:
-            want = np.zeros(structure.shape[1], dtype=bool)
-            want[list(true_sets[r])] = True
-            same = np.all(iso.suspects[r] == want[:, None], axis=0)
-            right[r] = (dec[r] == MULTIPLE) & same
-    right &= post
-    k_right = np.argmax(right, axis=-1)
-    ok = right[rows, k_right]
-    iso_delay = np.where(ok, t[k_right] - onsets, np.nan)
-    outcome = np.where(~has, 2, np.where(right[rows, first] & (truth != -1), 0, 1))
-    return {
-        "decision": decision.astype(np.int64),
-        "truth": np.asarray(truth, dtype=np.int64),
-        "outcome": outcome.astype(np.int64),
-        "iso_delay": iso_delay,
-    }
-
-
-def _fault_key(f: Any) -> Any:
-    """The channel that decides a fault signal's structure column (None: not known)."""
-    from geomfdi.simulation.input_faults import AdditiveFault
-    from geomfdi.simulation.signals import SensorFaultSignal
-
-    if isinstance(f, SensorFaultSignal):
-        return ("sensor", f.sensor)
-    if isinstance(f, AdditiveFault):
-        return ("fault", id(f.fault))
-    if hasattr(f, "actuator"):
-        return ("actuator", f.actuator)
-    return None
-
-
 def _truth(
     faults: list[Any], size: float, design: Any, plant: Any, cache: dict[Any, Any]
 ) -> tuple[int, frozenset[int]]:
@@ -212,16 +111,7 @@ def _truth(
 
     if size == 0 or not faults:
         return -1, frozenset()
-    cols = []
-    for f in faults:
-        key = _fault_key(f)
-        if key is not None and key in cache:
-            cols.append(cache[key])
-            continue
-        (col,) = structure_columns([f], design, plant)
-        if key is not None:
-            cache[key] = col
-        cols.append(col)
+    cols = structure_columns(faults, design, plant, cache)
     if any(c is None for c in cols):
         return -2, frozenset()
     found = frozenset(int(c) for c in cols)

@@ -24,12 +24,7 @@ guide, *Performance* (``docs/guide/performance.md``).
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import os
-import shutil
-import subprocess
 import sys
-import tempfile
 import warnings
 from functools import partial
 from pathlib import Path
@@ -37,50 +32,19 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.errors import GeomFDIError, ShapeError
+from geomfdi._cbuild import build_library as _build
+from geomfdi._cbuild import cache_dir
+from geomfdi.errors import BackendFallbackWarning, GeomFDIError, ShapeError
 
 __all__ = ["BACKENDS", "cache_dir", "compiled_paths", "build_library"]
 
 BACKENDS = ("numpy", "c")
 _NAME = "gfmon"
-# -O3: the fixed loops unrolled; -ffp-contract=off: no fused multiply-add, the sums round as
-# the generated Python's; the library is built for the machine that runs it (-march=native,
-# the cache key holding that machine's processor), else without when the compiler refuses
-_FLAGS = ("-O3", "-std=c99", "-ffp-contract=off", "-shared", "-fPIC")
-_NATIVE = ("-march=native",)
 _LOADED: dict[Any, Any] = {}  # library path -> loaded library (one per process)
 
 
-def cache_dir() -> Path:
-    """Directory of the compiled monitors (created on first use)."""
-    env = os.environ.get("GEOMFDI_CACHE_DIR")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "geomfdi" / "c"
-
-
-def _processor() -> str:
-    """What identifies this machine's processor (its instruction set extensions)."""
-    import platform
-
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
-            for line in fh:
-                if line.startswith(("flags", "Features", "isa")):
-                    return line.strip()
-    except OSError:
-        pass
-    return f"{platform.machine()} {platform.processor()}"
-
-
-def _compiler() -> str | None:
-    cc = os.environ.get("CC", "cc")
-    return shutil.which(cc)
-
-
 def build_library(header: str, source: str, flags: tuple[str, ...] = ()) -> Path:
-    """Compile ``name.h`` / ``name.c`` texts into a shared library, cached by hash.
+    """Compile ``gfmon.h`` / ``gfmon.c`` texts into a shared library, cached by hash.
 
     Parameters
     ----------
@@ -92,46 +56,16 @@ def build_library(header: str, source: str, flags: tuple[str, ...] = ()) -> Path
     Returns
     -------
     Path
-        The library ``gfmon_<hash>.so`` in :func:`cache_dir` (built only when missing).
+        The library ``gfmon_<hash>.so`` in :func:`cache_dir` (built only when missing;
+        see :func:`geomfdi._cbuild.build_library`).
 
     Raises
     ------
     GeomFDIError
         No C compiler, or the compiler failed (its message attached).
     """
-    cc = _compiler()
-    if cc is None:
-        raise GeomFDIError("backend: no C compiler found ($CC or cc)", argument="backend")
-    parts = [header, source, cc, *_FLAGS, *_NATIVE, *flags, _processor()]
-    key = hashlib.sha256("\0".join(parts).encode())
-    key = key.hexdigest()[:24]
-    out_dir = cache_dir()
-    lib = out_dir / f"{_NAME}_{key}.so"
-    if lib.exists():
-        return lib
-    out_dir.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(dir=out_dir) as tmp:
-        (Path(tmp) / f"{_NAME}.h").write_text(header, encoding="utf-8")
-        (Path(tmp) / f"{_NAME}.c").write_text(source, encoding="utf-8")
-        part = Path(tmp) / "lib.so"
-        src = str(Path(tmp) / f"{_NAME}.c")
-        for native in (_NATIVE, ()):  # a compiler refusing -march=native: without
-            cmd = [cc, *_FLAGS, *native, *flags, "-o", str(part), src, "-lm"]
-            try:
-                done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
-            except (OSError, subprocess.TimeoutExpired) as exc:
-                raise GeomFDIError(
-                    f"backend: the C compiler failed: {exc}", argument="backend"
-                ) from exc
-            if done.returncode == 0:
-                break
-        if done.returncode != 0:
-            raise GeomFDIError(
-                f"backend: the C compiler failed: {done.stderr.strip()[:500]}",
-                argument="backend",
-            )
-        os.replace(part, lib)  # atomic: concurrent builds of the same source agree
-    return lib
+    files = {f"{_NAME}.h": header, f"{_NAME}.c": source}
+    return _build(_NAME, files, f"{_NAME}.c", flags)
 
 
 #: Appended to the generated source for Python: ``y`` and ``u`` from one buffer, the
@@ -176,6 +110,18 @@ static int gfmon_py_get(PyObject *o, double *dst, Py_ssize_t n)
     Py_buffer v;
     Py_ssize_t i;
     int ok;
+    if (PyArray_Check(o)) { /* read in place: no buffer export (its format string) */
+        PyArrayObject *arr = (PyArrayObject *)o;
+        const char *p = PyArray_BYTES(arr);
+        npy_intp st;
+        if (PyArray_NDIM(arr) != 1 || PyArray_DIM(arr, 0) != n
+            || PyArray_TYPE(arr) != NPY_DOUBLE || !PyArray_ISNOTSWAPPED(arr))
+            return 0;
+        st = PyArray_STRIDE(arr, 0);
+        for (i = 0; i < n; ++i) /* strided: a column of a (q, L) record */
+            memcpy(dst + i, p + i * st, sizeof(double));
+        return 1;
+    }
     if (PyObject_GetBuffer(o, &v, PyBUF_RECORDS_RO) != 0) {
         PyErr_Clear();
         return 0;
@@ -342,7 +288,7 @@ def compiled_paths(monitor: Any) -> tuple[Any, Any] | None:
         path, pycall = _build_py(header, source)
         dll = _load(path)
     except (GeomFDIError, OSError) as exc:
-        warnings.warn(f"{exc}; using the numpy path", RuntimeWarning, stacklevel=3)
+        warnings.warn(f"{exc}; using the numpy path", BackendFallbackWarning, stacklevel=3)
         return None
     return _bind(dll, path, pycall, monitor)
 
@@ -398,6 +344,8 @@ def _bind(dll: ctypes.CDLL, path: Path, pycall: Any, monitor: Any) -> tuple[Any,
         def step(y: Any, u: Any = None) -> MonitorStep:
             out = fast(y, u)  # None: y or u to convert
             return convert_step(y, u) if out is None else out
+
+        step.fast = fast  # type: ignore[attr-defined]  # Monitor.step calls it first
 
     def feed(Y: Any, U: Any = None) -> MonitorOutput:
         Y, U = chunks(Y, U, q, m)

@@ -137,6 +137,10 @@ class Monitor:
                 self.backend = "numpy"
             else:
                 self._step, self._feed = paths
+        # the compiled step's builtin function, called first by step() (it returns None
+        # when y or u is not a float64 vector); the compiled code subtracts the operating
+        # point itself (physical samples in)
+        self._fast = getattr(self._step, "fast", None)
 
     def step(self, y: Any, u: Any = None) -> MonitorStep:
         """One sample ``y`` (q,), ``u`` (m,): residual per bank row, confirmed alarms and
@@ -153,6 +157,11 @@ class Monitor:
         unless ``u`` is given) by the plant's names.  Physical values: a bank designed at
         an operating point subtracts ``y_op`` and ``u_op`` itself.
         """
+        fast = self._fast
+        if fast is not None:  # the compiled step on float64 vectors, else None
+            out = fast(y, u)
+            if out is not None:
+                return out
         if self._y_op is not None or (type(y) is not np.ndarray and isinstance(y, Mapping)):
             y, u = self._deviations(y, u, 1)  # (an array is never a mapping: no ABC check)
         return self._step(y, u)
@@ -166,7 +175,7 @@ class Monitor:
             y = _by_name(src, self.outputs, ay)
             if u is None and self.inputs:
                 u = _by_name(src, self.inputs, au)
-        if self._y_op is None:
+        if self._y_op is None or self.backend == "c":  # C: subtracted in the C step
             return y, u
         return _minus(y, self._y_op, ndim), _minus(u, self._u_op, ndim)
 

@@ -25,6 +25,7 @@ the three agree to rounding.  See the user guide, *Theory: residual evaluation*
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from typing import Any
 
@@ -172,6 +173,32 @@ class Program:
         return out
 
 
+_PROGRAMS: dict[Any, Program] = {}
+_PROGRAM_ENTRIES = 32
+
+
+def _bank_key(bank: ResidualBank, dt: Any) -> Any:
+    """A fingerprint of everything :func:`build_program` reads: the generators' matrices
+    (shapes, and values as floats: one hash over the concatenated entries; missing rows
+    in place), the sampling periods and the structure."""
+    gens = bank.generators
+    mats = [np.asarray(getattr(g, name)) for g in gens if g is not None for name in "FEGMHK"]
+    h = hashlib.blake2b(
+        np.concatenate([a.ravel() for a in mats], dtype=float) if mats else b"", digest_size=16
+    )
+    S = np.ascontiguousarray(bank.structure, dtype=bool)
+    h.update(S)
+    meta = (
+        float(bank.dt),
+        dt,
+        [None if g is None else float(g.dt) for g in gens],
+        [a.shape for a in mats],
+        S.shape,
+    )
+    h.update(repr(meta).encode())
+    return h.digest()
+
+
 def build_program(bank: Any, dt: float | None = None) -> Program:
     """The fused discrete form of ``bank`` (module docstring).
 
@@ -185,8 +212,26 @@ def build_program(bank: Any, dt: float | None = None) -> Program:
     Returns
     -------
     Program
+        Kept by the fingerprint of the bank's matrices, periods and structure (its
+        arrays read-only): evaluating or monitoring the same bank again (short records,
+        a monitor per stream) builds it once; a changed matrix builds another.
     """
     bank = as_bank(bank)
+    key = _bank_key(bank, None if dt is None else as_float(dt, "dt"))
+    hit = _PROGRAMS.get(key)
+    if hit is None:
+        hit = _build_program(bank, dt)
+        for a in (hit.A, hit.B, hit.C, hit.D, hit.J, hit.steady, hit.structure, hit.basis):
+            if a is not None:
+                a.setflags(write=False)
+        if len(_PROGRAMS) >= _PROGRAM_ENTRIES:
+            _PROGRAMS.clear()
+        _PROGRAMS[key] = hit
+    return hit
+
+
+def _build_program(bank: ResidualBank, dt: Any) -> Program:
+    """:func:`build_program` without the cache."""
     gens = [g for g in bank.generators if g is not None]
     if not gens:
         raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")

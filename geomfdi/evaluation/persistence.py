@@ -52,9 +52,16 @@ __all__ = [
     "held_pattern",
     "held_pattern_carry",
     "k_of_n",
+    "pattern_codes",
     "pattern_decisions",
+    "pattern_table",
     "settle",
 ]
+
+
+#: Windows up to which :func:`k_of_n` and :func:`settle` count by adding shifted copies;
+#: longer ones by a cumulative count.
+SHIFT_WINDOW = 8
 
 
 def k_of_n(flags: Any, k: int, n: int) -> np.ndarray:
@@ -66,6 +73,11 @@ def k_of_n(flags: Any, k: int, n: int) -> np.ndarray:
     f = np.asarray(flags, dtype=bool)
     if k == 1 and n == 1:
         return f.copy()
+    if n <= SHIFT_WINDOW:  # a short window: n - 1 shifted byte additions
+        c = f.astype(np.uint8)
+        for d in range(1, min(n, f.shape[-1])):
+            c[..., d:] += f[..., :-d]
+        return c >= k
     c = np.cumsum(f, axis=-1, dtype=np.int32)
     win = c.copy()
     win[..., n:] -= c[..., :-n]
@@ -127,7 +139,11 @@ def held_pattern_carry(
         )
     lead, N = a.shape[:-1], a.shape[-1]
     if reset is None:
-        out = np.logical_or.accumulate(a, axis=-1)
+        # held from the first alarm on (argmax stops at the first True)
+        out = np.zeros(a.shape, dtype=bool)
+        if N:
+            first = np.argmax(a, axis=-1)[..., None]
+            out = (np.arange(N) >= first) & np.take_along_axis(a, first, axis=-1)
         if state is not None:
             out |= state[0][..., None]
         held = out[..., -1].copy() if N else (np.zeros(lead, bool) if state is None else state[0])
@@ -157,34 +173,69 @@ def held_pattern_carry(
     return out, (shift(last_any[..., -1]), shift(last_res[..., -1]), shift(ep_start[..., -1]))
 
 
+#: Residuals up to which the distinct patterns are found by a table of all ``2**n_res``
+#: codes (a counting pass); above, by sorting the codes (``numpy.unique``).
+TABLE_RESIDUALS = 20
+
+
+def pattern_codes(pattern: np.ndarray) -> np.ndarray:
+    """Each sample's alarm pattern ``(..., n_res, N)`` as an integer ``sum_i a_i 2**i``
+    ``(..., N)`` (``n_res <= 62``)."""
+    nres = pattern.shape[-2]
+    dtype = np.uint8 if nres <= 8 else np.int64
+    codes = pattern[..., 0, :].astype(dtype)
+    for r in range(1, nres):
+        codes |= pattern[..., r, :].astype(dtype) << dtype(r)
+    return codes
+
+
+def pattern_table(pattern: Any, structure: Any) -> tuple[np.ndarray, Isolation] | None:
+    """The distinct alarm patterns of ``pattern (..., n_res, N)``, each decided once.
+
+    Returns ``(index, table)``: ``index (..., N)`` gives each sample's row of ``table``,
+    the :func:`pattern_decisions` of the distinct patterns in increasing order of their
+    codes (:func:`pattern_codes`): ``isolated (U,)``, ``candidates`` and ``suspects``
+    ``(n_faults, U)``.  Up to 8 residuals the table holds every pattern and the index is
+    the code itself; ``None`` for more than 62 residuals (no integer code).
+    """
+    pattern = np.asarray(pattern, dtype=bool)
+    nres = pattern.shape[-2]
+    if not 0 < nres <= 62:
+        return None
+    codes = pattern_codes(pattern)
+    if nres <= 8:  # a byte per sample: every pattern decided, the code is the index
+        uniq = np.arange(1 << nres)
+        index = codes
+    elif nres <= TABLE_RESIDUALS:  # the codes met, from one counting pass
+        uniq = np.flatnonzero(np.bincount(codes.ravel(), minlength=1 << nres))
+        lut = np.zeros(1 << nres, dtype=np.intp)
+        lut[uniq] = np.arange(uniq.size)
+        index = lut[codes]
+    else:
+        uniq, inv = np.unique(codes.ravel(), return_inverse=True)
+        index = inv.reshape(codes.shape)
+    few = ((uniq[None, :].astype(np.int64) >> np.arange(nres)[:, None]) & 1).astype(bool)
+    return index, _decide_patterns(few, structure)
+
+
 def pattern_decisions(pattern: Any, structure: Any) -> Isolation:
     """Per-sample decisions on an alarm pattern, with :data:`MULTIPLE`.
 
     As :func:`geomfdi.isolate`, except that an ``UNEXPLAINED`` pattern that is the union
     of the columns of its suspects is decided ``MULTIPLE`` (the suspects' columns are
     inside the pattern by definition).  A long record holds few distinct patterns: each
-    is decided once (patterns of up to 62 residuals, coded as integers) and the
-    decisions are gathered back per sample.
+    is decided once (:func:`pattern_table`) and the decisions are gathered back per
+    sample.
     """
     pattern = np.asarray(pattern, dtype=bool)
     nres = pattern.shape[-2] if pattern.ndim >= 2 else 0
     if pattern.ndim >= 2 and 0 < nres <= 62 and pattern[..., 0, :].size > 256:
-        lead, N = pattern.shape[:-2], pattern.shape[-1]
-        codes = np.zeros(lead + (N,), dtype=np.int64)
-        for r in range(nres):
-            codes |= pattern[..., r, :].astype(np.int64) << r
-        uniq, inv = np.unique(codes.ravel(), return_inverse=True)
-        few = ((uniq[None, :] >> np.arange(nres)[:, None]) & 1).astype(bool)
-        small = _decide_patterns(few, structure)
+        index, small = pattern_table(pattern, structure)  # type: ignore[misc]
 
         def back(x: np.ndarray) -> np.ndarray:  # (n_faults, U) -> (..., n_faults, N)
-            return np.moveaxis(x[:, inv].reshape((x.shape[0], *lead, N)), 0, -2)
+            return np.moveaxis(x[:, index], 0, -2)
 
-        return Isolation(
-            small.isolated[inv].reshape(lead + (N,)),
-            back(small.candidates),
-            back(small.suspects),
-        )
+        return Isolation(small.isolated[index], back(small.candidates), back(small.suspects))
     return _decide_patterns(pattern, structure)
 
 
@@ -211,8 +262,17 @@ def settle(raw: np.ndarray, k: int, n: int, n_faults: int) -> np.ndarray:
     """Settled decisions: a fault index or ``MULTIPLE`` is kept at sample ``j`` when it
     was the per-sample decision ``raw`` for ``k`` of the last ``n`` samples and is it at
     ``j`` (otherwise ``UNEXPLAINED``); ``NO_ALARM`` and ``AMBIGUOUS`` are kept."""
+    raw = np.asarray(raw)
     out = np.where(raw == NO_ALARM, NO_ALARM, UNEXPLAINED)
     out[raw == AMBIGUOUS] = AMBIGUOUS
+    if n <= SHIFT_WINDOW:
+        # count[j] = #{d < n : raw[j - d] == raw[j]} (the samples available at first)
+        count = np.ones(raw.shape, dtype=np.int32)
+        for d in range(1, min(n, raw.shape[-1])):
+            count[..., d:] += raw[..., d:] == raw[..., :-d]
+        keep = (count >= k) & ((raw >= 0) & (raw < n_faults) | (raw == MULTIPLE))
+        np.copyto(out, raw, where=keep)
+        return out
     for code in (*range(n_faults), MULTIPLE):
         hit = raw == code
         if hit.any():

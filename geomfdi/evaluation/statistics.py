@@ -47,6 +47,7 @@ from geomfdi._validation import (
     as_positive,
     as_probability,
     as_real_array,
+    check_finite,
 )
 from geomfdi.errors import GeomFDIError, ShapeError
 
@@ -68,8 +69,14 @@ __all__ = [
 ]
 
 
-def _rows(residuals: Any) -> np.ndarray:
-    r = as_real_array(residuals, "residuals")
+def _rows(residuals: Any, copy: bool = True) -> np.ndarray:
+    """Residuals ``(..., n_residuals, N)`` checked (finite reals); ``copy=False``: a
+    float64 array is checked in place (for a statistic that does not modify it)."""
+    if not copy and isinstance(residuals, np.ndarray) and residuals.dtype == np.float64:
+        check_finite(residuals, "residuals")
+        r = residuals
+    else:
+        r = as_real_array(residuals, "residuals")
     if r.ndim < 2:
         raise ShapeError(
             f"residuals: expected (..., n_residuals, N), got shape {r.shape}", argument="residuals"
@@ -98,11 +105,19 @@ def windowed_sum_of_squares(residuals: Any, window: int) -> np.ndarray:
     if r.ndim == 0:
         raise ShapeError("residuals: expected samples along the last axis, got a scalar",
                          argument="residuals")  # fmt: skip
-    L = as_int(window, "window", minimum=1)
-    c = np.cumsum(r * r, axis=-1)
-    out = c.copy()
-    if L < r.shape[-1]:
-        out[..., L:] -= c[..., :-L]
+    return _sum_of_squares(r, as_int(window, "window", minimum=1))
+
+
+def _sum_of_squares(r: np.ndarray, L: int) -> np.ndarray:
+    """:func:`windowed_sum_of_squares` of a checked float array (a new array)."""
+    c = r * r
+    np.cumsum(c, axis=-1, out=c)
+    if L >= r.shape[-1]:
+        np.maximum(c, 0.0, out=c)
+        return c
+    out = np.empty_like(c)
+    out[..., :L] = c[..., :L]
+    np.subtract(c[..., L:], c[..., :-L], out=out[..., L:])
     np.maximum(out, 0.0, out=out)  # rounding of the difference of two cumulative sums
     return out
 
@@ -416,7 +431,7 @@ class ChiSquareTest:
         return np.sqrt(self.thresholds / self.window)
 
     def statistic(self, residuals: Any) -> np.ndarray:
-        return windowed_sum_of_squares(_rows(residuals), self.window)
+        return _sum_of_squares(_rows(residuals, copy=False), self.window)
 
     def alarms(self, residuals: Any) -> np.ndarray:
         s = self.statistic(residuals)

@@ -6,11 +6,14 @@ The composite of plant and generator (faults ``x' = … + Bf f``, ``y = … + Df
     r       = [−H C, M] [x; w] + [K − H D, −H Dd, −H Df] [u; d; f]
 
 A transfer is "identically zero" when its relative gain stays at rounding level at
-``order + 2`` random complex points (plant and generator evaluated apart) or when the output
-map annihilates the orthonormal Krylov subspace of the composite (``method="krylov"``).
-The plant's complex Schur form is computed once per plant (:class:`PlantFactor`) and
-shared by every row of a bank.  See the user guide, *Theory: verification*
-(``docs/theory/verification.md``).
+``k + 2`` random complex points of the generator's scale and the plant's own ``n + 2``
+(plant and generator evaluated apart: ``n + k + 4`` points, more than a non-zero transfer of
+the composite's degree ``n + k`` can vanish at) or when the output map annihilates the
+orthonormal Krylov subspace of the composite (``method="krylov"``).  The plant's complex
+Schur form, its ``n + 2`` points and its responses there are computed once per plant
+(:class:`PlantFactor`) and shared by every row of a bank; a row's own resolvent
+``M (sI − F)⁻¹`` is solved row-wise, ``O(k²)`` per point.  See the user guide, *Theory:
+verification* (``docs/theory/verification.md``).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant
 
-__all__ = ["LEAK_TOL", "fault_gains", "PlantFactor", "Composite"]
+__all__ = ["LEAK_TOL", "fault_gains", "PlantFactor", "Composite", "complex_schur"]
 
 
 def _tri_solve(T: np.ndarray, X: np.ndarray) -> np.ndarray:
@@ -42,10 +45,12 @@ def _tri_solve(T: np.ndarray, X: np.ndarray) -> np.ndarray:
 def _tri_solve_many(T: np.ndarray, pts: np.ndarray, X: np.ndarray) -> np.ndarray:
     """``(s_p I − T)⁻¹ X`` for upper-triangular T at every point: shape ``(P, n, c)``.
 
-    Small T: one batched LU solve.  Otherwise back substitution over the rows of T, each
-    step one matrix–vector product across all points and columns at once (the same
-    ``O(P n² c)`` work as P triangular solves, without a call per point); points are
-    taken in groups so that the work array stays below ~32 MB.
+    Small T: one batched LU solve.  Otherwise blocked back substitution over all points
+    and columns at once: the coupling of a block of rows to the rows already solved is
+    one matrix product (``T[a:b, b:] @ Y[b:]``), the rows inside the block are solved one
+    by one on the small block (the same ``O(P n² c)`` work as P triangular solves, at
+    matrix-product speed and without a call per point); points are taken in groups so
+    that the work array stays below ~32 MB.
     """
     n, c, P = T.shape[0], X.shape[1], pts.size
     if n == 0 or P == 0:
@@ -56,17 +61,86 @@ def _tri_solve_many(T: np.ndarray, pts: np.ndarray, X: np.ndarray) -> np.ndarray
     out = np.empty((P, n, c), dtype=complex)
     step = max(1, int(2_000_000 // max(n * c, 1)))
     d = np.diag(T)
-    for a in range(0, P, step):
-        s = pts[a : a + step]
+    T = np.asarray(T, dtype=complex)
+    nb = 32
+    for a0 in range(0, P, step):
+        s = pts[a0 : a0 + step]
         m = s.size
-        Y = np.empty((n, m, c), dtype=complex)
-        for i in range(n - 1, -1, -1):
-            rhs = np.broadcast_to(X[i], (m, c))
-            if i < n - 1:
-                rhs = rhs + (T[i, i + 1 :] @ Y[i + 1 :].reshape(n - 1 - i, m * c)).reshape(m, c)
-            Y[i] = rhs / (s - d[i])[:, None]
-        out[a : a + step] = Y.transpose(1, 0, 2)
+        W = np.repeat(1.0 / (s[None, :] - d[:, None]), c, axis=1)  # 1/(s − t_ii), (n, m c)
+        Y = np.empty((n, m * c), dtype=complex)
+        for b in range(n, 0, -nb):
+            a = max(0, b - nb)
+            R = np.broadcast_to(X[a:b, None, :], (b - a, m, c)).reshape(b - a, m * c)
+            R = R + T[a:b, b:] @ Y[b:] if b < n else R.astype(complex)
+            Y[b - 1] = R[b - 1 - a] * W[b - 1]
+            for i in range(b - 2, a - 1, -1):
+                Y[i] = (R[i - a] + T[i, i + 1 : b] @ Y[i + 1 : b]) * W[i]
+        out[a0 : a0 + step] = Y.reshape(n, m, c).transpose(1, 0, 2)
     return out
+
+
+def _tri_solve_rows_many(T: np.ndarray, pts: np.ndarray, L: np.ndarray) -> np.ndarray:
+    """``L (s_p I − T)⁻¹`` for upper-triangular T at every point: shape ``(P, r, n)``.
+
+    Transposed and index-reversed, ``J Tᵀ J`` is upper triangular again: one call of
+    :func:`_tri_solve_many` with the r rows of L as its columns (``O(P n² r)``: a scalar
+    residual's transfer costs one column, however many inputs it reads).
+    """
+    Tr = np.ascontiguousarray(T.T[::-1, ::-1])
+    X = _tri_solve_many(Tr, pts, np.ascontiguousarray(L.T[::-1, :]))  # (P, n, r)
+    return X[:, ::-1, :].transpose(0, 2, 1)
+
+
+def _real_to_complex_schur(T: np.ndarray, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A real Schur pair ``A = Z T Zᵀ`` (T quasi upper triangular) to the complex one.
+
+    Each 2 × 2 diagonal block is made triangular by one complex Givens rotation built from
+    its eigenvalue (closed form), applied to the rows and columns of T it touches and to
+    the columns of Z: the method of :func:`scipy.linalg.rsf2csf`, ``O(n)`` per block.
+    """
+    n = T.shape[0]
+    T = T.astype(complex)
+    Z = Z.astype(complex)
+    eps = np.finfo(float).eps
+    for m in range(n - 1, 0, -1):
+        sub = T[m, m - 1]
+        if abs(sub) > eps * (abs(T[m - 1, m - 1]) + abs(T[m, m])):
+            a, b, d = T[m - 1, m - 1], T[m - 1, m], T[m, m]
+            half = 0.5 * (a - d)
+            root = np.sqrt(complex(half * half + b * sub))
+            if root.imag < 0:
+                root = -root
+            mu = half + root  # eigenvalue minus T[m, m] (the one with Im > 0 first)
+            r = np.hypot(abs(mu), abs(sub))
+            c, sn = mu / r, sub / r
+            G = np.array([[np.conj(c), sn], [-sn, c]])
+            T[m - 1 : m + 1, m - 1 :] = G @ T[m - 1 : m + 1, m - 1 :]
+            Gh = G.conj().T
+            T[: m + 1, m - 1 : m + 1] = T[: m + 1, m - 1 : m + 1] @ Gh
+            Z[:, m - 1 : m + 1] = Z[:, m - 1 : m + 1] @ Gh
+        T[m, m - 1] = 0.0
+    return T, Z
+
+
+def complex_schur(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Complex Schur form ``A = U T Uᴴ`` (T upper triangular) of a real matrix.
+
+    Through the real Schur form and the rotation of its 2 × 2 blocks of complex pairs
+    (:func:`_real_to_complex_schur`): the same backward-stable factorisation as the
+    complex QR algorithm at a fraction of its cost.  A quasi upper-triangular A (1 × 1
+    and 2 × 2 diagonal blocks, e.g. a generator realised in an output-normal basis) is
+    already in real Schur form: only its 2 × 2 blocks are rotated, in ``O(n²)``.
+    """
+    A = np.asarray(A, dtype=float)
+    n = A.shape[0]
+    if n == 0:
+        return np.zeros((0, 0), complex), np.zeros((0, 0), complex)
+    sub = np.diag(A, -1) != 0
+    if np.any(np.tril(A, -2)) or np.any(sub[1:] & sub[:-1]):
+        T, Z = scipy.linalg.schur(A, output="real")
+    else:
+        T, Z = A, np.eye(n)
+    return _real_to_complex_schur(T, Z)
 
 
 LEAK_TOL = 1e-8
@@ -89,12 +163,71 @@ class PlantFactor:
         A = np.asarray(plant.A, dtype=float)
         d = state_scaling(A, np.hstack([plant.B, plant.Bd]), plant.C)
         Ab = A * d[None, :] / d[:, None]
-        TA, UA = scipy.linalg.schur(Ab.astype(complex), output="complex")
+        TA, UA = complex_schur(Ab)
         self.plant = plant
         self.TA, self.UAh, self.CUA = TA, UA.conj().T / d[None, :], (plant.C * d[None, :]) @ UA
+        self.nA, self.nCp = _norm2(TA), _norm2(self.CUA)  # balanced
         lam, V = np.linalg.eig(Ab) if plant.n else (np.zeros(0), np.zeros((0, 0)))
         bad = np.abs(lam) >= 1.0 if plant.dt > 0 else lam.real >= 0
         self.unstable = [(complex(lam[i]), d * V[:, i]) for i in np.flatnonzero(bad)]
+        self._last: tuple[ResidualGenerator, Composite] | None = None
+        # frequencies in the plant's own range (:func:`_boundary_points`, n + 2 of them)
+        # shared by the angle measure of every generator on this plant, with the state
+        # responses to its channels computed once
+        self.plant_points = _boundary_points(
+            max(self.nA, 1e-300), plant.n + 2, np.diag(TA), plant.dt, seed=4321
+        )
+        self._responses: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        # the random-point measure likewise: n + 2 random points in the plant's range and
+        # the plant's responses there (to the random probe of Composite._clear_of_rounding
+        # and to each channel), shared by every generator on the plant
+        va = np.random.default_rng(7).standard_normal(plant.n)
+        self.UAva = self.UAh @ (va / max(np.linalg.norm(va), 1e-300))
+        self.plant_random = _points(max(self.nA, 1e-300), plant.n + 2, np.diag(TA), seed=54321)
+        self._random: dict[int, tuple[Any, np.ndarray]] = {}
+
+    def random_response(self, Bx: np.ndarray | None) -> np.ndarray:
+        """``C U_A (sI − T_A)⁻¹ U_Aᴴ Bx`` at :attr:`plant_random`, shape ``(n + 2, q, cols)``
+        (``Bx = None``: the state response to the probe ``U_Aᴴ v``, ``(n + 2, n, 1)``),
+        computed once per channel matrix."""
+        key = id(Bx)
+        hit = self._random.get(key)
+        if hit is not None and hit[0] is Bx:
+            return hit[1]
+        pts = self.plant_random
+        if Bx is None:
+            out = _tri_solve_many(self.TA, pts, self.UAva[:, None])
+        else:
+            UB = self.UAh @ Bx
+            out = np.zeros((pts.size, self.CUA.shape[0], UB.shape[1]), dtype=complex)
+            nz = np.flatnonzero(np.any(UB != 0, axis=0))
+            if nz.size:
+                out[:, :, nz] = self.CUA @ _tri_solve_many(self.TA, pts, UB[:, nz])
+        self._random[key] = (Bx, out)
+        return out
+
+    def boundary_response(self, Bx: np.ndarray) -> np.ndarray:
+        """``(sI − T_A)⁻¹ U_Aᴴ Bx`` at :attr:`plant_points`, shape ``(n + 2, n, cols)``
+        (zero columns not solved), computed once per channel matrix."""
+        hit = self._responses.get(id(Bx))
+        if hit is not None and hit[0] is Bx:
+            return hit[1]
+        UB = self.UAh @ Bx
+        out = np.zeros((self.plant_points.size, UB.shape[0], UB.shape[1]), dtype=complex)
+        nz = np.flatnonzero(np.any(UB != 0, axis=0))
+        if nz.size:
+            out[:, :, nz] = _tri_solve_many(self.TA, self.plant_points, UB[:, nz])
+        self._responses[id(Bx)] = (Bx, out)
+        return out
+
+    def composite(self, g: ResidualGenerator) -> Composite:
+        """The :class:`Composite` of ``g`` with this plant; the last one built is kept, so
+        that a row's checks and its strength verdict factor the generator once."""
+        if self._last is not None and self._last[0] is g:
+            return self._last[1]
+        comp = Composite(g, self.plant, self)
+        self._last = (g, comp)
+        return comp
 
 
 class Composite:
@@ -104,7 +237,8 @@ class Composite:
     ``T(s) = G_y(s) P(s) (+ G_u(s))`` with ``P(s) = C (sI − A)⁻¹ Bx + Dy`` and the
     generator's ``G_y(s) = −M (sI − F)⁻¹ E − H``, ``G_u(s) = M (sI − F)⁻¹ G + K``; the
     complex Schur forms of A and F turn every resolvent into a triangular solve, so each
-    of the ``order + 2`` points costs O(n² + k²) per column.  The Krylov test works on
+    point costs O(k²) per residual row and O(n²) per plant column (the plant's share of the
+    points is solved once per plant, :class:`PlantFactor`).  The Krylov test works on
     the interconnection ``A_c = [[A, 0], [−E C, F]]``, ``C_c = [−H C, M]``, where an
     input ``(Bx, Dy)`` (entering the generator also through ``(Gx, Kx)``) has
     ``B_c = [Bx; −E Dy + Gx]``, ``D_c = −H Dy + Kx`` (built on first use).
@@ -118,37 +252,40 @@ class Composite:
             factor = PlantFactor(plant)
         self.g, self.plant, self.n, self.k, self.N = g, plant, n, k, n + k
         self.TA, self.UAh, self.CUA = factor.TA, factor.UAh, factor.CUA
-        self.nA, self.nCp = _norm2(factor.TA), _norm2(factor.CUA)  # balanced
+        self.nA, self.nCp = factor.nA, factor.nCp  # balanced
         self.nF, self.nE = _norm2(g.F), _norm2(g.E)
         self.nH, self.nM = _norm2(g.H), _norm2(g.M)
         eig = [np.diag(self.TA)]
         if k:
-            self.TF, UF = scipy.linalg.schur(g.F.astype(complex), output="complex")
+            self.TF, UF = complex_schur(g.F)
             self.MUF = g.M @ UF
             self.UFEG = UF.conj().T @ np.hstack([-g.E, g.G])
             self.UFEC = UF.conj().T @ (g.E @ plant.C)
             eig.append(np.diag(self.TF))
         self.eig = np.concatenate(eig)
         rng = np.random.default_rng(7)
-        va, vf = rng.standard_normal(n), rng.standard_normal(k)
-        self.UAva = self.UAh @ (va / max(np.linalg.norm(va), 1e-300))
+        rng.standard_normal(n)  # the plant's probe (factor.UAva) is drawn first
+        vf = rng.standard_normal(k)
+        self.UAva = factor.UAva
         self.UFvf = (
             UF.conj().T @ (vf / max(np.linalg.norm(vf), 1e-300)) if k else np.zeros(0, complex)
         )
         self.scale = max(self.nA, self.nF, self.nE * self.nCp)
-        raw = _points(self.scale, self.N + 2, self.eig)
-        # the angle measure probes frequencies (module function _boundary_points) at the
-        # scale of plant and generator, and in the plant's own frequency range (generator
-        # poles may be much faster and would push every point out of it)
-        dt = plant.dt
+        # random points: k + 2 at the scale of plant and generator, and the plant's own
+        # n + 2 (shared, responses computed once): N + 4 > N + 1 in all
+        raw = np.concatenate([_points(self.scale, k + 2, self.eig), factor.plant_random])
+        # the angle measure probes frequencies (module function _boundary_points): k + 2 at
+        # the scale of plant and generator, and the plant's own n + 2 (generator poles may
+        # be much faster and would push every point out of its range), shared by every
+        # generator on the plant; together N + 4 > N + 1 distinct points, so a transfer of
+        # degree ≤ N that vanishes at all of them is identically zero
+        self.factor = factor
         self.raw_points = np.concatenate(
-            [
-                _boundary_points(self.scale, self.N + 2, self.eig, dt),
-                _boundary_points(self.scale, self.N + 2, np.diag(self.TA), dt, seed=4321),
-            ]
+            [_boundary_points(self.scale, k + 2, self.eig, plant.dt), factor.plant_points]
         )
-        self.points = self._clear_of_rounding(raw)
+        self.points = self._clear_of_rounding(raw, shared=factor.plant_random.size)
         self._comp: dict[str, Any] | None = None
+        self._tf: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     # ----------------------------------------------------------- resolvents
     def _solve_A(self, s: complex, X: np.ndarray) -> np.ndarray:
@@ -197,15 +334,43 @@ class Composite:
         (:func:`_boundary_points`): the measure is that of the frequency response.
         """
         best = np.zeros(len(channels))
-        if not channels:
-            return best
         widths = [c[0].shape[1] for c in channels]
+        if not channels or not all(widths):
+            if channels and any(widths):
+                keep = [c for c, w in enumerate(widths) if w]
+                best[keep] = self.angle_gains([channels[c] for c in keep])
+            return best
         edges = np.cumsum([0, *widths])
         UB = np.hstack([self.UAh @ c[0] for c in channels])
         pts = self.raw_points
+        P, q, m = pts.size, self.g.q, self.g.m
+        own = P - self.factor.plant_points.size  # the row's own points come first
         Qall = self.generator_tf_many(pts)
-        Xall = self._state_response(pts, UB)
-        Yall = self.CUA @ Xall
+        # every channel at once: the response V = [C (sI − A)⁻¹ Bx + Dx; I_x] of all
+        # columns, Q V in one product; the per-channel norms are sums over its columns
+        Y = np.empty((P, q, edges[-1]), dtype=complex)
+        Y[:] = np.hstack([c[1] for c in channels])[None, :, :]
+        nX2 = np.zeros((P, edges[-1]))
+        nz = np.flatnonzero(np.any(UB != 0, axis=0))  # state-side columns
+        if nz.size:
+            shared = np.concatenate([self.factor.boundary_response(c[0]) for c in channels], 2)
+            X = np.concatenate([_tri_solve_many(self.TA, pts[:own], UB[:, nz]), shared[:, :, nz]])
+            Y[:, :, nz] += self.CUA @ X
+            nX2[:, nz] = np.sum(np.abs(X) ** 2, axis=1)
+        U = np.zeros((m, edges[-1]))
+        for c, ch in enumerate(channels):
+            if ch[2]:
+                U[:, edges[c] : edges[c + 1]] = np.eye(m)
+        V = np.concatenate([Y, np.broadcast_to(U, (P, m, edges[-1]))], axis=1)
+        QV = Qall @ V
+
+        def per_channel(sq: np.ndarray) -> np.ndarray:  # (P, columns) → (P, channels)
+            return np.sqrt(np.add.reduceat(sq, edges[:-1], axis=1))
+
+        nY = per_channel(np.sum(np.abs(Y) ** 2, axis=1))
+        nXc = per_channel(nX2)
+        nV = per_channel(np.sum(np.abs(V) ** 2, axis=1))
+        nQV = per_channel(np.sum(np.abs(QV) ** 2, axis=1))
         nQ = (
             np.linalg.norm(Qall, ord=2, axis=(1, 2))
             if Qall.shape[1] > 1
@@ -213,32 +378,22 @@ class Composite:
         )
         ok = nQ > 0
         for c, ch in enumerate(channels):
-            Y = Yall[:, :, edges[c] : edges[c + 1]] + ch[1][None, :, :]
-            w = Y.shape[2]
+            w, blk = widths[c], slice(edges[c], edges[c + 1])
+            if w > 1:  # spectral norms of the channel's block (Frobenius above)
+                nV[:, c] = np.linalg.norm(V[:, :, blk], ord=2, axis=(1, 2))
+                if Qall.shape[1] > 1:
+                    nQV[:, c] = np.linalg.norm(QV[:, :, blk], ord=2, axis=(1, 2))
             # a channel whose response in y is rounding of a cancellation (a fault direction
             # in ker C ∩ an A-invariant subspace) reaches no residual: its "angle" there is
             # that of rounding noise, not a leak
-            X = Xall[:, :, edges[c] : edges[c + 1]]
-            nY = np.linalg.norm(Y.reshape(pts.size, -1), axis=1)
-            refY = self.nCp * np.linalg.norm(X.reshape(pts.size, -1), axis=1) + _norm2(ch[1])
-            seen = nY > 1e2 * _EPS * self.N * refY
-            U = np.eye(self.g.m) if ch[2] else np.zeros((self.g.m, w))
-            V = np.concatenate([Y, np.broadcast_to(U, (pts.size, *U.shape))], axis=1)
-            QV = Qall @ V
-            if w == 1:
-                nV = np.linalg.norm(V[:, :, 0], axis=1)
-            else:
-                nV = np.linalg.norm(V, ord=2, axis=(1, 2))
-            if w == 1 or Qall.shape[1] == 1:
-                nQV = np.linalg.norm(QV.reshape(pts.size, -1), axis=1)
-            else:
-                nQV = np.linalg.norm(QV, ord=2, axis=(1, 2))
-            sel = ok & (nV > 0) & (seen | bool(ch[2]))
+            refY = self.nCp * nXc[:, c] + _norm2(ch[1])
+            seen = nY[:, c] > 1e2 * _EPS * self.N * refY
+            sel = ok & (nV[:, c] > 0) & (seen | bool(ch[2]))
             if np.any(sel):
-                best[c] = float(np.max(nQV[sel] / (nQ[sel] * nV[sel])))
+                best[c] = float(np.max(nQV[sel, c] / (nQ[sel] * nV[sel, c])))
         return best
 
-    def _clear_of_rounding(self, points: np.ndarray) -> np.ndarray:
+    def _clear_of_rounding(self, points: np.ndarray, shared: int = 0) -> np.ndarray:
         """Push points out of the region where rounding in A or F shows.
 
         Near a defective or ill-conditioned eigenvalue (e.g. a Jordan block at 0, whose
@@ -246,16 +401,27 @@ class Composite:
         a cancelled channel to far above ``LEAK_TOL``.  A point is doubled until
         ``eps N scale r ≤ LEAK_TOL / 100``, with ``r = r_A + r_F + r_F ‖E‖ ‖C‖ r_A`` (a
         bound of the interconnection's resolvent from the fixed random probes
-        ``r_A = ‖(sI − A)⁻¹ v‖``, ``r_F = ‖(sI − F)⁻¹ w‖``).
+        ``r_A = ‖(sI − A)⁻¹ v‖``, ``r_F = ‖(sI − F)⁻¹ w‖``).  The last ``shared`` points
+        are the plant's shared random points: ``r_A`` there is the factor's.
         """
         pts = np.asarray(points, dtype=complex).copy()
         todo = np.arange(pts.size)
         lim = LEAK_TOL / 100 / (_EPS * self.N * max(self.scale, 1.0))
+        first = True
         for _ in range(60):
             if not todo.size:
                 break
             s = pts[todo]
-            ra = np.linalg.norm(_tri_solve_many(self.TA, s, self.UAva[:, None]), axis=(1, 2))
+            if first and shared:
+                own = pts.size - shared
+                ra = np.empty(s.size)
+                Xp = _tri_solve_many(self.TA, s[:own], self.UAva[:, None])
+                self._probe = (s[:own].copy(), Xp)  # point_gains reuses it where unmoved
+                ra[:own] = np.linalg.norm(Xp, axis=(1, 2))
+                ra[own:] = np.linalg.norm(self.factor.random_response(None), axis=(1, 2))
+            else:
+                ra = np.linalg.norm(_tri_solve_many(self.TA, s, self.UAva[:, None]), axis=(1, 2))
+            first = False
             if self.k:
                 rf = np.linalg.norm(_tri_solve_many(self.TF, s, self.UFvf[:, None]), axis=(1, 2))
             else:
@@ -293,13 +459,33 @@ class Composite:
 
     def generator_tf_many(self, pts: np.ndarray) -> np.ndarray:
         """``[G_y(s), G_u(s)]`` at every point: shape ``(P, 1, q + m)`` (one residual row)
-        or ``(P, rdim, q + m)``."""
+        or ``(P, rdim, q + m)``.
+
+        ``M (sI − F)⁻¹`` is solved row-wise (one triangular solve per residual row and
+        point, not one per input column); the result for the point sets of this
+        composite (``points``, ``raw_points``) is computed once.
+        """
+        hit = self._tf.get(id(pts))
+        if hit is not None and hit[0] is pts:
+            return hit[1]
+        own = pts is self.points or pts is self.raw_points
+        if own and self.k and not self._tf:  # both point sets in one solve
+            both = self.generator_tf_many(np.concatenate([self.points, self.raw_points]))
+            P = self.points.size
+            self._tf[id(self.points)] = (self.points, both[:P])
+            self._tf[id(self.raw_points)] = (self.raw_points, both[P:])
+            return self._tf[id(pts)][1]
         g = self.g
         D = np.hstack([-g.H, g.K]).astype(complex)
         if not self.k:
-            return np.broadcast_to(D, (pts.size, *D.shape)).copy()
-        R = _tri_solve_many(self.TF, pts, self.UFEG)
-        return D[None, :, :] + self.MUF @ R
+            out = np.broadcast_to(D, (pts.size, *D.shape)).copy()
+        elif self.MUF.shape[0] < self.UFEG.shape[1]:
+            out = D[None, :, :] + _tri_solve_rows_many(self.TF, pts, self.MUF) @ self.UFEG
+        else:
+            out = D[None, :, :] + self.MUF @ _tri_solve_many(self.TF, pts, self.UFEG)
+        if own:
+            self._tf[id(pts)] = (pts, out)
+        return out
 
     # ------------------------------------------------------- random points
     def point_gains(self, channels: list[tuple[Any, ...]]) -> np.ndarray:
@@ -319,7 +505,25 @@ class Composite:
         best = np.zeros(len(channels))
         pts = self.points
         P, q = pts.size, self.g.q
-        Yall = self._plant_response(pts, UB)
+        # the row's own points, then the plant's shared ones (responses computed once;
+        # a shared point moved clear of rounding is solved here)
+        f = self.factor
+        own = P - f.plant_random.size
+        probe = self.CUA @ f.random_response(None)
+        shared = np.concatenate([f.random_response(c[0]) for c in channels] + [probe], axis=2)
+        moved = np.flatnonzero(pts[own:] != f.plant_random)
+        if moved.size:
+            shared[moved] = self._plant_response(pts[own:][moved], UB)
+        Yown = np.empty((own, q, UB.shape[1]), dtype=complex)
+        Yown[:, :, :-1] = self._plant_response(pts[:own], UB[:, :-1])
+        p0, Xp = getattr(self, "_probe", (np.zeros(0), None))
+        same = p0.size == own and Xp is not None
+        kept = (pts[:own] == p0) if same else np.zeros(own, dtype=bool)
+        if np.any(kept):
+            Yown[kept, :, -1:] = self.CUA @ Xp[kept]  # type: ignore[index]
+        if not np.all(kept):
+            Yown[~kept, :, -1:] = self._plant_response(pts[:own][~kept], UB[:, -1:])
+        Yall = np.concatenate([Yown, shared])
         cr = np.linalg.norm(Yall[:, :, -1], axis=1)
         Qall = self.generator_tf_many(pts)
         Gy, Gu = Qall[:, :, :q], Qall[:, :, q:]
@@ -510,13 +714,18 @@ def frequency_gains(comp: Composite, sigs: list, omegas: np.ndarray) -> np.ndarr
     UB = comp.UAh @ np.hstack([Bf for Bf, _ in sigs])
     Dall = np.hstack([Df for _, Df in sigs])
     edges = np.cumsum([0, *widths])
-    out = np.zeros((omegas.size, len(sigs)))
-    for i, w in enumerate(omegas):
-        s = np.exp(1j * w) if comp.plant.dt > 0 else 1j * w
-        if np.min(np.abs(comp.eig - s), initial=np.inf) < 1e-12 * max(comp.scale, 1.0):
-            out[i] = np.inf
-            continue
-        Gy, _ = comp.generator_tf(s)
-        X = Gy @ (comp.CUA @ comp._solve_A(s, UB) + Dall)
-        out[i] = [np.linalg.norm(X[:, edges[j] : edges[j + 1]]) for j in range(len(sigs))]
+    out = np.full((omegas.size, len(sigs)), np.inf)
+    pts = np.exp(1j * omegas) if comp.plant.dt > 0 else 1j * omegas
+    dist = np.min(np.abs(comp.eig[None, :] - pts[:, None]), axis=1, initial=np.inf)
+    ok = dist >= 1e-12 * max(comp.scale, 1.0)  # a pole hit exactly: inf
+    if np.any(ok):
+        Gy = comp.generator_tf_many(pts[ok])[:, :, : comp.g.q]
+        X = Gy @ (comp._plant_response(pts[ok], UB) + Dall[None, :, :])
+        out[ok] = np.stack(
+            [
+                np.linalg.norm(X[:, :, edges[j] : edges[j + 1]], axis=(1, 2))
+                for j in range(len(sigs))
+            ],
+            axis=1,
+        )
     return out

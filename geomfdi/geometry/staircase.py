@@ -27,6 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.tolerance import rank_decision
@@ -101,8 +102,11 @@ def observer_staircase(A: np.ndarray, C: np.ndarray) -> Staircase:
     ``X_j = A[b_{j−1}, rest]ᵀ`` (the coupling of the previous block to the coordinates not
     yet in the staircase), with ``U`` acting on those remaining coordinates.  The first
     ``ρ_j`` columns of ``U`` (``ρ_j`` the decided rank) become block j; ``A``, ``C`` and
-    ``Z`` are updated by ``U`` on the remaining coordinates.  The loop stops at a block of
-    rank 0 (the rest is unobservable) or when every coordinate is in the staircase.
+    ``Z`` are updated on the remaining coordinates by an orthogonal completion of those
+    columns (Householder reflectors, applied without forming the ``n × n`` factor).  The
+    loop stops at a block of rank 0 (the rest is unobservable) or when every coordinate is
+    in the staircase.  A single output is reduced by the blocked Hessenberg reduction
+    (:func:`_single_output`).
     """
     A = np.array(A, dtype=float, copy=True)
     C = np.array(C, dtype=float, copy=True)
@@ -111,20 +115,86 @@ def observer_staircase(A: np.ndarray, C: np.ndarray) -> Staircase:
     blocks: list[int] = []
     gaps: list[float] = []
     scale = max(_norm2(A), _norm2(C), 1e-300)
+    if C.shape[0] == 1 and n > 2:
+        return _single_output(A, C, scale)
     start = 0
     X = C.T  # rows: remaining coordinates start:n
     while start < n and X.size:
-        U, s, _ = np.linalg.svd(X, full_matrices=True)
+        if X.shape[1] == 1:  # one column: its SVD is its norm and direction
+            nx = float(np.linalg.norm(X))
+            s, U1 = np.array([nx]), X / (nx if nx > 0 else 1.0)
+        else:
+            U1, s, _ = np.linalg.svd(X, full_matrices=False)
         dec = rank_decision(s, scale, n, what="observer staircase", warn=False)
         r = dec.rank
         if r == 0:
             break
-        A[start:, :] = U.T @ A[start:, :]
-        A[:, start:] = A[:, start:] @ U
-        C[:, start:] = C[:, start:] @ U
-        Z[:, start:] = Z[:, start:] @ U
+        _rotate(A, C, Z, start, U1[:, :r])
         blocks.append(r)
         gaps.append(float(dec.gap))
         X = A[start : start + r, start + r :].T  # the new block's coupling to the rest
         start += r
     return Staircase(A, C, Z, blocks, gaps)
+
+
+def _single_output(A: np.ndarray, C: np.ndarray, scale: float) -> Staircase:
+    """The staircase of a single-output pair: every block has size 1 (or 0), so the
+    staircase is the Hessenberg reduction of ``Aᵀ`` in coordinates whose first axis is
+    ``Cᵀ``: one reflector ``H`` with ``H e_1 = ± Cᵀ/‖C‖``, then the blocked Householder
+    reduction (LAPACK ``gehrd``) of ``H Aᵀ H``, which keeps ``e_1``.  The block sizes are
+    the same rank decisions as the general loop's, on ``‖C‖`` and on the successive
+    couplings (the sub-diagonal of the Hessenberg form), up to the first decided zero
+    (the rest is unobservable)."""
+    n = A.shape[0]
+    Z = np.eye(n)
+    blocks: list[int] = []
+    gaps: list[float] = []
+    nc = float(np.linalg.norm(C))
+    dec = rank_decision(np.array([nc]), scale, n, what="observer staircase", warn=False)
+    if dec.rank == 0:
+        return Staircase(A, C, Z, blocks, gaps)
+    At = np.array(A.T, copy=True)
+    Cz = np.array(C, copy=True)
+    _rotate(At.T, Cz, Z, 0, (C.T / nc))  # At.T is a view of At: A rotated in place
+    Hs, Q = scipy.linalg.hessenberg(At, calc_q=True)
+    Z = Z @ Q
+    A = np.ascontiguousarray(Hs.T)
+    C = Cz @ Q
+    blocks.append(1)
+    gaps.append(float(dec.gap))
+    for j in range(1, n):
+        dec = rank_decision(
+            np.array([abs(Hs[j, j - 1])]), scale, n, what="observer staircase", warn=False
+        )
+        if dec.rank == 0:
+            break
+        blocks.append(1)
+        gaps.append(float(dec.gap))
+    return Staircase(A, C, Z, blocks, gaps)
+
+
+def _rotate(A: np.ndarray, C: np.ndarray, Z: np.ndarray, start: int, U1: np.ndarray) -> None:
+    """Change the coordinates ``start:`` by an orthogonal ``U`` whose first columns are
+    ``U1`` (orthonormal) up to sign, in place on A (both sides), C and Z.
+
+    ``U = H_1 … H_r`` is the product of the Householder reflectors of the QR
+    factorisation of ``U1`` (``U e_j = ± U1 e_j``; any orthonormal completion serves the
+    staircase), applied one reflector at a time without forming U: ``O(r n²)`` per
+    block instead of the ``O(n³)`` of a dense ``n × n`` factor.
+    """
+    W = np.array(U1, dtype=float, copy=True)
+    for j in range(W.shape[1]):
+        x = W[j:, j]
+        nx = float(np.linalg.norm(x))
+        if nx == 0.0:
+            continue
+        v = x.copy()
+        v[0] += nx if x[0] >= 0 else -nx  # v = x − α e_1, α = −sign(x_0) ‖x‖
+        bv = (2.0 / float(v @ v)) * v
+        o = start + j
+        A[o:, :] -= np.outer(bv, v @ A[o:, :])
+        A[:, o:] -= np.outer(A[:, o:] @ v, bv)
+        if C.shape[0]:
+            C[:, o:] -= np.outer(C[:, o:] @ v, bv)
+        Z[:, o:] -= np.outer(Z[:, o:] @ v, bv)
+        W[j:, j:] -= np.outer(bv, v @ W[j:, j:])

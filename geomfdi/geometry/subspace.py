@@ -15,6 +15,7 @@ re-orthonormalised one.
 
 from __future__ import annotations
 
+import hashlib
 from typing import Any
 
 import numpy as np
@@ -48,8 +49,32 @@ def _space_dim(n: Any) -> int:
     return as_int(n, "n", minimum=0, maximum=MAX_SPACE_DIM)
 
 
+_NORM_MEMO: dict[tuple[Any, ...], float] = {}
+"""Spectral norms of the last large matrices seen, keyed by shape, type and a digest of
+their entries (a design takes the norm of the same data in several steps)."""
+
+_NORM_MEMO_MIN, _NORM_MEMO_SIZE = 4096, 64
+
+
 def _norm2(M: np.ndarray) -> float:
-    return float(np.linalg.norm(M, 2)) if M.size else 0.0
+    """Spectral norm ``‖M‖₂`` (largest singular value); 0 for an empty M.  Large matrices
+    are remembered by content (:data:`_NORM_MEMO`): the same entries give the same norm
+    without a second SVD."""
+    M = np.asarray(M)
+    if M.size < _NORM_MEMO_MIN:
+        return float(np.linalg.norm(M, 2)) if M.size else 0.0
+    C = np.ascontiguousarray(M)
+    key = (C.shape, C.dtype.str, hashlib.blake2b(C.data, digest_size=16).digest())
+    val = _NORM_MEMO.get(key)
+    if val is None:
+        val = float(np.linalg.norm(C, 2))
+        if len(_NORM_MEMO) >= _NORM_MEMO_SIZE:
+            try:
+                del _NORM_MEMO[next(iter(_NORM_MEMO))]
+            except (KeyError, RuntimeError, StopIteration):  # another thread got there
+                pass
+        _NORM_MEMO[key] = val
+    return val
 
 
 def _range_basis(M: np.ndarray, scale: float, what: str) -> np.ndarray:
@@ -315,7 +340,11 @@ def _extend(
     if B.shape[1]:
         P = P - B @ (B.T @ P)
         P = P - B @ (B.T @ P)
-    U, s, _ = np.linalg.svd(P, full_matrices=False)
+    if P.shape[1] == 1:  # one column: its SVD is its norm and direction
+        nP = float(np.linalg.norm(P))
+        U, s = P / (nP if nP > 0 else 1.0), np.array([nP])
+    else:
+        U, s, _ = np.linalg.svd(P, full_matrices=False)
     r = rank_decision(s, scale, n, what=what, noise=noise).rank
     return U[:, :r], extraction_noise(s[r - 1] if r else 0.0, scale)
 

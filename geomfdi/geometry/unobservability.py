@@ -126,21 +126,27 @@ def min_unobservability_subspace(
     with record_decisions() as rec, decision_stage("S*"):
         # dual recursion on Y_k = Z_k^⊥ (increasing):  Y_k = W*^⊥ ∩ V_k,
         # V_k = Im Cᵀ + Aᵀ Y_{k-1};  V's basis is kept as Y ⊕ R (dim R ≤ dim W*)
-        V = np.zeros((n, 0))
-        Y = np.zeros((n, 0))
+        # the bases only grow: kept in preallocated arrays (no copy of V, Y per step)
+        Vb, Yb = np.empty((n, n)), np.empty((n, n))
+        nv = ny = 0
         R = np.zeros((n, 0))
-        new, noise = _extend(V, C.T, nC, "Im Cᵀ (Ker C)", 0.0)
+        new, noise = _extend(Vb[:, :0], C.T, nC, "Im Cᵀ (Ker C)", 0.0)
         history = [n]
         for _ in range(n + 1):
             Y_new, R = split_kernel(np.hstack([R, new]), Wb.T, 1.0, "V ∩ W*^⊥")
             Y_new = _project_out(Y_new, Wb)
-            V, Y = np.hstack([V, new]), np.hstack([Y, Y_new])
-            history.append(n - Y.shape[1])
-            if not Y_new.shape[1]:
+            dv, dy = new.shape[1], Y_new.shape[1]
+            Vb[:, nv : nv + dv], Yb[:, ny : ny + dy] = new, Y_new
+            nv, ny = nv + dv, ny + dy
+            history.append(n - ny)
+            if not dy:
                 break
             # directions extracted from a strong cancellation carry more rounding than ε:
             # the next step's floor rises accordingly (extraction_noise)
-            new, noise = _extend(V, A.T @ Y_new, nA, "Im Cᵀ + Aᵀ Z^⊥ (A⁻¹(Z) ∩ Ker C)", noise)
+            new, noise = _extend(
+                Vb[:, :nv], A.T @ Y_new, nA, "Im Cᵀ + Aᵀ Z^⊥ (A⁻¹(Z) ∩ Ker C)", noise
+            )
+        Y = Yb[:, :ny].copy()
     Z = Subspace.from_orthonormal(Y).complement()
     S = InvariantSubspace._wrap(Z, history, [*W.decisions, *rec], "min_unobservability_subspace")
     S.W = W
@@ -154,6 +160,8 @@ def _project_out(Y: np.ndarray, W: np.ndarray) -> np.ndarray:
         return Y
     Y = Y - W @ (W.T @ Y)
     Y = Y - W @ (W.T @ Y)
+    if Y.shape[1] == 1:
+        return Y / max(float(np.linalg.norm(Y)), 1e-300)
     q, _ = np.linalg.qr(Y)
     return q
 

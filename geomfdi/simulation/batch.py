@@ -10,13 +10,12 @@ import numpy as np
 from geomfdi._threads import limit_blas_threads
 from geomfdi._validation import as_choice, as_int
 from geomfdi.errors import ShapeError
-from geomfdi.evaluation.decision import (
-    as_threshold,
-)
+from geomfdi.evaluation.decision import NO_ALARM, as_threshold
 from geomfdi.evaluation.persistence import as_persistence
 from geomfdi.generators.generator import ResidualBank, ResidualGenerator
 from geomfdi.limits import check_allocation, check_runs
 from geomfdi.model.plant import Plant, as_plant
+from geomfdi.simulation.compiled_recursion import batch_runs
 from geomfdi.simulation.context import (
     detection_window_of,
     from_balanced,
@@ -84,7 +83,10 @@ def simulate_batch(
     noise : Noise, optional
         Run ``i`` draws its noise from ``numpy.random.default_rng(seeds[i])``; by default
         the seeds are ``SeedSequence(noise.seed).spawn(runs)``, so run ``i`` equals
-        ``simulate(..., noise=Noise(..., seed=seeds[i]))``.
+        ``simulate(..., noise=Noise(..., seed=seeds[i]))`` up to rounding (the bank of
+        a batch runs in the compiled recursion of
+        :mod:`geomfdi.simulation.compiled_recursion`; see the user guide,
+        *Performance*, ``docs/guide/performance.md``).
     seeds : sequence, optional
         Explicit per-run seeds (integers >= 0 or ``numpy.random.SeedSequence``), one per
         run; needs ``noise``.
@@ -153,38 +155,37 @@ def simulate_batch(
     keep_r = store in ("residuals", "all")
     R_res = np.zeros((runs, nres, N)) if keep_r else None
     R_al = np.zeros((runs, nres, N), dtype=bool) if keep_r else None
-    R_iso = np.zeros((runs, N), dtype=int) if keep_r else None
+    R_iso = np.full((runs, N), NO_ALARM, dtype=int) if keep_r else None
     R_x = np.zeros((runs, plant.n, N)) if store == "all" else None
     R_y = np.zeros((runs, q, N)) if store == "all" else None
     R_yh = np.zeros((runs, q, N)) if store == "all" else None
     R_u = np.zeros((runs, plant.m, N)) if store == "all" else None
-    cache: dict[int, list[int | None]] = {}
-    columns = []
-    for sched in schedules:
-        if id(sched) not in cache:
-            cache[id(sched)] = structure_columns(sched.faults, view.design_faults, plant)
-        columns.append(cache[id(sched)])
+    cache: dict[Any, Any] = {}  # the column of each fault channel (not per run)
+    columns = [structure_columns(sc.faults, view.design_faults, plant, cache) for sc in schedules]
     summary = RunSummary(ctx.t, [sc.faults for sc in schedules], columns, nres, window)
     loop = in_loop(ctx, schedules)
     width = chunk_width(ctx, keep_states=loop, loop=loop)
-    Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size)
+    Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size, min_runs=batch_runs())
     bar = progress_bar(ctx.progress, runs, "runs")
-    engines: dict[str, Any] = {}  # an open-loop engine kept for the next chunk of runs
+    kept: dict[str, Any] = {}  # for the next chunk of runs: open-loop engine, noise buffers
     for a in range(0, runs, Rc):
         b = min(a + Rc, runs)
         rngs = [None if sd is None else np.random.default_rng(sd) for sd in seeds[a:b]]
         x0c = to_balanced(ctx, x0a[a:b] if x0a.shape[0] > 1 else x0a)
         chunk = schedules[a:b]
         ds = DecisionStream(thr, view.structure, rule)
-        pieces = _pieces(ctx, x0c, xc0a, rngs, chunk, not per_run, L, R_res, a, engines)
+        pieces = _pieces(ctx, x0c, xc0a, rngs, chunk, not per_run, L, R_res, a, kept)
         for s, e, pc, res, written in pieces:
-            al, iso = ds.step(res)
-            summary.update(s, res, al, iso.isolated, a, iso.suspects)
-            if keep_r:
-                if not written:
-                    R_res[a:b, :, s:e] = res
-                R_al[a:b, :, s:e] = al
-                R_iso[a:b, s:e] = iso.isolated
+            if keep_r and not written:
+                R_res[a:b, :, s:e] = res
+            if thr is None:  # no alarm, no decision: R_al and R_iso stay as they are
+                summary.update(s, res, None, None, a)
+            else:
+                al, iso = ds.step(res)
+                summary.update(s, res, al, iso.isolated, a, iso.suspects)
+                if keep_r:
+                    R_al[a:b, :, s:e] = al
+                    R_iso[a:b, s:e] = iso.isolated
             if store == "all":
                 L_s = e - s
                 R_x[a:b, :, s:e] = from_balanced(ctx, pc.X[:, :, :L_s].transpose(1, 0, 2))
@@ -239,7 +240,7 @@ def _pieces(
     L: int,
     R_res: np.ndarray | None,
     a: int,
-    engines: dict[str, Any],
+    kept: dict[str, Any],
 ) -> Iterator[tuple[int, int, Any, np.ndarray, bool]]:
     """The time chunks of a chunk of runs: ``(s, e, signals, residuals (Rc, n, e-s),
     written)`` (``written``: the residuals are already in ``R_res``).
@@ -247,18 +248,19 @@ def _pieces(
     The engine advances chunk by chunk; the residual rows are written straight into
     ``R_res`` when it is kept and every run differs.  With one fault list shared by
     every run, the open-loop engine of the first chunk of runs is restarted for the
-    next (``engines``).
+    next (``kept``, which also holds the noise draws' buffers, reused chunk after chunk).
     """
     view, N = ctx.view, ctx.N
     nres, Rc = len(view.generators), len(rngs)
-    eng = engines.get("open")
+    eng = kept.get("open")
     if eng is not None:  # shared fault list in open loop: same matrices, new runs
         eng.restart(x0, Rc)
     else:
         eng = make_engine(ctx, x0, xc0, schedules, shared, Rc, L)
         if shared and isinstance(eng, OpenLoopEngine):
-            engines["open"] = eng
-    streams = noise_streams(ctx, rngs)
+            kept["open"] = eng
+    pool = kept.setdefault("noise buffers", [])  # the draws' memory, reused
+    streams = noise_streams(ctx, rngs, pool)
     direct = R_res is not None and eng.R == Rc
     chunks = time_chunks(N, L)
     buf = None if direct else np.zeros((eng.R, nres, max(e1 - s for s, _, e1 in chunks)))
@@ -267,3 +269,5 @@ def _pieces(
         v, wp = noise_window(ctx, streams, s, e1)
         pc = eng.advance(s, e1, v, wp, dest)
         yield s, e, pc, np.broadcast_to(dest[:, :, : e - s], (Rc, nres, e - s)), direct
+    for st in streams or ():
+        st.release()

@@ -7,6 +7,8 @@ chunk that they return (:class:`RawRuns`: the closed loop's own layout).
 
 from __future__ import annotations
 
+import copy
+import hashlib
 import numbers
 import sys
 from collections.abc import Sequence
@@ -35,6 +37,7 @@ class BankView:
     bank: Any
 
     scales: list[np.ndarray | None] = field(default_factory=list)
+    keys: list[bytes | None] = field(default_factory=list)
 
     @property
     def present(self) -> list[int]:
@@ -64,7 +67,58 @@ def balanced_generator(g: ResidualGenerator) -> tuple[ResidualGenerator, np.ndar
     return gb, e
 
 
+_CHECKED: dict[bytes, tuple[dict[str, np.ndarray] | None, np.ndarray]] = {}
+_CHECKED_ENTRIES = 256
+_MATRICES = ("F", "E", "G", "M", "H", "K")
+
+
+def generator_key(g: ResidualGenerator) -> bytes:
+    """A fingerprint of the matrices of ``g``: their shapes and their values as floats
+    (what the simulation reads), one hash over the concatenated entries."""
+    mats = [np.asarray(getattr(g, name)) for name in _MATRICES]
+    h = hashlib.blake2b(np.concatenate([a.ravel() for a in mats], dtype=float), digest_size=16)
+    h.update(repr([a.shape for a in mats]).encode())
+    return h.digest()
+
+
+def _checked_generator(
+    k: int, g: ResidualGenerator, key: bytes
+) -> tuple[ResidualGenerator, np.ndarray]:
+    """Generator ``k`` checked for finite entries and balanced (:func:`balanced_generator`).
+
+    Both depend on the matrices only: the outcome is kept by their fingerprint ``key``
+    (read-only balanced matrices), so a bank simulated again, with unchanged matrices,
+    is neither checked nor balanced again (short records, Monte-Carlo loops); changed
+    matrices have another key and are checked.
+    """
+    hit = _CHECKED.get(key)
+    if hit is None:
+        for name in _MATRICES:
+            if not np.all(np.isfinite(np.asarray(getattr(g, name), dtype=float))):
+                raise NonFiniteError(
+                    f"bank: generator {k} has a non-finite entry in {name}", argument="bank"
+                )
+        gb, e = balanced_generator(g)
+        mats = None
+        if gb is not g:
+            mats = {name: getattr(gb, name) for name in "FEGM"}
+            for a in mats.values():
+                a.setflags(write=False)
+        if len(_CHECKED) >= _CHECKED_ENTRIES:
+            _CHECKED.clear()
+        _CHECKED[key] = hit = (mats, e)
+    mats, e = hit
+    if mats is None:
+        return g, e
+    gb = copy.copy(g)  # the checked matrices of a valid generator: no re-validation
+    for name, a in mats.items():
+        setattr(gb, name, a)
+    return gb, e
+
+
 def bank_view(bank: Any, plant: Plant) -> BankView:
+    """The bank's generators checked against the plant and balanced, with its fault
+    structure and labels (``keys``: the fingerprint of each generator's matrices)."""
     if isinstance(bank, ResidualGenerator):
         idx = set(bank.target) | set(bank.decoupled)
         nf = max(idx) + 1 if idx else 1
@@ -85,14 +139,12 @@ def bank_view(bank: Any, plant: Plant) -> BankView:
         )
     if not view.present:
         raise GeomFDIError("bank: no residual generator exists in this bank", argument="bank")
+    view.scales = [None] * len(view.generators)
+    view.keys = [None] * len(view.generators)
     for k in view.present:
         g = view.generators[k]
-        for name in ("F", "E", "G", "M", "H", "K"):
-            mat = np.asarray(getattr(g, name), dtype=float)
-            if not np.all(np.isfinite(mat)):
-                raise NonFiniteError(
-                    f"bank: generator {k} has a non-finite entry in {name}", argument="bank"
-                )
+        key = generator_key(g)
+        gb, e = _checked_generator(k, g, key)
         if g.q != plant.q or g.m != plant.m:
             raise ShapeError(
                 f"bank: generator {k} reads {g.q} outputs and {g.m} inputs, the plant has "
@@ -104,9 +156,7 @@ def bank_view(bank: Any, plant: Plant) -> BankView:
                 f"bank: generator {k} has dt={g.dt:g}, the plant dt={plant.dt:g}",
                 argument="bank",
             )
-    view.scales = [None] * len(view.generators)
-    for k in view.present:
-        view.generators[k], view.scales[k] = balanced_generator(view.generators[k])
+        view.generators[k], view.scales[k], view.keys[k] = gb, e, key
     return view
 
 

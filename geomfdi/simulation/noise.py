@@ -174,10 +174,19 @@ class NoiseStream:
         Samples in the record.
     block : int
         Samples per block (tests only; the default defines the stream).
+    pool : list of ndarray, optional
+        Buffers shared by several streams (:meth:`release` returns a finished
+        stream's blocks to it).
     """
 
     def __init__(
-        self, rng: np.random.Generator, rows_v: int, rows_w: int, N: int, block: int = NOISE_BLOCK
+        self,
+        rng: np.random.Generator,
+        rows_v: int,
+        rows_w: int,
+        N: int,
+        block: int = NOISE_BLOCK,
+        pool: list[np.ndarray] | None = None,
     ) -> None:
         self.rng = rng
         self.rows = (int(rows_v), int(rows_w))
@@ -185,15 +194,37 @@ class NoiseStream:
         self.block = int(block)
         self._blocks: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._next = 0  # next block to draw
+        #: buffers of released blocks, shared by the streams of one simulation and
+        #: drawn into again (no fresh memory per run and block); with a pool, the
+        #: ranges :meth:`take` returns are views to use before the next ``take`` of
+        #: any stream of the pool
+        self.pool = pool
+
+    def _buffer(self, rows: int, L: int) -> np.ndarray:
+        for k, buf in enumerate(self.pool or ()):
+            if buf.shape == (rows, L):
+                return self.pool.pop(k)  # type: ignore[union-attr]
+        return np.empty((rows, L))
 
     def _draw(self) -> None:
         b = self._next
         L = min(self.block, self.N - b * self.block)
         rv, rw = self.rows
-        zv = self.rng.standard_normal((rv, L)) if rv else np.zeros((0, L))
-        zw = self.rng.standard_normal((rw, L)) if rw else np.zeros((0, L))
+        # straight into the block's buffer: the values of rng.standard_normal((rows, L))
+        zv = self.rng.standard_normal(out=self._buffer(rv, L)) if rv else np.zeros((0, L))
+        zw = self.rng.standard_normal(out=self._buffer(rw, L)) if rw else np.zeros((0, L))
         self._blocks[b] = (zv, zw)
         self._next += 1
+
+    def release(self) -> None:
+        """Return the kept blocks' buffers to the pool (the stream is done)."""
+        for b in list(self._blocks):
+            self._free(b)
+
+    def _free(self, b: int) -> None:
+        zv, zw = self._blocks.pop(b)
+        if self.pool is not None:
+            self.pool.extend(z for z in (zv, zw) if z.size)
 
     def take(self, s: int, e: int) -> tuple[np.ndarray, np.ndarray]:
         """Draws of samples ``s .. e-1``: ``(zv (rows_v, e-s), zw (rows_w, e-s))``."""
@@ -206,7 +237,7 @@ class NoiseStream:
         while self._next <= b1:
             self._draw()
         for b in [b for b in self._blocks if b < b0]:
-            del self._blocks[b]
+            self._free(b)
         if b0 == b1:
             zv, zw = self._blocks[b0]
             return zv[:, s - b0 * B : e - b0 * B], zw[:, s - b0 * B : e - b0 * B]

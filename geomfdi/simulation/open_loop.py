@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from geomfdi.simulation.compiled_recursion import bank_recursion
 from geomfdi.simulation.context import Context, Piece
 from geomfdi.simulation.initial_state import (
     EXACT_TOL,
@@ -28,6 +29,7 @@ from geomfdi.simulation.initial_state import (
     start_error,
 )
 from geomfdi.simulation.lifting import Drive, _digest, block_recursion
+from geomfdi.simulation.profiles import fault_profiles, profile_groups
 from geomfdi.simulation.signals import (
     BiasFault,
     SensorFaultSignal,
@@ -73,6 +75,8 @@ class OpenLoopEngine:
         p = ctx.plant
         n, m, q, nd = p.n, p.m, p.q, p.nd
         self.fault_lists, self.shared = fault_lists, shared
+        self.groups = None if shared else profile_groups(fault_lists)
+        self._profiles: tuple[np.ndarray, ...] | None = None  # reused window after window
         K = ctx.ctrl.K if ctx.ctrl.mode == "state" else np.zeros((m, n))
         A_X = p.A - p.B @ K
         nwp = ctx.nwp
@@ -109,11 +113,11 @@ class OpenLoopEngine:
         # ---- the bank's matrices: they depend on the models and the time grid only, so
         # repeated simulations of the same bank (short records, Monte-Carlo loops) reuse
         # them (the warnings and info entries of the set-up are replayed)
-        mats = [A_X, B_X, Cy0, Dy0, Cu, Du, dis.Ad]
-        mats += [x for _, g in gens for x in (g.F, g.E, g.G, g.M, g.H, g.K)]
+        # (the generators by their fingerprints from the bank's checks: balanced
+        # matrices are a function of them)
         key = (
-            _digest(mats),
-            tuple(k for k, _ in gens),
+            _digest([A_X, B_X, Cy0, Dy0, Cu, Du, dis.Ad]),
+            tuple(_generator_key(ctx, k, g) for k, g in gens),
             ctx.discrete,
             ctx.consistent,
             ctx.keep_states,
@@ -122,6 +126,7 @@ class OpenLoopEngine:
             tuple(self.sens),
             tuple(chan),
         )
+        self.key = key
         setup = _SETUPS.get(key)
         if setup is None:
             with warnings.catch_warnings(record=True) as caught:
@@ -180,23 +185,25 @@ class OpenLoopEngine:
         """Sensors whose interval gain ``delta`` differs from 1 somewhere on the grid
         (each gets an exact drive channel), found window by window."""
         ctx, N, q = self.ctx, self.ctx.N, self.ctx.plant.q
+        # a bias fault leaves eta = 1: only the sensors of the other faults can have a gain
+        cand = {f.sensor for fl in self.fault_lists for f in fl if not isinstance(f, BiasFault)}
+        cand = sorted(cand & set(self.sens))
+        if not cand:
+            return []
+        rows = [self.row[i] for i in cand]
+        step = max(int(chunk), 2)
+        holds: list[dict[int, np.ndarray]] = [{} for _ in self.fault_lists]
         out: set[int] = set()
-        for fl in self.fault_lists:
-            cand = sorted({f.sensor for f in fl if not isinstance(f, BiasFault)} & set(self.sens))
-            if not cand:
-                continue
-            rows = [self.row[i] for i in cand]
-            step = max(int(chunk), 2)
-            holds: dict[int, np.ndarray] = {}
-            for s in range(0, max(N - 1, 1), step):
-                e1 = min(s + step + 1, N)
-                zero = np.zeros((1, q, e1 - s))
-                prof = fault_profile(
-                    fl, ctx.t, zero, q=q, k0=s, k1=e1, holds=holds, sensors=self.need, y0_start=s
-                )
-                eta, eta_l = prof.eta[rows], prof.eta_left[rows]
-                delta = 0.5 * (eta[:, :-1] + eta_l[:, 1:]) if self.foh else eta[:, :-1]
-                out.update(i for j, i in enumerate(cand) if np.any(delta[j] != 1))
+        for s in range(0, max(N - 1, 1), step):
+            e1 = min(s + step + 1, N)
+            zero = np.zeros((1, q, e1 - s))
+            eta, eta_l, _, _ = fault_profiles(
+                self.fault_lists, ctx.t, zero, q=q, k0=s, k1=e1, holds=holds,
+                sensors=self.need, y0_start=s, groups=self.groups,
+            )  # fmt: skip
+            eta, eta_l = eta[rows], eta_l[rows]  # (sensors, runs, L)
+            delta = 0.5 * (eta[:, :, :-1] + eta_l[:, :, 1:]) if self.foh else eta[:, :, :-1]
+            out.update(i for j, i in enumerate(cand) if np.any(delta[j] != 1))
         return sorted(out)
 
     def _profile(self, s: int, e1: int, y0n: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -221,27 +228,22 @@ class OpenLoopEngine:
                 prof.lam.transpose(1, 0, 2),
                 prof.lam_left.transpose(1, 0, 2),
             )
-        y0r = y0n.transpose(1, 0, 2)
-        profs = [
-            fault_profile(
-                fl,
-                t,
-                y0r[r : r + 1] if y0r.shape[0] > 1 else y0r,
-                q=q,
-                k0=s,
-                k1=e1,
-                holds=self.holds[r],
-                sensors=self.need,
-                y0_start=s,
-            )
-            for r, fl in enumerate(self.fault_lists)
-        ]
-        return (
-            np.stack([pr.eta for pr in profs], axis=1),
-            np.stack([pr.eta_left for pr in profs], axis=1),
-            np.concatenate([pr.lam[-1:].transpose(1, 0, 2) for pr in profs], axis=1),
-            np.concatenate([pr.lam_left[-1:].transpose(1, 0, 2) for pr in profs], axis=1),
+        # one update per fault for the runs of one fault-list structure (a sweep of
+        # sizes), run by run otherwise (geomfdi.simulation.profiles)
+        self._profiles = fault_profiles(
+            self.fault_lists,
+            t,
+            y0n.transpose(1, 0, 2),
+            q=q,
+            k0=s,
+            k1=e1,
+            holds=self.holds,
+            sensors=self.need,
+            y0_start=s,
+            groups=self.groups,
+            out=self._profiles,  # the previous window's arrays (used up by advance)
         )
+        return self._profiles
 
     # ------------------------------------------------------------------ advance
     def advance(
@@ -286,7 +288,9 @@ class OpenLoopEngine:
         dX = [Drive(e), Drive(e, 1)] if foh else [Drive(e)]
         # the state only; the readings and inputs from it by two plain products (cheaper
         # than lifting them: fewer lifted outputs per state)
-        ((X,),) = block_recursion([self.dis.Ad], self.WX, dX, self.x, [[np.eye(n)]], L)
+        ((X,),) = block_recursion(
+            [self.dis.Ad], self.WX, dX, self.x, [[np.eye(n)]], L, key=("plant", self.key)
+        )
         y0c = _affine(self.Cy0, X, self.Dy0, e)
         u = _affine(self.Cu, X, self.Du, e)
         self.x = np.ascontiguousarray(X[:, :, -1])
@@ -312,16 +316,18 @@ class OpenLoopEngine:
                 drives.append(Drive(e, 1))
             sens = self.sens
             if sens:
-                prow = [row[i] for i in sens]
+                # views, not copies, when the rows are consecutive (every sensor with noise)
+                prow, sr = _rows([row[i] for i in sens]), _rows(sens)
                 if foh:
                     delta = 0.5 * (eta[prow, :, :-1] + eta_l[prow, :, 1:])
                 else:
                     delta = eta[prow, :, :-1]
-                rhoL = y[sens, :, :-1] - delta * y0c[sens, :, :-1]
+                rhoL = np.subtract(y[sr, :, :-1], delta * y0c[sr, :, :-1])
                 drives.append(Drive(rhoL))
                 if foh:
-                    rhoR = eta_l[prow, :, 1:] * y0n[sens, :, 1:] + lam_l[prow, :, 1:]
-                    rhoR -= delta * y0c[sens, :, 1:]
+                    rhoR = np.multiply(eta_l[prow, :, 1:], y0n[sr, :, 1:])
+                    rhoR += lam_l[prow, :, 1:]
+                    rhoR -= delta * y0c[sr, :, 1:]
                     drives.append(Drive(rhoR))
             for i in self.chan:
                 scale = delta[sens.index(i)][None] - 1.0
@@ -333,7 +339,8 @@ class OpenLoopEngine:
         for k, g in gens:
             view = rows[:, k : k + 1].transpose(1, 0, 2) if g.n_outputs == 1 else None
             dests.append([view, None] if ctx.keep_states else [view])
-        res, self.w = block_recursion(
+        # many runs: the compiled kernel (SIMD over the runs), else the numpy recursion
+        res, self.w = bank_recursion(
             self.Fd,
             self.W_all,
             drives,
@@ -343,6 +350,7 @@ class OpenLoopEngine:
             direct=([y, u, X] if self.decoupled else [y, u], self.dmats),
             out=dests,
             final=True,
+            key=("bank", self.key),
         )
         vectors: list[np.ndarray | None] = [None] * len(ctx.view.generators)
         ws: list[np.ndarray | None] = [None] * len(ctx.view.generators)
@@ -355,6 +363,15 @@ class OpenLoopEngine:
         return Piece(s, X, y, y0n, u, vectors, ws)
 
 
+def _generator_key(ctx: Context, k: int, g: Any) -> bytes:
+    """Fingerprint of generator ``k``'s matrices: the one of the bank's checks (of the
+    bank's own matrices, which determine the balanced ones), else a digest of ``g``'s."""
+    keys = ctx.view.keys
+    if k < len(keys) and keys[k] is not None:
+        return keys[k]
+    return _digest([g.F, g.E, g.G, g.M, g.H, g.K])
+
+
 def _affine(Cm: np.ndarray, X: np.ndarray, Dm: np.ndarray, e: np.ndarray) -> np.ndarray:
     """``Cm X + Dm e`` for state-major ``X`` (n, R, L) and ``e`` (ne, R | 1, L)."""
     n, R, L = X.shape
@@ -363,6 +380,13 @@ def _affine(Cm: np.ndarray, X: np.ndarray, Dm: np.ndarray, e: np.ndarray) -> np.
         ne, Re, _ = e.shape
         out += (Dm @ e.reshape(ne, Re * L)).reshape(Dm.shape[0], Re, L)
     return out
+
+
+def _rows(idx: list[int]) -> slice | list[int]:
+    """Row indices as a slice when they are consecutive (a view instead of a copy)."""
+    if idx and idx == list(range(idx[0], idx[0] + len(idx))):
+        return slice(idx[0], idx[0] + len(idx))
+    return idx
 
 
 _SETUPS: dict[Any, dict[str, Any]] = {}

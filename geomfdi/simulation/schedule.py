@@ -143,8 +143,27 @@ def _same_span(a: np.ndarray, b: np.ndarray) -> bool:
     return ra == rb == rank(np.hstack([a, b])) and ra > 0
 
 
+def _channel_key(f: FaultSignal, plant: Plant) -> Any:
+    """What a fault's structure column depends on (not its size): the sensor, or the
+    signature of an input fault (and its design fault, which it matches by identity)."""
+    if isinstance(f, SensorFaultSignal):
+        return ("sensor", f.sensor)
+    if isinstance(f, InputFaultSignal) and getattr(f, "fault", None) is not None:
+        return ("fault", id(f.fault))  # an additive fault: its design fault decides
+    if isinstance(f, InputFaultSignal) and hasattr(f, "actuator"):
+        return ("actuator", f.actuator)  # the input's column of B and D
+    if isinstance(f, InputFaultSignal):
+        Bf, Df = f.signature(plant)
+        sig = (Bf.shape, Bf.tobytes(), Df.shape, Df.tobytes())
+        return ("input", id(getattr(f, "fault", None)), *sig)
+    return None
+
+
 def structure_columns(
-    faults: Sequence[FaultSignal], design_faults: Sequence[Any], plant: Plant
+    faults: Sequence[FaultSignal],
+    design_faults: Sequence[Any],
+    plant: Plant,
+    cache: dict[Any, Any] | None = None,
 ) -> list[int | None]:
     """The bank's structure column modelling each simulated fault (None when none does).
 
@@ -152,9 +171,32 @@ def structure_columns(
     column spaces): a sensor fault on output ``i`` matches ``SensorFault(i)``, an actuator
     fault on input ``i`` an ``ActuatorFault(B[:, i])``, an ``AdditiveFault(f)`` the design
     fault ``f`` itself (or any fault with its signature).
+
+    ``cache`` (a dict kept by the caller for one bank and plant) holds the column of
+    each fault channel met (a sensor, an input signature): the runs of a sweep differ
+    only in their sizes, and their columns are matched once.
     """
     if not faults:  # nothing to match: the design signatures are not needed
         return []
+    if cache is None:
+        return _match_columns(faults, design_faults, plant)
+    out: list[int | None] = []
+    for f in faults:
+        k = _channel_key(f, plant)
+        if k is None or k not in cache:
+            (j,) = _match_columns([f], design_faults, plant)
+            if k is not None:
+                cache[k] = j
+        else:
+            j = cache[k]
+        out.append(j)
+    return out
+
+
+def _match_columns(
+    faults: Sequence[FaultSignal], design_faults: Sequence[Any], plant: Plant
+) -> list[int | None]:
+    """:func:`structure_columns` by signature match (SVD rank tests)."""
     designs = []
     for df in design_faults:
         try:

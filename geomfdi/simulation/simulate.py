@@ -178,8 +178,11 @@ def stop_divergent(
     from geomfdi.evaluation.decision import NO_ALARM
     from geomfdi.simulation.nonlinear import DivergenceWarning
 
-    mag = np.max(np.abs(x), axis=0, initial=0.0) if x.shape[0] else np.zeros(t.size)
-    mag = np.where(np.all(np.isfinite(x), axis=0), mag, np.inf)
+    if x.shape[0]:  # max |x| per sample without a temporary |x| of the record's size
+        mag = np.maximum(np.max(x, axis=0), -np.min(x, axis=0))
+        mag[np.isnan(mag)] = np.inf  # max propagates nan: a non-finite state is inf here
+    else:
+        mag = np.zeros(t.size)
     if bound is None:
         onsets = [f.start for f in faults if getattr(f, "start", None) is not None]
         k_on = int(np.searchsorted(t, min(onsets))) if onsets else t.size
@@ -203,31 +206,53 @@ def stop_divergent(
     return float(t[k])
 
 
-def noise_streams(ctx: Context, rngs: list[np.random.Generator | None]) -> list[NoiseStream] | None:
-    """One :class:`NoiseStream` per run (``None`` without noise)."""
+def noise_streams(
+    ctx: Context, rngs: list[np.random.Generator | None], pool: list[np.ndarray] | None = None
+) -> list[NoiseStream] | None:
+    """One :class:`NoiseStream` per run (``None`` without noise); ``pool``: buffers
+    shared with the streams of other chunks of runs (see :func:`noise_window`)."""
     if ctx.Lv is None and ctx.Lw is None:
         return None
     rv = ctx.plant.q if ctx.Lv is not None else 0
     rw = ctx.Lw.shape[1] if ctx.Lw is not None else 0
-    return [NoiseStream(rng, rv, rw, ctx.N) for rng in rngs]  # type: ignore[arg-type]
+    return [NoiseStream(rng, rv, rw, ctx.N, pool=pool) for rng in rngs]  # type: ignore[arg-type]
 
 
 def noise_window(
     ctx: Context, streams: list[NoiseStream] | None, s: int, e1: int
 ) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """Measurement ``(q, R, L)`` and process ``(k, R, L)`` noise of samples ``s .. e1-1``."""
+    """Measurement ``(q, R, L)`` and process ``(k, R, L)`` noise of samples ``s .. e1-1``.
+
+    Each run's draws are scaled straight into the window (``L_v z``, ``L_w z``) before
+    the next run's stream is read (streams sharing a buffer pool reuse released blocks).
+    """
     if streams is None:
         return None, None
     L, R = e1 - s, len(streams)
     v = np.empty((ctx.plant.q, R, L)) if ctx.Lv is not None else None
     w = np.empty((ctx.Lw.shape[0], R, L)) if ctx.Lw is not None else None
+    scale = [_scaling(ctx.Lv), _scaling(ctx.Lw)]
     for r, st in enumerate(streams):
-        zv, zw = st.take(s, e1)
-        if v is not None:
-            np.matmul(ctx.Lv, zv, out=v[:, r])
-        if w is not None:
-            np.matmul(ctx.Lw, zw, out=w[:, r])
+        for dest, z, f in zip((v, w), st.take(s, e1), scale, strict=True):
+            if dest is not None:
+                f(z, out=dest[:, r])
     return v, w
+
+
+def _scaling(Lf: np.ndarray | None) -> Any:
+    """``z -> Lf z`` with ``out=``: a row-wise product when ``Lf`` is diagonal with
+    non-zero entries (independent noise channels; each entry ``d_i z_i`` is then the
+    product the matrix product forms, the other terms being exact zeros), else the
+    matrix product."""
+    if Lf is None:
+        return None
+    Lf = np.asarray(Lf)
+    if Lf.ndim == 2 and Lf.shape[0] == Lf.shape[1]:
+        d = np.diagonal(Lf)
+        if np.all(d != 0) and np.count_nonzero(Lf) == d.size:
+            col = np.ascontiguousarray(d)[:, None]
+            return lambda z, out: np.multiply(col, z, out=out)
+    return lambda z, out: np.matmul(Lf, z, out=out)
 
 
 def in_loop(ctx: Context, schedules: Sequence[FaultSchedule]) -> bool:

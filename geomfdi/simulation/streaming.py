@@ -44,10 +44,17 @@ __all__ = ["DecisionStream", "RunSummary", "chunk_plan", "time_chunks"]
 
 #: The fewest samples of a time chunk (each chunk costs a fixed Python overhead).
 MIN_CHUNK = 16
+#: The fewest samples per run of a chunk that holds several runs cut in time.
+MIN_RUN_SAMPLES = 1024
 
 
 def chunk_plan(
-    N: int, runs: int, width: float, *, runs_per_chunk: int | None = None
+    N: int,
+    runs: int,
+    width: float,
+    *,
+    runs_per_chunk: int | None = None,
+    min_runs: int = 1,
 ) -> tuple[int, int]:
     """Runs and samples per chunk so that one chunk's arrays fit the memory budget.
 
@@ -62,6 +69,11 @@ def chunk_plan(
         decision array that lives while a chunk is processed).
     runs_per_chunk : int, optional
         Runs per chunk fixed by the caller (``simulate_batch(chunk_size=...)``).
+    min_runs : int
+        Runs per chunk wanted at least (when ``runs`` allows, and each run keeps
+        :data:`MIN_RUN_SAMPLES` samples or more per chunk): the compiled batch
+        recursion vectorises over the runs of a chunk, so long records are cut in time
+        rather than simulated one run at a time.
 
     Returns
     -------
@@ -69,12 +81,13 @@ def chunk_plan(
         With ``budget = gf.limits.get_limits().chunk_memory``, ``runs_per_chunk *
         samples_per_chunk * width <= budget`` (at least one run and
         :data:`MIN_CHUNK` samples): whole records of several runs when they fit,
-        otherwise one run (or the given number) and the time axis cut.
+        otherwise ``min_runs`` runs (or the given number) and the time axis cut.
     """
     budget = float(get_limits().chunk_memory)
     cells = max(int(budget // max(width, 1.0)), 1)  # run-samples per chunk
     if runs_per_chunk is None:
-        runs_per_chunk = max(1, min(runs, cells // max(N, 1)))
+        wanted = min(int(min_runs), cells // MIN_RUN_SAMPLES)
+        runs_per_chunk = max(1, min(runs, max(cells // max(N, 1), wanted)))
     L = max(MIN_CHUNK, cells // runs_per_chunk)
     return int(runs_per_chunk), int(min(L, N))
 
@@ -240,75 +253,98 @@ class RunSummary:
         self.fa_alarms = np.zeros(self.runs, dtype=int)
         self.fa_edges = np.zeros(self.runs, dtype=int)
         self._prev = np.zeros(self.runs, dtype=bool)
-        # event state per run and fault: detection, isolation, first decision, rows
-        self._det = [[None] * len(sp) for sp in self.spans]
-        self._iso = [[None] * len(sp) for sp in self.spans]
-        self._dec = [[None] * len(sp) for sp in self.spans]
-        self._hyp: list[list[tuple[int, ...]]] = [[()] * len(sp) for sp in self.spans]
-        self._rows = [[np.zeros(n_rows, dtype=bool) for _ in sp] for sp in self.spans]
+        # the spans of every run, flat (run by run): run, samples ks .. ke-1, column
+        flat = [(r, sp[1], sp[2], sp[3]) for r, spans in enumerate(self.spans) for sp in spans]
+        self._first = np.cumsum([0] + [len(sp) for sp in self.spans])
+        S = len(flat)
+        self._run = np.array([x[0] for x in flat], dtype=np.intp)
+        self._col = np.array([-1 if x[1] is None else x[1] for x in flat], dtype=int)
+        self._ks = np.array([x[2] for x in flat], dtype=int)
+        self._ke = np.array([x[3] for x in flat], dtype=int)
+        # event state per span: first detection / isolation sample (-1: none yet), first
+        # decision (with ``_decided``), its hypothesis, the rows that alarmed
+        self._det = np.full(S, -1)
+        self._iso = np.full(S, -1)
+        self._dec = np.zeros(S, dtype=int)
+        self._decided = np.zeros(S, dtype=bool)
+        self._hyp: list[tuple[int, ...]] = [()] * S
+        self._rows = np.zeros((S, n_rows), dtype=bool)
 
     def update(
         self,
         s: int,
         res: np.ndarray,
-        alarms: np.ndarray,
-        isolated: np.ndarray,
+        alarms: np.ndarray | None,
+        isolated: np.ndarray | None,
         r0: int = 0,
         suspects: np.ndarray | None = None,
     ) -> None:
         """Add the chunk of samples ``s .. s+L-1`` of the runs ``r0 .. r0+R-1``:
         residuals and alarms (R, n_rows, L), isolation decisions (R, L) and their
         suspects (R, n_faults, L), which give the hypothesis of a ``MULTIPLE``
-        decision."""
+        decision.  ``alarms=None``: no alarm and no decision (no threshold).
+
+        Vectorised over the runs and their faults (the samples of each run's healthy
+        part and of each fault's span are masks of the chunk).
+        """
         R, L = res.shape[0], res.shape[-1]
         e = s + L
         pk = self.peak[r0 : r0 + R]
         np.maximum(pk, np.max(np.abs(res), axis=-1), out=pk)
-        any_alarm = alarms.any(axis=-2)
-        for r_local, r in enumerate(range(r0, r0 + R)):
-            a = any_alarm[r_local]
-            # false alarms before the first onset
-            k = min(int(self.healthy[r]), e)
-            if k > s:
-                h = a[: k - s]
-                self.fa_samples[r] += h.size
-                self.fa_alarms[r] += int(np.count_nonzero(h))
-                self.fa_edges[r] += int(h[0] and not self._prev[r]) + int(
-                    np.count_nonzero(h[1:] & ~h[:-1])
-                )
-                self._prev[r] = bool(h[-1])
-            for i, (_, j, ks, ke, _) in enumerate(self.spans[r]):
-                lo, hi = max(ks, s), min(ke, e)
-                if lo >= hi:
-                    continue
-                sl = slice(lo - s, hi - s)
-                if self._det[r][i] is None:
-                    hit = np.flatnonzero(a[sl])
-                    if hit.size:
-                        self._det[r][i] = lo + int(hit[0])
-                iso = isolated[r_local, sl]
-                if j is not None and self._iso[r][i] is None:
-                    ih = np.flatnonzero(iso == j)
-                    if ih.size:
-                        self._iso[r][i] = lo + int(ih[0])
-                if self._dec[r][i] is None:
-                    dh = np.flatnonzero((iso >= 0) | (iso == MULTIPLE))
-                    if dh.size:
-                        self._dec[r][i] = int(iso[dh[0]])
-                        if self._dec[r][i] == MULTIPLE and suspects is not None:
-                            sus = suspects[r_local, :, lo - s + int(dh[0])]
-                            self._hyp[r][i] = tuple(int(f) for f in np.flatnonzero(sus))
-                self._rows[r][i] |= alarms[r_local, :, sl].any(axis=-1)
+        # false alarms before the first onset
+        n_h = np.clip(self.healthy[r0 : r0 + R] - s, 0, L)  # healthy samples in the chunk
+        self.fa_samples[r0 : r0 + R] += n_h
+        if alarms is None:
+            self._prev[r0 : r0 + R] &= n_h == 0
+            return
+        idx = np.arange(L)
+        a = alarms.any(axis=-2)
+        h = a & (idx < n_h[:, None])
+        self.fa_alarms[r0 : r0 + R] += np.count_nonzero(h, axis=-1)
+        rise = np.count_nonzero(h[:, 1:] & ~h[:, :-1], axis=-1)
+        rise += h[:, 0] & ~self._prev[r0 : r0 + R]
+        self.fa_edges[r0 : r0 + R] += rise
+        self._prev[r0 : r0 + R] = np.where(
+            n_h > 0, h[np.arange(R), np.maximum(n_h - 1, 0)], self._prev[r0 : r0 + R]
+        )
+        # the spans of these runs that overlap the chunk
+        sp = np.arange(self._first[r0], self._first[r0 + R])
+        lo, hi = np.maximum(self._ks[sp], s), np.minimum(self._ke[sp], e)
+        sp, lo, hi = sp[lo < hi], lo[lo < hi], hi[lo < hi]
+        if not sp.size:
+            return
+        loc = self._run[sp] - r0
+        inside = (idx >= (lo - s)[:, None]) & (idx < (hi - s)[:, None])  # (spans, L)
+        iso = isolated[loc]
+        for state, hit in (
+            (self._det, a[loc] & inside),
+            (self._iso, (iso == self._col[sp, None]) & (self._col[sp, None] >= 0) & inside),
+        ):
+            new = (state[sp] < 0) & hit.any(axis=-1)
+            state[sp[new]] = s + np.argmax(hit[new], axis=-1)
+        made = ((iso >= 0) | (iso == MULTIPLE)) & inside
+        new = ~self._decided[sp] & made.any(axis=-1)
+        if new.any():
+            k = np.argmax(made[new], axis=-1)
+            dec = iso[new, k]
+            self._dec[sp[new]] = dec
+            self._decided[sp[new]] = True
+            if suspects is not None:  # the hypothesis of each new MULTIPLE decision
+                multi = dec == MULTIPLE
+                for i, kk in zip(sp[new][multi], k[multi], strict=True):
+                    sus = suspects[self._run[i] - r0, :, kk]
+                    self._hyp[i] = tuple(int(f) for f in np.flatnonzero(sus))
+        self._rows[sp] |= (alarms[loc] & inside[:, None, :]).any(axis=-1)
 
     def events(self, r: int) -> list[FaultEvent]:
         """The fault events of run ``r`` (as :func:`detection_events` gives them)."""
         out = []
         t = self.t
-        for i, (f, j, ks, _, wend) in enumerate(self.spans[r]):
+        for i, (f, j, ks, _, wend) in enumerate(self.spans[r], start=self._first[r]):
             onset = float(t[ks])
-            kd, ki = self._det[r][i], self._iso[r][i]
-            det = None if kd is None else float(t[kd])
-            iso_t = None if ki is None else float(t[ki])
+            kd, ki = int(self._det[i]), int(self._iso[i])
+            det = None if kd < 0 else float(t[kd])
+            iso_t = None if ki < 0 else float(t[ki])
             out.append(
                 FaultEvent(
                     f,
@@ -318,10 +354,10 @@ class RunSummary:
                     None if det is None else det - onset,
                     iso_t,
                     None if iso_t is None else iso_t - onset,
-                    tuple(int(x) for x in np.flatnonzero(self._rows[r][i])),
-                    self._dec[r][i],
+                    tuple(int(x) for x in np.flatnonzero(self._rows[i])),
+                    int(self._dec[i]) if self._decided[i] else None,
                     wend,
-                    self._hyp[r][i],
+                    self._hyp[i],
                 )
             )
         return out

@@ -91,6 +91,8 @@ def weak_targets(
     Records ``g.info["target_strength"]``: per target, its DC and mid-band (at ω) gain
     relative to that largest gain, and ``g.info["reference_sizes"]``.
     """
+    if comp is None:
+        comp = factor.composite(g) if factor is not None and factor.plant is plant else None
     comp = comp if comp is not None else Composite(g, plant, factor)
     faults = g.info.get("faults") or []
     sizes = np.ones(len(sigs))
@@ -332,7 +334,11 @@ def _finish(
         method="exact",
         info=info,
     )
-    comp = Composite(g, plant, factor)
+    comp = (
+        factor.composite(g)
+        if factor is not None and factor.plant is plant
+        else Composite(g, plant, factor)
+    )
     gains, dc = _gains(comp, sigs, "points")
     for j in target:
         if not gains[j] > LEAK_TOL:

@@ -51,9 +51,10 @@ def _fault_peaks(plant: Plant, sigs: list, omegas: np.ndarray) -> np.ndarray:
     Df = np.hstack([d for _, d in sigs])
     widths = np.cumsum([0, *[d.shape[1] for _, d in sigs]])
     eye = np.eye(n)
+    state = bool(n) and bool(np.any(Bf))  # pure sensor faults: G = Df, nothing to solve
     for w in omegas:
         s = np.exp(1j * w) if plant.dt > 0 else 1j * w
-        if n:
+        if state:
             try:
                 G = plant.C @ np.linalg.solve(s * eye - plant.A, Bf) + Df
             except np.linalg.LinAlgError:

@@ -55,12 +55,15 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.linalg as sla
 
-from geomfdi.generators.gains import _tri_solve_many
+from geomfdi.generators.gains import _tri_solve_rows_many
 from geomfdi.synthesis.least_order.injection import mirror_rule
 from geomfdi.synthesis.least_order.quotient import Quotient
-from geomfdi.synthesis.least_order.rational_basis import output_normal_basis, phase_frequencies
+from geomfdi.synthesis.least_order.rational_basis import (
+    output_normal_basis,
+    output_normal_rows,
+    phase_frequencies,
+)
 from geomfdi.synthesis.least_order.search import LeastOrderRow
 
 __all__ = ["orthonormal_row", "POINTS_PER_POLE", "SPREAD_MAX"]
@@ -74,14 +77,9 @@ POINTS_PER_POLE = 6
 
 
 def _resolvent_rows(T: np.ndarray, left: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """``left (s I − T)⁻¹`` for an upper triangular complex T at every point (rows).
-
-    Transposed and index-reversed, ``J Tᵀ J`` is upper triangular again: one batched back
-    substitution over all points (:func:`geomfdi.generators.gains._tri_solve_many`).
-    """
-    Tr = T.T[::-1, ::-1]
-    X = _tri_solve_many(Tr, pts, left.T[::-1, :])  # (P, k, rows)
-    return X[:, ::-1, :].transpose(0, 2, 1)
+    """``left (s I − T)⁻¹`` for an upper triangular complex T at every point (rows):
+    :func:`geomfdi.generators.gains._tri_solve_rows_many`."""
+    return _tri_solve_rows_many(T, pts, left)
 
 
 def orthonormal_row(
@@ -108,51 +106,57 @@ def orthonormal_row(
     k = Qm.k
     if Qm.rho != 1 or k == 0:
         raise np.linalg.LinAlgError("the orthonormal-basis realisation needs ρ = 1, k > 0")
-    eig = np.linalg.eigvals(Qm.A0)
+    eig = Qm.eigenvalues
     rule = mirror_rule(eig, dt=dt, omega=omega, relax=relax)
     poles = rule.targets
     Lam, h = output_normal_basis(poles, dt)
-    pts, wts = phase_frequencies(poles, dt, POINTS_PER_POLE)
     lam_m, mu_m = eig[rule.moved], poles[rule.moved]
-    f = np.prod((pts[:, None] - lam_m[None, :]) / (pts[:, None] - mu_m[None, :]), axis=1)
-    fa = np.abs(f)
-    if not np.max(fa) <= SPREAD_MAX * 1e6 * max(float(np.min(fa)), 1e-300):
-        raise np.linalg.LinAlgError(  # clearly unresolved: no resolvent needed to tell
-            "orthonormal-basis realisation: the row's frequency response spans "
-            f"{np.log10(np.max(fa) / max(float(np.min(fa)), 1e-300)):.0f} decades at this "
-            "stability degree"
-        )
-    # data: Q(s) − Q(∞) at the points, through the complex Schur form of A0
-    TA, UA = sla.schur(Qm.A0.astype(complex), output="complex")
+    TA, UA = Qm.schur
     Bq = np.hstack([Qm.Bqy, Qm.Bqu])
-    MR = _resolvent_rows(TA, Qm.M @ UA, pts)[:, 0, :]  # M U (sI − T)⁻¹
+    MU = Qm.M @ UA
     UhB = UA.conj().T @ Bq
     Hrow = Qm.H[0]
     q = Hrow.size
     Qinf = np.concatenate([Hrow, -Hrow @ Du])
-    Qpts = f[:, None] * (Qinf[None, :] - MR @ UhB)
-    size = np.linalg.norm(Qpts, axis=1)
-    spread = float(np.max(size) / max(float(np.min(size)), 1e-300))
-    if not spread <= SPREAD_MAX:
-        # mirroring far from the axis makes |f(iω)| exponentially small where many
-        # lightly damped eigenvalues cluster: the response is not resolved in floating
-        # point there (a larger relaxation mirrors closer to the axis)
-        raise np.linalg.LinAlgError(
-            f"orthonormal-basis realisation: the row's frequency response spans "
-            f"{np.log10(spread):.0f} decades at this stability degree"
-        )
+
+    def response(pts: np.ndarray) -> np.ndarray:
+        """``Q(s)`` at the points, through the complex Schur form of A0 (module Notes)."""
+        f = np.prod((pts[:, None] - lam_m[None, :]) / (pts[:, None] - mu_m[None, :]), axis=1)
+        fa = np.abs(f)
+        if not np.max(fa) <= SPREAD_MAX * 1e6 * max(float(np.min(fa)), 1e-300):
+            raise np.linalg.LinAlgError(  # clearly unresolved: no resolvent needed to tell
+                "orthonormal-basis realisation: the row's frequency response spans "
+                f"{np.log10(np.max(fa) / max(float(np.min(fa)), 1e-300)):.0f} decades at "
+                "this stability degree"
+            )
+        MR = _resolvent_rows(TA, MU, pts)[:, 0, :]  # M U (sI − T)⁻¹
+        Qpts = f[:, None] * (Qinf[None, :] - MR @ UhB)
+        size = np.linalg.norm(Qpts, axis=1)
+        spread = float(np.max(size) / max(float(np.min(size)), 1e-300))
+        if not spread <= SPREAD_MAX:
+            # mirroring far from the axis makes |f(iω)| exponentially small where many
+            # lightly damped eigenvalues cluster: the response is not resolved in floating
+            # point there (a larger relaxation mirrors closer to the axis)
+            raise np.linalg.LinAlgError(
+                f"orthonormal-basis realisation: the row's frequency response spans "
+                f"{np.log10(spread):.0f} decades at this stability degree"
+            )
+        return Qpts
+
+    # every POINTS_PER_POLE-th sample first: a spread it shows, the whole set shows too
+    response(phase_frequencies(poles, dt, POINTS_PER_POLE, every=POINTS_PER_POLE)[0])
+    pts, wts = phase_frequencies(poles, dt, POINTS_PER_POLE)
+    Qpts = response(pts)
     data = Qpts - Qinf[None, :]
-    # basis: h (sI − Λ)⁻¹ through the complex Schur form of Λ
-    TL, UL = sla.schur(Lam.astype(complex), output="complex")
-    Phi = _resolvent_rows(TL, (h @ UL)[None, :], pts)[:, 0, :] @ UL.conj().T
+    # basis: h (sI − Λ)⁻¹ block by block (O(k) per point)
+    Phi = output_normal_rows(poles, dt, pts)
     Ar = np.vstack([(Phi * wts[:, None]).real, (Phi * wts[:, None]).imag])
     Yr = np.vstack([(data * wts[:, None]).real, (data * wts[:, None]).imag])
-    Br, *_ = np.linalg.lstsq(Ar, Yr, rcond=None)
+    Br, _, _, sv = np.linalg.lstsq(Ar, Yr, rcond=None)
     ny = max(float(np.linalg.norm(Yr)), 1e-300)
     misfit = float(np.linalg.norm(Ar @ Br - Yr)) / ny
     if not np.isfinite(misfit):
         raise np.linalg.LinAlgError("orthonormal-basis fit: non-finite coefficients")
-    sv = np.linalg.svd(Ar, compute_uv=False)
     cert = dict(certificate)
     cert["realisation"] = "orthonormal basis"
     cert["injection"] = {

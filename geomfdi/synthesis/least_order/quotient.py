@@ -42,6 +42,9 @@ RTOL_LADDER = (10.0, 100.0, 1e3, 1e4, 0.1)
 """Factors of the tolerance in force tried for S* when its decisions are close or its
 quotient identities fail (:func:`adaptive_quotient_model`)."""
 
+SCHUR_EIG_MIN = 12
+"""Quotient dimension above which its eigenvalues are read off its complex Schur form."""
+
 RTOL_MAX = 1e-7
 """Largest tolerance the ladder reaches (a dropped singular value above it would break
 the quotient identities)."""
@@ -85,12 +88,32 @@ class Quotient:
 
     @property
     def eigenvalues(self) -> np.ndarray:
-        """Eigenvalues of ``A0`` (computed once: every pole check of a search uses them)."""
+        """Eigenvalues of ``A0`` (computed once: every pole check of a search uses them).
+
+        Read off the complex Schur form when it is at hand or the quotient is large (a
+        row of such a quotient is realised through that form anyway, :attr:`schur`)."""
         cached = self.__dict__.get("_eigenvalues")
         if cached is None or cached[0] is not self.A0:
-            ev = np.linalg.eigvals(self.A0) if self.A0.size else np.zeros(0, complex)
+            if not self.A0.size:
+                ev = np.zeros(0, complex)
+            elif self.A0.shape[0] > SCHUR_EIG_MIN or "_schur" in self.__dict__:
+                ev = np.diag(self.schur[0]).copy()
+            else:
+                ev = np.linalg.eigvals(self.A0)
             cached = (self.A0, ev)
             self.__dict__["_eigenvalues"] = cached
+        return cached[1]
+
+    @property
+    def schur(self) -> tuple[np.ndarray, np.ndarray]:
+        """Complex Schur form ``A0 = U T Uᴴ`` as ``(T, U)`` (computed once: every
+        realisation attempt of the row evaluates the quotient's resolvent through it)."""
+        cached = self.__dict__.get("_schur")
+        if cached is None or cached[0] is not self.A0:
+            from geomfdi.generators.gains import complex_schur
+
+            cached = (self.A0, complex_schur(self.A0))
+            self.__dict__["_schur"] = cached
         return cached[1]
 
 

@@ -168,7 +168,7 @@ def _unnormalise(X: np.ndarray, blocks: list[np.ndarray]) -> np.ndarray:
 
 def _points(Qm: Quotient, poles: np.ndarray, omega: float, count: int = 3) -> np.ndarray:
     rng = np.random.default_rng(2024)
-    eig = np.concatenate([np.linalg.eigvals(Qm.A0) if Qm.k else np.zeros(0), poles])
+    eig = np.concatenate([Qm.eigenvalues if Qm.k else np.zeros(0), poles])
     rad = max(float(np.max(np.abs(eig))) if eig.size else 0.0, omega, 1e-300)
     r = rad * rng.uniform(0.5, 1.5, count)
     th = rng.uniform(0.3, np.pi - 0.3, count)
@@ -448,7 +448,7 @@ def least_order_row(
     nu = max(0, min_order)
     pool = default_pole_sequence(min(k, NU_PF_MAX) + 2, omega, dt)
     if Qm.k:  # keep default poles clear of the quotient's spectrum
-        pool = clear_of_spectrum(pool, np.linalg.eigvals(Qm.A0), omega).real
+        pool = clear_of_spectrum(pool, Qm.eigenvalues, omega).real
     unseen_at: dict[int, list[int]] = {}
     undecided: list[int] = []
     staircase = {"blocks": st.blocks, "gaps": st.gaps, "indices": st.indices}
@@ -633,7 +633,7 @@ def _onb_degree(
                 continue
             space, poles = got
         else:
-            eig = np.linalg.eigvals(Qm.A0) if Qm.k else np.zeros(0)
+            eig = Qm.eigenvalues if Qm.k else np.zeros(0)
             poles = clear_of_spectrum(default_pole_sequence(nu, omega, dt), eig, omega)
             try:
                 space = onb_parity_space(Qm, nu, dim, poles, dt, _points(Qm, poles, omega))
