@@ -139,15 +139,7 @@ def table_orders(count):
 
 def chain(N, ns, zeta=0.01):
     """Lightly damped mass-spring chain, N masses, ns position sensors, a force on mass 0."""
-    n = 2 * N
-    K = 2 * np.eye(N) - np.eye(N, k=1) - np.eye(N, k=-1)
-    K[-1, -1] = 1.0
-    A = np.block([[np.zeros((N, N)), np.eye(N)], [-K, -2 * zeta * np.sqrt(2) * np.eye(N)]])
-    B = np.zeros((n, 1))
-    B[N] = 1.0
-    C = np.zeros((ns, n))
-    C[np.arange(ns), np.linspace(0, N - 1, ns).astype(int)] = 1.0
-    return gf.Plant(A, B, C)
+    return gf.mass_spring_chain(N, sensors=ns, forces=(0,), zeta=zeta)
 
 
 def dense(n, q, m, seed):

@@ -57,6 +57,7 @@ _register("geomfdi.campaign.runner", "Campaign")
 _register("geomfdi.campaign.spec", "Scenario", "Uncertainty")
 _register("geomfdi.data.aircraft", "aircraft_model")
 _register("geomfdi.data.flight_actuators", "flight_actuator_case_study", "FlightActuatorCaseStudy")
+_register("geomfdi.data.mass_spring_chain", "mass_spring_chain")
 _register("geomfdi.data.three_tank", "three_tank_model")
 _register("geomfdi.deployment.monitor", "Monitor")
 _register("geomfdi.deployment.persistence", "load_bank", "load_monitor")
@@ -289,6 +290,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see every public name
         FlightActuatorCaseStudy,
         flight_actuator_case_study,
     )
+    from geomfdi.data.mass_spring_chain import mass_spring_chain  # noqa: F401
     from geomfdi.data.three_tank import three_tank_model  # noqa: F401
     from geomfdi.deployment.monitor import Monitor  # noqa: F401
     from geomfdi.deployment.persistence import load_bank, load_monitor  # noqa: F401

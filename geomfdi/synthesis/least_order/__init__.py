@@ -6,6 +6,9 @@ See the user guide, *Theory: least-order synthesis* (``docs/theory/least-order.m
 * :mod:`~geomfdi.synthesis.least_order.search` -- the degree search over the parity spaces
   of the quotient, the least-order certificate (:class:`LeastOrderRow`) and the
   realisation on the plant.
+* :mod:`~geomfdi.synthesis.least_order.strong` -- the least degree whose parity space
+  responds to every target at given frequencies (strong detection, for
+  ``structure_orders(…, frequencies=…)``).
 * :mod:`~geomfdi.synthesis.least_order.parity_spaces` -- high-degree parity spaces in an
   orthonormal rational basis; :mod:`~geomfdi.synthesis.least_order.rational_basis` --
   output-normal rational bases and their sampling frequencies.

@@ -277,7 +277,8 @@ def isolability_analysis(
     -----
     The suggested structure is a least-total-order subset of the achievable rows (module
     Notes); ties go to fewer rows.  The least orders come from
-    :func:`~geomfdi.structure_orders` (one degree search per achievable row).
+    :func:`~geomfdi.structure_orders` (one degree search per achievable row), with the
+    same ``frequencies``: the orders of strong detection when they are given.
 
     Examples
     --------
@@ -293,7 +294,8 @@ def isolability_analysis(
     model = spec_model(plant, faults)
     nf = model.nf
     S = ach.structures
-    orders = np.array([r.order for r in row_orders(model, S)], dtype=int)
+    strong = row_orders(model, S, frequencies=frequencies, gain_tol=gain_tol)
+    orders = np.array([r.order for r in strong], dtype=int)
     detectable = S.any(axis=0) if len(S) else np.zeros(nf, dtype=bool)
     det = [int(j) for j in np.flatnonzero(detectable)]
     classes = identical_columns(S, det)

@@ -204,6 +204,16 @@ def _checked_frequencies(frequencies: Any) -> np.ndarray | None:
     return f
 
 
+def checked_gain_tol(gain_tol: Any) -> float:
+    """``gain_tol`` validated: a value in [0, 1), :data:`GAIN_TOL` for ``None``."""
+    tol = GAIN_TOL if gain_tol is None else as_float(gain_tol, "gain_tol")
+    if not (0 <= tol < 1):
+        raise GeomFDIError(
+            f"gain_tol: expected a value in [0, 1), got {gain_tol!r}", argument="gain_tol"
+        )
+    return tol
+
+
 def achievable_signatures(
     plant: Any,
     faults: Any,
@@ -244,11 +254,7 @@ def achievable_signatures(
     """
     model = spec_model(plant, faults)
     freqs = _checked_frequencies(frequencies)
-    tol = GAIN_TOL if gain_tol is None else as_float(gain_tol, "gain_tol")
-    if not (0 <= tol < 1):
-        raise GeomFDIError(
-            f"gain_tol: expected a value in [0, 1), got {gain_tol!r}", argument="gain_tol"
-        )
+    tol = checked_gain_tol(gain_tol)
     pts = None if freqs is None else _boundary_points(freqs, model.plant.dt)
     nf = model.nf
     full = (1 << nf) - 1
