@@ -21,14 +21,19 @@ the best of ``--repeats`` is kept):
   processes; the 1-worker case pins every task to one worker (skipped without
   ``distributed`` or with ``--no-dask``).
 
-A task carries ``--blocks-per-task`` blocks (default 1: a block of 64 runs x 10^4
-samples is already about half a second of vectorised work, against milliseconds of
-per-task overhead -- pickling the job and the results, scheduling); many equal tasks keep
-the two workers equally busy to the end.  The per-task overhead is estimated as
-``(t(processes, 1 worker) - t(serial)) / tasks``.  The scaling ratio ``t(1 worker) /
-t(2 workers)`` is reported per executor with the machine's load average
-(``os.getloadavg``) read before every timed run: on a machine whose 2 cores are busy with
-other work the ratio cannot reach 2, so the load is part of the result.
+A task carries ``--blocks-per-task`` blocks (default ``auto``: sized by
+``Campaign.run`` from the first task's measured block time so that the per-task overhead
+stays under 10 % while every worker gets about 4 tasks; a block of 64 runs x 10^4
+samples is about half a second of vectorised work, against milliseconds of per-task
+overhead, so a task is one block).  The job goes once to every worker (see
+``geomfdi.campaign.executors``).  Per executor the benchmark prints the tasks, the
+blocks per task, the compute seconds summed over the tasks (measured in the workers) and
+the per-task overhead ``(t * workers - compute) / tasks`` (scheduling, shipping and the
+slots left idle at the end), with ``(t(1 worker) - t(serial)) / tasks`` for the 1-worker
+cases, and the ratio ``t(processes, 2 workers) / t(dask, 2 workers)``.  The scaling
+ratio ``t(1 worker) / t(2 workers)`` is reported per executor with the machine's load
+average (``os.getloadavg``) read before every timed run: on a machine whose 2 cores are
+busy with other work the ratio cannot reach 2, so the load is part of the result.
 
 The ``floor`` section: the flops of one run-sample of the campaign's arithmetic
 (:func:`flops_per_sample`: plant, bank of 3, chi-square statistic) times the run-samples,
@@ -50,7 +55,6 @@ checked to be identical.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import time
@@ -236,6 +240,9 @@ class _Pinned:
     def submit(self, fn: Any, *args: Any) -> Any:
         return self.client.submit(fn, *args, workers=self.workers, pure=False)
 
+    def nthreads(self) -> dict[str, int]:
+        return {w: n for w, n in self.client.nthreads().items() if w in self.workers}
+
 
 def _dask() -> Any:
     if "client" not in _STATE:
@@ -260,13 +267,20 @@ def main(argv: list[str]) -> dict[str, Any]:
     ap.add_argument("--samples", type=int, default=10_000)
     ap.add_argument("--loop-runs", type=int, default=100)
     ap.add_argument("--block", type=int, default=64)
-    ap.add_argument("--blocks-per-task", type=int, default=1)
-    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--blocks-per-task", default="auto", help="an integer, or auto (the default)")
+    ap.add_argument("--repeats", type=int, default=None, help="default 2 (--quick: 1)")
     ap.add_argument("--no-dask", action="store_true")
+    ap.add_argument(
+        "--skip",
+        default="",
+        help="comma-separated parts of method names not to time (e.g. 'loop,1 worker')",
+    )
     ap.add_argument("--quick", action="store_true", help="256 runs x 2000 samples, 1 repeat")
     args = ap.parse_args(argv)
+    if args.repeats is None:
+        args.repeats = 1 if args.quick else 2
     if args.quick:
-        args.runs, args.samples, args.loop_runs, args.repeats = 256, 2000, 8, 1
+        args.runs, args.samples, args.loop_runs = 256, 2000, 8
     from threadpoolctl import threadpool_info
 
     blas = max((b["num_threads"] for b in threadpool_info() if b["user_api"] == "blas"), default=1)
@@ -274,12 +288,11 @@ def main(argv: list[str]) -> dict[str, Any]:
     camp, ctx = setup(args.runs, args.samples, args.block)
     total = camp.grid()["run"].size
     nblocks = len(camp.blocks())
-    per = args.blocks_per_task
-    tasks = math.ceil(nblocks / per)
+    per = args.blocks_per_task if args.blocks_per_task == "auto" else int(args.blocks_per_task)
     print(
         f"campaign: {total} runs x {args.samples} samples, bank of 3 (Hou-Wen-Chen, exact), "
         f"chi-square test (isolation {RULE.k} of {RULE.n} samples, held pattern), "
-        f"{nblocks} blocks of {args.block} runs, {tasks} tasks of {per} block(s)"
+        f"{nblocks} blocks of {args.block} runs, blocks per task: {per}"
     )
     print(f"machine: {os.cpu_count()} CPUs, BLAS threads in this process: {blas}")
     # every method is a function of the campaign: a small one (8 blocks of 5 runs, so
@@ -308,6 +321,8 @@ def main(argv: list[str]) -> dict[str, Any]:
                 methods[f"dask, {w} worker{'s' * (w > 1)}"] = lambda c, ex=ex, w=w: c.run(
                     ex, blocks_per_task=per, progress=False
                 )
+    skip = [part.strip() for part in args.skip.split(",") if part.strip()]
+    methods = {k: f for k, f in methods.items() if not any(part in k for part in skip)}
     for name, fn in methods.items():
         if name != "loop":
             fn(small)
@@ -319,6 +334,8 @@ def main(argv: list[str]) -> dict[str, Any]:
     if "client" in _STATE:
         fut = _STATE["client"].submit(_block_seconds, job, block, pure=False)
         where["a Dask worker"] = fut.result()
+        fut = _STATE["client"].submit(_block_seconds, job, block, False, pure=False)
+        where["a Dask worker without the allocator set-up"] = fut.result()
         env = _STATE["client"].run(_worker_env)
         print(f"Dask worker environment: {next(iter(env.values()))}")
     print(
@@ -327,22 +344,29 @@ def main(argv: list[str]) -> dict[str, Any]:
     best: dict[str, float] = {}
     load: dict[str, tuple[float, float, float]] = {}
     tables: dict[str, Any] = {}
+    stats: dict[str, dict[str, Any]] = {}
+    paired: list[float] = []  # t(processes) / t(dask), 2 workers, in the same repeat
     try:
         for _ in range(args.repeats):
+            times: dict[str, float] = {}
             for name, fn in methods.items():
                 la = os.getloadavg()
                 t0 = time.perf_counter()
                 out = fn(camp)
-                dt = out if name == "loop" else time.perf_counter() - t0
+                dt = times[name] = out if name == "loop" else time.perf_counter() - t0
                 print(f"  {name}: {dt:.2f} s (load {la[0]:.2f})", flush=True)
                 if name not in best or dt < best[name]:
                     best[name], load[name] = dt, la
                 if name != "loop":
                     tables[name] = out.table
+                    if best[name] == dt:
+                        stats[name] = out.info["executor"]
+            if "processes, 2 workers" in times and "dask, 2 workers" in times:
+                paired.append(times["processes, 2 workers"] / times["dask, 2 workers"])
     finally:
         for p in pools.values():
             p.shutdown()
-    t_loop = best["loop"]
+    t_loop = best.get("loop", float("nan"))
     print(
         f"{'method':<34} {'time [s]':>9} {'runs/s':>8} {'vs loop':>8} "
         f"{'load 1/5/15 min before':>24}"
@@ -359,23 +383,55 @@ def main(argv: list[str]) -> dict[str, Any]:
                 f"(load before: {load[one][0]:.2f} / {load[two][0]:.2f}; "
                 f"{os.cpu_count()} CPUs)"
             )
-    if "processes, 1 worker" in best:
-        over = (best["processes, 1 worker"] - best["serial"]) / tasks
-        print(f"per-task overhead (processes, 1 worker - serial) / tasks: {1e3 * over:.1f} ms")
-    ref = tables["serial"]
+    # per-task overhead: slot time not spent computing (scheduling, shipping, idle slots
+    # at the end), per task; and against serial (the 1-worker cases)
+    print(
+        f"{'executor':<20} {'tasks':>6} {'blocks/task':>12} {'compute [s]':>12} "
+        f"{'overhead/task [ms]':>19} {'share':>6} {'(t - serial)/task [ms]':>23}"
+    )
+    for name, st in stats.items():
+        if name == "serial":
+            continue
+        slots = 1 if "1 worker" in name else 2
+        idle = best[name] * slots - st["compute_seconds"]
+        vs = (best[name] - best.get("serial", np.nan)) / st["tasks"] if slots == 1 else np.nan
+        print(
+            f"{name:<20} {st['tasks']:>6} {st['blocks_per_task']:>12} "
+            f"{st['compute_seconds']:>12.2f} {1e3 * idle / st['tasks']:>19.1f} "
+            f"{idle / (best[name] * slots):>6.1%} {1e3 * vs:>23.1f}"
+        )
+    if "dask, 2 workers" in best and "processes, 2 workers" in best:
+        ratio = best["processes, 2 workers"] / best["dask, 2 workers"]
+        print(
+            f"dask vs processes, 2 workers: t(processes) / t(dask) = {ratio:.2f}x best of "
+            f"each, {np.median(paired):.2f}x median of the repeats "
+            f"({', '.join(f'{r:.2f}' for r in paired)}) (>= 0.9 wanted)"
+        )
+    ref = tables.get("serial", next(iter(tables.values())))
     same = all(tb.equals(ref) for tb in tables.values())
     print(f"identical tables (serial, processes, dask): {same}")
     print("* timed on the first runs of the grid and extrapolated linearly to all runs")
-    floor = print_floor(camp, ctx, best["serial"])
+    floor = print_floor(camp, ctx, best["serial"]) if "serial" in best else None
     if dask_note:
         print(dask_note)
-    return {"best": best, "load": load, "identical": same, "floor": floor}
+    return {
+        "best": best,
+        "load": load,
+        "identical": same,
+        "floor": floor,
+        "executors": stats,
+        "paired": paired,
+    }
 
 
-def _block_seconds(job: dict[str, Any], block: Any) -> float:
-    """Seconds to simulate and evaluate one block where this function runs."""
+def _block_seconds(job: dict[str, Any], block: Any, as_task: bool = True) -> float:
+    """Seconds to simulate and evaluate one block where this function runs (as a task
+    does, or with the worker's own allocator settings)."""
+    from geomfdi.campaign.executors import run_items
     from geomfdi.campaign.runner import _run_block
 
+    if as_task:
+        return run_items(_run_block, job, [block])[1]
     t0 = time.perf_counter()
     _run_block(job, block)
     return time.perf_counter() - t0

@@ -2,6 +2,8 @@
 
 * :mod:`~geomfdi.campaign.spec` -- :class:`Scenario`, :class:`Uncertainty`.
 * :mod:`~geomfdi.campaign.runner` -- :class:`Campaign` (blocks, executors, seeds).
+* :mod:`~geomfdi.campaign.executors` -- where the blocks run: the job shipped once per
+  worker, task sizes, worker set-up, lost workers retried.
 * :mod:`~geomfdi.campaign.result` -- :class:`CampaignResult` (table, summary, curves).
 
 Layer: above simulation and evaluation.  It may import :mod:`geomfdi.model`,

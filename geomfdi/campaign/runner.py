@@ -46,9 +46,10 @@ from typing import Any
 import numpy as np
 
 from geomfdi._validation import as_int, as_positive
+from geomfdi.campaign.executors import RETRIES
 from geomfdi.campaign.scoring import evaluate_runs, isolate_runs
 from geomfdi.campaign.spec import Scenario, Uncertainty
-from geomfdi.errors import CampaignIncompleteError, GeomFDIError, ResourceLimitError
+from geomfdi.errors import GeomFDIError, ResourceLimitError
 from geomfdi.limits import estimate_bytes
 
 __all__ = ["Campaign", "TABLE_ROW_BYTES", "RETRIES", "evaluate_runs", "isolate_runs"]
@@ -56,24 +57,6 @@ __all__ = ["Campaign", "TABLE_ROW_BYTES", "RETRIES", "evaluate_runs", "isolate_r
 TABLE_ROW_BYTES = 160
 """Bytes of one row of a campaign's table (one run and residual: its numbers, the
 summary's copies), as used in the size estimate."""
-
-RETRIES = 2
-"""Times the tasks of a lost worker are run again (on a fresh process pool, or with the
-job shipped again to a Dask cluster) before the campaign gives up."""
-
-_LOST = {
-    "BrokenProcessPool",
-    "BrokenExecutor",
-    "CancelledError",
-    "FutureCancelledError",
-    "KilledWorker",
-    "CommClosedError",
-}
-
-
-def _lost_worker(exc: BaseException) -> bool:
-    """Whether ``exc`` says that a task's worker was lost (not that the task failed)."""
-    return any(cls.__name__ in _LOST for cls in type(exc).__mro__)
 
 
 @dataclass
@@ -261,10 +244,13 @@ def _run_task(job: dict[str, Any], blocks: list[_Block]) -> list[dict[str, np.nd
     return [_run_block(job, b) for b in blocks]
 
 
-def _pool(workers: int | None) -> Any:
+def _pool(workers: int | None, shipped: Any) -> Any:
+    """A process pool whose workers hold the job (installed once, by the initializer)."""
     from concurrent.futures import ProcessPoolExecutor
 
-    return ProcessPoolExecutor(max_workers=workers)
+    from geomfdi.campaign.executors import install
+
+    return ProcessPoolExecutor(max_workers=workers, initializer=install, initargs=(shipped,))
 
 
 class Campaign:
@@ -512,45 +498,6 @@ class Campaign:
         }
 
     # ------------------------------------------------------------------- running
-    @staticmethod
-    def _submit(
-        executor: Any,
-        job: Any,
-        tasks: list[list[_Block]],
-        pending: list[int],
-        done: dict[int, list[dict[str, np.ndarray]]],
-        bar: Any,
-    ) -> tuple[list[int], str]:
-        """Run the ``pending`` tasks on ``executor`` into ``done``; return the tasks whose
-        worker was lost (and why).  Any other failure of a task is raised."""
-        if hasattr(executor, "scatter"):  # a Dask client: ship the job once
-            # (a fresh key: a campaign run twice, or a retry, must not share it with a
-            # previous run's data being released or lost with its worker)
-            job = executor.scatter([job], broadcast=True, hash=False)[0]
-        lost: list[int] = []
-        why = ""
-        futures: dict[int, Any] = {}
-        for i in pending:
-            try:
-                futures[i] = executor.submit(_run_task, job, tasks[i])
-            except Exception as exc:
-                if not _lost_worker(exc):
-                    raise
-                lost.append(i)
-                why = f"{type(exc).__name__}: {exc}"
-        for i, fut in futures.items():
-            try:
-                done[i] = fut.result()
-            except Exception as exc:
-                if not _lost_worker(exc):
-                    raise
-                lost.append(i)
-                why = f"{type(exc).__name__}: {exc}"
-                continue
-            if bar is not None:
-                bar.update(1)
-        return sorted(lost), why
-
     def _partial(self, done: dict[int, list[dict[str, np.ndarray]]]) -> Any:
         """The table of the runs done (a :class:`CampaignResult` marked incomplete)."""
         from geomfdi.campaign.result import CampaignResult
@@ -563,10 +510,13 @@ class Campaign:
         executor: Any = "serial",
         *,
         workers: int | None = None,
-        blocks_per_task: int = 1,
+        blocks_per_task: int | str = "auto",
         progress: bool | None = None,
     ) -> Any:
         """Run every block and collect the table (a :class:`CampaignResult`).
+
+        The job (models, bank, test, time grid, inputs, scenarios) goes once to every
+        worker and a task carries only its blocks (:mod:`geomfdi.campaign.executors`).
 
         Parameters
         ----------
@@ -577,18 +527,29 @@ class Campaign:
             this call.  Any object with ``submit(fn, *args)`` returning a future with
             ``result()`` works (a Dask client: install ``geomfdi[dask]``).
         workers : int, optional
-        blocks_per_task : int
-            Blocks carried by one task (does not change the results).
+        blocks_per_task : int or "auto"
+            Blocks carried by one task (does not change the results); ``"auto"``: sized
+            from the first task's measured block time so that the per-task overhead is
+            at most 10 % of a task while every worker still gets about 4 tasks
+            (:func:`geomfdi.campaign.executors.task_size`).
         progress : bool, optional
-            tqdm bar over the tasks (default: when stderr is a terminal).
+            tqdm bar over the blocks (default: when stderr is a terminal).
+
+        The result's ``info["executor"]`` holds what the run measured: tasks, blocks per
+        task, the compute seconds of the tasks (in the workers), and with ``"auto"`` the
+        block time and the per-task overhead that sized the tasks.
         """
         import sys
 
+        from geomfdi.campaign.executors import execute
         from geomfdi.campaign.result import CampaignResult
 
-        per = as_int(blocks_per_task, "blocks_per_task", minimum=1)
+        per = (
+            None
+            if isinstance(blocks_per_task, str) and blocks_per_task == "auto"
+            else as_int(blocks_per_task, "blocks_per_task", minimum=1)
+        )
         blocks = self.blocks()
-        tasks = [blocks[a : a + per] for a in range(0, len(blocks), per)]
         job = self._job()
         if progress is None:
             progress = sys.stderr.isatty()
@@ -596,47 +557,39 @@ class Campaign:
         if progress:
             from tqdm.auto import tqdm
 
-            bar = tqdm(total=len(tasks), desc="campaign", unit="task", leave=False)
-        done: dict[int, list[dict[str, np.ndarray]]] = {}
-        own = None
+            bar = tqdm(total=len(blocks), desc="campaign", unit="block", leave=False)
         try:
-            if isinstance(executor, str):
-                if executor == "serial":
-                    for i, tk in enumerate(tasks):
-                        done[i] = _run_task(job, tk)
-                        if bar is not None:
-                            bar.update(1)
-                    executor = None
-                elif executor == "processes":
-                    own = executor = _pool(workers)
-                else:
-                    raise GeomFDIError(
-                        f"executor: 'serial', 'processes' or an executor, got {executor!r}",
-                        argument="executor",
-                    )
-            if executor is not None:
-                if not hasattr(executor, "submit"):
-                    raise GeomFDIError("executor: has no submit method", argument="executor")
-                pending = list(range(len(tasks)))
-                for attempt in range(RETRIES + 1):
-                    lost, why = self._submit(executor, job, tasks, pending, done, bar)
-                    if not lost:
-                        break
-                    if attempt == RETRIES:
-                        raise CampaignIncompleteError(
-                            f"executor: workers lost {RETRIES + 1} times ({why}); "
-                            f"{len(lost)} of {len(tasks)} tasks not done",
-                            partial=self._partial(done),
-                            argument="executor",
-                        )
-                    if own is not None:  # a broken pool takes no more tasks: a new one
-                        own.shutdown(wait=False, cancel_futures=True)
-                        own = executor = _pool(workers)
-                    pending = lost
+            if isinstance(executor, str) and executor == "serial":
+                done = {}
+                for i, block in enumerate(blocks):
+                    done[i] = [_run_block(job, block)]
+                    if bar is not None:
+                        bar.update(1)
+                stats: dict[str, Any] = {"tasks": len(blocks), "items_per_task": 1}
+            elif isinstance(executor, str) and executor != "processes":
+                raise GeomFDIError(
+                    f"executor: 'serial', 'processes' or an executor, got {executor!r}",
+                    argument="executor",
+                )
+            elif not isinstance(executor, str) and not hasattr(executor, "submit"):
+                raise GeomFDIError("executor: has no submit method", argument="executor")
+            else:
+                own = isinstance(executor, str)  # "processes": a pool for this call
+                done, stats = execute(
+                    None if own else executor,
+                    _run_block,
+                    job,
+                    blocks,
+                    per=per,
+                    bar=bar,
+                    new_pool=(lambda shipped: _pool(workers, shipped)) if own else None,
+                    partial=self._partial,
+                )
         finally:
-            if own is not None:
-                own.shutdown()
             if bar is not None:
                 bar.close()
         parts = [p for i in sorted(done) for p in done[i]]
-        return CampaignResult.from_parts(self, parts)
+        result = CampaignResult.from_parts(self, parts)
+        stats["blocks_per_task"] = stats.pop("items_per_task")
+        result.info["executor"] = stats
+        return result

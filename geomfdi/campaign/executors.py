@@ -1,0 +1,501 @@
+"""Where a campaign's blocks run: the job shipped once per worker, tasks sized from the
+measured block time, lost workers retried.
+
+**Shipping.**  A campaign's *job* (the plant models, the bank, the test, the time grid
+and inputs, the scenarios: everything a block needs besides its runs) is the same for
+every task.  It is pickled once in the calling process and unpickled at most once in
+every worker process:
+
+* a Dask client: the job is scattered to every worker (``broadcast=True``) and a task
+  names it by its future;
+* ``"processes"``: the pool's initializer installs the job in every worker process (a
+  forked worker inherits it without any pickling) and a task names it by its key;
+* any other executor (a ``ProcessPoolExecutor`` of the caller, ...): a task carries the
+  job's pickle, made once; a worker process unpickles it the first time it meets its key
+  and reuses it for the following tasks (a thread pool passes the object itself).
+
+A task then carries only its blocks (the indices of its runs with their scenario, size,
+onset and repetition: a few kB) and brings back the table numbers of its runs (scores,
+delays, isolation; never residuals or statistics).  Dask results stay on the workers
+until every task is done and come back in one ``gather`` (one message per worker rather
+than a round trip per task).
+
+**Task size** (``blocks_per_task="auto"``).  A task costs its blocks' compute time plus a
+fixed overhead ``o`` (submitting, scheduling, shipping the blocks and the results).  The
+first ``2 W`` tasks (``W`` worker slots) carry one block each; the first one to finish
+gives the block's compute time ``b`` (measured in the worker) and ``o`` (its round trip
+minus ``b``, at least :data:`MIN_OVERHEAD`).  The remaining ``B`` blocks go into tasks of
+:func:`task_size` blocks: the fewest for which ``o`` is at most :data:`OVERHEAD_SHARE`
+(10 %) of the task's compute time, ``ceil(o / (0.1 b))``, but no more than
+``B / (TASKS_PER_WORKER W)``, so that every slot still gets about
+:data:`TASKS_PER_WORKER` (4) tasks and the slots finish together (the last task of the
+slowest worker keeps the others idle for a quarter of a slot's share at most).  When the
+two bounds conflict (few blocks, each much shorter than the overhead) the balance wins:
+such a campaign takes a fraction of a second either way.  The grouping never changes the
+table (a run's numbers depend on its index only, see :mod:`geomfdi.campaign.runner`).
+
+**Worker set-up.**  A task runs with the BLAS limited to ``gf.get_blas_threads()`` (one)
+thread.  A Dask worker's default environment sets ``MALLOC_TRIM_THRESHOLD_`` (so that
+freed memory goes back to the system), which also switches off glibc's adaptive
+``mmap`` threshold: every array over 128 kiB is then a fresh ``mmap`` whose pages are
+faulted in again on first write, which makes the vectorised simulation of a block 2-2.5
+times slower than in a plain process.  While a task runs, the thresholds are raised to
+the values glibc adapts to by itself (``M_MMAP_THRESHOLD`` 32 MiB, the trim threshold
+64 MiB); they are restored and the free memory handed back (``malloc_trim``) when the
+last running task of the process ends.  Nothing is changed on other C libraries, when
+``MALLOC_MMAP_THRESHOLD_`` is set too, or when ``MALLOC_TRIM_THRESHOLD_`` is not set.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import pickle
+import threading
+import time
+import uuid
+from collections.abc import Callable, Sequence
+from contextlib import contextmanager
+from typing import Any
+
+from geomfdi._threads import limit_blas_threads
+from geomfdi.errors import CampaignIncompleteError, GeomFDIError
+
+__all__ = [
+    "MIN_OVERHEAD",
+    "OVERHEAD_SHARE",
+    "RETRIES",
+    "TASKS_PER_WORKER",
+    "Shipped",
+    "allocator_for_arrays",
+    "execute",
+    "install",
+    "lost_worker",
+    "run_items",
+    "task_size",
+    "worker_slots",
+]
+
+RETRIES = 2
+"""Times the tasks of a lost worker are run again (on a fresh process pool, or with the
+job shipped again to a Dask cluster) before the campaign gives up."""
+
+OVERHEAD_SHARE = 0.1
+"""Largest share of a task's compute time its fixed overhead may take (when the
+balance between workers allows)."""
+
+TASKS_PER_WORKER = 4
+"""Tasks per worker slot that the task size keeps at least (when there are blocks for
+them)."""
+
+MIN_OVERHEAD = 2e-3
+"""Seconds of per-task overhead assumed at least (a measured round trip can be shorter
+than the task's compute time measured in the worker: clock granularity, queueing)."""
+
+_LOST = {
+    "BrokenProcessPool",
+    "BrokenExecutor",
+    "CancelledError",
+    "FutureCancelledError",
+    "KilledWorker",
+    "CommClosedError",
+}
+
+
+def lost_worker(exc: BaseException) -> bool:
+    """Whether ``exc`` says that a task's worker was lost (not that the task failed)."""
+    return any(cls.__name__ in _LOST for cls in type(exc).__mro__)
+
+
+# --------------------------------------------------------------------------- task size
+def task_size(
+    blocks: int,
+    workers: int,
+    block_seconds: float,
+    overhead: float,
+    *,
+    share: float = OVERHEAD_SHARE,
+    tasks_per_worker: int = TASKS_PER_WORKER,
+) -> int:
+    """Blocks per task: ``min(ceil(o / (share b)), floor(B / (k W)))``, at least 1.
+
+    Parameters
+    ----------
+    blocks : int
+        ``B``, the blocks to group into tasks.
+    workers : int
+        ``W``, the worker slots (processes, or Dask threads) running tasks at once.
+    block_seconds : float
+        ``b``, compute time of one block in a worker.
+    overhead : float
+        ``o``, fixed cost of one task (submitting, scheduling, shipping blocks and results).
+    share : float
+        Largest ``o / (blocks per task * b)`` wanted (0.1).
+    tasks_per_worker : int
+        ``k``: tasks per slot kept at least, so that the slots finish together.
+
+    Examples
+    --------
+    >>> task_size(1000, 2, 0.5, 0.005)      # long blocks: one block is plenty
+    1
+    >>> task_size(1000, 2, 0.001, 0.005)    # 1 ms blocks, 5 ms overhead: 50 blocks a task
+    50
+    >>> task_size(40, 2, 0.001, 0.005)      # few short blocks: 4 tasks per worker win
+    5
+    """
+    need = math.ceil(overhead / (share * block_seconds)) if block_seconds > 0 else blocks
+    most = blocks // (tasks_per_worker * max(1, workers))
+    return max(1, min(need, most))
+
+
+def worker_slots(executor: Any) -> int:
+    """Tasks ``executor`` runs at once: a Dask client's worker threads, a
+    ``concurrent.futures`` pool's ``max_workers``; otherwise the machine's CPUs."""
+    nthreads = getattr(executor, "nthreads", None)
+    if callable(nthreads):
+        try:
+            total = sum(int(v) for v in nthreads().values())
+        except Exception:  # an object with another ``nthreads``: not a Dask client
+            total = 0
+        if total > 0:
+            return total
+    slots = getattr(executor, "_max_workers", None)
+    if isinstance(slots, int) and slots > 0:
+        return slots
+    return os.cpu_count() or 1
+
+
+# ------------------------------------------------------------------------- shipping
+class Shipped:
+    """A job pickled once in this process and unpickled at most once per worker process.
+
+    Pickling a :class:`Shipped` gives the job's pickle (made on the first call, then
+    reused) with its key, or its key alone (:meth:`by_key`, for workers where the job
+    was installed by :func:`install`).  A worker keeps the last jobs it met by key.
+    """
+
+    def __init__(self, job: Any, key: str | None = None, data: bytes | None = None) -> None:
+        self.job = job
+        self.key = key or uuid.uuid4().hex
+        self._data = data
+        self._by_key = False
+
+    def data(self) -> bytes:
+        """The job's pickle (``cloudpickle`` when installed, as Dask would use)."""
+        if self._data is None:
+            try:
+                import cloudpickle
+            except ImportError:  # pragma: no cover - distributed brings cloudpickle
+                dumps: Callable[..., bytes] = pickle.dumps
+            else:
+                dumps = cloudpickle.dumps
+            self._data = dumps(self.job, protocol=pickle.HIGHEST_PROTOCOL)
+        return self._data
+
+    def by_key(self) -> Shipped:
+        """The same job, pickled as its key only."""
+        ref = Shipped(self.job, self.key, self._data)
+        ref._by_key = True
+        return ref
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        if self._by_key:
+            return _lookup, (self.key,)
+        return _unpack, (self.key, self.data())
+
+
+_JOBS: dict[str, Shipped] = {}  # in a worker process: the last jobs met, by key
+_KEEP = 2
+
+
+def _remember(shipped: Shipped) -> Shipped:
+    _JOBS.pop(shipped.key, None)
+    _JOBS[shipped.key] = shipped
+    while len(_JOBS) > _KEEP:
+        _JOBS.pop(next(iter(_JOBS)))
+    return shipped
+
+
+def _unpack(key: str, data: bytes) -> Shipped:
+    hit = _JOBS.get(key)
+    if hit is None:
+        hit = _remember(Shipped(pickle.loads(data), key, data))
+    return hit
+
+
+def _lookup(key: str) -> Shipped:
+    hit = _JOBS.get(key)
+    if hit is None:
+        raise GeomFDIError(
+            "executor: the campaign's job is not installed in this worker process",
+            argument="executor",
+        )
+    return hit
+
+
+def install(shipped: Shipped) -> None:
+    """Pool initializer: keep ``shipped`` in this worker process."""
+    _remember(shipped)
+
+
+# ------------------------------------------------------------------ worker set-up
+M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters (malloc.h)
+_MMAP_DEFAULT = 128 * 1024  # glibc's fixed mmap threshold once the trim threshold is set
+_RAISED = {M_MMAP_THRESHOLD: 32 * 1024 * 1024, M_TRIM_THRESHOLD: 64 * 1024 * 1024}
+_alloc_lock = threading.Lock()
+_alloc_users = 0
+
+
+def _glibc() -> Any:
+    """glibc's ``mallopt`` and ``malloc_trim`` (None on other C libraries)."""
+    import ctypes
+    import platform
+
+    if platform.libc_ver()[0] != "glibc":
+        return None
+    try:
+        libc = ctypes.CDLL(None)
+        libc.mallopt.argtypes = [ctypes.c_int, ctypes.c_int]
+        libc.malloc_trim.argtypes = [ctypes.c_size_t]
+    except (OSError, AttributeError):  # pragma: no cover - a static or unusual libc
+        return None
+    return libc
+
+
+def _fixed_trim_threshold() -> int | None:
+    """The trim threshold set by the environment when it also fixed the mmap threshold
+    at glibc's 128 kiB (the Dask worker's default), else None."""
+    if "MALLOC_MMAP_THRESHOLD_" in os.environ:
+        return None
+    try:
+        return int(os.environ["MALLOC_TRIM_THRESHOLD_"])
+    except (KeyError, ValueError):
+        return None
+
+
+@contextmanager
+def allocator_for_arrays() -> Any:
+    """Run with glibc's adaptive-like thresholds where the environment fixed them
+    (module docstring); the first task in a process raises them, the last restores."""
+    global _alloc_users
+    trim = _fixed_trim_threshold()
+    libc = _glibc() if trim is not None else None
+    if libc is None:
+        yield
+        return
+    with _alloc_lock:
+        _alloc_users += 1
+        if _alloc_users == 1:
+            for param, value in _RAISED.items():
+                libc.mallopt(param, value)
+    try:
+        yield
+    finally:
+        with _alloc_lock:
+            _alloc_users -= 1
+            if _alloc_users == 0:
+                libc.mallopt(M_MMAP_THRESHOLD, _MMAP_DEFAULT)
+                libc.mallopt(M_TRIM_THRESHOLD, trim)
+                libc.malloc_trim(0)
+
+
+@limit_blas_threads
+def run_items(
+    work: Callable[[Any, Any], Any], shipped: Any, items: Sequence[Any]
+) -> tuple[list[Any], float]:
+    """``[work(job, item) for item in items]`` in a worker, and its compute seconds.
+
+    ``shipped`` is a :class:`Shipped` (or, in this process, the job itself).
+    """
+    job = shipped.job if isinstance(shipped, Shipped) else shipped
+    t0 = time.perf_counter()
+    with allocator_for_arrays():
+        out = [work(job, item) for item in items]
+    return out, time.perf_counter() - t0
+
+
+# ------------------------------------------------------------------------ running
+def _spans(start: int, stop: int, per: int) -> list[tuple[int, int]]:
+    return [(a, min(a + per, stop)) for a in range(start, stop, per)]
+
+
+class _Round:
+    """One pass over the pending spans of items on one executor."""
+
+    def __init__(self, executor: Any, work: Any, ref: Any, items: Sequence[Any], bar: Any):
+        self.executor, self.work, self.ref, self.items, self.bar = executor, work, ref, items, bar
+        self.futures: list[tuple[tuple[int, int], Any, float]] = []
+        self.lost: list[tuple[int, int]] = []
+        self.why = ""
+        self.seconds: list[float] = []
+        self.overheads: list[float] = []
+
+    def submit(self, span: tuple[int, int]) -> None:
+        a, b = span
+        try:
+            fut = self.executor.submit(run_items, self.work, self.ref, self.items[a:b])
+        except Exception as exc:
+            if not lost_worker(exc):
+                raise
+            self.lost.append(span)
+            self.why = f"{type(exc).__name__}: {exc}"
+            return
+        self.futures.append((span, fut, time.perf_counter()))
+
+    def _failed(self, span: tuple[int, int], exc: BaseException) -> None:
+        if not lost_worker(exc):
+            raise exc
+        self.lost.append(span)
+        self.why = f"{type(exc).__name__}: {exc}"
+
+    def _store(self, k: int, out: list[Any], seconds: float, done: dict[int, list[Any]]) -> None:
+        span, _, t0 = self.futures[k]
+        if k == 0:
+            self.overheads.append(time.perf_counter() - t0 - seconds)
+        self.seconds.append(seconds)
+        done[span[0]] = out
+        if self.bar is not None:
+            self.bar.update(span[1] - span[0])
+
+    def collect(self, k: int, done: dict[int, list[Any]]) -> None:
+        """The outcome of task ``k`` (waiting for it)."""
+        span, fut, _ = self.futures[k]
+        try:
+            out, seconds = fut.result()
+        except Exception as exc:
+            self._failed(span, exc)
+            return
+        self._store(k, out, seconds, done)
+
+    def collect_from(self, start: int, done: dict[int, list[Any]]) -> None:
+        """The outcomes of tasks ``start, ...``: one by one, or for Dask futures all
+        fetched in one ``gather`` once every task has finished (one message per worker
+        instead of one round trip per task)."""
+        ks = range(start, len(self.futures))
+        if not ks:
+            return
+        if not type(self.futures[start][1]).__module__.startswith("distributed"):
+            for k in ks:
+                self.collect(k, done)
+            return
+        from distributed import as_completed
+
+        index = {self.futures[k][1].key: k for k in ks}
+        finished = []
+        for fut in as_completed([self.futures[k][1] for k in ks]):
+            k = index[fut.key]
+            if fut.status != "finished":  # an error, a lost or recomputed task
+                self.collect(k, done)
+                continue
+            finished.append(k)
+            if self.bar is not None:
+                self.bar.update(self.futures[k][0][1] - self.futures[k][0][0])
+        if finished:
+            futs = [self.futures[k][1] for k in finished]
+            bar, self.bar = self.bar, None  # (counted above)
+            try:
+                outs = futs[0].client.gather(futs)
+            except Exception as exc:  # a worker lost with results: task by task
+                if not lost_worker(exc):
+                    raise
+                for k in finished:
+                    self.collect(k, done)
+            else:
+                for k, (out, seconds) in zip(finished, outs, strict=True):
+                    self._store(k, out, seconds, done)
+            finally:
+                self.bar = bar
+
+
+def execute(
+    executor: Any,
+    work: Callable[[Any, Any], Any],
+    job: Any,
+    items: Sequence[Any],
+    *,
+    per: int | None = None,
+    bar: Any = None,
+    new_pool: Callable[[Shipped], Any] | None = None,
+    partial: Callable[[dict[int, list[Any]]], Any] | None = None,
+) -> tuple[dict[int, list[Any]], dict[str, Any]]:
+    """Run ``work(job, item)`` for every item on ``executor``, in tasks of ``per`` items
+    (``None``: sized by :func:`task_size` after the first task, module docstring).
+
+    Returns the outcomes by the index of each task's first item, and what the run
+    measured: ``tasks``, ``items_per_task``, ``block_seconds`` (the first task's compute
+    time per item), ``task_overhead`` (its round trip minus its compute time),
+    ``compute_seconds`` (summed over the tasks, measured in the workers).  With
+    ``new_pool`` (``"processes"``), the pool is made here with the job installed in its
+    workers, and made again after a lost worker.  Workers lost ``RETRIES + 1`` times
+    raise :class:`~geomfdi.errors.CampaignIncompleteError` with ``partial(done)``.
+    """
+    shipped = Shipped(job)
+    own = new_pool(shipped) if new_pool is not None else None
+    ex = own if own is not None else executor
+    done: dict[int, list[Any]] = {}
+    stats: dict[str, Any] = {"tasks": 0, "compute_seconds": 0.0}
+    spans = None if per is None else _spans(0, len(items), per)
+    try:
+        for attempt in range(RETRIES + 1):
+            if own is not None:
+                ref: Any = shipped.by_key()
+            elif hasattr(ex, "scatter"):  # a Dask client: the job once to every worker
+                # (a fresh key: a campaign run twice, or a retry, must not share it with
+                # a previous run's data being released or lost with its worker)
+                ref = ex.scatter([shipped], broadcast=True, hash=False)[0]
+            else:
+                ref = shipped
+            rnd = _Round(ex, work, ref, items, bar)
+            if spans is None:
+                spans = _adaptive(rnd, len(items), worker_slots(ex), done, stats)
+            else:
+                for span in spans:
+                    rnd.submit(span)
+                rnd.collect_from(0, done)
+            stats.setdefault("planned", len(spans))
+            stats["tasks"] += len(rnd.futures)
+            stats["compute_seconds"] += sum(rnd.seconds)
+            if not rnd.lost:
+                break
+            if attempt == RETRIES:
+                raise CampaignIncompleteError(
+                    f"executor: workers lost {RETRIES + 1} times ({rnd.why}); "
+                    f"{len(rnd.lost)} of {stats['planned']} tasks not done",
+                    partial=partial(done) if partial is not None else None,
+                    argument="executor",
+                )
+            if own is not None:  # a broken pool takes no more tasks: a new one
+                own.shutdown(wait=False, cancel_futures=True)
+                own = ex = new_pool(shipped)  # type: ignore[misc]
+            spans = sorted(rnd.lost)
+    finally:
+        if own is not None:
+            own.shutdown()
+    stats.setdefault("items_per_task", per)
+    del stats["planned"]
+    return done, stats
+
+
+def _adaptive(
+    rnd: _Round, n: int, slots: int, done: dict[int, list[Any]], stats: dict[str, Any]
+) -> list[tuple[int, int]]:
+    """Submit ``2 slots`` one-item tasks, size the rest on the first one's times, submit
+    and collect everything; returns the spans submitted."""
+    first = _spans(0, min(n, 2 * slots), 1)
+    for span in first:
+        rnd.submit(span)
+    per, collected = 1, 0
+    if rnd.futures:
+        rnd.collect(0, done)
+        collected = 1
+        if rnd.seconds:  # the first task came back: its times size the others
+            b = rnd.seconds[0] / (rnd.futures[0][0][1] - rnd.futures[0][0][0])
+            o = max(MIN_OVERHEAD, rnd.overheads[0])
+            per = task_size(n - first[-1][1], slots, b, o)
+            stats.update(block_seconds=b, task_overhead=o)
+    rest = _spans(first[-1][1], n, per)
+    for span in rest:
+        rnd.submit(span)
+    rnd.collect_from(collected, done)
+    stats["items_per_task"] = per
+    return first + rest
