@@ -44,10 +44,15 @@ def _tri_solve(T: np.ndarray, X: np.ndarray) -> np.ndarray:
     return scipy.linalg.solve_triangular(T, X, check_finite=False)
 
 
+FEW_POINTS = 16
+"""Point count up to which :func:`_tri_solve_many` solves point by point."""
+
+
 def _tri_solve_many(T: np.ndarray, pts: np.ndarray, X: np.ndarray) -> np.ndarray:
     """``(s_p I − T)⁻¹ X`` for upper-triangular T at every point: shape ``(P, n, c)``.
 
-    Small T: one batched LU solve.  Otherwise blocked back substitution over all points
+    Small T: one batched LU solve; at most ``FEW_POINTS`` points: one triangular solve
+    each.  Otherwise blocked back substitution over all points
     and columns at once: the coupling of a block of rows to the rows already solved is
     one matrix product (``T[a:b, b:] @ Y[b:]``), the rows inside the block are solved one
     by one on the small block (the same ``O(P n² c)`` work as P triangular solves, at
@@ -61,6 +66,13 @@ def _tri_solve_many(T: np.ndarray, pts: np.ndarray, X: np.ndarray) -> np.ndarray
         M = pts[:, None, None] * np.eye(n) - T[None, :, :]
         return np.linalg.solve(M, np.broadcast_to(X, (P, n, c)).astype(complex))
     out = np.empty((P, n, c), dtype=complex)
+    if P <= FEW_POINTS:  # a LAPACK triangular solve per point: no row loop to amortise
+        idx = np.arange(n)
+        for p, sp in enumerate(pts):
+            M = -np.asarray(T, dtype=complex)
+            M[idx, idx] += sp
+            out[p] = scipy.linalg.solve_triangular(M, X, check_finite=False)
+        return out
     step = max(1, int(2_000_000 // max(n * c, 1)))
     d = np.diag(T)
     T = np.asarray(T, dtype=complex)
