@@ -62,3 +62,19 @@ def test_quotient_schur_from_the_plant_is_a_schur_form_or_refused():
     # so is one of lower order, or a P with rows that are not orthonormal
     assert _schur_from_plant(A0[:-1, :-1], P[:-1], (T, U)) is None
     assert _schur_from_plant(A0, 1.001 * P, (T, U)) is None
+
+
+def test_triangular_resolvents_at_few_and_many_points_solve_the_system():
+    from geomfdi.generators.gains import FEW_POINTS, _tri_solve_many
+
+    rng = np.random.default_rng(6)
+    n = 90
+    T, _ = complex_schur(rng.standard_normal((n, n)))
+    X = rng.standard_normal((n, 2))
+    for P in (1, FEW_POINTS, FEW_POINTS + 1, 3 * FEW_POINTS):
+        pts = rng.standard_normal(P) + 1j * rng.standard_normal(P)
+        Y = _tri_solve_many(T, pts, X)
+        assert Y.shape == (P, n, 2)
+        for i in range(P):
+            res = (pts[i] * np.eye(n) - T) @ Y[i] - X
+            assert np.linalg.norm(res) <= 1e-10 * np.linalg.norm(X)
