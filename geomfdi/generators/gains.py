@@ -451,7 +451,7 @@ class Composite:
             else:
                 ra = np.linalg.norm(_tri_solve_many(self.TA, s, self.UAva[:, None]), axis=(1, 2))
             first = False
-            if self.on_blocks is not None:  # ‖(sI − F)⁻¹ w‖ in F's own coordinates
+            if self.on_blocks is not None and s.size > FEW_POINTS:  # in F's own coordinates
                 g = self.g
                 rf = np.linalg.norm(
                     column_resolvent(g.F, g.M[0], self.on_blocks, s, self.vf), axis=1
