@@ -344,7 +344,8 @@ def _extend(
         P = P - B @ (B.T @ P)
         P = P - B @ (B.T @ P)
     if P.shape[1] == 1:  # one column: its SVD is its norm and direction
-        nP = float(np.linalg.norm(P))
+        p = P.ravel()
+        nP = float(np.sqrt(p.dot(p)))  # numpy.linalg.norm's own formula, without its dispatch
         U, s = P / (nP if nP > 0 else 1.0), np.array([nP])
     else:
         U, s, _ = np.linalg.svd(P, full_matrices=False)
@@ -364,8 +365,10 @@ def extraction_noise(kept: float, scale: float) -> float:
     """
     if kept <= 0:
         return 0.0
-    return 4.0 * float(np.finfo(float).eps) * float(scale) / float(kept)
+    return 4.0 * _EPS64 * float(scale) / float(kept)
 
+
+_EPS64 = float(np.finfo(float).eps)
 
 _DGESDD = scipy.linalg.lapack.get_lapack_funcs("gesdd", dtype=np.float64)
 
@@ -377,7 +380,7 @@ def _svd_vt(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     such SVD per step on a few columns, where the call overhead of ``numpy.linalg.svd``
     (``full_matrices=True``) is several times the arithmetic.
     """
-    if X.size and X.dtype == np.float64 and np.all(np.isfinite(X)):
+    if X.size and X.dtype == np.float64 and np.isfinite(X).all():
         _, s, vt, info = _DGESDD(X, compute_uv=1, full_matrices=1)
         if info == 0:
             return s, vt

@@ -130,10 +130,11 @@ def min_unobservability_subspace(
         Vb, Yb = np.empty((n, n)), np.empty((n, n))
         nv = ny = 0
         R = np.zeros((n, 0))
+        WbT, AT = Wb.T, A.T
         new, noise = _extend(Vb[:, :0], C.T, nC, "Im Cᵀ (Ker C)", 0.0)
         history = [n]
         for _ in range(n + 1):
-            Y_new, R = split_kernel(np.hstack([R, new]), Wb.T, 1.0, "V ∩ W*^⊥")
+            Y_new, R = split_kernel(np.concatenate((R, new), axis=1), WbT, 1.0, "V ∩ W*^⊥")
             Y_new = _project_out(Y_new, Wb)
             dv, dy = new.shape[1], Y_new.shape[1]
             Vb[:, nv : nv + dv], Yb[:, ny : ny + dy] = new, Y_new
@@ -144,7 +145,7 @@ def min_unobservability_subspace(
             # directions extracted from a strong cancellation carry more rounding than ε:
             # the next step's floor rises accordingly (extraction_noise)
             new, noise = _extend(
-                Vb[:, :nv], A.T @ Y_new, nA, "Im Cᵀ + Aᵀ Z^⊥ (A⁻¹(Z) ∩ Ker C)", noise
+                Vb[:, :nv], AT @ Y_new, nA, "Im Cᵀ + Aᵀ Z^⊥ (A⁻¹(Z) ∩ Ker C)", noise
             )
         Y = Yb[:, :ny].copy()
     Z = Subspace.from_orthonormal(Y).complement()
@@ -161,7 +162,8 @@ def _project_out(Y: np.ndarray, W: np.ndarray) -> np.ndarray:
     Y = Y - W @ (W.T @ Y)
     Y = Y - W @ (W.T @ Y)
     if Y.shape[1] == 1:
-        return Y / max(float(np.linalg.norm(Y)), 1e-300)
+        y = Y.ravel()
+        return Y / max(float(np.sqrt(y.dot(y))), 1e-300)  # numpy.linalg.norm's formula
     q, _ = np.linalg.qr(Y)
     return q
 
