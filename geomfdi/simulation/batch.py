@@ -39,7 +39,13 @@ from geomfdi.simulation.simulate import (
     noise_streams,
     noise_window,
 )
-from geomfdi.simulation.streaming import DecisionStream, RunSummary, chunk_plan, time_chunks
+from geomfdi.simulation.streaming import (
+    DecisionStream,
+    RunSummary,
+    Workspace,
+    chunk_plan,
+    time_chunks,
+)
 
 
 @limit_blas_threads
@@ -168,6 +174,7 @@ def simulate_batch(
     Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size, min_runs=batch_runs())
     bar = progress_bar(ctx.progress, runs, "runs")
     kept: dict[str, Any] = {}  # for the next chunk of runs: open-loop engine, noise buffers
+    work = kept["work"] = Workspace()  # chunk-sized work arrays, reused chunk after chunk
     for a in range(0, runs, Rc):
         b = min(a + Rc, runs)
         rngs = [None if sd is None else np.random.default_rng(sd) for sd in seeds[a:b]]
@@ -178,13 +185,17 @@ def simulate_batch(
         for s, e, pc, res, written in pieces:
             if keep_r and not written:
                 R_res[a:b, :, s:e] = res
+            absr = np.abs(res, out=work.get("abs", res.shape))
+            peaks = np.max(absr, axis=-1)
             if thr is None:  # no alarm, no decision: R_al and R_iso stay as they are
-                summary.update(s, res, None, None, a)
+                summary.update(s, res, None, None, a, peaks=peaks)
             else:
-                al, iso = ds.step(res)
-                summary.update(s, res, al, iso.isolated, a, iso.suspects)
+                dest = R_al[a:b, :, s:e] if keep_r else work.get("alarms", res.shape, bool)
+                al, iso = ds.step(res, absolute=absr, peaks=peaks, out=dest)
+                summary.update(s, res, al, iso.isolated, a, iso.suspects, peaks=peaks)
                 if keep_r:
-                    R_al[a:b, :, s:e] = al
+                    if al is not dest:
+                        R_al[a:b, :, s:e] = al
                     R_iso[a:b, s:e] = iso.isolated
             if store == "all":
                 L_s = e - s
@@ -261,12 +272,15 @@ def _pieces(
             kept["open"] = eng
     pool = kept.setdefault("noise buffers", [])  # the draws' memory, reused
     streams = noise_streams(ctx, rngs, pool)
+    work = kept["work"]
+    if isinstance(eng, OpenLoopEngine):
+        eng.workspace = work
     direct = R_res is not None and eng.R == Rc
     chunks = time_chunks(N, L)
     buf = None if direct else np.zeros((eng.R, nres, max(e1 - s for s, _, e1 in chunks)))
     for s, e, e1 in chunks:
         dest = R_res[a : a + Rc, :, s:e1] if direct else buf[:, :, : e1 - s]
-        v, wp = noise_window(ctx, streams, s, e1)
+        v, wp = noise_window(ctx, streams, s, e1, work)
         pc = eng.advance(s, e1, v, wp, dest)
         yield s, e, pc, np.broadcast_to(dest[:, :, : e - s], (Rc, nres, e - s)), direct
     for st in streams or ():

@@ -40,7 +40,7 @@ from geomfdi.evaluation.persistence import (
 from geomfdi.limits import get_limits
 from geomfdi.simulation.signals import first_active
 
-__all__ = ["DecisionStream", "RunSummary", "chunk_plan", "time_chunks"]
+__all__ = ["DecisionStream", "RunSummary", "Workspace", "chunk_plan", "time_chunks"]
 
 #: The fewest samples of a time chunk (each chunk costs a fixed Python overhead).
 MIN_CHUNK = 16
@@ -90,6 +90,30 @@ def chunk_plan(
         runs_per_chunk = max(1, min(runs, max(cells // max(N, 1), wanted)))
     L = max(MIN_CHUNK, cells // runs_per_chunk)
     return int(runs_per_chunk), int(min(L, N))
+
+
+class Workspace:
+    """Chunk-sized work arrays of one call, reused from chunk to chunk.
+
+    Fresh memory of a chunk's size (megabytes) is mapped from the operating system and
+    faulted in page by page on first use, then unmapped when freed: a sizeable share of
+    a batch's time.  The arrays of one name are therefore views of one buffer, grown when
+    a chunk needs more.  Nothing returned to the caller lives in them.
+    """
+
+    def __init__(self) -> None:
+        self._bufs: dict[tuple[str, str], np.ndarray] = {}
+
+    def get(self, name: str, shape: tuple[int, ...], dtype: Any = float) -> np.ndarray:
+        """An uninitialised C-contiguous array ``shape`` of ``dtype``, the buffer
+        ``name`` (its content is that of the previous use)."""
+        dt = np.dtype(dtype)
+        size = int(np.prod(shape, dtype=np.int64))
+        key = (name, dt.str)
+        buf = self._bufs.get(key)
+        if buf is None or buf.size < size:
+            buf = self._bufs[key] = np.empty(size, dtype=dt)
+        return buf[:size].reshape(shape)
 
 
 def time_chunks(N: int, L: int) -> list[tuple[int, int, int]]:
@@ -144,9 +168,21 @@ class DecisionStream:
         self._held: tuple[np.ndarray, ...] | None = None  # episode state
         self._dec: np.ndarray | None = None  # last per-sample decisions (settling)
 
-    def step(self, res: np.ndarray) -> tuple[np.ndarray, Isolation]:
+    def step(
+        self,
+        res: np.ndarray,
+        *,
+        absolute: np.ndarray | None = None,
+        peaks: np.ndarray | None = None,
+        out: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, Isolation]:
         """Decisions of the next chunk ``res`` (R, n_rows, L): alarms (R, n_rows, L) and
-        the isolation of its samples."""
+        the isolation of its samples.
+
+        ``absolute`` (``|res|``) and ``peaks`` (its maximum over the chunk, (R, n_rows)),
+        when given, spare the statistic's pass for the ``"abs"`` statistic; ``out``
+        (bool, (R, n_rows, L)) then receives the raw alarms.
+        """
         thr, rule, S = self.threshold, self.rule, self.structure
         if thr is None:
             return decisions(res, None, S, None)
@@ -155,6 +191,10 @@ class DecisionStream:
             ext, h = _with_tail(self._res, res)
             self._res = _tail(ext, self._res_look)
             al = thr.alarms(ext)[..., h:]
+        elif absolute is not None and peaks is not None and np.all(peaks <= _FINITE_SUM):
+            # |r| > v is (r > v) | (r < -v); every |r| is finite and so is their sum (the
+            # check of Threshold.alarms cannot fail)
+            al = np.greater(absolute, thr.values[:, None], out=out)
         else:
             al = thr.alarms(res)
         if rule is None:
@@ -178,6 +218,10 @@ class DecisionStream:
         self._dec = _tail(ext, n - 1)
         settled = settle(ext, k, n, S.shape[1])[..., h:]
         return al, Isolation(settled, iso.candidates, iso.suspects)
+
+
+#: Residual magnitudes below which a chunk's sum cannot overflow (so holds no nan).
+_FINITE_SUM = 1e300
 
 
 def _with_tail(tail: np.ndarray | None, x: np.ndarray) -> tuple[np.ndarray, int]:
@@ -278,11 +322,13 @@ class RunSummary:
         isolated: np.ndarray | None,
         r0: int = 0,
         suspects: np.ndarray | None = None,
+        peaks: np.ndarray | None = None,
     ) -> None:
         """Add the chunk of samples ``s .. s+L-1`` of the runs ``r0 .. r0+R-1``:
         residuals and alarms (R, n_rows, L), isolation decisions (R, L) and their
         suspects (R, n_faults, L), which give the hypothesis of a ``MULTIPLE``
         decision.  ``alarms=None``: no alarm and no decision (no threshold).
+        ``peaks``: ``max |res|`` over the chunk (R, n_rows), when the caller has it.
 
         Vectorised over the runs and their faults (the samples of each run's healthy
         part and of each fault's span are masks of the chunk).
@@ -290,7 +336,7 @@ class RunSummary:
         R, L = res.shape[0], res.shape[-1]
         e = s + L
         pk = self.peak[r0 : r0 + R]
-        np.maximum(pk, np.max(np.abs(res), axis=-1), out=pk)
+        np.maximum(pk, np.max(np.abs(res), axis=-1) if peaks is None else peaks, out=pk)
         # false alarms before the first onset
         n_h = np.clip(self.healthy[r0 : r0 + R] - s, 0, L)  # healthy samples in the chunk
         self.fa_samples[r0 : r0 + R] += n_h
