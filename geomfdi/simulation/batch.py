@@ -180,7 +180,7 @@ def simulate_batch(
         rngs = [None if sd is None else np.random.default_rng(sd) for sd in seeds[a:b]]
         x0c = to_balanced(ctx, x0a[a:b] if x0a.shape[0] > 1 else x0a)
         chunk = schedules[a:b]
-        ds = DecisionStream(thr, view.structure, rule)
+        ds = DecisionStream(thr, view.structure, rule, work)
         pieces = _pieces(ctx, x0c, xc0a, rngs, chunk, not per_run, L, R_res, a, kept)
         for s, e, pc, res, written in pieces:
             if keep_r and not written:
@@ -191,12 +191,12 @@ def simulate_batch(
                 summary.update(s, res, None, None, a, peaks=peaks)
             else:
                 dest = R_al[a:b, :, s:e] if keep_r else work.get("alarms", res.shape, bool)
-                al, iso = ds.step(res, absolute=absr, peaks=peaks, out=dest)
-                summary.update(s, res, al, iso.isolated, a, iso.suspects, peaks=peaks)
+                al, isolated, suspects = ds.decide(res, absolute=absr, peaks=peaks, out=dest)
+                summary.update(s, res, al, isolated, a, suspects, peaks=peaks)
                 if keep_r:
                     if al is not dest:
                         R_al[a:b, :, s:e] = al
-                    R_iso[a:b, s:e] = iso.isolated
+                    R_iso[a:b, s:e] = isolated
             if store == "all":
                 L_s = e - s
                 R_x[a:b, :, s:e] = from_balanced(ctx, pc.X[:, :, :L_s].transpose(1, 0, 2))
