@@ -35,16 +35,7 @@ import geomfdi as gf  # noqa: E402
 
 def chain2(N: int = 100, q: int = 10, zeta: float = 0.01) -> gf.Plant:
     """Chain of N masses, q position sensors spread along it, forces on two masses."""
-    n = 2 * N
-    K = 2 * np.eye(N) - np.eye(N, k=1) - np.eye(N, k=-1)
-    K[-1, -1] = 1.0
-    A = np.block([[np.zeros((N, N)), np.eye(N)], [-K, -2 * zeta * np.sqrt(2) * np.eye(N)]])
-    B = np.zeros((n, 2))
-    B[N + N // 3, 0] = 1.0
-    B[n - 1, 1] = 1.0
-    C = np.zeros((q, n))
-    C[np.arange(q), np.linspace(0, N - 1, q).astype(int)] = 1.0
-    return gf.Plant(A, B, C)
+    return gf.mass_spring_chain(N, sensors=q, forces=(N // 3, N - 1), zeta=zeta)
 
 
 def _design(p: gf.Plant) -> gf.ResidualBank:

@@ -35,16 +35,7 @@ from geomfdi.synthesis.least_order.rational_basis import (
 
 def _chain(N: int = 15, q: int = 4, zeta: float = 0.01) -> gf.Plant:
     """Lightly damped chain, q position sensors, forces on two masses."""
-    n = 2 * N
-    K = 2 * np.eye(N) - np.eye(N, k=1) - np.eye(N, k=-1)
-    K[-1, -1] = 1.0
-    A = np.block([[np.zeros((N, N)), np.eye(N)], [-K, -2 * zeta * np.sqrt(2) * np.eye(N)]])
-    B = np.zeros((n, 2))
-    B[N + N // 3, 0] = 1.0
-    B[n - 1, 1] = 1.0
-    C = np.zeros((q, n))
-    C[np.arange(q), np.linspace(0, N - 1, q).astype(int)] = 1.0
-    return gf.Plant(A, B, C)
+    return gf.mass_spring_chain(N, sensors=q, forces=(N // 3, N - 1), zeta=zeta)
 
 
 @pytest.fixture(scope="module")

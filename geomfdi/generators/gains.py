@@ -12,7 +12,8 @@ the composite's degree ``n + k`` can vanish at) or when the output map annihilat
 orthonormal Krylov subspace of the composite (``method="krylov"``).  The plant's complex
 Schur form, its ``n + 2`` points and its responses there are computed once per plant
 (:class:`PlantFactor`) and shared by every row of a bank; a row's own resolvent
-``M (sI − F)⁻¹`` is solved row-wise, ``O(k²)`` per point.  See the user guide, *Theory:
+``M (sI − F)⁻¹`` is solved row-wise, ``O(k²)`` per point, or ``O(k)`` for a generator in
+output-normal form (:mod:`geomfdi.generators.output_normal`).  See the user guide, *Theory:
 verification* (``docs/theory/verification.md``).
 """
 
@@ -25,6 +26,7 @@ import numpy as np
 import scipy.linalg
 
 from geomfdi.generators.generator import ResidualGenerator
+from geomfdi.generators.output_normal import column_resolvent, output_normal_blocks, rows_resolvent
 from geomfdi.generators.realization import reachable_subspace
 from geomfdi.geometry.balancing import state_scaling
 from geomfdi.geometry.subspace import _norm2
@@ -42,10 +44,15 @@ def _tri_solve(T: np.ndarray, X: np.ndarray) -> np.ndarray:
     return scipy.linalg.solve_triangular(T, X, check_finite=False)
 
 
+FEW_POINTS = 16
+"""Point count up to which :func:`_tri_solve_many` solves point by point."""
+
+
 def _tri_solve_many(T: np.ndarray, pts: np.ndarray, X: np.ndarray) -> np.ndarray:
     """``(s_p I − T)⁻¹ X`` for upper-triangular T at every point: shape ``(P, n, c)``.
 
-    Small T: one batched LU solve.  Otherwise blocked back substitution over all points
+    Small T: one batched LU solve; at most ``FEW_POINTS`` points: one triangular solve
+    each.  Otherwise blocked back substitution over all points
     and columns at once: the coupling of a block of rows to the rows already solved is
     one matrix product (``T[a:b, b:] @ Y[b:]``), the rows inside the block are solved one
     by one on the small block (the same ``O(P n² c)`` work as P triangular solves, at
@@ -59,6 +66,13 @@ def _tri_solve_many(T: np.ndarray, pts: np.ndarray, X: np.ndarray) -> np.ndarray
         M = pts[:, None, None] * np.eye(n) - T[None, :, :]
         return np.linalg.solve(M, np.broadcast_to(X, (P, n, c)).astype(complex))
     out = np.empty((P, n, c), dtype=complex)
+    if P <= FEW_POINTS:  # a LAPACK triangular solve per point: no row loop to amortise
+        idx = np.arange(n)
+        for p, sp in enumerate(pts):
+            M = -np.asarray(T, dtype=complex)
+            M[idx, idx] += sp
+            out[p] = scipy.linalg.solve_triangular(M, X, check_finite=False)
+        return out
     step = max(1, int(2_000_000 // max(n * c, 1)))
     d = np.diag(T)
     T = np.asarray(T, dtype=complex)
@@ -143,6 +157,11 @@ def complex_schur(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return _real_to_complex_schur(T, Z)
 
 
+UNSTABLE_MARGIN = 1e-3
+"""Distance (relative to ``‖A‖``) from the stability boundary beyond which the Schur
+values of a plant are taken as stable without an eigen-decomposition (the computed
+eigenvalues of a Jordan block of size m spread by ``(ε ‖A‖)^{1/m}``)."""
+
 LEAK_TOL = 1e-8
 """Relative gain below which a transfer counts as identically zero."""
 
@@ -155,8 +174,9 @@ class PlantFactor:
     The state is balanced first (:func:`geomfdi.geometry.balancing.state_scaling`,
     ``Ã = D⁻¹ A D``), so that transfers of a badly scaled realisation are evaluated as
     accurately as those of a well-scaled one: ``A = (D U) T_A (D U)⁻¹``.  Attributes
-    ``TA``, ``UAh`` (= U_Aᴴ D⁻¹), ``CUA`` (= C D U_A) and ``unstable``: the plant's unstable
-    eigenvalues (Re λ ≥ 0, or |λ| ≥ 1 when dt > 0) with their eigenvectors.
+    ``TA``, ``UA``, ``d`` (the diagonal of D), ``UAh`` (= U_Aᴴ D⁻¹), ``CUA`` (= C D U_A) and
+    ``unstable``: the plant's unstable eigenvalues (Re λ ≥ 0, or |λ| ≥ 1 when dt > 0) with
+    their eigenvectors.
     """
 
     def __init__(self, plant: Plant) -> None:
@@ -164,10 +184,18 @@ class PlantFactor:
         d = state_scaling(A, np.hstack([plant.B, plant.Bd]), plant.C)
         Ab = A * d[None, :] / d[:, None]
         TA, UA = complex_schur(Ab)
-        self.plant = plant
+        self.plant, self.d, self.UA = plant, d, UA
         self.TA, self.UAh, self.CUA = TA, UA.conj().T / d[None, :], (plant.C * d[None, :]) @ UA
         self.nA, self.nCp = _norm2(TA), _norm2(self.CUA)  # balanced
-        lam, V = np.linalg.eig(Ab) if plant.n else (np.zeros(0), np.zeros((0, 0)))
+        # the eigenvectors are needed only near or beyond the stability boundary: Schur
+        # values clear of it by UNSTABLE_MARGIN ‖A‖ (more than the spread of a defective
+        # eigenvalue under rounding) leave no unstable mode to find
+        lt, margin = np.diag(TA), UNSTABLE_MARGIN * max(self.nA, 1e-300)
+        near = np.abs(lt) >= 1.0 - margin if plant.dt > 0 else lt.real >= -margin
+        if np.any(near):
+            lam, V = np.linalg.eig(Ab)
+        else:
+            lam, V = np.zeros(0), np.zeros((plant.n, 0))
         bad = np.abs(lam) >= 1.0 if plant.dt > 0 else lam.real >= 0
         self.unstable = [(complex(lam[i]), d * V[:, i]) for i in np.flatnonzero(bad)]
         self._last: tuple[ResidualGenerator, Composite] | None = None
@@ -267,9 +295,10 @@ class Composite:
         rng.standard_normal(n)  # the plant's probe (factor.UAva) is drawn first
         vf = rng.standard_normal(k)
         self.UAva = factor.UAva
-        self.UFvf = (
-            UF.conj().T @ (vf / max(np.linalg.norm(vf), 1e-300)) if k else np.zeros(0, complex)
-        )
+        self.vf = vf / max(np.linalg.norm(vf), 1e-300)
+        self.UFvf = UF.conj().T @ self.vf if k else np.zeros(0, complex)
+        # a generator in output-normal form: its resolvents in O(k) per point
+        self.on_blocks = output_normal_blocks(g.F, g.M) if k else None
         self.scale = max(self.nA, self.nF, self.nE * self.nCp)
         # random points: k + 2 at the scale of plant and generator, and the plant's own
         # n + 2 (shared, responses computed once): N + 4 > N + 1 in all
@@ -422,7 +451,12 @@ class Composite:
             else:
                 ra = np.linalg.norm(_tri_solve_many(self.TA, s, self.UAva[:, None]), axis=(1, 2))
             first = False
-            if self.k:
+            if self.on_blocks is not None and s.size > FEW_POINTS:  # in F's own coordinates
+                g = self.g
+                rf = np.linalg.norm(
+                    column_resolvent(g.F, g.M[0], self.on_blocks, s, self.vf), axis=1
+                )
+            elif self.k:
                 rf = np.linalg.norm(_tri_solve_many(self.TF, s, self.UFvf[:, None]), axis=(1, 2))
             else:
                 rf = np.zeros(s.size)
@@ -479,6 +513,9 @@ class Composite:
         D = np.hstack([-g.H, g.K]).astype(complex)
         if not self.k:
             out = np.broadcast_to(D, (pts.size, *D.shape)).copy()
+        elif self.on_blocks is not None:  # M (sI − F)⁻¹ in O(k) per point
+            rows = rows_resolvent(g.F, g.M[0], self.on_blocks, pts)
+            out = D[None, :, :] + (rows @ np.hstack([-g.E, g.G]))[:, None, :]
         elif self.MUF.shape[0] < self.UFEG.shape[1]:
             out = D[None, :, :] + _tri_solve_rows_many(self.TF, pts, self.MUF) @ self.UFEG
         else:

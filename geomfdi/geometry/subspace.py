@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.lapack
 
 from geomfdi._validation import as_int, as_matrix, as_positive
 from geomfdi.errors import GeomFDIError, ShapeError
@@ -61,6 +62,8 @@ def _norm2(M: np.ndarray) -> float:
     are remembered by content (:data:`_NORM_MEMO`): the same entries give the same norm
     without a second SVD."""
     M = np.asarray(M)
+    if M.ndim == 2 and min(M.shape) == 1:  # a row or a column: its Euclidean norm
+        return float(np.linalg.norm(M))
     if M.size < _NORM_MEMO_MIN:
         return float(np.linalg.norm(M, 2)) if M.size else 0.0
     C = np.ascontiguousarray(M)
@@ -364,6 +367,24 @@ def extraction_noise(kept: float, scale: float) -> float:
     return 4.0 * float(np.finfo(float).eps) * float(scale) / float(kept)
 
 
+_DGESDD = scipy.linalg.lapack.get_lapack_funcs("gesdd", dtype=np.float64)
+
+
+def _svd_vt(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values and the full right factor ``Vᵀ`` of a small real matrix.
+
+    LAPACK ``dgesdd`` called directly: the recursions of the invariant subspaces take one
+    such SVD per step on a few columns, where the call overhead of ``numpy.linalg.svd``
+    (``full_matrices=True``) is several times the arithmetic.
+    """
+    if X.size and X.dtype == np.float64 and np.all(np.isfinite(X)):
+        _, s, vt, info = _DGESDD(X, compute_uv=1, full_matrices=1)
+        if info == 0:
+            return s, vt
+    _, s, vt = np.linalg.svd(X, full_matrices=True)
+    return s, vt
+
+
 def split_kernel(
     R: np.ndarray, M: np.ndarray, scale: float, what: str
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -378,7 +399,7 @@ def split_kernel(
         return np.zeros((n, 0)), np.zeros((n, 0))
     if M.shape[0] == 0:
         return R, np.zeros((n, 0))
-    _, s, Vt = np.linalg.svd(M @ R, full_matrices=True)
+    s, Vt = _svd_vt(M @ R)
     r = rank_decision(s, scale, max(M.shape[0], k), what=what).rank
     return R @ Vt[r:].T, R @ Vt[:r].T
 

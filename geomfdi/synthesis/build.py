@@ -174,6 +174,7 @@ def _quotient(
     decouple: tuple[int, ...],
     row: str,
     balance: bool,
+    factor: PlantFactor | None = None,
 ) -> tuple[Quotient, np.ndarray]:
     """Steps 1–2: balance the state and form the decoupled quotient (module Notes)."""
     n = plant.n
@@ -186,6 +187,8 @@ def _quotient(
     Dw = np.hstack([plant.Dd, *[sigs[j][1] for j in decouple]])
     tg = [(sigs[j][0] / d[:, None], sigs[j][1]) for j in target]
     Qm = adaptive_quotient_model(Ab, Bb, Cb, Du, Bw, Dw, tg)
+    if factor is not None and factor.plant is plant and np.array_equal(factor.d, d):
+        Qm.plant_schur = (factor.TA, factor.UA)  # the same balanced A
     bad = {k: v for k, v in Qm.identities.items() if v > IDENTITY_TOL}
     if bad:
         raise _NumericalDesignError(
@@ -465,7 +468,7 @@ def build_least_order(
     DesignError
         Bad poles; or (the private numerical-failure subclass) every attempt failed.
     """
-    Qm, d = _quotient(plant, sigs, target, decouple, row, balance)
+    Qm, d = _quotient(plant, sigs, target, decouple, row, balance, factor)
     kw = {"poles": poles, "row": row, "prefix": prefix}
     lo = _search(Qm, plant, target, decouple, omega=omega, **kw)
     first: _NumericalDesignError | None = None

@@ -367,7 +367,7 @@ def design_residual_generator(
         pseudo_actuator_model(plant, faults, "exact", filter_pole=filter_pole)
     sigs = fault_matrices(faults, plant.n, plant.q)
     factor = PlantFactor(plant)
-    omega = plant_scale(plant.A, plant.dt)
+    omega = plant_scale(plant.A, plant.dt, eigenvalues=np.diag(factor.TA))
     with record_design() as rec:
         g = _design_row(
             plant,
@@ -599,7 +599,7 @@ def design_bank(
     rows = req.shape[0]
     per_row = row_poles(poles, rows)
     factor = PlantFactor(plant)
-    omega = plant_scale(plant.A, plant.dt)
+    omega = plant_scale(plant.A, plant.dt, eigenvalues=np.diag(factor.TA))
     gens: list[ResidualGenerator | None] = []
     diags: list[str] = []
     achieved = np.zeros_like(req)

@@ -76,6 +76,71 @@ POINTS_PER_POLE = 6
 """Real equations per basis function in the least-squares fit (``k · 6 / 2`` frequencies)."""
 
 
+class _Basis:
+    """The orthonormal basis of one pole set and its least-squares factorisation.
+
+    Everything in the fit that depends on the poles only (module Notes, steps 1–2): the
+    pair ``(Λ, h)``, the sample frequencies and weights, the weighted basis matrix and
+    its SVD.  Rows of a bank whose quotients share their eigenvalues (a sensor bank whose
+    quotients are the plant in rotated coordinates) share one (:func:`_basis`).
+    """
+
+    def __init__(self, poles: np.ndarray, dt: float) -> None:
+        self.poles, self.dt = poles, dt
+        self.Lam, self.h = output_normal_basis(poles, dt)
+        self._look: np.ndarray | None = None
+        self._fit: tuple[np.ndarray, ...] | None = None
+
+    @property
+    def look(self) -> np.ndarray:
+        """Every ``POINTS_PER_POLE``-th sample frequency (a first look at the response)."""
+        if self._look is None:
+            pp = POINTS_PER_POLE
+            self._look = phase_frequencies(self.poles, self.dt, pp, every=pp)[0]
+        return self._look
+
+    @property
+    def fit(self) -> tuple[np.ndarray, ...]:
+        """``(pts, wts, Ar, Q, U, s, Vt)``: the samples, weights, the real weighted basis
+        matrix ``Ar`` and its thin SVD ``Ar = (Q U) diag(s) Vt`` (through ``Ar = Q R``)."""
+        if self._fit is None:
+            pts, wts = phase_frequencies(self.poles, self.dt, POINTS_PER_POLE)
+            Phi = output_normal_rows(self.poles, self.dt, pts) * wts[:, None]
+            Ar = np.vstack([Phi.real, Phi.imag])
+            Q, R = np.linalg.qr(Ar)  # Ar = Q R = (Q U) S Vᵀ with R = U S Vᵀ
+            U, sv, Vt = np.linalg.svd(R)
+            self._fit = (pts, wts, Ar, Q, U, sv, Vt)
+        return self._fit
+
+    def solve(self, Yr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Least-squares ``Ar B = Yr`` and the singular values of ``Ar``: the minimum-norm
+        solution with singular values at or below ``ε max(rows, cols) σ_1`` dropped (the
+        cut-off of ``numpy.linalg.lstsq`` with ``rcond=None``)."""
+        _, _, Ar, Q, U, sv, Vt = self.fit
+        cut = np.finfo(float).eps * max(Ar.shape) * (sv[0] if sv.size else 0.0)
+        r = int(np.count_nonzero(sv > cut))
+        return Vt[:r].T @ ((U[:, :r].T @ (Q.T @ Yr)) / sv[:r, None]), sv
+
+
+_BASES: dict[tuple[bytes, float], _Basis] = {}
+_BASES_KEPT = 8
+
+
+def _basis(poles: np.ndarray, dt: float) -> _Basis:
+    """The :class:`_Basis` of the poles, from the last few pole sets used (bit for bit)."""
+    key = (np.ascontiguousarray(poles, dtype=complex).tobytes(), float(dt))
+    hit = _BASES.pop(key, None)
+    if hit is None:
+        hit = _Basis(np.array(poles, dtype=complex), dt)
+    _BASES[key] = hit  # most recent last
+    while len(_BASES) > _BASES_KEPT:
+        try:
+            _BASES.pop(next(iter(_BASES)), None)
+        except (RuntimeError, StopIteration):  # another thread changed it
+            break
+    return hit
+
+
 def _resolvent_rows(T: np.ndarray, left: np.ndarray, pts: np.ndarray) -> np.ndarray:
     """``left (s I − T)⁻¹`` for an upper triangular complex T at every point (rows):
     :func:`geomfdi.generators.gains._tri_solve_rows_many`."""
@@ -109,7 +174,8 @@ def orthonormal_row(
     eig = Qm.eigenvalues
     rule = mirror_rule(eig, dt=dt, omega=omega, relax=relax)
     poles = rule.targets
-    Lam, h = output_normal_basis(poles, dt)
+    basis = _basis(poles, dt)
+    Lam, h = basis.Lam, basis.h
     lam_m, mu_m = eig[rule.moved], poles[rule.moved]
     TA, UA = Qm.schur
     Bq = np.hstack([Qm.Bqy, Qm.Bqu])
@@ -144,15 +210,13 @@ def orthonormal_row(
         return Qpts
 
     # every POINTS_PER_POLE-th sample first: a spread it shows, the whole set shows too
-    response(phase_frequencies(poles, dt, POINTS_PER_POLE, every=POINTS_PER_POLE)[0])
-    pts, wts = phase_frequencies(poles, dt, POINTS_PER_POLE)
+    response(basis.look)
+    # basis: h (sI − Λ)⁻¹ block by block (O(k) per point), weighted, and its SVD
+    pts, wts, Ar, *_ = basis.fit
     Qpts = response(pts)
-    data = Qpts - Qinf[None, :]
-    # basis: h (sI − Λ)⁻¹ block by block (O(k) per point)
-    Phi = output_normal_rows(poles, dt, pts)
-    Ar = np.vstack([(Phi * wts[:, None]).real, (Phi * wts[:, None]).imag])
-    Yr = np.vstack([(data * wts[:, None]).real, (data * wts[:, None]).imag])
-    Br, _, _, sv = np.linalg.lstsq(Ar, Yr, rcond=None)
+    data = (Qpts - Qinf[None, :]) * wts[:, None]
+    Yr = np.vstack([data.real, data.imag])
+    Br, sv = basis.solve(Yr)
     ny = max(float(np.linalg.norm(Yr)), 1e-300)
     misfit = float(np.linalg.norm(Ar @ Br - Yr)) / ny
     if not np.isfinite(misfit):

@@ -19,7 +19,7 @@ __all__ = ["validate_poles", "plant_scale", "default_pole_sequence"]
 _GOLD = 0.6180339887498949
 
 
-def plant_scale(A: np.ndarray, dt: float) -> float:
+def plant_scale(A: np.ndarray, dt: float, *, eigenvalues: np.ndarray | None = None) -> float:
     """The plant's frequency scale ω for the default spectrum: its own time scale.
 
     Continuous: the geometric mean of the moduli of A's non-zero eigenvalues
@@ -29,11 +29,12 @@ def plant_scale(A: np.ndarray, dt: float) -> float:
     stiff one (fast actuators next to slow rigid-body modes) poles in the middle of its
     time scales rather than at its fastest mode; ``‖A‖₂`` if every eigenvalue is 0 and 1
     if ``A = 0``.  Discrete: ``1`` (the unit circle sets the scale).  Scaling time
-    (``A → c A``, c > 0) scales ω by c.
+    (``A → c A``, c > 0) scales ω by c.  ``eigenvalues``: A's spectrum when it is at hand
+    (e.g. the diagonal of a Schur form of A or of a diagonal similarity of it).
     """
     if dt > 0 or A.size == 0:
         return 1.0
-    lam = np.linalg.eigvals(A)
+    lam = np.linalg.eigvals(A) if eigenvalues is None else np.asarray(eigenvalues)
     mod = np.abs(lam)
     rho = float(np.max(mod))
     if rho > 1e-12 * max(_norm2(A), 1e-300):

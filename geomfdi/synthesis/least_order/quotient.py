@@ -67,6 +67,9 @@ class Quotient:
     identities: dict[str, float] = field(default_factory=dict)
     rtol: float | None = None
     """The tolerance S* was decided with when it differs from the one in force."""
+    plant_schur: tuple[np.ndarray, np.ndarray] | None = None
+    """Complex Schur form ``(T, U)`` of the (balanced) plant matrix A, when at hand: a
+    quotient that is A in rotated coordinates takes its Schur form from it (:attr:`schur`)."""
 
     @property
     def k(self) -> int:
@@ -104,6 +107,12 @@ class Quotient:
             self.__dict__["_eigenvalues"] = cached
         return cached[1]
 
+    def resolvent_rows(self, points: np.ndarray) -> list[np.ndarray]:
+        """``M (sI − A0)⁻¹`` (ρ × k) at every point: above ``SCHUR_EIG_MIN`` states by
+        triangular solves on the complex Schur form (:attr:`schur`, ``O(ρ k²)`` per
+        point), else by one dense solve per point."""
+        return _resolvent_rows(self, points)
+
     @property
     def schur(self) -> tuple[np.ndarray, np.ndarray]:
         """Complex Schur form ``A0 = U T Uᴴ`` as ``(T, U)`` (computed once: every
@@ -112,9 +121,58 @@ class Quotient:
         if cached is None or cached[0] is not self.A0:
             from geomfdi.generators.gains import complex_schur
 
-            cached = (self.A0, complex_schur(self.A0))
+            TU = _schur_from_plant(self.A0, self.P, self.plant_schur)
+            cached = (self.A0, TU if TU is not None else complex_schur(self.A0))
             self.__dict__["_schur"] = cached
         return cached[1]
+
+
+SCHUR_REUSE_TOL = 100.0
+"""Backward error, in units of ``n ε ‖A0‖``, below which the plant's Schur form is taken
+for the quotient's (:func:`_schur_from_plant`)."""
+
+
+def _resolvent_rows(Qm: Quotient, points: np.ndarray) -> list[np.ndarray]:
+    k, M = Qm.k, Qm.M
+    if k <= SCHUR_EIG_MIN:
+        return [
+            np.linalg.solve((s * np.eye(k) - Qm.A0).T, M.T).T if k else M[:, :0] for s in points
+        ]
+    T, U = Qm.schur
+    from geomfdi.generators.gains import _tri_solve_rows_many
+
+    pts = np.asarray(points, dtype=complex)
+    return list(_tri_solve_rows_many(T, pts, M @ U) @ U.conj().T)
+
+
+def _schur_from_plant(
+    A0: np.ndarray, P: np.ndarray, TU: tuple[np.ndarray, np.ndarray] | None
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(T0, W)`` with ``A0 = W T0 Wᴴ`` from the plant's ``A = U T Uᴴ``, or None.
+
+    When S* lies in the coordinates of decoupled feedthrough only (nothing of the plant's
+    state is factored out: ``P`` square with orthonormal rows), the quotient is the plant
+    in rotated coordinates, ``A0 = P A Pᵀ``, and ``(T, W = P U)`` is a Schur form of it.
+    The form is accepted only when it is one to working accuracy: ``P Pᵀ = I`` and
+    ``‖Wᴴ A0 W − T‖_F ≤ SCHUR_REUSE_TOL · k ε ‖A0‖_F`` (the backward error of the QR
+    algorithm itself, Golub & Van Loan 2013, §7.5.6).  One ``O(k³)`` product instead of
+    the QR algorithm; the rows of a bank on one plant share T, hence their eigenvalues
+    bit for bit.
+    """
+    if TU is None or not A0.size:
+        return None
+    T, U = TU
+    k = A0.shape[0]
+    if P.shape != (k, k) or T.shape != (k, k):
+        return None
+    tol = SCHUR_REUSE_TOL * k * float(np.finfo(float).eps)
+    if float(np.max(np.abs(P @ P.T - np.eye(k)))) > tol:
+        return None
+    W = P @ U
+    err = float(np.linalg.norm(W.conj().T @ (A0 @ W) - T))
+    if not err <= tol * float(np.linalg.norm(A0)):
+        return None
+    return T, W
 
 
 def quotient_model(

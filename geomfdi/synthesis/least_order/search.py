@@ -298,12 +298,11 @@ def quotient_target_gains(Qm: Quotient, points: np.ndarray) -> tuple[list[np.nda
     ``size[j] = ‖[G_j(s_1) …]‖ / ((1 + max_s ‖M (sI − A0)⁻¹‖) max(‖B_fj‖, ‖H D_fj‖))``,
     the target's size relative to the quotient's own transfer (rounding counts as 0).
     """
-    k, rho = Qm.k, Qm.rho
+    rho = Qm.rho
     nt = len(Qm.Bf)
     cols: list[list[np.ndarray]] = [[] for _ in range(nt)]
     ref = 1.0
-    for s in points:
-        R = np.linalg.solve((s * np.eye(k) - Qm.A0).T, Qm.M.T).T if k else Qm.M[:, :0]
+    for R in Qm.resolvent_rows(points):
         ref = max(ref, _norm2(R) + 1.0)
         for j in range(nt):
             cols[j].append(R @ Qm.Bf[j] + Qm.Df[j])
