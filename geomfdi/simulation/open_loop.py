@@ -155,8 +155,8 @@ class OpenLoopEngine:
         ctx.info["plant_state_decoupled"] = decoupled
         self.Pis = Pis
         self.use_pi = [ctx.consistent and Pi is not None for Pi in Pis]
-        #: work arrays reused window after window (``None``: fresh arrays; the signals of
-        #: a returned :class:`Piece` are then only valid until the next :meth:`advance`)
+        #: work arrays reused window after window (``None``: fresh arrays); with one, the
+        #: readings of a returned :class:`Piece` are valid until the next :meth:`advance`
         self.workspace: Workspace | None = None
         self.restart(x0, runs)
 
