@@ -52,7 +52,10 @@ def run_thread_modes(
     argv : sequence of str, optional
         Defaults to ``sys.argv[1:]``; ``--threads 1|default`` selects one mode.
     """
-    import numpy  # noqa: F401  (load the BLAS before threadpoolctl looks for it)
+    # load every BLAS before threadpoolctl looks for them: numpy's and scipy's own OpenBLAS
+    # (a library loaded after the limit was set would keep its default threads)
+    import numpy  # noqa: F401
+    import scipy.linalg  # noqa: F401
     from threadpoolctl import threadpool_limits
 
     args, modes = _split_modes(sys.argv[1:] if argv is None else argv)

@@ -146,6 +146,59 @@ RULES = [  # (latch, reset): held pattern to the end / with episodes / memoryles
 ]
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_decision_table_equals_isolate_on_the_whole_record(seed):
+    """Without a rule, :meth:`DecisionStream.decide` reads each sample's decision from
+    the table of the alarm patterns: equal to :func:`isolate` on the whole record (every
+    kind of decision occurs), the alarms written into ``out``; the summaries fed with
+    the chunk peaks equal :func:`detection_events`; a nan still raises."""
+    from geomfdi.evaluation.decision import (
+        AMBIGUOUS,
+        NO_ALARM,
+        UNEXPLAINED,
+        detection_events,
+        isolate,
+    )
+    from geomfdi.simulation.streaming import DecisionStream, RunSummary
+
+    rng = np.random.default_rng(seed)
+    N, R, n = 500, 3, 5
+    t = np.arange(N) * 0.01
+    res = rng.standard_normal((R, n, N)) * np.linspace(0.2, 1.5, N)
+    S = np.array(
+        [[1, 0, 1, 1], [0, 1, 1, 1], [1, 1, 0, 0], [0, 0, 1, 1], [0, 0, 0, 0]], dtype=bool
+    )  # columns 2 and 3 equal: ambiguous; row 4: a missing generator
+    values = rng.uniform(0.6, 1.4, n)
+    values[4] = np.inf
+    thr = gf.Threshold(values)
+    al = thr.alarms(res)
+    iso = isolate(al, S)
+    faults = [[gf.BiasFault(0, start=1.0 + r, bias=1.0)] for r in range(R)]
+    ds = DecisionStream(thr, S, None)
+    summ = RunSummary(t, faults, [[0]] * R, n, None)
+    cuts = np.unique(np.concatenate([[0, N], rng.integers(1, N, 7)]))
+    for s, e in zip(cuts[:-1], cuts[1:], strict=True):
+        chunk = res[..., s:e]
+        absr = np.abs(chunk)
+        peaks = absr.max(axis=-1)
+        out = np.empty(chunk.shape, dtype=bool)
+        a, isolated, sus = ds.decide(chunk, absolute=absr, peaks=peaks, out=out)
+        assert a is out and sus is None
+        np.testing.assert_array_equal(a, al[..., s:e])
+        np.testing.assert_array_equal(isolated, iso.isolated[..., s:e])
+        summ.update(int(s), chunk, a, isolated, 0, sus, peaks=peaks)
+    kinds = set(np.unique(iso.isolated).tolist())
+    assert {NO_ALARM, UNEXPLAINED, AMBIGUOUS} <= kinds and max(kinds) >= 0
+    np.testing.assert_array_equal(summ.peak, np.max(np.abs(res), axis=-1))
+    for r in range(R):
+        same_events(summ.events(r), detection_events(t, al[r], iso.isolated[r], faults[r], [0]))
+    bad = res[..., :50].copy()
+    bad[0, 1, 7] = np.nan
+    absr = np.abs(bad)
+    with pytest.raises(GeomFDIError):
+        DecisionStream(thr, S, None).decide(bad, absolute=absr, peaks=absr.max(axis=-1))
+
+
 @pytest.mark.parametrize("seed", range(4))
 @pytest.mark.parametrize(("latch", "reset"), RULES)
 def test_decision_stream_and_run_summary_equal_the_whole_record(seed, latch, reset):

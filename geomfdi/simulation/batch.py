@@ -39,7 +39,13 @@ from geomfdi.simulation.simulate import (
     noise_streams,
     noise_window,
 )
-from geomfdi.simulation.streaming import DecisionStream, RunSummary, chunk_plan, time_chunks
+from geomfdi.simulation.streaming import (
+    DecisionStream,
+    RunSummary,
+    Workspace,
+    chunk_plan,
+    time_chunks,
+)
 
 
 @limit_blas_threads
@@ -168,24 +174,29 @@ def simulate_batch(
     Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size, min_runs=batch_runs())
     bar = progress_bar(ctx.progress, runs, "runs")
     kept: dict[str, Any] = {}  # for the next chunk of runs: open-loop engine, noise buffers
+    work = kept["work"] = Workspace()  # chunk-sized work arrays, reused chunk after chunk
     for a in range(0, runs, Rc):
         b = min(a + Rc, runs)
         rngs = [None if sd is None else np.random.default_rng(sd) for sd in seeds[a:b]]
         x0c = to_balanced(ctx, x0a[a:b] if x0a.shape[0] > 1 else x0a)
         chunk = schedules[a:b]
-        ds = DecisionStream(thr, view.structure, rule)
+        ds = DecisionStream(thr, view.structure, rule, work)
         pieces = _pieces(ctx, x0c, xc0a, rngs, chunk, not per_run, L, R_res, a, kept)
         for s, e, pc, res, written in pieces:
             if keep_r and not written:
                 R_res[a:b, :, s:e] = res
+            absr = np.abs(res, out=work.get("abs", res.shape))
+            peaks = np.max(absr, axis=-1)
             if thr is None:  # no alarm, no decision: R_al and R_iso stay as they are
-                summary.update(s, res, None, None, a)
+                summary.update(s, res, None, None, a, peaks=peaks)
             else:
-                al, iso = ds.step(res)
-                summary.update(s, res, al, iso.isolated, a, iso.suspects)
+                dest = R_al[a:b, :, s:e] if keep_r else work.get("alarms", res.shape, bool)
+                al, isolated, suspects = ds.decide(res, absolute=absr, peaks=peaks, out=dest)
+                summary.update(s, res, al, isolated, a, suspects, peaks=peaks)
                 if keep_r:
-                    R_al[a:b, :, s:e] = al
-                    R_iso[a:b, s:e] = iso.isolated
+                    if al is not dest:
+                        R_al[a:b, :, s:e] = al
+                    R_iso[a:b, s:e] = isolated
             if store == "all":
                 L_s = e - s
                 R_x[a:b, :, s:e] = from_balanced(ctx, pc.X[:, :, :L_s].transpose(1, 0, 2))
@@ -261,12 +272,15 @@ def _pieces(
             kept["open"] = eng
     pool = kept.setdefault("noise buffers", [])  # the draws' memory, reused
     streams = noise_streams(ctx, rngs, pool)
+    work = kept["work"]
+    if isinstance(eng, OpenLoopEngine):
+        eng.workspace = work
     direct = R_res is not None and eng.R == Rc
     chunks = time_chunks(N, L)
     buf = None if direct else np.zeros((eng.R, nres, max(e1 - s for s, _, e1 in chunks)))
     for s, e, e1 in chunks:
         dest = R_res[a : a + Rc, :, s:e1] if direct else buf[:, :, : e1 - s]
-        v, wp = noise_window(ctx, streams, s, e1)
+        v, wp = noise_window(ctx, streams, s, e1, work)
         pc = eng.advance(s, e1, v, wp, dest)
         yield s, e, pc, np.broadcast_to(dest[:, :, : e - s], (Rc, nres, e - s)), direct
     for st in streams or ():

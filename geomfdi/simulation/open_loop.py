@@ -36,6 +36,7 @@ from geomfdi.simulation.signals import (
     fault_profile,
     first_active,
 )
+from geomfdi.simulation.streaming import Workspace
 
 
 # ===================================================== open loop / state fb
@@ -154,6 +155,9 @@ class OpenLoopEngine:
         ctx.info["plant_state_decoupled"] = decoupled
         self.Pis = Pis
         self.use_pi = [ctx.consistent and Pi is not None for Pi in Pis]
+        #: work arrays reused window after window (``None``: fresh arrays); with one, the
+        #: readings of a returned :class:`Piece` are valid until the next :meth:`advance`
+        self.workspace: Workspace | None = None
         self.restart(x0, runs)
 
     def restart(self, x0: np.ndarray, runs: int) -> None:
@@ -294,16 +298,21 @@ class OpenLoopEngine:
         y0c = _affine(self.Cy0, X, self.Dy0, e)
         u = _affine(self.Cu, X, self.Du, e)
         self.x = np.ascontiguousarray(X[:, :, -1])
-        y0n = y0c + v if v is not None else y0c
+        work = self._work
+        if v is not None:
+            y0n = np.add(y0c, v, out=work("y0n", np.broadcast_shapes(y0c.shape, v.shape)))
+        else:
+            y0n = y0c
         # ---- sensor faults on the readings, vectorised (only the sensors they touch)
         eta, eta_l, lam, lam_l = self._profile(s, e1, y0n)
         row, touched = self.row, self.touched
         R = max(y0n.shape[1], eta.shape[1], lam.shape[1])
         if touched:
-            y = np.empty((q, R, L))
+            y = work("y", (q, R, L))
             y[:] = y0n
             for i in touched:
-                y[i] = eta[row[i]] * y0n[i] + lam[row[i]]
+                yi = np.multiply(eta[row[i]], y0n[i], out=y[i])
+                yi += lam[row[i]]
         else:
             y = y0n
         # ---- drive signals of the generators, in the columns' order of W_all
@@ -322,10 +331,17 @@ class OpenLoopEngine:
                     delta = 0.5 * (eta[prow, :, :-1] + eta_l[prow, :, 1:])
                 else:
                     delta = eta[prow, :, :-1]
-                rhoL = np.subtract(y[sr, :, :-1], delta * y0c[sr, :, :-1])
+                dyL = delta * y0c[sr, :, :-1]
+                yL = y[sr, :, :-1]
+                rhoL = np.subtract(
+                    yL, dyL, out=work("rhoL", np.broadcast_shapes(yL.shape, dyL.shape))
+                )
                 drives.append(Drive(rhoL))
                 if foh:
-                    rhoR = np.multiply(eta_l[prow, :, 1:], y0n[sr, :, 1:])
+                    el, yR = eta_l[prow, :, 1:], y0n[sr, :, 1:]
+                    rhoR = np.multiply(
+                        el, yR, out=work("rhoR", np.broadcast_shapes(el.shape, yR.shape))
+                    )
                     rhoR += lam_l[prow, :, 1:]
                     rhoR -= delta * y0c[sr, :, 1:]
                     drives.append(Drive(rhoR))
@@ -361,6 +377,12 @@ class OpenLoopEngine:
             if ctx.keep_states:
                 ws[k] = rk[1]
         return Piece(s, X, y, y0n, u, vectors, ws)
+
+    def _work(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        """A float work array of the window (from :attr:`workspace` when set)."""
+        if self.workspace is None:
+            return np.empty(shape)
+        return self.workspace.get(name, shape)
 
 
 def _generator_key(ctx: Context, k: int, g: Any) -> bytes:

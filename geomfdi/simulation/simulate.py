@@ -153,7 +153,7 @@ from geomfdi.simulation.results import (
 )
 from geomfdi.simulation.schedule import FaultSchedule, fault_schedule, structure_columns
 from geomfdi.simulation.signals import FaultSignal
-from geomfdi.simulation.streaming import DecisionStream, chunk_plan, time_chunks
+from geomfdi.simulation.streaming import DecisionStream, Workspace, chunk_plan, time_chunks
 
 
 def stop_divergent(
@@ -219,18 +219,27 @@ def noise_streams(
 
 
 def noise_window(
-    ctx: Context, streams: list[NoiseStream] | None, s: int, e1: int
+    ctx: Context,
+    streams: list[NoiseStream] | None,
+    s: int,
+    e1: int,
+    workspace: Workspace | None = None,
 ) -> tuple[np.ndarray | None, np.ndarray | None]:
     """Measurement ``(q, R, L)`` and process ``(k, R, L)`` noise of samples ``s .. e1-1``.
 
     Each run's draws are scaled straight into the window (``L_v z``, ``L_w z``) before
     the next run's stream is read (streams sharing a buffer pool reuse released blocks).
+    With ``workspace`` the windows are its arrays (valid until the next window).
     """
     if streams is None:
         return None, None
     L, R = e1 - s, len(streams)
-    v = np.empty((ctx.plant.q, R, L)) if ctx.Lv is not None else None
-    w = np.empty((ctx.Lw.shape[0], R, L)) if ctx.Lw is not None else None
+
+    def new(name: str, shape: tuple[int, ...]) -> np.ndarray:
+        return np.empty(shape) if workspace is None else workspace.get(name, shape)
+
+    v = new("noise v", (ctx.plant.q, R, L)) if ctx.Lv is not None else None
+    w = new("noise w", (ctx.Lw.shape[0], R, L)) if ctx.Lw is not None else None
     scale = [_scaling(ctx.Lv), _scaling(ctx.Lw)]
     for r, st in enumerate(streams):
         for dest, z, f in zip((v, w), st.take(s, e1), scale, strict=True):

@@ -40,7 +40,7 @@ from geomfdi.evaluation.persistence import (
 from geomfdi.limits import get_limits
 from geomfdi.simulation.signals import first_active
 
-__all__ = ["DecisionStream", "RunSummary", "chunk_plan", "time_chunks"]
+__all__ = ["DecisionStream", "RunSummary", "Workspace", "chunk_plan", "time_chunks"]
 
 #: The fewest samples of a time chunk (each chunk costs a fixed Python overhead).
 MIN_CHUNK = 16
@@ -92,6 +92,30 @@ def chunk_plan(
     return int(runs_per_chunk), int(min(L, N))
 
 
+class Workspace:
+    """Chunk-sized work arrays of one call, reused from chunk to chunk.
+
+    Fresh memory of a chunk's size (megabytes) is mapped from the operating system and
+    faulted in page by page on first use, then unmapped when freed: a sizeable share of
+    a batch's time.  The arrays of one name are therefore views of one buffer, grown when
+    a chunk needs more.  Nothing returned to the caller lives in them.
+    """
+
+    def __init__(self) -> None:
+        self._bufs: dict[tuple[str, str], np.ndarray] = {}
+
+    def get(self, name: str, shape: tuple[int, ...], dtype: Any = float) -> np.ndarray:
+        """An uninitialised C-contiguous array ``shape`` of ``dtype``, the buffer
+        ``name`` (its content is that of the previous use)."""
+        dt = np.dtype(dtype)
+        size = int(np.prod(shape, dtype=np.int64))
+        key = (name, dt.str)
+        buf = self._bufs.get(key)
+        if buf is None or buf.size < size:
+            buf = self._bufs[key] = np.empty(size, dtype=dt)
+        return buf[:size].reshape(shape)
+
+
 def time_chunks(N: int, L: int) -> list[tuple[int, int, int]]:
     """Chunks ``(s, e, e1)`` of a record of ``N`` samples: the chunk decides the samples
     ``s .. e-1`` and is simulated on ``s .. e1-1`` (``e1 = e + 1`` except at the end:
@@ -133,10 +157,22 @@ class DecisionStream:
     """
 
     def __init__(
-        self, threshold: Threshold | None, structure: np.ndarray, rule: Persistence | None
+        self,
+        threshold: Threshold | None,
+        structure: np.ndarray,
+        rule: Persistence | None,
+        workspace: Workspace | None = None,
     ) -> None:
         self.threshold, self.structure = threshold, np.asarray(structure, dtype=bool)
         self.rule = None if rule is None or rule.trivial else rule
+        self.workspace = Workspace() if workspace is None else workspace
+        # per-sample isolation is a function of the alarm pattern: with few rows, a table
+        # of every pattern's decision (isolate on the 2**n_rows patterns) read by code
+        n = self.structure.shape[0]
+        self._table: np.ndarray | None = None
+        if threshold is not None and self.rule is None and n <= _TABLE_ROWS:
+            bits = (np.arange(2**n)[None, :] >> np.arange(n)[:, None]) & 1
+            self._table = isolate(bits.astype(bool), self.structure).isolated
         rms = threshold is not None and threshold.statistic == "rms" and threshold.window > 1
         self._res_look = threshold.window - 1 if rms else 0  # type: ignore[union-attr]
         self._res: np.ndarray | None = None  # last residuals (RMS window)
@@ -144,19 +180,46 @@ class DecisionStream:
         self._held: tuple[np.ndarray, ...] | None = None  # episode state
         self._dec: np.ndarray | None = None  # last per-sample decisions (settling)
 
-    def step(self, res: np.ndarray) -> tuple[np.ndarray, Isolation]:
-        """Decisions of the next chunk ``res`` (R, n_rows, L): alarms (R, n_rows, L) and
-        the isolation of its samples."""
-        thr, rule, S = self.threshold, self.rule, self.structure
+    def _alarms(
+        self,
+        res: np.ndarray,
+        absolute: np.ndarray | None,
+        peaks: np.ndarray | None,
+        out: np.ndarray | None,
+    ) -> tuple[np.ndarray | None, Threshold | None]:
+        """Stage 1, the raw alarms of the chunk (``None`` without a threshold)."""
+        thr = self.threshold
         if thr is None:
-            return decisions(res, None, S, None)
-        # 1. raw alarms
+            return None, None
         if self._res_look:
             ext, h = _with_tail(self._res, res)
             self._res = _tail(ext, self._res_look)
-            al = thr.alarms(ext)[..., h:]
-        else:
-            al = thr.alarms(res)
+            return thr.alarms(ext)[..., h:], thr
+        if absolute is not None and peaks is not None and np.all(peaks <= _FINITE_SUM):
+            # |r| > v is (r > v) | (r < -v); every |r| is finite and so is their sum (the
+            # check of Threshold.alarms cannot fail)
+            return np.greater(absolute, thr.values[:, None], out=out), thr
+        return thr.alarms(res), thr
+
+    def step(
+        self,
+        res: np.ndarray,
+        *,
+        absolute: np.ndarray | None = None,
+        peaks: np.ndarray | None = None,
+        out: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, Isolation]:
+        """Decisions of the next chunk ``res`` (R, n_rows, L): alarms (R, n_rows, L) and
+        the isolation of its samples.
+
+        ``absolute`` (``|res|``) and ``peaks`` (its maximum over the chunk, (R, n_rows)),
+        when given, spare the statistic's pass for the ``"abs"`` statistic; ``out``
+        (bool, (R, n_rows, L)) then receives the raw alarms.
+        """
+        rule, S = self.rule, self.structure
+        al, thr = self._alarms(res, absolute, peaks, out)
+        if thr is None:
+            return decisions(res, None, S, None)
         if rule is None:
             return al, isolate(al, S)
         # 2. confirmation
@@ -178,6 +241,42 @@ class DecisionStream:
         self._dec = _tail(ext, n - 1)
         settled = settle(ext, k, n, S.shape[1])[..., h:]
         return al, Isolation(settled, iso.candidates, iso.suspects)
+
+    def decide(
+        self,
+        res: np.ndarray,
+        *,
+        absolute: np.ndarray | None = None,
+        peaks: np.ndarray | None = None,
+        out: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """:meth:`step`'s alarms, isolation decisions (R, L) and suspects (``None``
+        when no decision can be ``MULTIPLE``: per-sample decisions, no rule).
+
+        Without a rule (and with at most :data:`_TABLE_ROWS` rows) the decision of each
+        sample is read from the table of the alarm patterns (bit ``i`` of a sample's
+        code: row ``i`` alarms): :func:`~geomfdi.evaluation.decision.isolate` of the
+        same pattern, without its passes over the chunk per fault and row.
+        """
+        if self._table is None:
+            al, iso = self.step(res, absolute=absolute, peaks=peaks, out=out)
+            return al, iso.isolated, iso.suspects
+        al, _ = self._alarms(res, absolute, peaks, out)
+        R, n, L = al.shape
+        code = self.workspace.get("pattern code", (R, L), np.uint16)
+        bit = self.workspace.get("pattern bit", (R, L), np.uint16)
+        code[...] = al[:, 0, :]
+        for i in range(1, n):
+            bit[...] = al[:, i, :]
+            bit <<= i
+            code |= bit
+        return al, self._table[code], None
+
+
+#: Most residual rows whose per-sample isolation is a table of the alarm patterns.
+_TABLE_ROWS = 16
+#: Residual magnitudes below which a chunk's sum cannot overflow (so holds no nan).
+_FINITE_SUM = 1e300
 
 
 def _with_tail(tail: np.ndarray | None, x: np.ndarray) -> tuple[np.ndarray, int]:
@@ -278,11 +377,13 @@ class RunSummary:
         isolated: np.ndarray | None,
         r0: int = 0,
         suspects: np.ndarray | None = None,
+        peaks: np.ndarray | None = None,
     ) -> None:
         """Add the chunk of samples ``s .. s+L-1`` of the runs ``r0 .. r0+R-1``:
         residuals and alarms (R, n_rows, L), isolation decisions (R, L) and their
         suspects (R, n_faults, L), which give the hypothesis of a ``MULTIPLE``
         decision.  ``alarms=None``: no alarm and no decision (no threshold).
+        ``peaks``: ``max |res|`` over the chunk (R, n_rows), when the caller has it.
 
         Vectorised over the runs and their faults (the samples of each run's healthy
         part and of each fault's span are masks of the chunk).
@@ -290,7 +391,7 @@ class RunSummary:
         R, L = res.shape[0], res.shape[-1]
         e = s + L
         pk = self.peak[r0 : r0 + R]
-        np.maximum(pk, np.max(np.abs(res), axis=-1), out=pk)
+        np.maximum(pk, np.max(np.abs(res), axis=-1) if peaks is None else peaks, out=pk)
         # false alarms before the first onset
         n_h = np.clip(self.healthy[r0 : r0 + R] - s, 0, L)  # healthy samples in the chunk
         self.fa_samples[r0 : r0 + R] += n_h
@@ -315,26 +416,41 @@ class RunSummary:
             return
         loc = self._run[sp] - r0
         inside = (idx >= (lo - s)[:, None]) & (idx < (hi - s)[:, None])  # (spans, L)
-        iso = isolated[loc]
-        for state, hit in (
-            (self._det, a[loc] & inside),
-            (self._iso, (iso == self._col[sp, None]) & (self._col[sp, None] >= 0) & inside),
-        ):
-            new = (state[sp] < 0) & hit.any(axis=-1)
-            state[sp[new]] = s + np.argmax(hit[new], axis=-1)
-        made = ((iso >= 0) | (iso == MULTIPLE)) & inside
-        new = ~self._decided[sp] & made.any(axis=-1)
-        if new.any():
-            k = np.argmax(made[new], axis=-1)
-            dec = iso[new, k]
-            self._dec[sp[new]] = dec
-            self._decided[sp[new]] = True
-            if suspects is not None:  # the hypothesis of each new MULTIPLE decision
-                multi = dec == MULTIPLE
-                for i, kk in zip(sp[new][multi], k[multi], strict=True):
-                    sus = suspects[self._run[i] - r0, :, kk]
-                    self._hyp[i] = tuple(int(f) for f in np.flatnonzero(sus))
-        self._rows[sp] |= (alarms[loc] & inside[:, None, :]).any(axis=-1)
+        # only what is still open is read: the first detection, isolation and decision
+        # of each span, the rows that have not alarmed in it yet
+        det = self._det[sp] < 0
+        if det.any():
+            hit = a[loc[det]] & inside[det]
+            new = hit.any(axis=-1)
+            self._det[sp[det][new]] = s + np.argmax(hit[new], axis=-1)
+        col = self._col[sp]
+        iso_open, dec_open = (self._iso[sp] < 0) & (col >= 0), ~self._decided[sp]
+        use = iso_open | dec_open
+        if use.any():
+            spu, insu, iso = sp[use], inside[use], isolated[loc[use]]
+            io, do = iso_open[use], dec_open[use]
+            if io.any():
+                hit = (iso[io] == col[use][io, None]) & insu[io]
+                new = hit.any(axis=-1)
+                self._iso[spu[io][new]] = s + np.argmax(hit[new], axis=-1)
+            if do.any():
+                isd = iso[do]
+                made = ((isd >= 0) | (isd == MULTIPLE)) & insu[do]
+                new = made.any(axis=-1)
+                if new.any():
+                    k = np.argmax(made[new], axis=-1)
+                    dec = isd[new, k]
+                    target = spu[do][new]
+                    self._dec[target] = dec
+                    self._decided[target] = True
+                    if suspects is not None:  # the hypothesis of each new MULTIPLE decision
+                        multi = dec == MULTIPLE
+                        for i, kk in zip(target[multi], k[multi], strict=True):
+                            sus = suspects[self._run[i] - r0, :, kk]
+                            self._hyp[i] = tuple(int(f) for f in np.flatnonzero(sus))
+        si, ri = np.nonzero(~self._rows[sp])
+        if si.size:
+            self._rows[sp[si], ri] |= (alarms[loc[si], ri] & inside[si]).any(axis=-1)
 
     def events(self, r: int) -> list[FaultEvent]:
         """The fault events of run ``r`` (as :func:`detection_events` gives them)."""
