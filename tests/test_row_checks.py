@@ -22,7 +22,6 @@ from geomfdi.generators.gains import (
     _tri_solve_rows_many,
     complex_schur,
 )
-from geomfdi.generators.schur import _real_to_complex_schur, _real_to_complex_schur_loop
 from geomfdi.geometry.staircase import observer_staircase
 from geomfdi.model.faults import fault_matrices
 from geomfdi.synthesis.build import check_angles
@@ -123,19 +122,6 @@ def test_complex_schur_is_a_schur_form():
         ref = scipy.linalg.eigvals(A)
         got = np.diag(T)
         assert np.all(np.min(np.abs(got[:, None] - ref[None, :]), axis=1) < 1e-8)
-
-
-def test_block_rotations_at_once_match_block_by_block():
-    """The 2 × 2 blocks of a real Schur form rotated all at once give the same complex
-    Schur pair as rotating them one by one, bottom up (up to rounding)."""
-    rng = np.random.default_rng(3)
-    T0, Z0 = scipy.linalg.schur(rng.standard_normal((40, 40)), output="real")
-    assert np.count_nonzero(np.abs(np.diag(T0, -1)) > 0) >= 4  # several complex pairs
-    T, Z = _real_to_complex_schur(T0, Z0)
-    Tl, Zl = _real_to_complex_schur_loop(T0.astype(complex), Z0.astype(complex))
-    np.testing.assert_allclose(T, Tl, atol=1e-13 * np.linalg.norm(T0))
-    np.testing.assert_allclose(Z, Zl, atol=1e-13)
-    assert np.all(np.tril(T, -1) == 0)
 
 
 @pytest.mark.parametrize("n", [7, 75])  # batched LU and blocked back substitution

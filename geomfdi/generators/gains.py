@@ -28,7 +28,6 @@ import scipy.linalg
 from geomfdi.generators.generator import ResidualGenerator
 from geomfdi.generators.output_normal import column_resolvent, output_normal_blocks, rows_resolvent
 from geomfdi.generators.realization import reachable_subspace
-from geomfdi.generators.schur import complex_schur
 from geomfdi.geometry.balancing import state_scaling
 from geomfdi.geometry.subspace import _norm2
 from geomfdi.model.faults import Fault, fault_matrices
@@ -104,6 +103,58 @@ def _tri_solve_rows_many(T: np.ndarray, pts: np.ndarray, L: np.ndarray) -> np.nd
     Tr = np.ascontiguousarray(T.T[::-1, ::-1])
     X = _tri_solve_many(Tr, pts, np.ascontiguousarray(L.T[::-1, :]))  # (P, n, r)
     return X[:, ::-1, :].transpose(0, 2, 1)
+
+
+def _real_to_complex_schur(T: np.ndarray, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A real Schur pair ``A = Z T Zᵀ`` (T quasi upper triangular) to the complex one.
+
+    Each 2 × 2 diagonal block is made triangular by one complex Givens rotation built from
+    its eigenvalue (closed form), applied to the rows and columns of T it touches and to
+    the columns of Z: the method of :func:`scipy.linalg.rsf2csf`, ``O(n)`` per block.
+    """
+    n = T.shape[0]
+    T = T.astype(complex)
+    Z = Z.astype(complex)
+    eps = np.finfo(float).eps
+    for m in range(n - 1, 0, -1):
+        sub = T[m, m - 1]
+        if abs(sub) > eps * (abs(T[m - 1, m - 1]) + abs(T[m, m])):
+            a, b, d = T[m - 1, m - 1], T[m - 1, m], T[m, m]
+            half = 0.5 * (a - d)
+            root = np.sqrt(complex(half * half + b * sub))
+            if root.imag < 0:
+                root = -root
+            mu = half + root  # eigenvalue minus T[m, m] (the one with Im > 0 first)
+            r = np.hypot(abs(mu), abs(sub))
+            c, sn = mu / r, sub / r
+            G = np.array([[np.conj(c), sn], [-sn, c]])
+            T[m - 1 : m + 1, m - 1 :] = G @ T[m - 1 : m + 1, m - 1 :]
+            Gh = G.conj().T
+            T[: m + 1, m - 1 : m + 1] = T[: m + 1, m - 1 : m + 1] @ Gh
+            Z[:, m - 1 : m + 1] = Z[:, m - 1 : m + 1] @ Gh
+        T[m, m - 1] = 0.0
+    return T, Z
+
+
+def complex_schur(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Complex Schur form ``A = U T Uᴴ`` (T upper triangular) of a real matrix.
+
+    Through the real Schur form and the rotation of its 2 × 2 blocks of complex pairs
+    (:func:`_real_to_complex_schur`): the same backward-stable factorisation as the
+    complex QR algorithm at a fraction of its cost.  A quasi upper-triangular A (1 × 1
+    and 2 × 2 diagonal blocks, e.g. a generator realised in an output-normal basis) is
+    already in real Schur form: only its 2 × 2 blocks are rotated, in ``O(n²)``.
+    """
+    A = np.asarray(A, dtype=float)
+    n = A.shape[0]
+    if n == 0:
+        return np.zeros((0, 0), complex), np.zeros((0, 0), complex)
+    sub = np.diag(A, -1) != 0
+    if np.any(np.tril(A, -2)) or np.any(sub[1:] & sub[:-1]):
+        T, Z = scipy.linalg.schur(A, output="real")
+    else:
+        T, Z = A, np.eye(n)
+    return _real_to_complex_schur(T, Z)
 
 
 UNSTABLE_MARGIN = 1e-3
