@@ -251,10 +251,15 @@ def rank_decision(
     s = np.asarray(s, dtype=float)
     scale = float(scale) if scale > 0 else 1.0
     tol = max(get_rtol(n), float(noise)) * scale
-    rank = int(np.count_nonzero(s > tol))
+    if s.size <= 16:  # the few values of a recursion step: plain floats, no array calls
+        sv = s.ravel().tolist()
+        rank = sum(v > tol for v in sv)
+    else:
+        sv = s
+        rank = int(np.count_nonzero(s > tol))
     floor = _EPS * scale
-    kept = float(s[rank - 1]) if rank > 0 else scale
-    dropped = float(s[rank]) if rank < s.size else 0.0
+    kept = float(sv[rank - 1]) if rank > 0 else scale
+    dropped = float(sv[rank]) if rank < s.size else 0.0
     gap = kept / max(dropped, floor)
     dec = RankDecision(rank=rank, tol=tol, gap=gap, what=what, where=_STAGE.get())
     recorders = _RECORDERS.get()
