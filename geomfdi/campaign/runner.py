@@ -535,9 +535,12 @@ class Campaign:
         progress : bool, optional
             tqdm bar over the blocks (default: when stderr is a terminal).
 
-        The result's ``info["executor"]`` holds what the run measured: tasks, blocks per
-        task, the compute seconds of the tasks (in the workers), and with ``"auto"`` the
-        block time and the per-task overhead that sized the tasks.
+        Returns
+        -------
+        CampaignResult
+            Its ``info["executor"]`` holds what the run measured: tasks, blocks per task,
+            the compute seconds of the tasks (in the workers), and with ``"auto"`` the
+            block time and the per-task overhead that sized the tasks.
         """
         import sys
 
