@@ -52,6 +52,7 @@ __all__ = [
     "held_pattern",
     "held_pattern_carry",
     "k_of_n",
+    "every_pattern",
     "pattern_codes",
     "pattern_decisions",
     "pattern_table",
@@ -178,15 +179,32 @@ def held_pattern_carry(
 TABLE_RESIDUALS = 20
 
 
-def pattern_codes(pattern: np.ndarray) -> np.ndarray:
+def pattern_codes(
+    pattern: np.ndarray, out: np.ndarray | None = None, scratch: np.ndarray | None = None
+) -> np.ndarray:
     """Each sample's alarm pattern ``(..., n_res, N)`` as an integer ``sum_i a_i 2**i``
-    ``(..., N)`` (``n_res <= 62``)."""
+    ``(..., N)`` (``n_res <= 62``): bytes up to 8 residuals, 16 bits up to 16, else 64.
+
+    ``out`` and ``scratch`` (that dtype, shape ``(..., N)``), when given, receive the codes
+    and the shifted rows: no array is allocated (a chunk loop reuses them).
+    """
     nres = pattern.shape[-2]
-    dtype = np.uint8 if nres <= 8 else np.int64
-    codes = pattern[..., 0, :].astype(dtype)
+    dtype = np.uint8 if nres <= 8 else np.uint16 if nres <= 16 else np.int64
+    shape = pattern.shape[:-2] + pattern.shape[-1:]
+    codes = np.empty(shape, dtype=dtype) if out is None else out
+    bit = np.empty(shape, dtype=dtype) if scratch is None else scratch
+    codes[...] = pattern[..., 0, :]
     for r in range(1, nres):
-        codes |= pattern[..., r, :].astype(dtype) << dtype(r)
+        bit[...] = pattern[..., r, :]
+        bit <<= r
+        codes |= bit
     return codes
+
+
+def every_pattern(nres: int) -> np.ndarray:
+    """The ``2**nres`` alarm patterns ``(nres, 2**nres)``, column ``c`` the pattern of code
+    ``c`` (:func:`pattern_codes`)."""
+    return ((np.arange(1 << nres)[None, :] >> np.arange(nres)[:, None]) & 1).astype(bool)
 
 
 def pattern_table(pattern: Any, structure: Any) -> tuple[np.ndarray, Isolation] | None:
@@ -204,8 +222,7 @@ def pattern_table(pattern: Any, structure: Any) -> tuple[np.ndarray, Isolation] 
         return None
     codes = pattern_codes(pattern)
     if nres <= 8:  # a byte per sample: every pattern decided, the code is the index
-        uniq = np.arange(1 << nres)
-        index = codes
+        return codes, _decide_patterns(every_pattern(nres), structure)
     elif nres <= TABLE_RESIDUALS:  # the codes met, from one counting pass
         uniq = np.flatnonzero(np.bincount(codes.ravel(), minlength=1 << nres))
         lut = np.zeros(1 << nres, dtype=np.intp)

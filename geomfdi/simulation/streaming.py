@@ -32,8 +32,10 @@ from geomfdi.evaluation.metrics import FalseAlarms
 from geomfdi.evaluation.persistence import (
     Persistence,
     decisions,
+    every_pattern,
     held_pattern_carry,
     k_of_n,
+    pattern_codes,
     pattern_decisions,
     settle,
 )
@@ -171,8 +173,7 @@ class DecisionStream:
         n = self.structure.shape[0]
         self._table: np.ndarray | None = None
         if threshold is not None and self.rule is None and n <= _TABLE_ROWS:
-            bits = (np.arange(2**n)[None, :] >> np.arange(n)[:, None]) & 1
-            self._table = isolate(bits.astype(bool), self.structure).isolated
+            self._table = isolate(every_pattern(n), self.structure).isolated
         rms = threshold is not None and threshold.statistic == "rms" and threshold.window > 1
         self._res_look = threshold.window - 1 if rms else 0  # type: ignore[union-attr]
         self._res: np.ndarray | None = None  # last residuals (RMS window)
@@ -263,14 +264,10 @@ class DecisionStream:
             return al, iso.isolated, iso.suspects
         al, _ = self._alarms(res, absolute, peaks, out)
         R, n, L = al.shape
-        code = self.workspace.get("pattern code", (R, L), np.uint16)
-        bit = self.workspace.get("pattern bit", (R, L), np.uint16)
-        code[...] = al[:, 0, :]
-        for i in range(1, n):
-            bit[...] = al[:, i, :]
-            bit <<= i
-            code |= bit
-        return al, self._table[code], None
+        dt = np.uint8 if n <= 8 else np.uint16  # as pattern_codes chooses (n <= _TABLE_ROWS)
+        code = self.workspace.get("pattern code", (R, L), dt)
+        bit = self.workspace.get("pattern bit", (R, L), dt)
+        return al, self._table[pattern_codes(al, out=code, scratch=bit)], None
 
 
 #: Most residual rows whose per-sample isolation is a table of the alarm patterns.
