@@ -44,27 +44,39 @@ SETTLE = 0.15
 worker threads (``THREAD_TIMEOUT`` 2^28 cycles, about 0.11 s at 2.4 GHz)."""
 
 
+def _best_by_clocks(
+    fns: Sequence[Callable[[], object]],
+    repeat: int,
+    settle: float,
+    burst: int,
+    clocks: Sequence[Callable[[], float]],
+) -> list[list[float]]:
+    """``best[i][c]``: the best time of ``fns[i]`` by ``clocks[c]`` over ``repeat`` rounds,
+    the functions called alternately, each after a pause of ``settle`` seconds, ``burst``
+    calls back to back each time (module docstring)."""
+    best = [[np.inf] * len(clocks) for _ in fns]
+    for _ in range(repeat):
+        for i, fn in enumerate(fns):
+            if settle > 0:
+                time.sleep(settle)
+            for _ in range(max(int(burst), 1)):
+                t0 = [clock() for clock in clocks]
+                fn()
+                t1 = [clock() for clock in reversed(clocks)][::-1]
+                best[i] = [min(b, e - s) for b, s, e in zip(best[i], t0, t1, strict=True)]
+    return best
+
+
 def best_times(
     fns: Sequence[Callable[[], object]], repeat: int, settle: float = SETTLE, burst: int = 1
 ) -> list[tuple[float, float]]:
     """Best wall-clock and best process CPU time of each function, ``(wall, cpu)``, over
     ``repeat`` rounds, the functions called alternately, each after a pause of
     ``settle`` seconds (idle BLAS threads), ``burst`` calls back to back each time (see the
-    module docstring).  On a loaded
-    machine the CPU time is the steadier of the two; with a multithreaded BLAS it also
-    counts the worker threads' spinning during the call."""
-    wall = [np.inf] * len(fns)
-    cpu = [np.inf] * len(fns)
-    for _ in range(repeat):
-        for i, fn in enumerate(fns):
-            if settle > 0:
-                time.sleep(settle)
-            for _ in range(max(int(burst), 1)):
-                w0, c0 = time.perf_counter(), time.process_time()
-                fn()
-                c1, w1 = time.process_time(), time.perf_counter()
-                wall[i], cpu[i] = min(wall[i], w1 - w0), min(cpu[i], c1 - c0)
-    return list(zip(wall, cpu, strict=True))
+    module docstring).  On a loaded machine the CPU time is the steadier of the two; with
+    a multithreaded BLAS it also counts the worker threads' spinning during the call."""
+    best = _best_by_clocks(fns, repeat, settle, burst, (time.perf_counter, time.process_time))
+    return [(w, c) for w, c in best]
 
 
 def best_alternating(
@@ -78,16 +90,7 @@ def best_alternating(
     default), the functions called alternately, each after a pause of ``settle`` seconds
     (idle BLAS threads), ``burst`` calls back to back each time (see the module
     docstring)."""
-    best = [np.inf] * len(fns)
-    for _ in range(repeat):
-        for i, fn in enumerate(fns):
-            if settle > 0:
-                time.sleep(settle)
-            for _ in range(max(int(burst), 1)):
-                t0 = clock()
-                fn()
-                best[i] = min(best[i], clock() - t0)
-    return best
+    return [b[0] for b in _best_by_clocks(fns, repeat, settle, burst, (clock,))]
 
 
 def svd_time(n: int, repeats: int = 3, rng: np.random.Generator | None = None) -> float:
