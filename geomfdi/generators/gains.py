@@ -283,22 +283,22 @@ class Composite:
         self.nA, self.nCp = factor.nA, factor.nCp  # balanced
         self.nF, self.nE = _norm2(g.F), _norm2(g.E)
         self.nH, self.nM = _norm2(g.H), _norm2(g.M)
-        eig = [np.diag(self.TA)]
-        if k:
-            self.TF, UF = complex_schur(g.F)
-            self.MUF = g.M @ UF
-            self.UFEG = UF.conj().T @ np.hstack([-g.E, g.G])
-            self.UFEC = UF.conj().T @ (g.E @ plant.C)
-            eig.append(np.diag(self.TF))
-        self.eig = np.concatenate(eig)
         rng = np.random.default_rng(7)
         rng.standard_normal(n)  # the plant's probe (factor.UAva) is drawn first
         vf = rng.standard_normal(k)
         self.UAva = factor.UAva
         self.vf = vf / max(np.linalg.norm(vf), 1e-300)
-        self.UFvf = UF.conj().T @ self.vf if k else np.zeros(0, complex)
-        # a generator in output-normal form: its resolvents in O(k) per point
+        # a generator in output-normal form: its resolvents in O(k) per point, its
+        # eigenvalues from its diagonal blocks (its Schur form only on demand)
         self.on_blocks = output_normal_blocks(g.F, g.M) if k else None
+        eig = [np.diag(self.TA)]
+        if k:
+            if self.on_blocks is not None:
+                eig.append(_block_eigenvalues(g.F, self.on_blocks))
+            else:
+                self._factor_F()
+                eig.append(np.diag(self.TF))
+        self.eig = np.concatenate(eig)
         self.scale = max(self.nA, self.nF, self.nE * self.nCp)
         # random points: k + 2 at the scale of plant and generator, and the plant's own
         # n + 2 (shared, responses computed once): N + 4 > N + 1 in all
@@ -315,6 +315,34 @@ class Composite:
         self.points = self._clear_of_rounding(raw, shared=factor.plant_random.size)
         self._comp: dict[str, Any] | None = None
         self._tf: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    _F_FACTORS = ("TF", "MUF", "UFEG", "UFEC", "UFvf")
+
+    def _factor_F(self) -> None:
+        """The generator's complex Schur form ``F = U_F T_F U_Fᴴ`` and the matrices its
+        resolvents need (``TF``, ``MUF`` = M U_F, ``UFEG`` = U_Fᴴ [−E, G],
+        ``UFEC`` = U_Fᴴ E C, ``UFvf`` = U_Fᴴ v_f)."""
+        g = self.g
+        if not self.k:
+            z = np.zeros((0, 0), complex)
+            self.TF, self.MUF, self.UFEC = z, np.zeros((g.M.shape[0], 0), complex), z
+            self.UFEG = np.zeros((0, g.q + g.m), complex)
+            self.UFvf = np.zeros(0, complex)
+            return
+        self.TF, UF = complex_schur(g.F)
+        UFh = UF.conj().T
+        self.MUF = g.M @ UF
+        self.UFEG = UFh @ np.hstack([-g.E, g.G])
+        self.UFEC = UFh @ (g.E @ self.plant.C)
+        self.UFvf = UFh @ self.vf
+
+    def __getattr__(self, name: str) -> Any:
+        # the generator's Schur factors, computed on first use (an output-normal
+        # generator's resolvents do not need them)
+        if name in Composite._F_FACTORS and "g" in self.__dict__:
+            self._factor_F()
+            return self.__dict__[name]
+        raise AttributeError(name)
 
     # ----------------------------------------------------------- resolvents
     def _solve_A(self, s: complex, X: np.ndarray) -> np.ndarray:
@@ -451,7 +479,7 @@ class Composite:
             else:
                 ra = np.linalg.norm(_tri_solve_many(self.TA, s, self.UAva[:, None]), axis=(1, 2))
             first = False
-            if self.on_blocks is not None and s.size > FEW_POINTS:  # in F's own coordinates
+            if self.on_blocks is not None:  # in F's own coordinates, O(k) per point
                 g = self.g
                 rf = np.linalg.norm(
                     column_resolvent(g.F, g.M[0], self.on_blocks, s, self.vf), axis=1
@@ -470,7 +498,12 @@ class Composite:
         """``G_y(s) = −M (sI − F)⁻¹ E − H`` and ``G_u(s) = M (sI − F)⁻¹ G + K``."""
         g = self.g
         T = np.hstack([-g.H, g.K]).astype(complex)
-        if self.k:
+        if self.k and self.on_blocks is not None:  # h (sI − F)⁻¹ in O(k)
+            row = rows_resolvent(g.F, g.M[0], self.on_blocks, np.array([s], dtype=complex))
+            if not np.all(np.isfinite(row)):
+                raise np.linalg.LinAlgError("Singular matrix: s is a pole of the generator")
+            T = T + row @ np.hstack([-g.E, g.G])
+        elif self.k:
             T = T + self.MUF @ self._solve_F(s, self.UFEG)
         return T[:, : g.q], T[:, g.q :]
 
@@ -665,6 +698,19 @@ class Composite:
         num = _norm2(comp["Cc"] @ V) * _norm2(Bc) if V.size else 0.0
         nC = comp["nC"]
         return max(num / (nC * b + 1e-300), _norm2(Dc) / (d + nC * b + 1e-300))
+
+
+def _block_eigenvalues(F: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """Eigenvalues of a block upper-triangular F with 1 × 1 and 2 × 2 diagonal blocks
+    starting at ``starts`` (closed form per block: ``tr/2 ± √((tr/2)² − det)``)."""
+    k = F.shape[0]
+    ends = np.append(starts[1:], k)
+    one, two = starts[ends - starts == 1], starts[ends - starts == 2]
+    a, b, c, d = F[two, two], F[two, two + 1], F[two + 1, two], F[two + 1, two + 1]
+    half = 0.5 * (a - d)
+    root = np.sqrt((half * half + b * c).astype(complex))
+    mid = 0.5 * (a + d)
+    return np.concatenate([F[one, one].astype(complex), mid + root, mid - root])
 
 
 def _points(scale: float, count: int, eigenvalues: np.ndarray, seed: int = 12345) -> np.ndarray:

@@ -34,11 +34,13 @@ from geomfdi.geometry.subspace import (
     Subspace,
     _extend,
     _norm2,
+    _svd_vt,
+    extraction_noise,
     invariant_closure,
     kernel,
     split_kernel,
 )
-from geomfdi.tolerance import CloseRankWarning, decision_stage, record_decisions
+from geomfdi.tolerance import CloseRankWarning, decision_stage, rank_decision, record_decisions
 
 __all__ = [
     "min_unobservability_subspace",
@@ -94,7 +96,7 @@ def min_unobservability_subspace(
     a spurious new direction of that size: the next step's rank decision uses
     ``max(rtol, 4 ε ||A|| / σ)`` (:func:`geomfdi.geometry.subspace.extraction_noise`), so
     rounding cannot open a block that no output reaches.  With ``||A||`` computed once
-    and one complement at the end the cost is
+    and one complement at the end (a complete QR of Y's basis) the cost is
     ``O(n³)`` flops whatever the number of steps (the recursion on Z itself costs
     ``O(n³)`` per step).
 
@@ -134,7 +136,16 @@ def min_unobservability_subspace(
         new, noise = _extend(Vb[:, :0], C.T, nC, "Im Cᵀ (Ker C)", 0.0)
         history = [n]
         for _ in range(n + 1):
-            Y_new, R = split_kernel(np.concatenate((R, new), axis=1), WbT, 1.0, "V ∩ W*^⊥")
+            if new.shape[1] == 1 and R.shape[1] and Wb.shape[1]:
+                # one new direction (the common step): the operations of split_kernel,
+                # _project_out and _extend inlined, in the same order (same bits)
+                ny, nv, R, new, noise = _one_step(
+                    Vb, Yb, nv, ny, R, new, Wb, WbT, AT, nA, noise, history
+                )
+                if new is None:
+                    break
+                continue
+            Y_new, R = split_kernel(np.concatenate((R, new), axis=1), WbT, 1.0, _SPLIT)
             Y_new = _project_out(Y_new, Wb)
             dv, dy = new.shape[1], Y_new.shape[1]
             Vb[:, nv : nv + dv], Yb[:, ny : ny + dy] = new, Y_new
@@ -144,14 +155,81 @@ def min_unobservability_subspace(
                 break
             # directions extracted from a strong cancellation carry more rounding than ε:
             # the next step's floor rises accordingly (extraction_noise)
-            new, noise = _extend(
-                Vb[:, :nv], AT @ Y_new, nA, "Im Cᵀ + Aᵀ Z^⊥ (A⁻¹(Z) ∩ Ker C)", noise
-            )
+            new, noise = _extend(Vb[:, :nv], AT @ Y_new, nA, _STEP, noise)
         Y = Yb[:, :ny].copy()
-    Z = Subspace.from_orthonormal(Y).complement()
+    # S* = Y^⊥: the last columns of the complete Householder QR of Y (Y orthonormal: its
+    # complement needs no SVD, whose full left factor costs several times the QR's)
+    if ny:
+        Qf = np.linalg.qr(Y, mode="complete")[0]
+        Z = Subspace.from_orthonormal(np.ascontiguousarray(Qf[:, ny:]))
+    else:
+        Z = Subspace.full(n)
     S = InvariantSubspace._wrap(Z, history, [*W.decisions, *rec], "min_unobservability_subspace")
     S.W = W
     return S
+
+
+_SPLIT = "V ∩ W*^⊥"
+_STEP = "Im Cᵀ + Aᵀ Z^⊥ (A⁻¹(Z) ∩ Ker C)"
+
+
+def _one_step(
+    Vb: np.ndarray,
+    Yb: np.ndarray,
+    nv: int,
+    ny: int,
+    R: np.ndarray,
+    new: np.ndarray,
+    Wb: np.ndarray,
+    WbT: np.ndarray,
+    AT: np.ndarray,
+    nA: float,
+    noise: float,
+    history: list[int],
+) -> tuple[int, int, np.ndarray, np.ndarray | None, float]:
+    """One step of the dual recursion of :func:`min_unobservability_subspace` with one new
+    direction of V: :func:`geomfdi.geometry.subspace.split_kernel` of ``[R, new]``
+    against ``W*ᵀ``, :func:`_project_out` and
+    :func:`geomfdi.geometry.subspace.extend_basis` by ``Aᵀ`` of the new direction of Y,
+    written out (the same operations in the same order, hence the same rank decisions and
+    bases bit for bit, without the per-call checks and dispatch of the general
+    functions).  Returns ``(ny, nv, R, new, noise)``; ``new`` is None when Y stopped
+    growing."""
+    n = Vb.shape[0]
+    X = np.concatenate((R, new), axis=1)
+    k = X.shape[1]
+    s, Vt = _svd_vt(WbT @ X)
+    r = rank_decision(s, 1.0, max(WbT.shape[0], k), what=_SPLIT).rank
+    Y_new, R = X @ Vt[r:].T, X @ Vt[:r].T
+    Vb[:, nv : nv + 1] = new
+    nv += 1
+    dy = Y_new.shape[1]
+    if dy != 1:  # none, or several (the general path's QR)
+        Y_new = _project_out(Y_new, Wb)
+        Yb[:, ny : ny + dy] = Y_new
+        ny += dy
+        history.append(n - ny)
+        if not dy:
+            return ny, nv, R, None, noise
+        new, noise = _extend(Vb[:, :nv], AT @ Y_new, nA, _STEP, noise)
+        return ny, nv, R, new, noise
+    Y_new = Y_new - Wb @ (WbT @ Y_new)
+    Y_new = Y_new - Wb @ (WbT @ Y_new)
+    y = Y_new.ravel()
+    Y_new = Y_new / max(float(np.sqrt(y.dot(y))), 1e-300)
+    Yb[:, ny : ny + 1] = Y_new
+    ny += 1
+    history.append(n - ny)
+    B = Vb[:, :nv]
+    P = AT @ Y_new
+    P = P - B @ (B.T @ P)
+    P = P - B @ (B.T @ P)
+    p = P.ravel()
+    nP = float(np.sqrt(p.dot(p)))
+    r = rank_decision(np.array([nP]), nA, n, what=_STEP, noise=noise).rank
+    if r:
+        return ny, nv, R, P / (nP if nP > 0 else 1.0), extraction_noise(nP, nA)
+    return ny, nv, R, P[:, :0], 0.0
 
 
 def _project_out(Y: np.ndarray, W: np.ndarray) -> np.ndarray:

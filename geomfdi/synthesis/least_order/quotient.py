@@ -153,26 +153,73 @@ def _schur_from_plant(
     When S* lies in the coordinates of decoupled feedthrough only (nothing of the plant's
     state is factored out: ``P`` square with orthonormal rows), the quotient is the plant
     in rotated coordinates, ``A0 = P A Pᵀ``, and ``(T, W = P U)`` is a Schur form of it.
-    The form is accepted only when it is one to working accuracy: ``P Pᵀ = I`` and
-    ``‖Wᴴ A0 W − T‖_F ≤ SCHUR_REUSE_TOL · k ε ‖A0‖_F`` (the backward error of the QR
-    algorithm itself, Golub & Van Loan 2013, §7.5.6).  One ``O(k³)`` product instead of
-    the QR algorithm; the rows of a bank on one plant share T, hence their eigenvalues
-    bit for bit.
+    When S* also holds an A-invariant subspace ``S_p`` of the plant's state (``P``: k × n
+    with orthonormal rows, ``S_p = (Im Pᵀ)^⊥``, e.g. modes no output of the row sees), the
+    quotient is A modulo ``S_p``: the plant's form is reordered (LAPACK ``ztrsen``) so that
+    its first ``n − k`` Schur vectors span ``S_p`` (the eigenvalues of A on ``S_p`` are
+    taken first), and ``(T_22, W = P U_2)`` is a Schur form of ``A0``, since
+    ``A U_2 = U_1 T_12 + U_2 T_22`` and ``P U_1 = 0`` (Golub & Van Loan 2013, §7.6.2).
+    The form is accepted only when it is one to working accuracy: ``P Pᵀ = I``,
+    ``‖P U_1‖ ≤ SCHUR_REUSE_TOL · k ε`` (W unitary) and
+    ``‖Wᴴ A0 W − T0‖_F ≤ SCHUR_REUSE_TOL · k ε ‖A0‖_F`` (the backward error of the QR
+    algorithm itself, Golub & Van Loan 2013, §7.5.6).  ``O(k³)`` products and a reordering
+    instead of the QR algorithm; the rows of a bank on one plant share the entries of T,
+    hence their eigenvalues bit for bit.
     """
     if TU is None or not A0.size:
         return None
     T, U = TU
     k = A0.shape[0]
-    if P.shape != (k, k) or T.shape != (k, k):
+    n = T.shape[0]
+    if P.shape != (k, n) or T.shape != (n, n) or k > n:
         return None
     tol = SCHUR_REUSE_TOL * k * float(np.finfo(float).eps)
     if float(np.max(np.abs(P @ P.T - np.eye(k)))) > tol:
         return None
+    if k < n:
+        TU = _reordered(T, U, P, tol)
+        if TU is None:
+            return None
+        T, U = TU
     W = P @ U
     err = float(np.linalg.norm(W.conj().T @ (A0 @ W) - T))
     if not err <= tol * float(np.linalg.norm(A0)):
         return None
     return T, W
+
+
+def _reordered(
+    T: np.ndarray, U: np.ndarray, P: np.ndarray, tol: float
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(T_22, U_2)`` of the plant's Schur form reordered so that its first ``n − k``
+    Schur vectors span ``S_p = (Im Pᵀ)^⊥`` (:func:`_schur_from_plant`), or None when
+    ``S_p`` is not an invariant subspace of the form to working accuracy.
+
+    The eigenvalues to move first are those of A on ``S_p`` (of ``Gᴴ T G``, G an
+    orthonormal basis of ``Uᴴ S_p``), each matched to the nearest Schur value not yet
+    taken; a wrong match or a subspace that is not invariant leaves ``‖P U_1‖`` large
+    and is refused."""
+    import scipy.linalg.lapack as lapack
+
+    n, k = T.shape[0], P.shape[0]
+    m = n - k
+    Qf, _ = np.linalg.qr(P.T, mode="complete")
+    G = U.conj().T @ Qf[:, k:]  # Uᴴ S_p, orthonormal
+    mu = np.linalg.eigvals(G.conj().T @ (T @ G))
+    lt = np.diag(T)
+    select = np.zeros(n, dtype=np.int32)
+    for v in mu[np.argsort(-np.abs(mu))]:
+        d = np.abs(lt - v)
+        d[select.astype(bool)] = np.inf
+        select[int(np.argmin(d))] = 1
+    if int(select.sum()) != m:
+        return None
+    Ts, Us, _, mm, _, _, info = lapack.ztrsen(select, T, U, job="N")
+    if info != 0 or mm != m:
+        return None
+    if not float(np.max(np.abs(P @ Us[:, :m]), initial=0.0)) <= tol:
+        return None
+    return np.triu(Ts[m:, m:]), Us[:, m:]
 
 
 def quotient_model(
