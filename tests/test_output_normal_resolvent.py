@@ -64,6 +64,33 @@ def test_quotient_schur_from_the_plant_is_a_schur_form_or_refused():
     assert _schur_from_plant(A0, 1.001 * P, (T, U)) is None
 
 
+def test_quotient_by_an_invariant_subspace_takes_the_reordered_plant_schur_form():
+    rng = np.random.default_rng(8)
+    n, m = 20, 2
+    # A with an invariant subspace S_p of dimension m (block upper triangular in the
+    # coordinates [S_p, S_p^⊥]), seen in random orthogonal coordinates
+    B = rng.standard_normal((n, n))
+    B[m:, :m] = 0.0
+    V, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    A = V @ B @ V.T
+    T, U = complex_schur(A)
+    P = V[:, m:].T  # orthonormal rows spanning S_p^⊥
+    A0 = P @ A @ P.T
+    got = _schur_from_plant(A0, P, (T, U))
+    assert got is not None
+    T0, W = got
+    k = n - m
+    assert np.allclose(np.tril(T0, -1), 0)
+    assert np.allclose(W.conj().T @ W, np.eye(k), atol=1e-12)
+    assert np.allclose(W @ T0 @ W.conj().T, A0, atol=1e-12)
+    # the quotient's eigenvalues are the plant's Schur values, bit for bit
+    assert set(np.diag(T0).tolist()) <= set(np.diag(T).tolist())
+    # a subspace that is not invariant is refused (the quotient is not A modulo it)
+    W2, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    P2 = W2[:, m:].T
+    assert _schur_from_plant(P2 @ A @ P2.T, P2, (T, U)) is None
+
+
 def test_triangular_resolvents_at_few_and_many_points_solve_the_system():
     from geomfdi.generators.gains import FEW_POINTS, _tri_solve_many
 
@@ -78,3 +105,39 @@ def test_triangular_resolvents_at_few_and_many_points_solve_the_system():
         for i in range(P):
             res = (pts[i] * np.eye(n) - T) @ Y[i] - X
             assert np.linalg.norm(res) <= 1e-10 * np.linalg.norm(X)
+
+
+def test_output_normal_generator_checked_without_its_schur_form():
+    import warnings
+
+    import geomfdi as gf
+    from geomfdi.generators.gains import Composite, PlantFactor
+
+    p = gf.mass_spring_chain(8, sensors=3, forces=(2, 7), zeta=0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gf.CloseRankWarning)
+        g = gf.design_sensor_bank(p).generators[0]
+    factor = PlantFactor(p)
+    comp = Composite(g, p, factor)
+    assert comp.on_blocks is not None  # an output-normal row
+    assert "TF" not in comp.__dict__  # no Schur form of F taken for its checks
+    lam = np.linalg.eigvals(g.F)
+    own = comp.eig[p.n :]
+    assert own.size == lam.size
+    dist = np.abs(own[:, None] - lam[None, :])
+    assert np.max(np.min(dist, axis=1)) < 1e-9 and np.max(np.min(dist, axis=0)) < 1e-9
+    for s in (0.3j, 1.0 + 2.0j):
+        Gy, Gu = comp.generator_tf(s)
+        R = g.M @ np.linalg.inv(s * np.eye(g.order) - g.F)
+        assert np.allclose(Gy, -R @ g.E - g.H, rtol=1e-9, atol=1e-12)
+        assert np.allclose(Gu, R @ g.G + g.K, rtol=1e-9, atol=1e-12)
+    # the Schur factors are still there on demand, and give the same transfer
+    assert comp.TF.shape == g.F.shape
+    T = comp.MUF @ np.linalg.solve(0.3j * np.eye(g.order) - comp.TF, comp.UFEG)
+    assert np.allclose(T[:, : p.q] - g.H, comp.generator_tf(0.3j)[0], rtol=1e-9, atol=1e-12)
+    # a second composite of the same row on the same plant: the same points and gains
+    comp2 = Composite(g, p, factor)
+    np.testing.assert_array_equal(comp2.points, comp.points)
+    np.testing.assert_array_equal(
+        comp2.generator_tf_many(comp2.points), comp.generator_tf_many(comp.points)
+    )

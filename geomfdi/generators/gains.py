@@ -19,6 +19,7 @@ verification* (``docs/theory/verification.md``).
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Sequence
 from typing import Any
 
@@ -168,6 +169,57 @@ LEAK_TOL = 1e-8
 _EPS = float(np.finfo(float).eps)
 
 
+def _digest(*arrays: np.ndarray) -> bytes:
+    """Content key of a few arrays (shape, type and a hash of the entries)."""
+    h = hashlib.blake2b(digest_size=16)
+    for a in arrays:
+        c = np.ascontiguousarray(a)
+        h.update(repr((c.shape, c.dtype.str)).encode())
+        h.update(c.data)
+    return h.digest()
+
+
+class _Memo:
+    """The last few results of a pure function of arrays, keyed by their content: rows of a
+    bank that share their evaluation points and generator poles (a sensor bank whose
+    quotients are the plant in rotated coordinates) compute the shared resolvents once,
+    bit for bit the same values."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self.data: dict[bytes, np.ndarray] = {}
+
+    def get(self, key: bytes, make: Any) -> np.ndarray:
+        hit = self.data.pop(key, None)
+        if hit is None:
+            hit = make()
+        self.data[key] = hit  # most recent last
+        while len(self.data) > self.size:
+            try:
+                del self.data[next(iter(self.data))]
+            except (KeyError, RuntimeError, StopIteration):  # another thread got there
+                break
+        return hit
+
+
+_ON_MEMO = _Memo(4)
+"""Resolvents of output-normal generators (:func:`_on_rows`, :func:`_on_column`)."""
+
+
+def _on_rows(F: np.ndarray, h: np.ndarray, starts: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """:func:`~geomfdi.generators.output_normal.rows_resolvent`, remembered by content."""
+    key = b"rows" + _digest(F, h, pts)
+    return _ON_MEMO.get(key, lambda: rows_resolvent(F, h, starts, pts))
+
+
+def _on_column(
+    F: np.ndarray, h: np.ndarray, starts: np.ndarray, pts: np.ndarray, w: np.ndarray
+) -> np.ndarray:
+    """:func:`~geomfdi.generators.output_normal.column_resolvent`, remembered by content."""
+    key = b"col" + _digest(F, h, pts, w)
+    return _ON_MEMO.get(key, lambda: column_resolvent(F, h, starts, pts, w))
+
+
 class PlantFactor:
     """Complex Schur factor ``A = U_A T_A U_Aᴴ`` of a plant, computed once and shared.
 
@@ -213,6 +265,7 @@ class PlantFactor:
         self.UAva = self.UAh @ (va / max(np.linalg.norm(va), 1e-300))
         self.plant_random = _points(max(self.nA, 1e-300), plant.n + 2, np.diag(TA), seed=54321)
         self._random: dict[int, tuple[Any, np.ndarray]] = {}
+        self._solved = _Memo(4)
 
     def random_response(self, Bx: np.ndarray | None) -> np.ndarray:
         """``C U_A (sI − T_A)⁻¹ U_Aᴴ Bx`` at :attr:`plant_random`, shape ``(n + 2, q, cols)``
@@ -233,6 +286,13 @@ class PlantFactor:
                 out[:, :, nz] = self.CUA @ _tri_solve_many(self.TA, pts, UB[:, nz])
         self._random[key] = (Bx, out)
         return out
+
+    def solve(self, pts: np.ndarray, X: np.ndarray) -> np.ndarray:
+        """``(sI − T_A)⁻¹ X`` at the points, ``(P, n, cols)``; the last few (points, X)
+        are remembered by content: the rows of a bank whose own points coincide (same
+        order, same spectrum) solve the plant there once."""
+        key = _digest(pts, X)
+        return self._solved.get(key, lambda: _tri_solve_many(self.TA, pts, X))
 
     def boundary_response(self, Bx: np.ndarray) -> np.ndarray:
         """``(sI − T_A)⁻¹ U_Aᴴ Bx`` at :attr:`plant_points`, shape ``(n + 2, n, cols)``
@@ -411,7 +471,7 @@ class Composite:
         nz = np.flatnonzero(np.any(UB != 0, axis=0))  # state-side columns
         if nz.size:
             shared = np.concatenate([self.factor.boundary_response(c[0]) for c in channels], 2)
-            X = np.concatenate([_tri_solve_many(self.TA, pts[:own], UB[:, nz]), shared[:, :, nz]])
+            X = np.concatenate([self.factor.solve(pts[:own], UB[:, nz]), shared[:, :, nz]])
             Y[:, :, nz] += self.CUA @ X
             nX2[:, nz] = np.sum(np.abs(X) ** 2, axis=1)
         U = np.zeros((m, edges[-1]))
@@ -472,7 +532,7 @@ class Composite:
             if first and shared:
                 own = pts.size - shared
                 ra = np.empty(s.size)
-                Xp = _tri_solve_many(self.TA, s[:own], self.UAva[:, None])
+                Xp = self.factor.solve(s[:own], self.UAva[:, None])
                 self._probe = (s[:own].copy(), Xp)  # point_gains reuses it where unmoved
                 ra[:own] = np.linalg.norm(Xp, axis=(1, 2))
                 ra[own:] = np.linalg.norm(self.factor.random_response(None), axis=(1, 2))
@@ -481,9 +541,7 @@ class Composite:
             first = False
             if self.on_blocks is not None:  # in F's own coordinates, O(k) per point
                 g = self.g
-                rf = np.linalg.norm(
-                    column_resolvent(g.F, g.M[0], self.on_blocks, s, self.vf), axis=1
-                )
+                rf = np.linalg.norm(_on_column(g.F, g.M[0], self.on_blocks, s, self.vf), axis=1)
             elif self.k:
                 rf = np.linalg.norm(_tri_solve_many(self.TF, s, self.UFvf[:, None]), axis=(1, 2))
             else:
@@ -547,7 +605,7 @@ class Composite:
         if not self.k:
             out = np.broadcast_to(D, (pts.size, *D.shape)).copy()
         elif self.on_blocks is not None:  # M (sI − F)⁻¹ in O(k) per point
-            rows = rows_resolvent(g.F, g.M[0], self.on_blocks, pts)
+            rows = _on_rows(g.F, g.M[0], self.on_blocks, pts)
             out = D[None, :, :] + (rows @ np.hstack([-g.E, g.G]))[:, None, :]
         elif self.MUF.shape[0] < self.UFEG.shape[1]:
             out = D[None, :, :] + _tri_solve_rows_many(self.TF, pts, self.MUF) @ self.UFEG

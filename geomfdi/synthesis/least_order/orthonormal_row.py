@@ -55,6 +55,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 
 from geomfdi.generators.gains import _tri_solve_rows_many
 from geomfdi.synthesis.least_order.injection import mirror_rule
@@ -101,25 +102,32 @@ class _Basis:
 
     @property
     def fit(self) -> tuple[np.ndarray, ...]:
-        """``(pts, wts, Ar, Q, U, s, Vt)``: the samples, weights, the real weighted basis
-        matrix ``Ar`` and its thin SVD ``Ar = (Q U) diag(s) Vt`` (through ``Ar = Q R``)."""
+        """``(pts, wts, Ar, Q, R, s)``: the samples, weights, the real weighted basis
+        matrix ``Ar``, its thin QR factorisation ``Ar = Q R`` and the singular values of
+        ``R`` (those of ``Ar``)."""
         if self._fit is None:
             pts, wts = phase_frequencies(self.poles, self.dt, POINTS_PER_POLE)
             Phi = output_normal_rows(self.poles, self.dt, pts) * wts[:, None]
             Ar = np.vstack([Phi.real, Phi.imag])
-            Q, R = np.linalg.qr(Ar)  # Ar = Q R = (Q U) S Vᵀ with R = U S Vᵀ
-            U, sv, Vt = np.linalg.svd(R)
-            self._fit = (pts, wts, Ar, Q, U, sv, Vt)
+            Q, R = np.linalg.qr(Ar)
+            sv = scipy.linalg.svdvals(R, check_finite=False)
+            self._fit = (pts, wts, Ar, Q, R, sv)
         return self._fit
 
     def solve(self, Yr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Least-squares ``Ar B = Yr`` and the singular values of ``Ar``: the minimum-norm
         solution with singular values at or below ``ε max(rows, cols) σ_1`` dropped (the
-        cut-off of ``numpy.linalg.lstsq`` with ``rcond=None``)."""
-        _, _, Ar, Q, U, sv, Vt = self.fit
+        cut-off of ``numpy.linalg.lstsq`` with ``rcond=None``).  When none is dropped (the
+        basis is orthonormal on the samples: ``Ar`` is well conditioned) that is
+        ``R⁻¹ Qᵀ Yr``; otherwise it is taken from the SVD ``R = U Σ Vᵀ``."""
+        _, _, Ar, Q, R, sv = self.fit
         cut = np.finfo(float).eps * max(Ar.shape) * (sv[0] if sv.size else 0.0)
         r = int(np.count_nonzero(sv > cut))
-        return Vt[:r].T @ ((U[:, :r].T @ (Q.T @ Yr)) / sv[:r, None]), sv
+        QtY = Q.T @ Yr
+        if r == R.shape[1]:
+            return scipy.linalg.solve_triangular(R, QtY, check_finite=False), sv
+        U, sv, Vt = np.linalg.svd(R)
+        return Vt[:r].T @ ((U[:, :r].T @ QtY) / sv[:r, None]), sv
 
 
 _BASES: dict[tuple[bytes, float], _Basis] = {}

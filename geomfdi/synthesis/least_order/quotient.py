@@ -145,6 +145,12 @@ def _resolvent_rows(Qm: Quotient, points: np.ndarray) -> list[np.ndarray]:
     return list(_tri_solve_rows_many(T, pts, M @ U) @ U.conj().T)
 
 
+REORDER_MAX = 8
+"""A quotient of order k takes the plant's reordered Schur form when at most
+``k / REORDER_MAX`` eigenvalues of the plant are factored out (the reordering costs
+``O(n)`` per swap and ``O(k)`` swaps per eigenvalue moved)."""
+
+
 def _schur_from_plant(
     A0: np.ndarray, P: np.ndarray, TU: tuple[np.ndarray, np.ndarray] | None
 ) -> tuple[np.ndarray, np.ndarray] | None:
@@ -157,7 +163,8 @@ def _schur_from_plant(
     with orthonormal rows, ``S_p = (Im Pᵀ)^⊥``, e.g. modes no output of the row sees), the
     quotient is A modulo ``S_p``: the plant's form is reordered (LAPACK ``ztrsen``) so that
     its first ``n − k`` Schur vectors span ``S_p`` (the eigenvalues of A on ``S_p`` are
-    taken first), and ``(T_22, W = P U_2)`` is a Schur form of ``A0``, since
+    taken first; at most ``k / REORDER_MAX`` of them), and ``(T_22, W = P U_2)`` is a
+    Schur form of ``A0``, since
     ``A U_2 = U_1 T_12 + U_2 T_22`` and ``P U_1 = 0`` (Golub & Van Loan 2013, §7.6.2).
     The form is accepted only when it is one to working accuracy: ``P Pᵀ = I``,
     ``‖P U_1‖ ≤ SCHUR_REUSE_TOL · k ε`` (W unitary) and
@@ -177,15 +184,26 @@ def _schur_from_plant(
     if float(np.max(np.abs(P @ P.T - np.eye(k)))) > tol:
         return None
     if k < n:
+        if REORDER_MAX * (n - k) > k:  # many swaps: the QR algorithm on A0 is cheaper
+            return None
         TU = _reordered(T, U, P, tol)
         if TU is None:
             return None
         T, U = TU
-    W = P @ U
-    err = float(np.linalg.norm(W.conj().T @ (A0 @ W) - T))
+    W = _real_times(P, U)
+    err = float(np.linalg.norm(W.conj().T @ _real_times(A0, W) - T))
     if not err <= tol * float(np.linalg.norm(A0)):
         return None
     return T, W
+
+
+def _real_times(M: np.ndarray, Z: np.ndarray) -> np.ndarray:
+    """``M Z`` for a real M and a complex Z by two real products (half the flops of the
+    complex product numpy would form after promoting M)."""
+    out = np.empty((M.shape[0], Z.shape[1]), dtype=complex)
+    out.real = M @ np.ascontiguousarray(Z.real)
+    out.imag = M @ np.ascontiguousarray(Z.imag)
+    return out
 
 
 def _reordered(
