@@ -32,6 +32,9 @@ def test_output_normal_resolvents_match_dense_solves():
         Rs = np.linalg.inv(s * np.eye(k) - Lam)
         assert np.allclose(rows[i], h @ Rs, rtol=1e-10, atol=1e-12)
         assert np.allclose(cols[i], Rs @ w, rtol=1e-10, atol=1e-12)
+    # at a few points every block is taken at once (a cumulative all-pass product)
+    few = rows_resolvent(Lam, h, starts, pts[:3])
+    assert np.allclose(few, rows[:3], rtol=1e-12, atol=1e-14)
 
 
 def test_output_normal_structure_is_recognised_exactly():

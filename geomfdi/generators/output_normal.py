@@ -47,9 +47,16 @@ def _blocks(F: np.ndarray, starts: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(starts.tolist(), ends, strict=True))
 
 
+FEW_POINTS = 8
+"""Point count up to which :func:`rows_resolvent` takes every block at once (the loop over
+the blocks costs a few numpy calls per block, whatever the number of points)."""
+
+
 def rows_resolvent(F: np.ndarray, h: np.ndarray, starts: np.ndarray, pts: np.ndarray) -> np.ndarray:
     """``h (s_p I − F)⁻¹`` at every point, shape ``(P, k)`` (module Notes)."""
     s = np.asarray(pts, dtype=complex)
+    if s.size <= FEW_POINTS:
+        return _rows_at_few(F, h, starts, s)
     out = np.empty((s.size, F.shape[0]), dtype=complex)
     sig = np.zeros(s.size, dtype=complex)
     for a, b in _blocks(F, starts):
@@ -93,3 +100,28 @@ def column_resolvent(
         out[:, a], out[:, a + 1] = y1, y2
         tau = tau + h[a] * y1 + h[a + 1] * y2
     return out
+
+
+def _rows_at_few(F: np.ndarray, h: np.ndarray, starts: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """:func:`rows_resolvent` at a few points, every block at once: with the blocks' own
+    rows ``r_j = h_j (sI − F_j)⁻¹``, ``x_j = (1 − σ_j) r_j`` and ``1 − σ_j`` the product
+    of the all-pass factors ``b_i = 1 − r_i h_iᵀ`` of the blocks before j
+    (``1 − σ_{i+1} = (1 − σ_i) b_i``): one cumulative product over the blocks."""
+    k = F.shape[0]
+    ends = np.append(starts[1:], k)
+    one, two = starts[ends - starts == 1], starts[ends - starts == 2]
+    col_block = np.cumsum(np.isin(np.arange(k), starts)) - 1
+    x = s[None, :]
+    r = np.empty((k, s.size), dtype=complex)
+    r[one] = h[one, None] / (x - F[one, one][:, None])
+    f11, f12 = F[two, two][:, None], F[two, two + 1][:, None]
+    f21, f22 = F[two + 1, two][:, None], F[two + 1, two + 1][:, None]
+    det = (x - f11) * (x - f22) - f12 * f21
+    ha, hb = h[two, None], h[two + 1, None]
+    # [ha, hb] [[s − f11, −f12], [−f21, s − f22]]⁻¹
+    r[two] = (ha * (x - f22) + hb * f21) / det
+    r[two + 1] = (ha * f12 + hb * (x - f11)) / det
+    b = 1.0 - np.add.reduceat(r * h[:, None], starts, axis=0)
+    c = np.ones_like(b)
+    np.cumprod(b[:-1], axis=0, out=c[1:])
+    return (c[col_block] * r).T
