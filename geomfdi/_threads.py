@@ -209,8 +209,20 @@ _pools: dict[int, Any] = {}
 _pool_lock = threading.Lock()
 
 
+def _forget_pools() -> None:
+    """In a forked child: the parent's pool threads do not exist there."""
+    global _pool_lock
+    _pools.clear()
+    _pool_lock = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pools)
+
+
 def thread_pool(threads: int) -> Any:
-    """A process-wide ``ThreadPoolExecutor`` of ``threads`` workers (made once, kept)."""
+    """A process-wide ``ThreadPoolExecutor`` of ``threads`` workers (made once, kept; a
+    forked child makes its own)."""
     with _pool_lock:
         pool = _pools.get(threads)
         if pool is None:

@@ -196,3 +196,22 @@ def test_kernel_refuses_an_input_matrix_of_the_wrong_width():
     with pytest.raises(ShapeError, match="W: expected"):
         cr.compiled_block_recursion([np.eye(2)], np.zeros((2, 3)), drives, np.zeros((2, 1)),
                                     [[np.eye(2)]], 50)  # fmt: skip
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork")
+def test_a_forked_child_gets_its_own_thread_pool():
+    """A child forked after the parent used its pool (a process pool of the caller's)
+    must not submit to the parent's threads, which do not exist in the child."""
+    import multiprocessing as mp
+
+    parent = th.thread_pool(2)
+    assert parent.submit(lambda: 7).result() == 7
+    ctx = mp.get_context("fork")
+    with ctx.Pool(1) as pool:
+        got = pool.apply_async(_child_pool_works).get(timeout=60)
+    assert got == (True, 7)
+
+
+def _child_pool_works():
+    pool = th.thread_pool(2)
+    return pool is not None, pool.submit(lambda: 7).result(timeout=5)
