@@ -77,12 +77,18 @@ POINTS_PER_POLE = 6
 """Real equations per basis function in the least-squares fit (``k · 6 / 2`` frequencies)."""
 
 
+GRAM_COND_MAX = 10.0
+"""Largest condition number of the weighted basis matrix for which the fit is solved by
+its normal equations (error ``≤ GRAM_COND_MAX² ε`` relative); the sampled orthonormal
+basis has a condition number close to 1."""
+
+
 class _Basis:
     """The orthonormal basis of one pole set and its least-squares factorisation.
 
     Everything in the fit that depends on the poles only (module Notes, steps 1–2): the
     pair ``(Λ, h)``, the sample frequencies and weights, the weighted basis matrix and
-    its SVD.  Rows of a bank whose quotients share their eigenvalues (a sensor bank whose
+    its factorisation.  Rows of a bank whose quotients share their eigenvalues (a sensor bank whose
     quotients are the plant in rotated coordinates) share one (:func:`_basis`).
     """
 
@@ -91,6 +97,7 @@ class _Basis:
         self.Lam, self.h = output_normal_basis(poles, dt)
         self._look: np.ndarray | None = None
         self._fit: tuple[np.ndarray, ...] | None = None
+        self._chol: tuple[np.ndarray, bool] | None = None
 
     @property
     def look(self) -> np.ndarray:
@@ -102,32 +109,39 @@ class _Basis:
 
     @property
     def fit(self) -> tuple[np.ndarray, ...]:
-        """``(pts, wts, Ar, Q, R, s)``: the samples, weights, the real weighted basis
-        matrix ``Ar``, its thin QR factorisation ``Ar = Q R`` and the singular values of
-        ``R`` (those of ``Ar``)."""
+        """``(pts, wts, Ar, s)``: the samples, weights, the real weighted basis matrix
+        ``Ar`` and its singular values (from the Gram matrix ``Arᵀ Ar``, factored once by
+        Cholesky when ``Ar`` is within :data:`GRAM_COND_MAX` of orthonormal columns)."""
         if self._fit is None:
             pts, wts = phase_frequencies(self.poles, self.dt, POINTS_PER_POLE)
             Phi = output_normal_rows(self.poles, self.dt, pts) * wts[:, None]
             Ar = np.vstack([Phi.real, Phi.imag])
-            Q, R = np.linalg.qr(Ar)
-            sv = scipy.linalg.svdvals(R, check_finite=False)
-            self._fit = (pts, wts, Ar, Q, R, sv)
+            G = Ar.T @ Ar
+            lam = np.linalg.eigvalsh(G)[::-1]
+            sv = np.sqrt(np.maximum(lam, 0.0))
+            self._chol = None
+            if sv.size and sv[-1] > 0 and sv[0] <= GRAM_COND_MAX * sv[-1]:
+                self._chol = scipy.linalg.cho_factor(G, check_finite=False)
+            self._fit = (pts, wts, Ar, sv)
         return self._fit
 
     def solve(self, Yr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Least-squares ``Ar B = Yr`` and the singular values of ``Ar``: the minimum-norm
         solution with singular values at or below ``ε max(rows, cols) σ_1`` dropped (the
-        cut-off of ``numpy.linalg.lstsq`` with ``rcond=None``).  When none is dropped (the
-        basis is orthonormal on the samples: ``Ar`` is well conditioned) that is
-        ``R⁻¹ Qᵀ Yr``; otherwise it is taken from the SVD ``R = U Σ Vᵀ``."""
-        _, _, Ar, Q, R, sv = self.fit
+        cut-off of ``numpy.linalg.lstsq`` with ``rcond=None``).
+
+        The basis is orthonormal on the samples (``Arᵀ Ar ≈ I``, the discretised inner
+        product of module Notes, step 2): no singular value is cut and the normal
+        equations ``Arᵀ Ar B = Arᵀ Yr``, solved by Cholesky, are as accurate as a QR
+        factorisation (their error grows as ``cond(Ar)² ε`` against ``cond(Ar) ε``;
+        ``cond(Ar) ≤ GRAM_COND_MAX``).  Otherwise B is taken from the SVD of ``Ar``."""
+        _, _, Ar, sv = self.fit
+        if self._chol is not None:
+            return scipy.linalg.cho_solve(self._chol, Ar.T @ Yr, check_finite=False), sv
         cut = np.finfo(float).eps * max(Ar.shape) * (sv[0] if sv.size else 0.0)
-        r = int(np.count_nonzero(sv > cut))
-        QtY = Q.T @ Yr
-        if r == R.shape[1]:
-            return scipy.linalg.solve_triangular(R, QtY, check_finite=False), sv
-        U, sv, Vt = np.linalg.svd(R)
-        return Vt[:r].T @ ((U[:, :r].T @ QtY) / sv[:r, None]), sv
+        U, s, Vt = np.linalg.svd(Ar, full_matrices=False)
+        r = int(np.count_nonzero(s > cut))
+        return Vt[:r].T @ ((U[:, :r].T @ Yr) / s[:r, None]), s
 
 
 _BASES: dict[tuple[bytes, float], _Basis] = {}
