@@ -219,3 +219,23 @@ def test_chain_rows_of_high_least_order_are_delivered_at_it():
     assert leak_angle(g, p.A, p.B, p.C, p.D, p.B, p.D, True, 0.0, boundary=True) < 1e-9
     for j in (1, 2, 3):
         assert leak_angle(g, p.A, p.B, p.C, p.D, *sigs[j], False, 0.0, boundary=True) > 1e-7
+
+
+def test_basis_fit_by_normal_equations_is_the_least_squares_solution():
+    # the fit of a sampled orthonormal basis by its Gram matrix (Cholesky) and, with the
+    # factor withheld, by the SVD: both the least-squares solution of numpy's lstsq
+    from geomfdi.synthesis.least_order.orthonormal_row import _Basis
+
+    om = 2 * np.sin(np.arange(1, 21) * np.pi / 41)
+    poles = np.concatenate([-0.05 + 1j * om, -0.05 - 1j * om, [-0.3]])
+    b = _Basis(poles, 0.0)
+    _, _, Ar, sv = b.fit
+    assert b._chol is not None and sv[0] / sv[-1] < 1.5
+    Yr = np.random.default_rng(2).standard_normal((Ar.shape[0], 3))
+    ref = np.linalg.lstsq(Ar, Yr, rcond=None)[0]
+    got, _ = b.solve(Yr)
+    assert np.allclose(got, ref, rtol=1e-12, atol=1e-12)
+    b._chol = None  # as for an ill-conditioned basis
+    got2, s2 = b.solve(Yr)
+    assert np.allclose(got2, ref, rtol=1e-12, atol=1e-12)
+    assert np.allclose(s2, sv, rtol=1e-12)
