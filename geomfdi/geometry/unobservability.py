@@ -133,6 +133,7 @@ def min_unobservability_subspace(
         nv = ny = 0
         R = np.zeros((n, 0))
         WbT, AT = Wb.T, A.T
+        axes = _axes(Wb)
         new, noise = _extend(Vb[:, :0], C.T, nC, "Im Cᵀ (Ker C)", 0.0)
         history = [n]
         for _ in range(n + 1):
@@ -140,7 +141,7 @@ def min_unobservability_subspace(
                 # one new direction (the common step): the operations of split_kernel,
                 # _project_out and _extend inlined, in the same order (same bits)
                 ny, nv, R, new, noise = _one_step(
-                    Vb, Yb, nv, ny, R, new, Wb, WbT, AT, nA, noise, history
+                    Vb, Yb, nv, ny, R, new, Wb, WbT, AT, nA, noise, history, axes
                 )
                 if new is None:
                     break
@@ -186,6 +187,7 @@ def _one_step(
     nA: float,
     noise: float,
     history: list[int],
+    axes: tuple[np.ndarray, np.ndarray] | None,
 ) -> tuple[int, int, np.ndarray, np.ndarray | None, float]:
     """One step of the dual recursion of :func:`min_unobservability_subspace` with one new
     direction of V: :func:`geomfdi.geometry.subspace.split_kernel` of ``[R, new]``
@@ -194,11 +196,15 @@ def _one_step(
     written out (the same operations in the same order, hence the same rank decisions and
     bases bit for bit, without the per-call checks and dispatch of the general
     functions).  Returns ``(ny, nv, R, new, noise)``; ``new`` is None when Y stopped
-    growing."""
+    growing.  ``axes``: W*'s basis is made of signed coordinate axes (:func:`_axes`), so
+    that ``W*ᵀ X`` is a selection of rows and the projection off W* zeroes them, exactly
+    as the products do."""
     n = Vb.shape[0]
     X = np.concatenate((R, new), axis=1)
     k = X.shape[1]
-    s, Vt = _svd_vt(WbT @ X)
+    # + 0.0: a product has no negative zero (its sums start at +0)
+    MX = WbT @ X if axes is None else X[axes[0]] * axes[1][:, None] + 0.0
+    s, Vt = _svd_vt(MX)
     r = rank_decision(s, 1.0, max(WbT.shape[0], k), what=_SPLIT).rank
     Y_new, R = X @ Vt[r:].T, X @ Vt[:r].T
     Vb[:, nv : nv + 1] = new
@@ -213,8 +219,11 @@ def _one_step(
             return ny, nv, R, None, noise
         new, noise = _extend(Vb[:, :nv], AT @ Y_new, nA, _STEP, noise)
         return ny, nv, R, new, noise
-    Y_new = Y_new - Wb @ (WbT @ Y_new)
-    Y_new = Y_new - Wb @ (WbT @ Y_new)
+    if axes is None:
+        Y_new = Y_new - Wb @ (WbT @ Y_new)
+        Y_new = Y_new - Wb @ (WbT @ Y_new)
+    else:
+        Y_new[axes[0]] = 0.0
     y = Y_new.ravel()
     Y_new = Y_new / max(float(np.sqrt(y.dot(y))), 1e-300)
     Yb[:, ny : ny + 1] = Y_new
@@ -230,6 +239,20 @@ def _one_step(
     if r:
         return ny, nv, R, P / (nP if nP > 0 else 1.0), extraction_noise(nP, nA)
     return ny, nv, R, P[:, :0], 0.0
+
+
+def _axes(W: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(rows, signs)`` when every column of the orthonormal W is a signed coordinate
+    axis (``W[:, j] = ± e_{rows[j]}``, e.g. W* of decoupled feedthrough made states),
+    else None."""
+    if not W.shape[1]:
+        return None
+    rows = np.argmax(np.abs(W), axis=0)
+    cols = np.arange(W.shape[1])
+    signs = W[rows, cols]
+    if not np.all(np.abs(signs) == 1.0) or np.count_nonzero(W) != W.shape[1]:
+        return None
+    return rows, signs.copy()
 
 
 def _project_out(Y: np.ndarray, W: np.ndarray) -> np.ndarray:
