@@ -350,13 +350,15 @@ def _finish(
     g.info["fault_gain"] = gains
     g.info["markov_gain"] = _first_markov(g, plant, *sigs[target[0]])
     g.info["dc_gain"] = dc
-    both = comp.angle_gains([sigs[j] + (False,) for j in (*decouple, *target)])
-    ang, tang = both[: len(decouple)], both[len(decouple) :]
-    g.info["target_angle"] = dict(zip(target, tang.tolist(), strict=True))
-    leaks = [j for j, a in zip(decouple, ang, strict=True) if a > ANGLE_TOL]
     chans = [(plant.B, plant.D, True)] if plant.m else []
     chans += [(plant.Bd, plant.Dd, False)] if plant.nd else []
-    inp = float(np.max(comp.angle_gains(chans))) if chans else 0.0
+    # the faults and the inputs in one evaluation (each channel's angle is its own)
+    nd, nt = len(decouple), len(target)
+    every = comp.angle_gains([sigs[j] + (False,) for j in (*decouple, *target)] + chans)
+    ang, tang = every[:nd], every[nd : nd + nt]
+    g.info["target_angle"] = dict(zip(target, tang.tolist(), strict=True))
+    leaks = [j for j, a in zip(decouple, ang, strict=True) if a > ANGLE_TOL]
+    inp = float(np.max(every[nd + nt :])) if chans else 0.0
     g.info["leak_angle"] = max(float(np.max(ang, initial=0.0)), inp)
     if leaks or inp > ANGLE_TOL:
         raise _NumericalDesignError(
