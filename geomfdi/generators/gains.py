@@ -470,10 +470,16 @@ class Composite:
         nX2 = np.zeros((P, edges[-1]))
         nz = np.flatnonzero(np.any(UB != 0, axis=0))  # state-side columns
         if nz.size:
-            shared = np.concatenate([self.factor.boundary_response(c[0]) for c in channels], 2)
-            X = np.concatenate([self.factor.solve(pts[:own], UB[:, nz]), shared[:, :, nz]])
+            # the plant's shared responses of the state-side columns only (a sensor
+            # fault's are zero)
+            shared = []
+            for c, ch in enumerate(channels):
+                cols = nz[(nz >= edges[c]) & (nz < edges[c + 1])] - edges[c]
+                if cols.size:
+                    shared.append(self.factor.boundary_response(ch[0])[:, :, cols])
+            X = np.concatenate([self.factor.solve(pts[:own], UB[:, nz]), *shared], axis=0)
             Y[:, :, nz] += self.CUA @ X
-            nX2[:, nz] = np.sum(np.abs(X) ** 2, axis=1)
+            nX2[:, nz] = _abs2_sum(X)
         U = np.zeros((m, edges[-1]))
         for c, ch in enumerate(channels):
             if ch[2]:
@@ -484,10 +490,10 @@ class Composite:
         def per_channel(sq: np.ndarray) -> np.ndarray:  # (P, columns) → (P, channels)
             return np.sqrt(np.add.reduceat(sq, edges[:-1], axis=1))
 
-        nY = per_channel(np.sum(np.abs(Y) ** 2, axis=1))
+        nY = per_channel(_abs2_sum(Y))
         nXc = per_channel(nX2)
-        nV = per_channel(np.sum(np.abs(V) ** 2, axis=1))
-        nQV = per_channel(np.sum(np.abs(QV) ** 2, axis=1))
+        nV = per_channel(_abs2_sum(V))
+        nQV = per_channel(_abs2_sum(QV))
         nQ = (
             np.linalg.norm(Qall, ord=2, axis=(1, 2))
             if Qall.shape[1] > 1
@@ -497,7 +503,7 @@ class Composite:
         for c, ch in enumerate(channels):
             w, blk = widths[c], slice(edges[c], edges[c + 1])
             if w > 1:  # spectral norms of the channel's block (Frobenius above)
-                nV[:, c] = np.linalg.norm(V[:, :, blk], ord=2, axis=(1, 2))
+                nV[:, c] = _spectral_norms(V[:, :, blk])
                 if Qall.shape[1] > 1:
                     nQV[:, c] = np.linalg.norm(QV[:, :, blk], ord=2, axis=(1, 2))
             # a channel whose response in y is rounding of a cancellation (a fault direction
@@ -756,6 +762,23 @@ class Composite:
         num = _norm2(comp["Cc"] @ V) * _norm2(Bc) if V.size else 0.0
         nC = comp["nC"]
         return max(num / (nC * b + 1e-300), _norm2(Dc) / (d + nC * b + 1e-300))
+
+
+def _abs2_sum(X: np.ndarray) -> np.ndarray:
+    """``Σ_i |X[p, i, j]|²`` of a complex ``(P, n, c)`` array, shape ``(P, c)``, on its real
+    and imaginary parts (no complex modulus)."""
+    Xf = np.ascontiguousarray(X).view(np.float64)
+    s = np.einsum("pij,pij->pj", Xf, Xf)
+    return s[:, 0::2] + s[:, 1::2]
+
+
+def _spectral_norms(X: np.ndarray) -> np.ndarray:
+    """``‖X[p]‖₂`` of a stack of ``(r, w)`` complex matrices (a channel of w columns): the
+    square root of the largest eigenvalue of the ``w × w`` Gram matrices (the largest
+    singular value is perfectly conditioned in them)."""
+    G = np.conj(np.swapaxes(X, 1, 2)) @ X
+    lam = np.linalg.eigvalsh(G)[:, -1]
+    return np.sqrt(np.maximum(lam, 0.0))
 
 
 def _block_eigenvalues(F: np.ndarray, starts: np.ndarray) -> np.ndarray:
