@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import scipy.linalg.blas
 
 from geomfdi.geometry.subspace import Subspace, _norm2, pinv
 from geomfdi.geometry.unobservability import min_unobservability_subspace
@@ -168,10 +169,10 @@ def _schur_from_plant(
     ``A U_2 = U_1 T_12 + U_2 T_22`` and ``P U_1 = 0`` (Golub & Van Loan 2013, §7.6.2).
     The form is accepted only when it is one to working accuracy: ``P Pᵀ = I``,
     ``‖P U_1‖ ≤ SCHUR_REUSE_TOL · k ε`` (W unitary) and
-    ``‖Wᴴ A0 W − T0‖_F ≤ SCHUR_REUSE_TOL · k ε ‖A0‖_F`` (the backward error of the QR
-    algorithm itself, Golub & Van Loan 2013, §7.5.6).  ``O(k³)`` products and a reordering
-    instead of the QR algorithm; the rows of a bank on one plant share the entries of T,
-    hence their eigenvalues bit for bit.
+    ``‖A0 W − W T0‖_F = ‖Wᴴ A0 W − T0‖_F ≤ SCHUR_REUSE_TOL · k ε ‖A0‖_F`` (the backward
+    error of the QR algorithm itself, Golub & Van Loan 2013, §7.5.6).  ``O(k³)`` products
+    and a reordering instead of the QR algorithm; the rows of a bank on one plant share
+    the entries of T, hence their eigenvalues bit for bit.
     """
     if TU is None or not A0.size:
         return None
@@ -191,7 +192,9 @@ def _schur_from_plant(
             return None
         T, U = TU
     W = _real_times(P, U)
-    err = float(np.linalg.norm(W.conj().T @ _real_times(A0, W) - T))
+    # ‖Wᴴ A0 W − T‖ = ‖A0 W − W T‖ for a unitary W; W T by a triangular product
+    WT = scipy.linalg.blas.ztrmm(1.0, np.asfortranarray(T), W, side=1)
+    err = float(np.linalg.norm(_real_times(A0, W) - WT))
     if not err <= tol * float(np.linalg.norm(A0)):
         return None
     return T, W
