@@ -250,10 +250,12 @@ def rank_decision(
     """
     s = np.asarray(s, dtype=float)
     scale = float(scale) if scale > 0 else 1.0
-    tol = max(get_rtol(n), float(noise)) * scale
+    local = _LOCAL_RTOL.get()  # get_rtol(n), inlined: one call per step of a recursion
+    rtol = _GLOBAL_RTOL if isinstance(local, _Unset) else local
+    tol = max(rtol if rtol is not None else 1e3 * max(int(n), 1) * _EPS, float(noise)) * scale
     if s.size <= 16:  # the few values of a recursion step: plain floats, no array calls
         sv = s.ravel().tolist()
-        rank = sum(v > tol for v in sv)
+        rank = len([v for v in sv if v > tol])
     else:
         sv = s
         rank = int(np.count_nonzero(s > tol))

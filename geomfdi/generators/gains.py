@@ -477,7 +477,9 @@ class Composite:
                 cols = nz[(nz >= edges[c]) & (nz < edges[c + 1])] - edges[c]
                 if cols.size:
                     shared.append(self.factor.boundary_response(ch[0])[:, :, cols])
-            X = np.concatenate([self.factor.solve(pts[:own], UB[:, nz]), *shared], axis=0)
+            X = np.concatenate(
+                [self.factor.solve(pts[:own], UB[:, nz]), np.concatenate(shared, axis=2)]
+            )
             Y[:, :, nz] += self.CUA @ X
             nX2[:, nz] = _abs2_sum(X)
         U = np.zeros((m, edges[-1]))
