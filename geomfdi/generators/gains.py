@@ -88,8 +88,10 @@ def _tri_solve_many(T: np.ndarray, pts: np.ndarray, X: np.ndarray) -> np.ndarray
             R = np.broadcast_to(X[a:b, None, :], (b - a, m, c)).reshape(b - a, m * c)
             R = R + T[a:b, b:] @ Y[b:] if b < n else R.astype(complex)
             Y[b - 1] = R[b - 1 - a] * W[b - 1]
-            for i in range(b - 2, a - 1, -1):
-                Y[i] = (R[i - a] + T[i, i + 1 : b] @ Y[i + 1 : b]) * W[i]
+            for i in range(b - 2, a - 1, -1):  # Y[i] = (R[i − a] + T[i, i+1:b] Y[i+1:b]) W[i]
+                acc = T[i, i + 1 : b] @ Y[i + 1 : b]
+                acc += R[i - a]
+                np.multiply(acc, W[i], out=Y[i])
         out[a0 : a0 + step] = Y.reshape(n, m, c).transpose(1, 0, 2)
     return out
 
