@@ -81,7 +81,8 @@ def _tri_solve_many(T: np.ndarray, pts: np.ndarray, X: np.ndarray) -> np.ndarray
     for a0 in range(0, P, step):
         s = pts[a0 : a0 + step]
         m = s.size
-        W = np.repeat(1.0 / (s[None, :] - d[:, None]), c, axis=1)  # 1/(s − t_ii), (n, m c)
+        W = 1.0 / (s[None, :] - d[:, None])  # 1/(s − t_ii), (n, m c)
+        W = np.repeat(W, c, axis=1) if c > 1 else W
         Y = np.empty((n, m * c), dtype=complex)
         for b in range(n, 0, -nb):
             a = max(0, b - nb)
@@ -208,17 +209,34 @@ _ON_MEMO = _Memo(4)
 """Resolvents of output-normal generators (:func:`_on_rows`, :func:`_on_column`)."""
 
 
-def _on_rows(F: np.ndarray, h: np.ndarray, starts: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """:func:`~geomfdi.generators.output_normal.rows_resolvent`, remembered by content."""
-    key = b"rows" + _digest(F, h, pts)
+def _on_key(F: np.ndarray, h: np.ndarray, starts: np.ndarray) -> bytes:
+    """Content key of an output-normal ``(F, h)`` (its structure verified exactly by
+    :func:`~geomfdi.generators.output_normal.output_normal_blocks`): F is fixed by h, its
+    block layout and its three central diagonals (every entry above the blocks is
+    ``−h_i h_j``), ``O(k)`` data to hash instead of ``O(k²)``."""
+    return _digest(h, starts, np.diagonal(F), np.diagonal(F, 1), np.diagonal(F, -1))
+
+
+def _on_rows(
+    F: np.ndarray, h: np.ndarray, starts: np.ndarray, pts: np.ndarray, fkey: bytes
+) -> np.ndarray:
+    """:func:`~geomfdi.generators.output_normal.rows_resolvent`, remembered by content
+    (``fkey``: :func:`_on_key` of ``(F, h)``)."""
+    key = b"rows" + fkey + _digest(pts)
     return _ON_MEMO.get(key, lambda: rows_resolvent(F, h, starts, pts))
 
 
 def _on_column(
-    F: np.ndarray, h: np.ndarray, starts: np.ndarray, pts: np.ndarray, w: np.ndarray
+    F: np.ndarray,
+    h: np.ndarray,
+    starts: np.ndarray,
+    pts: np.ndarray,
+    w: np.ndarray,
+    fkey: bytes,
 ) -> np.ndarray:
-    """:func:`~geomfdi.generators.output_normal.column_resolvent`, remembered by content."""
-    key = b"col" + _digest(F, h, pts, w)
+    """:func:`~geomfdi.generators.output_normal.column_resolvent`, remembered by content
+    (``fkey``: :func:`_on_key` of ``(F, h)``)."""
+    key = b"col" + fkey + _digest(pts, w)
     return _ON_MEMO.get(key, lambda: column_resolvent(F, h, starts, pts, w))
 
 
@@ -357,6 +375,7 @@ class Composite:
         if k:
             if self.on_blocks is not None:
                 eig.append(_block_eigenvalues(g.F, self.on_blocks))
+                self._fkey = _on_key(g.F, g.M[0], self.on_blocks)
             else:
                 self._factor_F()
                 eig.append(np.diag(self.TF))
@@ -551,7 +570,9 @@ class Composite:
             first = False
             if self.on_blocks is not None:  # in F's own coordinates, O(k) per point
                 g = self.g
-                rf = np.linalg.norm(_on_column(g.F, g.M[0], self.on_blocks, s, self.vf), axis=1)
+                rf = np.linalg.norm(
+                    _on_column(g.F, g.M[0], self.on_blocks, s, self.vf, self._fkey), axis=1
+                )
             elif self.k:
                 rf = np.linalg.norm(_tri_solve_many(self.TF, s, self.UFvf[:, None]), axis=(1, 2))
             else:
@@ -615,7 +636,7 @@ class Composite:
         if not self.k:
             out = np.broadcast_to(D, (pts.size, *D.shape)).copy()
         elif self.on_blocks is not None:  # M (sI − F)⁻¹ in O(k) per point
-            rows = _on_rows(g.F, g.M[0], self.on_blocks, pts)
+            rows = _on_rows(g.F, g.M[0], self.on_blocks, pts, self._fkey)
             out = D[None, :, :] + (rows @ np.hstack([-g.E, g.G]))[:, None, :]
         elif self.MUF.shape[0] < self.UFEG.shape[1]:
             out = D[None, :, :] + _tri_solve_rows_many(self.TF, pts, self.MUF) @ self.UFEG
