@@ -67,7 +67,7 @@ def _norm2(M: np.ndarray) -> float:
     if M.size < _NORM_MEMO_MIN:
         return float(np.linalg.norm(M, 2)) if M.size else 0.0
     C = np.ascontiguousarray(M)
-    key = (C.shape, C.dtype.str, hashlib.blake2b(C.data, digest_size=16).digest())
+    key = (C.shape, C.dtype.str, hashlib.sha1(C.data, usedforsecurity=False).digest())
     val = _NORM_MEMO.get(key)
     if val is None:
         val = float(np.linalg.norm(C, 2))
