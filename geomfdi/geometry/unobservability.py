@@ -160,7 +160,9 @@ def min_unobservability_subspace(
         Y = Yb[:, :ny].copy()
     # S* = Y^⊥: the last columns of the complete Householder QR of Y (Y orthonormal: its
     # complement needs no SVD, whose full left factor costs several times the QR's)
-    if ny:
+    if ny and ny + Wb.shape[1] == n:  # Y = W*^⊥ (Y ⊥ W* by construction): S* = W*
+        Z = Subspace.from_orthonormal(Wb)
+    elif ny:
         Qf = np.linalg.qr(Y, mode="complete")[0]
         Z = Subspace.from_orthonormal(np.ascontiguousarray(Qf[:, ny:]))
     else:
