@@ -6,9 +6,10 @@ This layer holds :class:`ResidualGenerator` and :class:`ResidualBank`
 (:mod:`~geomfdi.generators.bankfile`), sampling a continuous bank
 (:mod:`~geomfdi.generators.discretize`), minimal realisations
 (:mod:`~geomfdi.generators.realization`), the transfer gains of a generator on the
-physical plant (:mod:`~geomfdi.generators.gains`) and the system norms (H∞ norm, H₋ index,
-peak-to-peak gain: :mod:`~geomfdi.generators.norms`, which both the approximate synthesis
-and the verification use).  It may import
+physical plant (:mod:`~geomfdi.generators.gains`, with the resolvents at many points it
+shares across a bank's rows in :mod:`~geomfdi.generators.resolvents`) and the system
+norms (H∞ norm, H₋ index, peak-to-peak gain: :mod:`~geomfdi.generators.norms`, which
+both the approximate synthesis and the verification use).  It may import
 :mod:`geomfdi.model`, :mod:`geomfdi.geometry` and the package's base modules
 (``errors``, ``tolerance``, ``_validation``), never :mod:`geomfdi.synthesis`; simulation,
 verification, evaluation, deployment and campaigns import the generator types from here,
