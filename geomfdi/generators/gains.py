@@ -544,10 +544,13 @@ class Composite:
             return np.zeros(0)
         widths = [Bf.shape[1] for Bf, _ in sigs]
         UB = self.UAh @ np.hstack([Bf for Bf, _ in sigs])
+        state = bool(np.any(UB))
         Dall = np.hstack([Df for _, Df in sigs])
 
         def T(s: complex) -> np.ndarray:
             Gy, _ = self.generator_tf(s)
+            if not state:  # sensor faults only: no plant state is driven
+                return Gy @ Dall
             return Gy @ (self.CUA @ self._solve_A(s, UB) + Dall)
 
         def split(X: np.ndarray) -> np.ndarray:
