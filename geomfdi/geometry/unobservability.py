@@ -13,6 +13,7 @@ fault j decoupled from L exists iff ``Im L_j ⊄ S*`` (``docs/theory/geometric-a
 
 from __future__ import annotations
 
+import math
 import warnings
 from typing import Any
 
@@ -31,6 +32,7 @@ from geomfdi.geometry.conditioned_invariant import (
     min_conditioned_invariant,
 )
 from geomfdi.geometry.subspace import (
+    _DGESDD,
     Subspace,
     _extend,
     _norm2,
@@ -134,6 +136,8 @@ def min_unobservability_subspace(
         R = np.zeros((n, 0))
         WbT, AT = Wb.T, A.T
         axes = _axes(Wb)
+        if axes is not None and bool(np.all(axes[1] > 0)):
+            axes = (axes[0], None)
         new, noise = _extend(Vb[:, :0], C.T, nC, "Im Cᵀ (Ker C)", 0.0)
         history = [n]
         for _ in range(n + 1):
@@ -189,7 +193,7 @@ def _one_step(
     nA: float,
     noise: float,
     history: list[int],
-    axes: tuple[np.ndarray, np.ndarray] | None,
+    axes: tuple[np.ndarray, np.ndarray | None] | None,
 ) -> tuple[int, int, np.ndarray, np.ndarray | None, float]:
     """One step of the dual recursion of :func:`min_unobservability_subspace` with one new
     direction of V: :func:`geomfdi.geometry.subspace.split_kernel` of ``[R, new]``
@@ -204,9 +208,14 @@ def _one_step(
     n = Vb.shape[0]
     X = np.concatenate((R, new), axis=1)
     k = X.shape[1]
-    # + 0.0: a product has no negative zero (its sums start at +0)
-    MX = WbT @ X if axes is None else X[axes[0]] * axes[1][:, None] + 0.0
-    s, Vt = _svd_vt(MX)
+    # + 0.0: a product has no negative zero (its sums start at +0); signs None: all +1
+    if axes is None:
+        MX = WbT @ X
+    else:
+        MX = X[axes[0]] + 0.0 if axes[1] is None else X[axes[0]] * axes[1][:, None] + 0.0
+    _, s, Vt, info = _DGESDD(MX, compute_uv=1, full_matrices=1)  # as _svd_vt, its input
+    if info or not math.isfinite(float(s.sum())):  # being finite by construction
+        s, Vt = _svd_vt(MX)
     r = rank_decision(s, 1.0, max(WbT.shape[0], k), what=_SPLIT).rank
     Y_new, R = X @ Vt[r:].T, X @ Vt[:r].T
     Vb[:, nv : nv + 1] = new
@@ -227,7 +236,7 @@ def _one_step(
     else:
         Y_new[axes[0]] = 0.0
     y = Y_new.ravel()
-    Y_new = Y_new / max(float(np.sqrt(y.dot(y))), 1e-300)
+    Y_new = Y_new / max(math.sqrt(y.dot(y)), 1e-300)  # the same correctly rounded root
     Yb[:, ny : ny + 1] = Y_new
     ny += 1
     history.append(n - ny)
@@ -236,7 +245,7 @@ def _one_step(
     P = P - B @ (B.T @ P)
     P = P - B @ (B.T @ P)
     p = P.ravel()
-    nP = float(np.sqrt(p.dot(p)))
+    nP = math.sqrt(p.dot(p))
     r = rank_decision(np.array([nP]), nA, n, what=_STEP, noise=noise).rank
     if r:
         return ny, nv, R, P / (nP if nP > 0 else 1.0), extraction_noise(nP, nA)
