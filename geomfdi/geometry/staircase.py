@@ -24,6 +24,7 @@ degree-ν parity space ``{v : [v_0 … v_ν] [C; CA; …; CA^ν] = 0}`` has dime
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -73,7 +74,14 @@ class Staircase:
     def parity_dim(self, nu: int) -> int:
         """Dimension of the degree-ν parity space: ``(ν + 1) q − Σ_{j ≤ ν+1} ρ_j``."""
         q = self.C.shape[0]
-        return (nu + 1) * q - int(sum(self.blocks[: nu + 1]))
+        if nu + 1 < 0:
+            return (nu + 1) * q - int(sum(self.blocks[: nu + 1]))
+        sums = self.__dict__.get("_sums")
+        if sums is None or sums[0] != self.blocks:  # Σ_{j ≤ i} ρ_j, once per staircase
+            sums = (list(self.blocks), [0, *itertools.accumulate(int(r) for r in self.blocks)])
+            self.__dict__["_sums"] = sums
+        acc = sums[1]
+        return (nu + 1) * q - acc[min(nu + 1, len(acc) - 1)]
 
     @property
     def max_index(self) -> int:
