@@ -138,9 +138,18 @@ def test_orthogonal_recursions_match_the_textbook_recursions(seed):
         # near-degenerate Krylov sequence as a real one: there both recursions can miss
         # the exact dimension (differently), so only clear-cut cases are compared
         return
-    assert W.dim == Wt.dim and W == Wt
-    assert S.dim == St.dim and S == St
+    # same dimensions; the subspaces equal to the textbook's accuracy: its preimages of a
+    # singular A lose digits (2.4e-12 rad on seed 2236, beyond the default inclusion
+    # tolerance), so the angle is compared with 1e-9 rather than by ``==``
+    assert W.dim == Wt.dim and max(W.angles(Wt), default=0.0) <= 1e-9
+    assert S.dim == St.dim and max(S.angles(St), default=0.0) <= 1e-9
     assert np.allclose(S.basis.T @ S.basis, np.eye(S.dim), atol=1e-12)
+
+
+def test_recursions_agree_where_the_textbook_preimage_loses_digits():
+    """Seed 2236: A singular (σ_min = 0), S* of dimension 3 from both recursions, the
+    textbook's 2.4e-12 rad away from the orthogonal one."""
+    test_orthogonal_recursions_match_the_textbook_recursions.hypothesis.inner_test(2236)
 
 
 @pytest.mark.slow
