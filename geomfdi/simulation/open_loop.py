@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from geomfdi.simulation.compiled_recursion import bank_recursion
+from geomfdi.simulation.compiled_single import run_recursion
 from geomfdi.simulation.context import Context, Piece
 from geomfdi.simulation.initial_state import (
     EXACT_TOL,
@@ -28,7 +28,7 @@ from geomfdi.simulation.initial_state import (
     joint_sylvester,
     start_error,
 )
-from geomfdi.simulation.lifting import Drive, _digest, block_recursion
+from geomfdi.simulation.lifting import Drive, _digest
 from geomfdi.simulation.profiles import fault_profiles, profile_groups
 from geomfdi.simulation.signals import (
     BiasFault,
@@ -292,9 +292,10 @@ class OpenLoopEngine:
         dX = [Drive(e), Drive(e, 1)] if foh else [Drive(e)]
         # the state only; the readings and inputs from it by two plain products (cheaper
         # than lifting them: fewer lifted outputs per state)
-        ((X,),) = block_recursion(
-            [self.dis.Ad], self.WX, dX, self.x, [[np.eye(n)]], L, key=("plant", self.key)
-        )
+        ((X,),) = run_recursion(
+            [self.dis.Ad], self.WX, dX, self.x, [[np.eye(n)]], L, key=("plant", self.key),
+            batch=False,
+        )  # fmt: skip
         y0c = _affine(self.Cy0, X, self.Dy0, e)
         u = _affine(self.Cu, X, self.Du, e)
         self.x = np.ascontiguousarray(X[:, :, -1])
@@ -355,8 +356,9 @@ class OpenLoopEngine:
         for k, g in gens:
             view = rows[:, k : k + 1].transpose(1, 0, 2) if g.n_outputs == 1 else None
             dests.append([view, None] if ctx.keep_states else [view])
-        # many runs: the compiled kernel (SIMD over the runs), else the numpy recursion
-        res, self.w = bank_recursion(
+        # compiled kernels: one run vectorised over the states, many runs over the runs
+        # (geomfdi.simulation.compiled_single, compiled_recursion), else numpy
+        res, self.w = run_recursion(
             self.Fd,
             self.W_all,
             drives,
