@@ -259,10 +259,11 @@ static inline void gfs_store(double *p, gfs_v4 v) { __builtin_memcpy(p, &v, size
 #define GFS_VEC 1
 #endif
 
-static double gfsim_dot(const double *c, const double *x, int64_t n)
+static inline double gfsim_dot(const double *c, const double *x, int64_t n)
 {
     int64_t i = 0;
     double s;
+    if (n == 1) return c[0] * x[0];
 #ifdef GFS_VEC
     if (n >= 4) {
         gfs_v4 a = gfs_load(c) * gfs_load(x);

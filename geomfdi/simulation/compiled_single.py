@@ -32,6 +32,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from scipy.linalg.blas import dgemm as _dgemm
 
 from geomfdi.errors import ShapeError
 from geomfdi.simulation.compiled_recursion import (
@@ -401,6 +402,7 @@ def _single(
     # destinations: one kernel channel per output row
     res: list[list[np.ndarray]] = []
     optr, ots = [], []
+    views: list[np.ndarray] = []  # (p_j, N) of every output
     for b, outs in enumerate(outputs):
         res.append([])
         for j, Cm in enumerate(outs):
@@ -413,6 +415,7 @@ def _single(
                     argument="out",
                 )
             res[b].append(dest)
+            views.append(dest[:, 0, :])
             base, s0 = _address(dest), dest.strides[0]
             optr += [base + r * s0 for r in range(Cm.shape[0])]
             ots += [dest.strides[2] // 8] * Cm.shape[0]
@@ -420,8 +423,6 @@ def _single(
     if N == 0:
         return (res, np.array(x0v[:, None])) if final else res
     arrs = [d.arr if _usable(d.arr) else np.ascontiguousarray(d.arr, dtype=float) for d in drives]
-    # feedthrough of every output row: D direct, and C V1 d of the folded drives
-    ys = _feedthrough(direct, st, arrs, N)
     z = st.Tin @ x0v
     for i, V1, _ in st.folds:
         z -= V1 @ arrs[i][:, 0, 0]
@@ -463,14 +464,16 @@ def _single(
         st.sptr.ctypes.data,
         st.seg.ctypes.data,
         st.coef.ctypes.data,
-        None if ys is None else ys.ctypes.data,
-        0 if ys is None else ys.shape[1],
+        None,
+        0,
         och.ctypes.data,
         z.ctypes.data,
     )
-    del arrs, scales  # alive until the kernel has returned
+    del scales  # alive until the kernel has returned
     if status != 0:
         raise MemoryError("the single-run recursion could not allocate its work arrays")
+    # then the feedthrough of every output row: D direct, and C V1 d of the folded drives
+    _add_feedthrough(direct, st, drives, arrs, N, _groups(views))
     if not final:
         return res
     for i, V1, _ in st.folds:
@@ -478,48 +481,112 @@ def _single(
     return res, (st.Tout @ z)[:, None]
 
 
-_DALL: dict[int, tuple[Any, list[int], list[tuple[np.ndarray, bool]]]] = {}
+_DALL: dict[int, tuple[Any, Any, list[tuple[np.ndarray, bool]]]] = {}
 
 
-def _feedthrough(direct: Any, st: _Setup, arrs: list[np.ndarray], N: int) -> np.ndarray | None:
-    """``(p, N)``: ``D direct`` of every output row plus ``C V1 d`` of the folded drives
-    (``None``: none), one matrix product per signal."""
-    ys = None
+def _groups(views: list[np.ndarray]) -> list[tuple[int, np.ndarray]]:
+    """Output views (p_j, N) merged where they are consecutive rows of one array:
+    ``(first output row, (p, N) view)`` (one product per group and signal)."""
+    out: list[tuple[int, np.ndarray]] = []
+    row = 0
+    for v in views:
+        p_j = v.shape[0]
+        if out:
+            r0, g = out[-1]
+            if (
+                g.strides == v.strides
+                and _address(v) == _address(g) + g.shape[0] * g.strides[0]
+            ):
+                merged = np.lib.stride_tricks.as_strided(
+                    g, (g.shape[0] + p_j, g.shape[1]), g.strides, writeable=True
+                )
+                out[-1] = (r0, merged)
+                row += p_j
+                continue
+        out.append((row, v))
+        row += p_j
+    return out
+
+
+def _accumulate(D: np.ndarray, S: np.ndarray, Y: np.ndarray) -> None:
+    """``Y += D S`` in place: one BLAS product with ``beta = 1`` on row-major ``Y`` and
+    ``S`` (no temporary of ``Y``'s size, whose fresh pages cost more than the product),
+    else with numpy."""
+    if (
+        Y.shape[1] > 0
+        and Y.strides == (8 * Y.shape[1], 8)
+        and S.strides == (8 * S.shape[1], 8)
+        and Y.flags.writeable
+    ):
+        r = _dgemm(1.0, S.T, D.T, beta=1.0, c=Y.T, overwrite_c=1)
+        if not np.may_share_memory(r, Y):  # the wrapper worked on a copy
+            Y[...] = r.T
+        return
+    Y += D @ S
+
+
+def _add_feedthrough(
+    direct: Any,
+    st: _Setup,
+    drives: list[Drive],
+    arrs: list[np.ndarray],
+    N: int,
+    groups: list[tuple[int, np.ndarray]],
+) -> None:
+    """Add ``D direct`` of every output row and ``C V1 d`` of the folded drives to the
+    outputs, one product per signal and group of outputs (a folded drive that is also a
+    feedthrough signal adds its ``C V1`` to that signal's matrix)."""
+    sigs: list[np.ndarray] = []
+    dmats: Any = None
     if direct is not None:
-        dsig, dmats = direct
-        Dall = _stacked(st, dmats, [a.shape[0] for a in dsig])
-        c0 = 0
-        for a, (Di, used) in zip(dsig, Dall, strict=True):
-            if used:
-                a2 = a[:, 0, :N]
-                ys = Di @ a2 if ys is None else np.add(ys, Di @ a2, out=ys)
-            c0 += a.shape[0]
-    for i, _, CV1 in st.folds:
-        if np.any(CV1):
-            term = CV1 @ arrs[i][:, 0, :N]
-            ys = term if ys is None else np.add(ys, term, out=ys)
-    return None if ys is None else np.ascontiguousarray(ys)
+        sigs, dmats = list(direct[0]), direct[1]
+    merged = {}
+    for f, (i, _, _) in enumerate(st.folds):
+        j = next((j for j, a in enumerate(sigs) if a is drives[i].arr), None)
+        if j is not None:
+            merged[f] = j
+    parts = _stacked(st, dmats, [a.shape[0] for a in sigs], merged)
+    for f, (i, _, _) in enumerate(st.folds):
+        if f not in merged:
+            sigs.append(arrs[i])
+    for a, (Di, used) in zip(sigs, parts, strict=True):
+        if used:
+            S = a[:, 0, :N]
+            if S.dtype != np.float64 or S.strides != (8 * N, 8):
+                S = np.ascontiguousarray(S, dtype=float)
+            for r0, Y in groups:
+                _accumulate(Di[r0 : r0 + Y.shape[0]], S, Y)
 
 
-def _stacked(st: _Setup, dmats: Any, widths: list[int]) -> list[tuple[np.ndarray, bool]]:
-    """The feedthrough matrices of every output row, split by signal: ``(D_i, nonzero)``
-    (kept while the same matrices come again: a record simulated chunk by chunk)."""
+def _stacked(
+    st: _Setup, dmats: Any, widths: list[int], merged: dict[int, int]
+) -> list[tuple[np.ndarray, bool]]:
+    """The feedthrough matrices of every output row, one per signal: ``(D_i, nonzero)``
+    for the signals of ``dmats`` (``C V1`` of the folds ``merged`` into them added),
+    then ``C V1`` of the other folds (kept while the same matrices come again)."""
+    mkey = (tuple(widths), tuple(sorted(merged.items())))
     hit = _DALL.get(id(st))
-    if hit is not None and hit[0] is dmats and hit[1] == widths:
+    if hit is not None and hit[0] is dmats and hit[1] == mkey:
         return hit[2]
     nd = int(sum(widths))
+    p = int(sum(sum(ps) for ps in st.out_rows))
     rows = [
         np.zeros((p_j, nd)) if Dm is None else np.asarray(Dm, dtype=float)
-        for ms, ps in zip(dmats, st.out_rows, strict=True)
+        for ms, ps in zip(dmats or [], st.out_rows, strict=False)
         for Dm, p_j in zip(ms, ps, strict=True)
     ]
-    Dall = np.vstack(rows) if rows else np.zeros((0, nd))
+    Dall = np.vstack(rows) if rows else np.zeros((p, nd))
     parts, c0 = [], 0
     for w in widths:
-        Di = np.ascontiguousarray(Dall[:, c0 : c0 + w])
-        parts.append((Di, bool(w and np.any(Di))))
+        parts.append(np.array(Dall[:, c0 : c0 + w]))
         c0 += w
+    for f, (_, _, CV1) in enumerate(st.folds):
+        if f in merged:
+            parts[merged[f]] = parts[merged[f]] + CV1
+        else:
+            parts.append(CV1)
+    out = [(np.ascontiguousarray(D), bool(D.size and np.any(D))) for D in parts]
     if len(_DALL) >= _SETUP_ENTRIES:
         _DALL.clear()
-    _DALL[id(st)] = (dmats, widths, parts)
-    return parts
+    _DALL[id(st)] = (dmats, mkey, out)
+    return out

@@ -151,6 +151,7 @@ class OpenLoopEngine:
         self.W_all = setup["W_all"]
         self.Fd = setup["Fd"]
         self.outs, self.dmats = setup["outs"], setup["dmats"]
+        self.setup = setup
         ctx.info["channels"] = chan
         ctx.info["plant_state_decoupled"] = decoupled
         self.Pis = Pis
@@ -158,6 +159,9 @@ class OpenLoopEngine:
         #: work arrays reused window after window (``None``: fresh arrays); with one, the
         #: readings of a returned :class:`Piece` are valid until the next :meth:`advance`
         self.workspace: Workspace | None = None
+        #: allocates the arrays of a :class:`Piece` that the caller keeps (the plant
+        #: state, the healthy readings and the inputs; ``None``: :func:`numpy.empty`)
+        self.result_alloc: Any = None
         self.restart(x0, runs)
 
     def restart(self, x0: np.ndarray, runs: int) -> None:
@@ -292,12 +296,15 @@ class OpenLoopEngine:
         dX = [Drive(e), Drive(e, 1)] if foh else [Drive(e)]
         # the state only; the readings and inputs from it by two plain products (cheaper
         # than lifting them: fewer lifted outputs per state)
+        alloc = self.result_alloc
+        Rx = max(self.x.shape[1], e.shape[1])
+        xd = None if alloc is None else alloc((n, Rx, L))
         ((X,),) = run_recursion(
             [self.dis.Ad], self.WX, dX, self.x, [[np.eye(n)]], L, key=("plant", self.key),
-            batch=False,
+            batch=False, out=[[xd]],
         )  # fmt: skip
-        y0c = _affine(self.Cy0, X, self.Dy0, e)
-        u = _affine(self.Cu, X, self.Du, e)
+        y0c = _affine(self.Cy0, X, self.Dy0, e, alloc)
+        u = _affine(self.Cu, X, self.Du, e, alloc)
         self.x = np.ascontiguousarray(X[:, :, -1])
         work = self._work
         if v is not None:
@@ -365,7 +372,7 @@ class OpenLoopEngine:
             self.w,
             self.outs,
             L,
-            direct=([y, u, X] if self.decoupled else [y, u], self.dmats),
+            direct=self._direct(X, y, y0c, u, e),
             out=dests,
             final=True,
             key=("bank", self.key),
@@ -379,6 +386,35 @@ class OpenLoopEngine:
             if ctx.keep_states:
                 ws[k] = rk[1]
         return Piece(s, X, y, y0n, u, vectors, ws)
+
+    def _direct(
+        self, X: np.ndarray, y: np.ndarray, y0c: np.ndarray, u: np.ndarray, e: np.ndarray
+    ) -> tuple[list[np.ndarray], list[list[np.ndarray | None]]]:
+        """The generators' feedthrough signals and matrices: ``-H y + K u`` (and ``M Pi x``
+        for decoupled states).  When the readings are the healthy ones (no sensor fault
+        on the window, no noise) ``y = Cy0 x + Dy0 e`` and ``u = Cu x + Du e``, so the
+        feedthrough is ``(-H Cy0 + K Cu + M Pi) x + (-H Dy0 + K Du) e``: two products
+        instead of three, the matrices (kept with the set-up) formed once."""
+        if y is not y0c:
+            return ([y, u, X] if self.decoupled else [y, u], self.dmats)
+        xe = self.setup.get("dmats_xe")
+        if xe is None:
+            q, m = self.ctx.plant.q, self.ctx.plant.m
+            xe = []
+            for ms in self.dmats:
+                row = []
+                for D in ms:
+                    if D is None:
+                        row.append(None)
+                        continue
+                    Dy, Du = D[:, :q], D[:, q : q + m]
+                    DX = Dy @ self.Cy0 + Du @ self.Cu
+                    if self.decoupled:
+                        DX = DX + D[:, q + m :]
+                    row.append(np.hstack([DX, Dy @ self.Dy0 + Du @ self.Du]))
+                xe.append(row)
+            self.setup["dmats_xe"] = xe
+        return [X, e], xe
 
     def _work(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
         """A float work array of the window (from :attr:`workspace` when set)."""
@@ -396,12 +432,25 @@ def _generator_key(ctx: Context, k: int, g: Any) -> bytes:
     return _digest([g.F, g.E, g.G, g.M, g.H, g.K])
 
 
-def _affine(Cm: np.ndarray, X: np.ndarray, Dm: np.ndarray, e: np.ndarray) -> np.ndarray:
-    """``Cm X + Dm e`` for state-major ``X`` (n, R, L) and ``e`` (ne, R | 1, L)."""
+def _affine(
+    Cm: np.ndarray, X: np.ndarray, Dm: np.ndarray, e: np.ndarray, alloc: Any = None
+) -> np.ndarray:
+    """``Cm X + Dm e`` for state-major ``X`` (n, R, L) and ``e`` (ne, R | 1, L), in an
+    array from ``alloc(shape)`` when given."""
     n, R, L = X.shape
-    out = (Cm @ X.reshape(n, R * L)).reshape(Cm.shape[0], R, L)
+    ne, Re, _ = e.shape
+    p = Cm.shape[0]
+    new = np.empty if alloc is None else alloc
+    if Re >= R and not np.any(Cm):  # no state term (the input of an open loop)
+        out = new((p, Re, L))
+        if p <= ne and np.array_equal(Dm, np.eye(p, ne)):  # the leading rows of e
+            out[...] = e[:p]
+        else:
+            np.matmul(Dm, e.reshape(ne, Re * L), out=out.reshape(p, Re * L))
+        return out
+    out = new((p, R, L))
+    np.matmul(Cm, X.reshape(n, R * L), out=out.reshape(p, R * L))
     if Dm.size and np.any(Dm):
-        ne, Re, _ = e.shape
         out += (Dm @ e.reshape(ne, Re * L)).reshape(Dm.shape[0], Re, L)
     return out
 

@@ -148,6 +148,7 @@ from geomfdi.simulation.context import (
 )
 from geomfdi.simulation.noise import Noise, NoiseStream
 from geomfdi.simulation.open_loop import OpenLoopEngine
+from geomfdi.simulation.result_memory import empty
 from geomfdi.simulation.results import (
     SimulationResult,
 )
@@ -547,18 +548,42 @@ def _stream_one(
     _, L = chunk_plan(N, 1, chunk_width(ctx, keep_states=keep, loop=loop))
     eng = make_engine(ctx, x0, xc0, [sched], True, 1, L)
     streams = noise_streams(ctx, [rng])
-    rows = np.zeros((1, nres, N))
-    x, y = np.empty((p.n, N)), np.empty((p.q, N))
-    yh, u = np.empty((p.q, N)), np.empty((p.m, N))
+    rows = empty((1, nres, N))
+    rows[...] = 0.0
+    alarms = empty((nres, N), dtype=bool)
+    isolated = empty((N,), dtype=int)
+    candidates = empty((nf, N), dtype=bool)
+    suspects = empty((nf, N), dtype=bool)
+    ds = DecisionStream(thr, view.structure, rule)
+    chunks = time_chunks(N, L)
+    if len(chunks) == 1 and isinstance(eng, OpenLoopEngine) and eng.workspace is None:
+        # one chunk covers the record: the engine's arrays are the result's
+        eng.result_alloc = empty
+        v, wp = noise_window(ctx, streams, 0, N)
+        pc = eng.advance(0, N, v, wp, rows)
+        y, yh = pc.y[:, 0], pc.y0n[:, 0]
+        if np.may_share_memory(y, yh):  # the faulty readings are the healthy ones
+            y = empty(yh.shape)
+            y[...] = yh
+        parts = [from_balanced(ctx, pc.X[:, 0]), y, yh, pc.u[:, 0]]
+        x, y, yh, u = (a if a.flags.c_contiguous else np.ascontiguousarray(a) for a in parts)
+        vectors = [None if a is None else a[:, 0] for a in pc.vectors]
+        ws = [None if a is None else a[:, 0] for a in pc.ws]
+        al, iso = ds.step(rows)
+        alarms[:] = al[0]
+        isolated[:] = iso.isolated[0]
+        candidates[:] = iso.candidates[0]
+        suspects[:] = iso.suspects[0]
+        for k, g in enumerate(gens):  # a scalar residual's component is its row
+            if g is not None and g.n_outputs == 1:
+                vectors[k] = rows[0, k : k + 1]
+        return rows[0], alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws, None
+    x, y = empty((p.n, N)), empty((p.q, N))
+    yh, u = empty((p.q, N)), empty((p.m, N))
     vectors = [None if g is None or g.n_outputs == 1 else np.empty((g.n_outputs, N)) for g in gens]
     ws = [None if g is None or not keep else np.empty((g.order, N)) for g in gens]
     xc = np.empty((ctx.ctrl.nc, N)) if feedback else None
-    alarms = np.empty((nres, N), dtype=bool)
-    isolated = np.empty(N, dtype=int)
-    candidates = np.empty((nf, N), dtype=bool)
-    suspects = np.empty((nf, N), dtype=bool)
-    ds = DecisionStream(thr, view.structure, rule)
-    for s, e, e1 in time_chunks(N, L):
+    for s, e, e1 in chunks:
         v, wp = noise_window(ctx, streams, s, e1)
         pc = eng.advance(s, e1, v, wp, rows[:, :, s:e1])
         x[:, s:e1], y[:, s:e1] = from_balanced(ctx, pc.X[:, 0]), pc.y[:, 0]
