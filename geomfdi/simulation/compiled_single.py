@@ -305,7 +305,7 @@ def _setup(
     }
     Vcols, chans, folds = [], [], []
     skip = set()
-    for g, s in fold.items():
+    for s in fold.values():
         i0, i1 = s[0], s[1]
         V0 = V[:, col[i0] : col[i0 + 1]]
         V1 = V[:, col[i1] : col[i1 + 1]]
@@ -334,7 +334,7 @@ def _setup(
         Tout=Tout,
         Vt=np.ascontiguousarray(Vt),
         chans=tuple(chans),
-        chan_index=tuple(np.array(v, dtype=np.int64).reshape(-1) for v in zip(*chans))
+        chan_index=tuple(np.array(v, dtype=np.int64).reshape(-1) for v in zip(*chans, strict=True))
         if chans
         else (),
         out_rows=tuple(tuple(C.shape[0] for C in outs) for outs in outputs),
@@ -389,8 +389,10 @@ def _single(
     key: Any,
 ) -> Any:
     layout = _layout(drives)
-    mkey = ("key", key) if key is not None else _digest(
-        [*blocks, W, *(C for outs in outputs for C in outs)]
+    mkey = (
+        ("key", key)
+        if key is not None
+        else _digest([*blocks, W, *(C for outs in outputs for C in outs)])
     )
     skey = (mkey, layout, direct is not None)
     st = _SETUPS.get(skey)
@@ -493,10 +495,7 @@ def _groups(views: list[np.ndarray]) -> list[tuple[int, np.ndarray]]:
         p_j = v.shape[0]
         if out:
             r0, g = out[-1]
-            if (
-                g.strides == v.strides
-                and _address(v) == _address(g) + g.shape[0] * g.strides[0]
-            ):
+            if g.strides == v.strides and _address(v) == _address(g) + g.shape[0] * g.strides[0]:
                 merged = np.lib.stride_tricks.as_strided(
                     g, (g.shape[0] + p_j, g.shape[1]), g.strides, writeable=True
                 )
