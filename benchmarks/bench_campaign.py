@@ -14,7 +14,9 @@ the best of ``--repeats`` is kept):
   test, scores and isolation.  Timed on the first ``--loop-runs`` runs of the grid and
   **extrapolated linearly** to all runs (rows marked ``*``);
 * **serial**: ``Campaign.run("serial")`` (blocks of ``--block`` runs, each one vectorised
-  ``gf.simulate_batch`` call);
+  ``gf.simulate_batch`` call; with the default threads its noise draws and compiled
+  recursion run on as many threads as the BLAS had, see ``geomfdi._threads``, so
+  "serial" is one process, not one core);
 * **processes, 1 / 2 workers**: a ``ProcessPoolExecutor`` with 1 and with 2 processes
   (started and warmed up before timing);
 * **dask, 1 / 2 workers**: one ``distributed.LocalCluster`` of 2 single-threaded worker

@@ -14,20 +14,37 @@ Opt out with ``gf.set_blas_threads(None)`` (or the environment variable
 The limit is process-wide (a BLAS library has one thread pool); nested entry points
 (``design_bank`` calling ``design_residual_generator``) switch it once, at the outermost
 call, so the decorator costs one context-variable lookup when already inside.
+
+The cores the limit takes from the BLAS are given to geomfdi's own threads where the work
+splits into independent parts of some size (the noise draws of a batch's runs): an entry
+point called from a process's main thread may use as many threads as the BLAS libraries
+were set to when it began (:func:`work_threads`; one under
+``threadpoolctl.threadpool_limits(1)`` or ``OPENBLAS_NUM_THREADS=1``).  Calls from other
+threads (a Dask worker's task threads, a thread pool of the caller's) and campaign tasks
+in worker processes use one, so parallel executors do not oversubscribe the cores.
 """
 
 from __future__ import annotations
 
+import contextlib
 import contextvars
 import functools
 import os
 import sys
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
 from geomfdi.errors import GeomFDIError
 
-__all__ = ["get_blas_threads", "limit_blas_threads", "set_blas_threads"]
+__all__ = [
+    "get_blas_threads",
+    "limit_blas_threads",
+    "set_blas_threads",
+    "using_work_threads",
+    "thread_pool",
+    "work_threads",
+]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -35,6 +52,10 @@ ENV_VAR = "GEOMFDI_BLAS_THREADS"
 
 _inside: contextvars.ContextVar[bool] = contextvars.ContextVar(
     "geomfdi_blas_limited", default=False
+)
+_work: contextvars.ContextVar[int] = contextvars.ContextVar("geomfdi_work_threads", default=1)
+_chosen: contextvars.ContextVar[int | None] = contextvars.ContextVar(
+    "geomfdi_work_threads_chosen", default=None
 )
 _controller: Any = None
 _blas: list[Any] = []  # its BLAS libraries (threadpoolctl's LibController objects)
@@ -133,17 +154,79 @@ def limit_blas_threads(func: F) -> F:
             return func(*args, **kwargs)
         token = _inside.set(True)
         changed = []
+        cores = 1
         try:
             _get_controller()
             for lc in _blas:
                 old = lc.get_num_threads()
-                if old is not None and old != limit:
-                    lc.set_num_threads(limit)
-                    changed.append((lc, old))
-            return func(*args, **kwargs)
+                if old is not None:
+                    cores = max(cores, int(old))
+                    if old != limit:
+                        lc.set_num_threads(limit)
+                        changed.append((lc, old))
+            if threading.current_thread() is not threading.main_thread():
+                cores = 1
+            chosen = _chosen.get()
+            work = _work.set(min(cores, os.cpu_count() or 1) if chosen is None else chosen)
+            try:
+                return func(*args, **kwargs)
+            finally:
+                _work.reset(work)
         finally:
             for lc, old in reversed(changed):
                 lc.set_num_threads(old)
             _inside.reset(token)
 
     return wrapper  # type: ignore[return-value]
+
+
+def work_threads() -> int:
+    """Threads geomfdi's own parallel parts may use inside the current entry point.
+
+    As many as the BLAS libraries were set to when the outermost entry point began
+    (module docstring), at most the machine's cores; 1 outside an entry point, with
+    ``set_blas_threads(None)`` (the BLAS keeps its threads, nothing is freed) and in a
+    thread other than the main one; inside :func:`using_work_threads`, its count.
+    """
+    return _work.get()
+
+
+@contextlib.contextmanager
+def using_work_threads(threads: int) -> Iterator[None]:
+    """Run the body with :func:`work_threads` equal to ``threads``, also inside the entry
+    points it calls (1 for a campaign task in a worker process: the workers already share
+    the cores)."""
+    threads = max(1, int(threads))
+    token, chosen = _work.set(threads), _chosen.set(threads)
+    try:
+        yield
+    finally:
+        _chosen.reset(chosen)
+        _work.reset(token)
+
+
+_pools: dict[int, Any] = {}
+_pool_lock = threading.Lock()
+
+
+def _forget_pools() -> None:
+    """In a forked child: the parent's pool threads do not exist there."""
+    global _pool_lock
+    _pools.clear()
+    _pool_lock = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pools)
+
+
+def thread_pool(threads: int) -> Any:
+    """A process-wide ``ThreadPoolExecutor`` of ``threads`` workers (made once, kept; a
+    forked child makes its own)."""
+    with _pool_lock:
+        pool = _pools.get(threads)
+        if pool is None:
+            from concurrent.futures import ThreadPoolExecutor
+
+            pool = _pools[threads] = ThreadPoolExecutor(threads, thread_name_prefix="geomfdi")
+        return pool

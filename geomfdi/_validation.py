@@ -60,6 +60,13 @@ def _sympy_to_numpy(value: Any) -> Any:
     return value
 
 
+def _too_large_integer(name: str) -> NonFiniteError:
+    return NonFiniteError(
+        f"{name}: entries must be finite floats, got an integer too large for float64",
+        argument=name,
+    )
+
+
 def as_real_array(value: Any, name: str, *, allow_nonfinite: bool = False) -> np.ndarray:
     """Convert ``value`` to a real float64 array (any number of dimensions).
 
@@ -76,10 +83,7 @@ def as_real_array(value: Any, name: str, *, allow_nonfinite: bool = False) -> np
     try:
         arr = np.asarray(value)
     except OverflowError as exc:
-        raise NonFiniteError(
-            f"{name}: entries must be finite floats, got an integer too large for float64",
-            argument=name,
-        ) from exc
+        raise _too_large_integer(name) from exc
     except Exception as exc:  # ragged nested lists
         raise ShapeError(f"{name}: cannot be read as an array ({exc})", argument=name) from exc
     if arr.dtype == object:
@@ -88,10 +92,7 @@ def as_real_array(value: Any, name: str, *, allow_nonfinite: bool = False) -> np
         try:
             arr = arr.astype(complex)
         except OverflowError as exc:
-            raise NonFiniteError(
-                f"{name}: entries must be finite floats, got an integer too large for float64",
-                argument=name,
-            ) from exc
+            raise _too_large_integer(name) from exc
         except (TypeError, ValueError) as exc:
             raise GeomFDIError(
                 f"{name}: entries must be numbers (could not convert {arr.dtype} data)",

@@ -23,3 +23,20 @@ def seed_bank() -> gf.ResidualBank:
 def sampled_bank() -> gf.ResidualBank:
     """The same bank sampled with a zero-order hold at ``DT`` (well conditioned)."""
     return seed_bank().discretize(DT)
+
+
+def vector_row_bank() -> gf.ResidualBank:
+    """A discrete bank (q = 2, m = 1) of a two-component row, a missing row and a scalar
+    row."""
+    rng = np.random.default_rng(4)
+    g1 = gf.ResidualGenerator(
+        np.diag([0.5, 0.8]), rng.normal(size=(2, 2)), rng.normal(size=(2, 1)),
+        rng.normal(size=(2, 2)), rng.normal(size=(2, 2)), rng.normal(size=(2, 1)), dt=DT,
+    )  # fmt: skip
+    g2 = gf.ResidualGenerator(
+        [[0.3]], [[1.0, -1.0]], [[0.5]], [[1.0]], [[0.0, 1.0]], [[0.0]], dt=DT
+    )
+    S = np.array([[1, 0], [0, 0], [1, 1]], dtype=bool)
+    return gf.ResidualBank(
+        [g1, None, g2], S, S, np.array([True, True]), ["ok", "missing", "ok"], [], DT
+    )

@@ -18,6 +18,7 @@ import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from small_campaign import T, small_campaign
 
 import geomfdi as gf
 from geomfdi.campaign import executors
@@ -25,9 +26,6 @@ from geomfdi.campaign.spec import _SensorFaults
 from geomfdi.errors import GeomFDIError
 
 ROOT = Path(__file__).resolve().parents[1]
-PLANT = gf.Plant([[-1.0, 0.0], [0.0, -2.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 1.0]])
-BANK = gf.design_sensor_bank(PLANT)
-T = np.linspace(0.0, 2.0, 201)
 
 
 def _rebuild(folder: str, kind: str, sensor: int) -> _Spy:
@@ -56,18 +54,7 @@ def _unpicklings(folder: Path) -> Counter:
 
 
 def _campaign(faults) -> gf.Campaign:
-    sc = gf.Scenario("bias on sensor 0", faults, sizes=[0.0, 0.5, 1.0], onsets=[1.0])
-    return gf.Campaign(
-        PLANT,
-        BANK,
-        [sc],
-        gf.Noise(measurement=0.05, seed=3),
-        t=T,
-        runs=8,
-        test=0.3,
-        block_size=2,  # 12 blocks
-        persistence=(1, 2),
-    )
+    return small_campaign(faults, block_size=2)  # 12 blocks
 
 
 @pytest.fixture(scope="module")

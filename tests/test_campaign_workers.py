@@ -8,17 +8,13 @@ import os
 import sys
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 import pytest
+from small_campaign import small_campaign
 
 import geomfdi as gf
 from geomfdi.campaign.spec import _SensorFaults
 from geomfdi.errors import CampaignIncompleteError
-
-PLANT = gf.Plant([[-1.0, 0.0], [0.0, -2.0]], [[1.0], [1.0]], [[1.0, 0.0], [0.0, 1.0]])
-BANK = gf.design_sensor_bank(PLANT)
-T = np.linspace(0.0, 2.0, 201)
 
 
 class _Killer(_SensorFaults):
@@ -43,18 +39,7 @@ class _Killer(_SensorFaults):
 
 
 def _campaign(faults: object) -> gf.Campaign:
-    sc = gf.Scenario("bias on sensor 0", faults, sizes=[0.0, 0.5, 1.0], onsets=[1.0])
-    return gf.Campaign(
-        PLANT,
-        BANK,
-        [sc],
-        gf.Noise(measurement=0.05, seed=3),
-        t=T,
-        runs=8,
-        test=0.3,
-        block_size=4,
-        persistence=(1, 2),
-    )
+    return small_campaign(faults, block_size=4)
 
 
 def _table(result: gf.CampaignResult) -> pd.DataFrame:

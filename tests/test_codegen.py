@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from deploy_banks import DT, sampled_bank, seed_bank
+from deploy_banks import DT, sampled_bank, seed_bank, vector_row_bank
 from generated_c import compile_c, run_c
 from script_loader import load_script
 
@@ -31,19 +31,6 @@ def _data(q: int, m: int, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray
     U[0, 7 * n // 10] = np.inf
     Y[0, 3 * n // 10 : 3 * n // 10 + 400] += 2.0  # a fault-like step
     return Y, U
-
-
-def _bank_with_vector_row() -> gf.ResidualBank:
-    rng = np.random.default_rng(4)
-    g1 = gf.ResidualGenerator(
-        np.diag([0.5, 0.8]), rng.normal(size=(2, 2)), rng.normal(size=(2, 1)),
-        rng.normal(size=(2, 2)), rng.normal(size=(2, 2)), rng.normal(size=(2, 1)), dt=DT,
-    )  # fmt: skip
-    g2 = gf.ResidualGenerator(
-        [[0.3]], [[1.0, -1.0]], [[0.5]], [[1.0]], [[0.0, 1.0]], [[0.0]], dt=DT
-    )
-    S = np.array([[1, 0], [0, 0], [1, 1]], dtype=bool)
-    return gf.ResidualBank([g1, None, g2], S, S, np.ones(2, bool), ["ok", "none", "ok"], [], DT)
 
 
 def _check(
@@ -80,7 +67,7 @@ def test_generated_c_matches_evaluate(case: tuple, tmp_path: Path) -> None:
 @needs_cc
 def test_generated_c_uses_no_libm_beyond_fabs_sqrt(case: tuple, tmp_path: Path) -> None:
     bank, *_ = case
-    _, c = gf.codegen.c(_bank_with_vector_row(), "vec", tmp_path, threshold=1.0)
+    _, c = gf.codegen.c(vector_row_bank(), "vec", tmp_path, threshold=1.0)
     obj = tmp_path / "vec.o"
     proc = subprocess.run([CC, *CFLAGS, "-fno-builtin", "-c", "-o", str(obj), str(c)],
                           capture_output=True, text=True)  # fmt: skip
@@ -96,7 +83,7 @@ def test_generated_c_uses_no_libm_beyond_fabs_sqrt(case: tuple, tmp_path: Path) 
 
 @needs_cc
 def test_generated_c_vector_rows_and_bank_source(tmp_path: Path) -> None:
-    bank = _bank_with_vector_row()
+    bank = vector_row_bank()
     Y, U = _data(2, 1, 20_000, seed=3)
     kw = {"threshold": [1.5, 1.0, 1.0], "persistence": 2, "initial": "zero"}
     res = gf.evaluate(bank, Y, U, dt=DT, **kw)

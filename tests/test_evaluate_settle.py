@@ -6,15 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hwc_bank import K_FB, A, B, C
 
 import geomfdi as gf
 from geomfdi.deployment.recorded import SETTLE_TIME_CONSTANTS, settling_time
 from geomfdi.errors import GeomFDIError
 
-A = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]
-B = [[1, 0, 1], [0, 1, 1], [0, 1, 0]]
-C = [[0, 1, 0], [0, 0, 1], [1, 0, 2]]
-K = [[5, -1.5, 3], [2, 0, 2], [-2, 2.5, -2]]
 PLANT = gf.Plant(A, B, C)
 BANK = gf.design_sensor_bank(PLANT)
 T = np.arange(0.0, 10.0, 0.01)
@@ -28,7 +25,7 @@ def _events(evs: list) -> list[tuple]:
 @pytest.mark.parametrize("rule", [None, (2, 3), gf.Persistence(2, 3, reset=50)])
 @pytest.mark.parametrize("initial", ["zero", "steady"])
 def test_evaluate_with_settle_reproduces_simulate(rule, initial) -> None:
-    log = gf.simulate(PLANT, BANK, T, controller=K, x0=[0.5, -0.3, 0.2], faults=FAULTS,
+    log = gf.simulate(PLANT, BANK, T, controller=K_FB, x0=[0.5, -0.3, 0.2], faults=FAULTS,
                       threshold=0.02, persistence=rule)  # fmt: skip
     assert log.events[0].decided == 0  # simulate isolates sensor 0
     res = gf.evaluate(BANK, log.y, log.u, T, threshold=0.02, persistence=rule, initial=initial,

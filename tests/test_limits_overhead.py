@@ -6,14 +6,11 @@ from __future__ import annotations
 import tracemalloc
 
 import numpy as np
+from hwc_bank import K_FB, A, B, C
 
 import geomfdi as gf
 from geomfdi.limits import OVERHEAD_PER_SAMPLE
 
-A = [[1, 1, 1], [0, 1, 0], [2, 0, 1]]
-B = [[1, 0, 1], [0, 1, 1], [0, 1, 0]]
-C = [[0, 1, 0], [0, 0, 1], [1, 0, 2]]
-K = [[5, -1.5, 3], [2, 0, 2], [-2, 2.5, -2]]
 PLANT = gf.Plant(A, B, C)
 BANK = gf.design_sensor_bank(PLANT)
 BUDGET = 8 * 2**20
@@ -25,7 +22,7 @@ def _overhead(N: int) -> float:
     with gf.limits.limits(chunk_memory=BUDGET):
         tracemalloc.start()
         try:
-            res = gf.simulate(PLANT, BANK, t, controller=K, noise=noise, threshold=0.1)
+            res = gf.simulate(PLANT, BANK, t, controller=K_FB, noise=noise, threshold=0.1)
             peak = tracemalloc.get_traced_memory()[1]
         finally:
             tracemalloc.stop()
@@ -34,7 +31,7 @@ def _overhead(N: int) -> float:
 
 
 def test_simulation_memory_is_the_output_plus_the_chunk_budget() -> None:
-    gf.simulate(PLANT, BANK, np.linspace(0, 1, 11), controller=K)  # (imports, caches)
+    gf.simulate(PLANT, BANK, np.linspace(0, 1, 11), controller=K_FB)  # (imports, caches)
     small, large = _overhead(100_000), _overhead(400_000)
     per_sample = (large - small) / 300_000
     assert per_sample <= OVERHEAD_PER_SAMPLE, (small, large)

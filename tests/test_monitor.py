@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from deploy_banks import DT, sampled_bank, seed_bank
+from deploy_banks import DT, sampled_bank, seed_bank, vector_row_bank
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -100,18 +100,7 @@ def test_continuous_bank_with_dt(bank: gf.ResidualBank) -> None:
 
 
 def test_vector_residuals_and_missing_rows() -> None:
-    rng = np.random.default_rng(4)
-    g1 = gf.ResidualGenerator(
-        np.diag([0.5, 0.8]), rng.normal(size=(2, 2)), rng.normal(size=(2, 1)),
-        rng.normal(size=(2, 2)), rng.normal(size=(2, 2)), rng.normal(size=(2, 1)), dt=DT,
-    )  # fmt: skip
-    g2 = gf.ResidualGenerator(
-        [[0.3]], [[1.0, -1.0]], [[0.5]], [[1.0]], [[0.0, 1.0]], [[0.0]], dt=DT
-    )
-    S = np.array([[1, 0], [0, 0], [1, 1]], dtype=bool)
-    bank = gf.ResidualBank(
-        [g1, None, g2], S, S, np.array([True, True]), ["ok", "missing", "ok"], [], DT
-    )
+    bank = vector_row_bank()
     Y, U = _data(2, 1, 600, seed=3)
     res = gf.evaluate(bank, Y, U, dt=DT, threshold=[1.5, 1.0, 1.0], persistence=(2, 2))
     valid = ~res.masked

@@ -6,7 +6,7 @@ import shutil
 
 import numpy as np
 import pytest
-from deploy_banks import DT, sampled_bank, seed_bank
+from deploy_banks import DT, sampled_bank, seed_bank, vector_row_bank
 
 import geomfdi as gf
 from geomfdi.deployment import compiled
@@ -124,9 +124,7 @@ def test_library_is_cached_by_source(tmp_path, monkeypatch):
 
 @needs_cc
 def test_vector_rows_missing_generator_and_explicit_start_agree():
-    from test_codegen import _bank_with_vector_row
-
-    bank = _bank_with_vector_row()
+    bank = vector_row_bank()
     rng = np.random.default_rng(5)
     L = 1500
     Y = rng.normal(size=(2, L))

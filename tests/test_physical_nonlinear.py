@@ -148,6 +148,29 @@ def test_cut_divergent_zeroes_the_statistic_from_the_first_bad_sample():
     assert np.all(out[2, :, 4:] == 0) and np.all(out[2, :, :4] == 1)
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_cut_divergent_equals_its_element_wise_definition(seed):
+    """The quick check for no divergence and the element-wise cut agree on statistics
+    with and without infinities, nan, negative values, huge values and infinite
+    thresholds (a residual that never alarms)."""
+    from geomfdi.campaign.runner import DIVERGED_RATIO, cut_divergent
+
+    rng = np.random.default_rng(seed)
+    stat = rng.standard_normal((5, 3, 40)) * 10 ** rng.uniform(0, 7 if seed else 3, (5, 3, 1))
+    if seed % 2:
+        stat[rng.integers(5), rng.integers(3), rng.integers(40)] = [np.inf, -np.inf, np.nan][
+            seed % 3
+        ]
+    thr = np.array([1.0, 2.0, np.inf if seed > 2 else 3.0])
+    lim = np.where(np.isfinite(thr), DIVERGED_RATIO * thr, np.inf)[:, None]
+    bad = (~np.isfinite(stat) | (np.abs(stat) > lim)).any(axis=1)
+    first = np.where(bad.any(-1), np.argmax(bad, -1), 40)
+    want = np.where(np.arange(40)[None, None, :] >= first[:, None, None], 0.0, stat)
+    out, div = cut_divergent(stat, thr)
+    np.testing.assert_array_equal(div, bad.any(-1))
+    np.testing.assert_array_equal(out, want)
+
+
 def _leak_faults(size, onset):
     _, faults = three_tank_model()
     return [gf.AdditiveFault(faults[2], start=onset, size=size)]

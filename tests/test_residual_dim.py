@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_synthesis_least_order import _toeplitz, leak_angle, random_problem
+from test_synthesis_least_order import _toeplitz, assert_decouples, random_problem
 
 import geomfdi as gf
 from geomfdi.model.faults import fault_matrices
@@ -89,15 +89,7 @@ def check_multirow(plant, faults, row, p=None):
     lam = np.linalg.eigvals(g.F) if g.order else np.zeros(0)
     assert np.all(np.abs(lam) < 1) if plant.dt else np.all(lam.real < 0)
     # every decoupling holds for the stack (independent angle measure)
-    args = (plant.A, plant.B, plant.C, plant.D)
-    for j in dec:
-        assert leak_angle(g, *args, *sig[j], False, plant.dt) < 1e-9
-    if plant.nd:
-        assert leak_angle(g, *args, plant.Bd, plant.Dd, False, plant.dt) < 1e-9
-    if plant.m:
-        assert leak_angle(g, *args, plant.B, plant.D, True, plant.dt) < 1e-9
-    for j in tgt:
-        assert leak_angle(g, *args, *sig[j], False, plant.dt) > 1e-7
+    assert_decouples(g, plant, sig, tgt, dec)
     # stacked transfer has normal rank p; row i is least among rows independent of 0..i-1
     pts = _points(seed=11)
     if plant.dt:

@@ -6,53 +6,25 @@ import warnings
 
 import numpy as np
 import pytest
+from hwc_bank import K_FB, P_PAPER, X0, hand_generator, leaky_bank, v_ext
 
 import geomfdi as gf
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.evaluation.decision import NO_ALARM
 
-K_FB = np.array([[5, -1.5, 3], [2, 0, 2], [-2, 2.5, -2]])
-X0 = np.array([0.5, -0.3, 0.2])
-P_PAPER = np.array([[0.0, 1, 0], [-2, 2, 1], [-3, 3, 1]])
 T = np.arange(0, 20.0005, 1e-3)
 
 
-def v_ext(t):
-    return np.vstack([np.sin(0.5 * t), np.cos(0.3 * t), 0.2 * np.ones_like(t)])
-
-
 def paper_generator(plant, j):
-    """The Hou-Wen-Chen residual j with F = -2, M = 1, row P = p_j (built by hand, C invertible):
-    F P = P A + E C and M P = H C hold by construction."""
-    A, B, C = plant.A, plant.B, plant.C
-    Ci = np.linalg.inv(C)
-    P = P_PAPER[j : j + 1]
-    F = np.array([[-2.0]])
-    return gf.ResidualGenerator(
-        F,
-        (F @ P - P @ A) @ Ci,
-        P @ B,
-        np.eye(1),
-        P @ Ci,
-        np.zeros((1, 3)),
-        target=(j,),
-        decoupled=tuple(i for i in range(3) if i != j),
-        method="paper",
+    """The Hou-Wen-Chen residual j with F = -2, M = 1, row P = p_j (built by hand)."""
+    decoupled = tuple(i for i in range(3) if i != j)
+    return hand_generator(
+        plant, P_PAPER[j : j + 1], target=(j,), decoupled=decoupled, method="paper"
     )
 
 
 def paper_bank(plant):
-    gens = [paper_generator(plant, j) for j in range(3)]
-    S = np.array([[1, 0, 0], [1, 1, 1], [1, 1, 1]], dtype=bool)  # r2, r3 leak (reference)
-    return gf.ResidualBank(
-        gens,
-        np.eye(3, dtype=bool),
-        S,
-        np.array([True, False, False]),
-        ["ok"] * 3,
-        [gf.SensorFault(i) for i in range(3)],
-        method="paper",
-    )
+    return leaky_bank([paper_generator(plant, j) for j in range(3)], method="paper")
 
 
 def test_hand_built_generators_satisfy_the_identities(seed001):

@@ -9,46 +9,18 @@ from pathlib import Path
 import control
 import numpy as np
 import pytest
+from hwc_bank import K_FB, P_PAPER, X0, A, B, C, hand_generator, leaky_bank, v_ext
 
 import geomfdi as gf
 from geomfdi.errors import GeomFDIError, ShapeError
 
 ROOT = Path(__file__).resolve().parents[1]
-A = np.array([[1.0, 1, 1], [0, 1, 0], [2, 0, 1]])
-B = np.array([[1.0, 0, 1], [0, 1, 1], [0, 1, 0]])
-C = np.array([[0.0, 1, 0], [0, 0, 1], [1, 0, 2]])
-K_FB = np.array([[5, -1.5, 3], [2, 0, 2], [-2, 2.5, -2]])
-X0 = np.array([0.5, -0.3, 0.2])
-P_PAPER = np.array([[0.0, 1, 0], [-2, 2, 1], [-3, 3, 1]])
 T = np.arange(0, 12.0, 0.01)
 
 
 def setup():
     plant = gf.Plant(A, B, C)
-    Ci = np.linalg.inv(C)
-    gens = []
-    for j in range(3):
-        P = P_PAPER[j : j + 1]
-        F = np.array([[-2.0]])
-        gens.append(
-            gf.ResidualGenerator(
-                F, (F @ P - P @ A) @ Ci, P @ B, np.eye(1), P @ Ci, np.zeros((1, 3))
-            )
-        )
-    S = np.array([[1, 0, 0], [1, 1, 1], [1, 1, 1]], dtype=bool)
-    bank = gf.ResidualBank(
-        gens,
-        np.eye(3, dtype=bool),
-        S,
-        np.array([True, False, False]),
-        ["ok"] * 3,
-        [gf.SensorFault(i) for i in range(3)],
-    )
-    return plant, bank
-
-
-def v_ext(t):
-    return np.vstack([np.sin(0.5 * t), np.cos(0.3 * t), 0.2 * np.ones_like(t)])
+    return plant, leaky_bank([hand_generator(plant, P_PAPER[j : j + 1]) for j in range(3)])
 
 
 def test_batch_runs_equal_single_runs_with_spawned_seeds():

@@ -12,6 +12,7 @@ import tracemalloc
 
 import numpy as np
 import pytest
+from hwc_bank import K_FB, P_PAPER, X0, A, B, C, hand_generator, leaky_bank, v_ext
 
 import geomfdi as gf
 from geomfdi.errors import GeomFDIError
@@ -19,12 +20,6 @@ from geomfdi.evaluation.decision import MULTIPLE
 from geomfdi.simulation.noise import NoiseStream
 from geomfdi.simulation.streaming import MIN_CHUNK, chunk_plan, time_chunks
 
-A = np.array([[1.0, 1, 1], [0, 1, 0], [2, 0, 1]])
-B = np.array([[1.0, 0, 1], [0, 1, 1], [0, 1, 0]])
-C = np.array([[0.0, 1, 0], [0, 0, 1], [1, 0, 2]])
-K_FB = np.array([[5, -1.5, 3], [2, 0, 2], [-2, 2.5, -2]])
-X0 = np.array([0.5, -0.3, 0.2])
-P_PAPER = np.array([[0.0, 1, 0], [-2, 2, 1], [-3, 3, 1]])
 TINY = 3e4  # bytes: chunks of a few dozen samples
 
 
@@ -33,37 +28,11 @@ def setup(vector: bool = False, dt: float = 0.0):
     or a stable discrete plant with the same construction (``dt > 0``)."""
     Ap = A if dt == 0 else 0.3 * A / max(abs(np.linalg.eigvals(A)))
     plant = gf.Plant(Ap, B, C, dt=dt)
-    Ci = np.linalg.inv(C)
     f = -2.0 if dt == 0 else 0.5
-    gens = []
-    for j in range(3):
-        P = P_PAPER[j : j + 1]
-        F = np.array([[f]])
-        gens.append(
-            gf.ResidualGenerator(
-                F, (F @ P - P @ Ap) @ Ci, P @ B, np.eye(1), P @ Ci, np.zeros((1, 3)), dt=dt
-            )
-        )
+    gens = [hand_generator(plant, P_PAPER[j : j + 1], f) for j in range(3)]
     if vector:  # a generator with two residual components (rows of two paper generators)
-        P = P_PAPER[:2]
-        F = -2.0 * np.eye(2)
-        gens[2] = gf.ResidualGenerator(
-            F, (F @ P - P @ A) @ Ci, P @ B, np.eye(2), P @ Ci, np.zeros((2, 3))
-        )
-    S = np.array([[1, 0, 0], [1, 1, 1], [1, 1, 1]], dtype=bool)
-    bank = gf.ResidualBank(
-        gens,
-        np.eye(3, dtype=bool),
-        S,
-        np.array([True, False, False]),
-        ["ok"] * 3,
-        [gf.SensorFault(i) for i in range(3)],
-    )
-    return plant, bank
-
-
-def v_ext(t):
-    return np.vstack([np.sin(0.5 * t), np.cos(0.3 * t), 0.2 * np.ones_like(t)])
+        gens[2] = hand_generator(gf.Plant(A, B, C), P_PAPER[:2])
+    return plant, leaky_bank(gens)
 
 
 FAULTS = [

@@ -5,39 +5,21 @@ from __future__ import annotations
 import control
 import numpy as np
 import pytest
+from hwc_bank import K_FB, P_PAPER, X0, A, B, C, hand_generator, v_ext
 from scipy.integrate import solve_ivp
 
 import geomfdi as gf
 from geomfdi.errors import GeomFDIError, ShapeError
 
-A = np.array([[1.0, 1, 1], [0, 1, 0], [2, 0, 1]])
-B = np.array([[1.0, 0, 1], [0, 1, 1], [0, 1, 0]])
-C = np.array([[0.0, 1, 0], [0, 0, 1], [1, 0, 2]])
-K_FB = np.array([[5, -1.5, 3], [2, 0, 2], [-2, 2.5, -2]])
 KY = K_FB @ np.linalg.inv(C)  # static output feedback equivalent to K_FB when healthy
-X0 = np.array([0.5, -0.3, 0.2])
-P_PAPER = np.array([[0.0, 1, 0], [-2, 2, 1], [-3, 3, 1]])
 
 
 def bank(plant):
-    Ci = np.linalg.inv(C)
-    gens = []
-    for j in range(3):
-        P = P_PAPER[j : j + 1]
-        F = np.array([[-2.0]])
-        gens.append(
-            gf.ResidualGenerator(
-                F, (F @ P - P @ A) @ Ci, P @ B, np.eye(1), P @ Ci, np.zeros((1, 3))
-            )
-        )
+    gens = [hand_generator(plant, P_PAPER[j : j + 1]) for j in range(3)]
     S = np.ones((3, 3), dtype=bool)
     return gf.ResidualBank(
         gens, S, S, np.zeros(3, bool), ["ok"] * 3, [gf.SensorFault(i) for i in range(3)]
     )
-
-
-def v_ext(t):
-    return np.vstack([np.sin(0.5 * t), np.cos(0.3 * t), 0.2 * np.ones_like(t)])
 
 
 # PI-like dynamic controller on the measured y: xc' = -xc + y, u = -KY y - 0.5 xc

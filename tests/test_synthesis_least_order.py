@@ -54,6 +54,20 @@ def reference_least_order(A, C, Bw, Dw, targets, nu_max=None):
     return None
 
 
+def assert_decouples(g, plant, sig, tgt, dec):
+    """``g`` ignores the faults ``dec``, the disturbances and the known input (angle below
+    1e-9) and sees every target of ``tgt`` (angle above 1e-7)."""
+    args = (plant.A, plant.B, plant.C, plant.D)
+    for j in dec:
+        assert leak_angle(g, *args, *sig[j], False, plant.dt) < 1e-9
+    if plant.nd:
+        assert leak_angle(g, *args, plant.Bd, plant.Dd, False, plant.dt) < 1e-9
+    if plant.m:
+        assert leak_angle(g, *args, plant.B, plant.D, True, plant.dt) < 1e-9
+    for j in tgt:
+        assert leak_angle(g, *args, *sig[j], False, plant.dt) > 1e-7
+
+
 def leak_angle(g, A, B, C, D, Bx, Dx, is_input, dt, count=6, seed=0, boundary=False):
     """Largest ‖Q(s)[G_x; I_x]‖ / (‖Q(s)‖ ‖[G_x; I_x]‖) over random points (numpy only).
 
@@ -152,15 +166,7 @@ def check_row(plant, faults, row):
     else:
         assert g.order == ref
     assert _stable(g, plant.dt)
-    args = (plant.A, plant.B, plant.C, plant.D)
-    for j in dec:
-        assert leak_angle(g, *args, *sig[j], False, plant.dt) < 1e-9
-    if plant.nd:
-        assert leak_angle(g, *args, plant.Bd, plant.Dd, False, plant.dt) < 1e-9
-    if plant.m:
-        assert leak_angle(g, *args, plant.B, plant.D, True, plant.dt) < 1e-9
-    for j in tgt:
-        assert leak_angle(g, *args, *sig[j], False, plant.dt) > 1e-7
+    assert_decouples(g, plant, sig, tgt, dec)
     return g.order
 
 

@@ -55,10 +55,10 @@ import threading
 import time
 import uuid
 from collections.abc import Callable, Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from typing import Any
 
-from geomfdi._threads import limit_blas_threads
+from geomfdi._threads import limit_blas_threads, using_work_threads
 from geomfdi.errors import CampaignIncompleteError, GeomFDIError
 
 __all__ = [
@@ -308,8 +308,11 @@ def run_items(
     ``shipped`` is a :class:`Shipped` (or, in this process, the job itself).
     """
     job = shipped.job if isinstance(shipped, Shipped) else shipped
+    # a worker process (the job came shipped) shares the cores with the other workers:
+    # no threads of its own (geomfdi._threads.work_threads)
+    alone = using_work_threads(1) if isinstance(shipped, Shipped) else nullcontext()
     t0 = time.perf_counter()
-    with allocator_for_arrays():
+    with allocator_for_arrays(), alone:
         out = [work(job, item) for item in items]
     return out, time.perf_counter() - t0
 

@@ -202,6 +202,15 @@ def cut_divergent(statistic: np.ndarray, thresholds: Any) -> tuple[np.ndarray, n
     """
     thr = np.asarray(thresholds, dtype=float)
     lim = np.where(np.isfinite(thr), DIVERGED_RATIO * thr, np.inf)[:, None]
+    # the usual case first: two reductions (nan propagates through max and min) show
+    # that no run diverged, without the element-wise masks below
+    hi, lo = statistic.max(axis=-1, initial=-np.inf), statistic.min(axis=-1, initial=np.inf)
+    if (
+        statistic.size
+        and np.all(np.isfinite(hi) & np.isfinite(lo))
+        and np.all(np.maximum(np.abs(hi), np.abs(lo)) <= lim[:, 0])
+    ):
+        return statistic, np.zeros(statistic.shape[0], dtype=bool)
     bad = ~np.isfinite(statistic) | (np.abs(statistic) > lim)
     bad = bad.any(axis=-2)  # (R, N)
     hit = bad.any(axis=-1)

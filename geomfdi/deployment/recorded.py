@@ -163,26 +163,27 @@ def _named_columns(
     return outputs, inputs
 
 
-def _signals(y: Any, u: Any, q: int, m: int) -> tuple[np.ndarray, np.ndarray]:
-    y = as_real_array(y, "y", allow_nonfinite=True)
-    if y.ndim == 1 and q == 1:
-        y = y[None]
-    if y.ndim != 2 or y.shape[0] != q:
+def _channels(value: Any, name: str, rows: int, what: str) -> np.ndarray:
+    """``value`` as a ``(rows, N)`` array (a 1-D array for a single channel)."""
+    a = as_real_array(value, name, allow_nonfinite=True)
+    if a.ndim == 1 and rows == 1:
+        a = a[None]
+    if a.ndim != 2 or a.shape[0] != rows:
         raise ShapeError(
-            f"y: expected ({q}, N) for the bank's {q} outputs, got {y.shape}", argument="y"
+            f"{name}: expected ({rows}, N) for the bank's {rows} {what}, got {a.shape}",
+            argument=name,
         )
+    return a
+
+
+def _signals(y: Any, u: Any, q: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+    y = _channels(y, "y", q, "outputs")
     N = y.shape[1]
     if u is None:
         if m:
             raise ShapeError(f"u: the bank reads {m} inputs; pass u ({m}, N)", argument="u")
         return y, np.zeros((0, N))
-    u = as_real_array(u, "u", allow_nonfinite=True)
-    if u.ndim == 1 and m == 1:
-        u = u[None]
-    if u.ndim != 2 or u.shape[0] != m:
-        raise ShapeError(
-            f"u: expected ({m}, N) for the bank's {m} inputs, got {u.shape}", argument="u"
-        )
+    u = _channels(u, "u", m, "inputs")
     if u.shape[1] != N:
         raise ShapeError(f"u: has {u.shape[1]} samples, y has {N}", argument="u")
     return y, u

@@ -30,6 +30,7 @@ import numpy as np
 import sympy as sp
 
 from geomfdi.errors import ComplexInputError, DesignError, GeomFDIError, NonFiniteError, ShapeError
+from geomfdi.geometry._fixpoint import monotone_fixpoint
 from geomfdi.geometry.parametric import real_number
 
 __all__ = [
@@ -271,18 +272,11 @@ def min_conditioned_invariant(A: Any, C: Any, L: Any) -> ExactSubspace:
     if _symbolic(A, C, L):
         return _parametric("W", A, C, L)
     A, C, Ls = _prepare(A, C, L)
-    Z = Ls
-    history = [Z.dim]
-    for _ in range(A.rows + 1):
-        K = _intersect_kernel(Z, C)
-        Znew = Ls + ExactSubspace(A * K.basis, A.rows)
-        history.append(Znew.dim)
-        grew = Znew.dim > Z.dim
-        Z = Znew
-        if not grew:
-            break
-    Z.history = history
-    return Z
+
+    def step(Z: ExactSubspace) -> ExactSubspace:
+        return Ls + ExactSubspace(A * _intersect_kernel(Z, C).basis, A.rows)
+
+    return monotone_fixpoint(Ls, step, A.rows + 1, grow=True)
 
 
 def min_unobservability_subspace(A: Any, C: Any, L: Any) -> ExactSubspace:
@@ -322,16 +316,9 @@ def min_unobservability_subspace(A: Any, C: Any, L: Any) -> ExactSubspace:
     A, C, Ls = _prepare(A, C, L)
     W = min_conditioned_invariant(A, C, Ls)
     n = A.rows
-    Z = ExactSubspace(sp.eye(n), n)
-    history = [n]
-    for _ in range(n + 1):
-        Znew = W + _preimage_in_kernel(A, Z, C)
-        history.append(Znew.dim)
-        shrank = Znew.dim < Z.dim
-        Z = Znew
-        if not shrank:
-            break
-    Z.history = history
+    Z = monotone_fixpoint(
+        ExactSubspace(sp.eye(n), n), lambda Z: W + _preimage_in_kernel(A, Z, C), n + 1, grow=False
+    )
     Z.W = W  # type: ignore[attr-defined]
     return Z
 

@@ -28,6 +28,7 @@ import numpy as np
 import sympy as sp
 
 from geomfdi.errors import ComplexInputError, GeomFDIError, NonFiniteError, ShapeError
+from geomfdi.geometry._fixpoint import monotone_fixpoint
 
 __all__ = [
     "ParametricField",
@@ -428,18 +429,12 @@ def generic_conditioned_invariant(
 ) -> GenericSubspace:
     """W* over ``K``: ``Z_0 = L, Z_k = L + A (Z_{k−1} ∩ Ker C)``."""
     Ls = GenericSubspace(F, L, n, ncols)
-    Z = Ls
-    history = [Z.dim]
-    for _ in range(n + 1):
+
+    def step(Z: GenericSubspace) -> GenericSubspace:
         Kz = _intersect_kernel(Z, C, q)
-        Znew = Ls.hstack(matmul(F, A, Kz.basis, n, Kz.dim), Kz.dim) if Kz.dim else Ls
-        history.append(Znew.dim)
-        grew = Znew.dim > Z.dim
-        Z = Znew
-        if not grew:
-            break
-    Z.history = history
-    return Z
+        return Ls.hstack(matmul(F, A, Kz.basis, n, Kz.dim), Kz.dim) if Kz.dim else Ls
+
+    return monotone_fixpoint(Ls, step, n + 1, grow=True)
 
 
 def generic_unobservability_subspace(
@@ -448,22 +443,15 @@ def generic_unobservability_subspace(
     """S* over ``K``: ``Z_0 = K^n, Z_k = W* + A⁻¹(Z_{k−1}) ∩ Ker C``; ``.W`` holds W*."""
     W = generic_conditioned_invariant(F, A, C, L, n, q, ncols)
     K = F.K
-    Z = GenericSubspace(
-        F, [[K.one if i == j else K.zero for j in range(n)] for i in range(n)], n, n
-    )
-    history = [n]
-    for _ in range(n + 1):
-        P = Z.complement_rows()
-        stacked = matmul(F, P, A, n, n) + [list(r) for r in C]
+
+    def step(Z: GenericSubspace) -> GenericSubspace:
+        stacked = matmul(F, Z.complement_rows(), A, n, n) + [list(r) for r in C]
         N = nullspace(F, stacked, n)
         k = len(N[0]) if N else 0
-        Znew = W.hstack(N, k) if k else GenericSubspace(F, W.basis, n, W.dim)
-        history.append(Znew.dim)
-        shrank = Znew.dim < Z.dim
-        Z = Znew
-        if not shrank:
-            break
-    Z.history = history
+        return W.hstack(N, k) if k else GenericSubspace(F, W.basis, n, W.dim)
+
+    eye = [[K.one if i == j else K.zero for j in range(n)] for i in range(n)]
+    Z = monotone_fixpoint(GenericSubspace(F, eye, n, n), step, n + 1, grow=False)
     Z.W = W
     return Z
 

@@ -584,11 +584,7 @@ def _run_deployment(args: Any) -> int:
     except Exception as exc:  # an internal error: one line unless asked for the traceback
         if args.traceback:
             raise
-        print(
-            f"geomfdi: error: internal error {type(exc).__name__}: {_one_line(exc)}",
-            file=sys.stderr,
-        )
-        return 1
+        return _internal_error(exc, hint="")
     if not args.quiet:
         print(text)
     return 0
@@ -667,12 +663,7 @@ def campaign_command(args: argparse.Namespace) -> int:
     except Exception as exc:
         if args.traceback:
             raise
-        print(
-            f"geomfdi: error: internal error {type(exc).__name__}: {_one_line(exc)} "
-            "(rerun with --traceback for details)",
-            file=sys.stderr,
-        )
-        return 1
+        return _internal_error(exc)
     if not args.quiet:
         print(campaign_report(cfg, result, files))
     return 0
@@ -681,6 +672,13 @@ def campaign_command(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------------------------
 def _one_line(text: str) -> str:
     return " ".join(str(text).split())
+
+
+def _internal_error(exc: Exception, hint: str = " (rerun with --traceback for details)") -> int:
+    """Report an unexpected error on one line of stderr; exit code 1."""
+    text = f"geomfdi: error: internal error {type(exc).__name__}: {_one_line(exc)}{hint}"
+    print(text, file=sys.stderr)
+    return 1
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -736,10 +734,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 progress=not args.quiet and (args.progress or sys.stderr.isatty()),
                 figures=figs,
             )
-    except GeomFDIError as exc:
-        print(f"geomfdi: error: {_one_line(exc)}", file=sys.stderr)
-        return 2
-    except OSError as exc:
+    except (GeomFDIError, OSError) as exc:
         print(f"geomfdi: error: {_one_line(exc)}", file=sys.stderr)
         return 2
     except MemoryError:
@@ -748,12 +743,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:  # an internal error: one line unless asked for the traceback
         if args.traceback:
             raise
-        print(
-            f"geomfdi: error: internal error {type(exc).__name__}: {_one_line(exc)} "
-            "(rerun with --traceback for details)",
-            file=sys.stderr,
-        )
-        return 1
+        return _internal_error(exc)
     finally:
         figs.close()
     try:

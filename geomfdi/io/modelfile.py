@@ -395,12 +395,17 @@ def _design_faults(ctx: _Ctx, items: Any, plant: Plant) -> list[Fault]:
     return out
 
 
-def _filter_pole(ctx: _Ctx, value: Any, where: str, plant: Plant) -> float:
-    """The output-filter parameter ``a``: ``a > 0`` (continuous), ``0 < a < 1`` (discrete)."""
+def _positive_below_one(ctx: _Ctx, value: Any, where: str, plant: Plant, name: str) -> float:
+    """A number ``> 0``, and ``< 1`` on a discrete plant."""
     a = ctx.number(value, where, positive=True)
     if plant.is_discrete and a >= 1:
-        raise ctx.err(where, f"expected 0 < filter_pole < 1 for a discrete plant, got {value!r}")
+        raise ctx.err(where, f"expected 0 < {name} < 1 for a discrete plant, got {value!r}")
     return a
+
+
+def _filter_pole(ctx: _Ctx, value: Any, where: str, plant: Plant) -> float:
+    """The output-filter parameter ``a``: ``a > 0`` (continuous), ``0 < a < 1`` (discrete)."""
+    return _positive_below_one(ctx, value, where, plant, "filter_pole")
 
 
 def _residual_dim(ctx: _Ctx, value: Any, where: str) -> int | list[int | None] | None:
@@ -431,10 +436,7 @@ def _flag(ctx: _Ctx, value: Any, where: str) -> bool:
 
 def _margin(ctx: _Ctx, value: Any, where: str, plant: Plant) -> float:
     """Stability margin: ``Re λ <= -margin`` (continuous) or ``|λ| <= margin < 1`` (discrete)."""
-    m = ctx.number(value, where, positive=True)
-    if plant.is_discrete and m >= 1:
-        raise ctx.err(where, f"expected 0 < margin < 1 for a discrete plant, got {value!r}")
-    return m
+    return _positive_below_one(ctx, value, where, plant, "margin")
 
 
 def _method_options(ctx: _Ctx, d: dict[str, Any], plant: Plant) -> list[MethodOptions]:

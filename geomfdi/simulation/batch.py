@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._threads import limit_blas_threads
+from geomfdi._threads import limit_blas_threads, work_threads
 from geomfdi._validation import as_choice, as_int
 from geomfdi.errors import ShapeError
 from geomfdi.evaluation.decision import NO_ALARM, as_threshold
@@ -175,6 +175,7 @@ def simulate_batch(
     bar = progress_bar(ctx.progress, runs, "runs")
     kept: dict[str, Any] = {}  # for the next chunk of runs: open-loop engine, noise buffers
     work = kept["work"] = Workspace()  # chunk-sized work arrays, reused chunk after chunk
+    kept["threads"] = work_threads()  # the noise draws of a chunk's runs, in parallel
     for a in range(0, runs, Rc):
         b = min(a + Rc, runs)
         rngs = [None if sd is None else np.random.default_rng(sd) for sd in seeds[a:b]]
@@ -270,8 +271,9 @@ def _pieces(
         eng = make_engine(ctx, x0, xc0, schedules, shared, Rc, L)
         if shared and isinstance(eng, OpenLoopEngine):
             kept["open"] = eng
-    pool = kept.setdefault("noise buffers", [])  # the draws' memory, reused
-    streams = noise_streams(ctx, rngs, pool)
+    # the draws' memory, reused; the runs' draws split between the work threads
+    parts = kept["threads"]
+    streams = noise_streams(ctx, rngs, kept.setdefault("noise buffers", {}), parts)
     work = kept["work"]
     if isinstance(eng, OpenLoopEngine):
         eng.workspace = work
@@ -280,7 +282,7 @@ def _pieces(
     buf = None if direct else np.zeros((eng.R, nres, max(e1 - s for s, _, e1 in chunks)))
     for s, e, e1 in chunks:
         dest = R_res[a : a + Rc, :, s:e1] if direct else buf[:, :, : e1 - s]
-        v, wp = noise_window(ctx, streams, s, e1, work)
+        v, wp = noise_window(ctx, streams, s, e1, work, parts)
         pc = eng.advance(s, e1, v, wp, dest)
         yield s, e, pc, np.broadcast_to(dest[:, :, : e - s], (Rc, nres, e - s)), direct
     for st in streams or ():

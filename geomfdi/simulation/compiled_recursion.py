@@ -23,6 +23,7 @@ import ctypes
 import os
 import threading
 import warnings
+from concurrent.futures import wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -30,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from geomfdi._cbuild import build_library
+from geomfdi._threads import thread_pool, work_threads
 from geomfdi.errors import BackendFallbackWarning, GeomFDIError, ShapeError
 from geomfdi.simulation.lifting import Drive, block_recursion
 
@@ -349,6 +351,12 @@ def _compiled(
         raise ShapeError(f"x0: {x0.shape[1]} runs, the signals have {R}", argument="x0")
     dsig, dmats = direct if direct is not None else ([], [[None] * len(o) for o in outputs])
     nd_all = int(sum(a.shape[0] for a in dsig))
+    nz_all = int(sum(d.arr.shape[0] for d in drives))
+    if np.shape(W) != (nS, nz_all):
+        raise ShapeError(
+            f"W: expected ({nS}, {nz_all}) (states, drive channels), got {np.shape(W)}",
+            argument="W",
+        )
     lay = _layout(blocks, W, outputs, dmats, nd_all)
     W = np.asarray(W, dtype=float)
     keep: list[np.ndarray] = []  # converted arrays: alive until the kernel returns
@@ -414,7 +422,7 @@ def _compiled(
     X = np.array(np.broadcast_to(x0, (nS, R)), dtype=float, order="C")
     fs = None if fs is None else np.ascontiguousarray(fs)
     ys = None if ys is None else np.ascontiguousarray(ys)
-    status = lib(
+    args = [
         nS,
         R,
         N,
@@ -423,7 +431,7 @@ def _compiled(
         lay.Apk.ctypes.data,
         Wp.shape[1],
         Wp.ctypes.data,  # never NULL: numpy gives empty arrays a buffer
-        dch.ctypes.data,
+        dch,
         None if fs is None else fs.ctypes.data,
         0 if fs is None else fs.shape[1],
         p,
@@ -432,16 +440,65 @@ def _compiled(
         lay.Cpk.ctypes.data,
         Dp.shape[1],
         Dp.ctypes.data,
-        ech.ctypes.data,
+        ech,
         None if ys is None else ys.ctypes.data,
         0 if ys is None else ys.shape[1],
-        och.ctypes.data,
-        X.ctypes.data,
-    )
+        och,
+        X,
+    ]
+    status = _call_parts(lib, args, R, N * nS)
     del keep
     if status != 0:
         raise MemoryError("the batch recursion could not allocate its work arrays")
     return (res, X) if final else res
+
+
+#: Runs per SIMD group of the kernel (``GFSIM_G``: 16 with AVX-512, 8 with AVX): the
+#: run parts of :func:`_call_parts` are whole groups.
+_GROUP = 16
+#: Fewest state-samples (runs x samples x states) per thread in :func:`_call_parts`.
+_MIN_PART_WORK = 2**18
+_CHANNEL_ARGS = (8, 17, 20)  # positions of the channel tables in the kernel's arguments
+
+
+def _call_parts(lib: Any, args: list[Any], R: int, work_per_run: int) -> int:
+    """Run the kernel on ``args`` (channel tables and the states ``X`` as arrays), the
+    runs split into contiguous parts of whole SIMD groups, one per work thread
+    (:func:`geomfdi._threads.work_threads`; ``ctypes`` releases the interpreter lock
+    for the call).  A part sees its runs only: the channels' base pointers move to its
+    first run (a run stride of 0, a signal shared by the runs, stays), its states are a
+    contiguous copy written back after.  The runs are independent and each is computed
+    by the same instructions in either case, so the results do not depend on the split.
+    """
+    groups = -(-R // _GROUP)
+    k = min(work_threads(), groups, max(1, R * work_per_run // _MIN_PART_WORK))
+    X = args[-1]
+    if k <= 1:
+        return lib(*[a.ctypes.data if isinstance(a, np.ndarray) else a for a in args])
+    edges = [min(R, round(i * groups / k) * _GROUP) for i in range(k + 1)]
+    calls = []
+    for r0, r1 in zip(edges[:-1], edges[1:], strict=True):
+        part = list(args)
+        part[1] = r1 - r0
+        for pos in _CHANNEL_ARGS:
+            ch = args[pos].copy()
+            ch["p"] += (r0 * 8 * ch["rs"]).astype(np.uintp)
+            moved = ch["sp"] != 0
+            ch["sp"][moved] += (r0 * 8 * ch["srs"][moved]).astype(np.uintp)
+            part[pos] = ch
+        part[-1] = np.ascontiguousarray(X[:, r0:r1])
+        calls.append((r0, r1, part))
+
+    def run(part: list[Any]) -> int:
+        return int(lib(*[a.ctypes.data if isinstance(a, np.ndarray) else a for a in part]))
+
+    futures = [thread_pool(k).submit(run, part) for _, _, part in calls]
+    wait(futures)
+    status = 0
+    for (r0, r1, part), f in zip(calls, futures, strict=True):
+        status = status or f.result()
+        X[:, r0:r1] = part[-1]
+    return status
 
 
 def _dest_view(dv: np.ndarray) -> np.ndarray:

@@ -120,11 +120,12 @@ and *Theory: evaluation* (``docs/theory/evaluation.md``) for thresholds and deci
 from __future__ import annotations
 
 from collections.abc import Sequence
+from concurrent.futures import wait
 from typing import Any
 
 import numpy as np
 
-from geomfdi._threads import limit_blas_threads
+from geomfdi._threads import limit_blas_threads, thread_pool
 from geomfdi._validation import as_bool
 from geomfdi.errors import GeomFDIError
 from geomfdi.evaluation.decision import (
@@ -208,15 +209,37 @@ def stop_divergent(
 
 
 def noise_streams(
-    ctx: Context, rngs: list[np.random.Generator | None], pool: list[np.ndarray] | None = None
+    ctx: Context,
+    rngs: list[np.random.Generator | None],
+    pool: dict[int, list[np.ndarray]] | None = None,
+    parts: int = 1,
 ) -> list[NoiseStream] | None:
     """One :class:`NoiseStream` per run (``None`` without noise); ``pool``: buffers
-    shared with the streams of other chunks of runs (see :func:`noise_window`)."""
+    shared with the streams of other chunks of runs (see :func:`noise_window`), one
+    list per part of the runs (:func:`run_parts` with ``parts`` parts: the parts are
+    drawn by different threads, so their streams never share a buffer)."""
     if ctx.Lv is None and ctx.Lw is None:
         return None
     rv = ctx.plant.q if ctx.Lv is not None else 0
     rw = ctx.Lw.shape[1] if ctx.Lw is not None else 0
-    return [NoiseStream(rng, rv, rw, ctx.N, pool=pool) for rng in rngs]  # type: ignore[arg-type]
+    streams = [NoiseStream(rng, rv, rw, ctx.N) for rng in rngs]  # type: ignore[arg-type]
+    if pool is not None:
+        for k, part in enumerate(run_parts(len(streams), parts)):
+            for st in streams[part]:
+                st.pool = pool.setdefault(k, [])
+    return streams
+
+
+#: Fewest runs a thread of its own draws the noise for (:func:`run_parts`).
+MIN_RUNS_PER_PART = 4
+
+
+def run_parts(runs: int, parts: int) -> list[slice]:
+    """Contiguous slices of ``runs`` runs, at most ``parts`` of them, each of at least
+    :data:`MIN_RUNS_PER_PART` runs (one slice when there are too few runs to share)."""
+    k = max(1, min(int(parts), runs // MIN_RUNS_PER_PART))
+    edges = [round(i * runs / k) for i in range(k + 1)]
+    return [slice(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)]
 
 
 def noise_window(
@@ -225,12 +248,18 @@ def noise_window(
     s: int,
     e1: int,
     workspace: Workspace | None = None,
+    parts: int = 1,
 ) -> tuple[np.ndarray | None, np.ndarray | None]:
     """Measurement ``(q, R, L)`` and process ``(k, R, L)`` noise of samples ``s .. e1-1``.
 
     Each run's draws are scaled straight into the window (``L_v z``, ``L_w z``) before
     the next run's stream is read (streams sharing a buffer pool reuse released blocks).
-    With ``workspace`` the windows are its arrays (valid until the next window).
+    With ``workspace`` the windows are its arrays (valid until the next window).  With
+    ``parts > 1`` the runs are split by :func:`run_parts` (as the streams' pools were,
+    :func:`noise_streams`) and the parts drawn on as many threads
+    (:func:`geomfdi._threads.thread_pool`): numpy's generators and the scaling release
+    the interpreter lock, every run keeps its own generator, so the values are the
+    same as drawn one run after the other.
     """
     if streams is None:
         return None, None
@@ -242,10 +271,21 @@ def noise_window(
     v = new("noise v", (ctx.plant.q, R, L)) if ctx.Lv is not None else None
     w = new("noise w", (ctx.Lw.shape[0], R, L)) if ctx.Lw is not None else None
     scale = [_scaling(ctx.Lv), _scaling(ctx.Lw)]
-    for r, st in enumerate(streams):
-        for dest, z, f in zip((v, w), st.take(s, e1), scale, strict=True):
-            if dest is not None:
-                f(z, out=dest[:, r])
+
+    def draw(part: slice) -> None:
+        for r in range(part.start, part.stop):
+            for dest, z, f in zip((v, w), streams[r].take(s, e1), scale, strict=True):
+                if dest is not None:
+                    f(z, out=dest[:, r])
+
+    split = run_parts(R, parts)
+    if len(split) == 1:
+        draw(split[0])
+    else:
+        futures = [thread_pool(len(split)).submit(draw, part) for part in split]
+        wait(futures)  # every part done before an error is raised
+        for f in futures:
+            f.result()
     return v, w
 
 

@@ -32,6 +32,7 @@ Steps for a row that must see ``target`` and ignore ``decouple`` (and every dist
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -471,6 +472,12 @@ def build_least_order(
     Qm, d = _quotient(plant, sigs, target, decouple, row, balance, factor)
     kw = {"poles": poles, "row": row, "prefix": prefix}
     lo = _search(Qm, plant, target, decouple, omega=omega, **kw)
+
+    def finish(cur: LeastOrderRow) -> tuple[ResidualGenerator, Composite]:
+        return _finish(
+            plant, faults, sigs, target, decouple, Qm, d, cur, omega=omega, row=row, factor=factor
+        )
+
     first: _NumericalDesignError | None = None
     for kind, val in _attempts(lo, Qm.k, Qm.rho, poles, prefix):
         try:
@@ -494,19 +501,7 @@ def build_least_order(
                     cur = quotient_observer_row(
                         Qm, omega=omega, dt=plant.dt, relax=val, certificate=cert
                     )
-            g, comp = _finish(
-                plant,
-                faults,
-                sigs,
-                target,
-                decouple,
-                Qm,
-                d,
-                cur,
-                omega=omega,
-                row=row,
-                factor=factor,
-            )
+            g, comp = finish(cur)
         except _NumericalDesignError as exc:
             first = first or exc
             continue
@@ -516,9 +511,7 @@ def build_least_order(
         if kind in ("pf", "onbp"):
             g.info["pole_scale"] = val
             if poles is None and not prefix and strengthen:
-                g = _strengthen(
-                    g, comp, cur, Qm, d, plant, faults, sigs, target, decouple, omega, row, factor
-                )
+                g = _strengthen(g, comp, cur, Qm, plant, sigs, target, omega, factor, finish)
         else:
             g.info["relax"] = val
         return g
@@ -531,15 +524,12 @@ def _strengthen(
     comp: Composite,
     lo: LeastOrderRow,
     Qm: Quotient,
-    d: np.ndarray,
     plant: Plant,
-    faults: list[Any],
     sigs: list[tuple[np.ndarray, np.ndarray]],
     target: tuple[int, ...],
-    decouple: tuple[int, ...],
     omega: float,
-    row: str,
     factor: PlantFactor | None,
+    finish: Callable[[LeastOrderRow], tuple[ResidualGenerator, Composite]],
 ) -> ResidualGenerator:
     """Raise the order of a weak least-order row until every target is strongly seen.
 
@@ -548,6 +538,7 @@ def _strengthen(
     above the largest observability index), with the direction chosen by the DC gains;
     the first row that is not weak is delivered, its certificate states the least order
     and why the order was raised.  Otherwise the least-order row is kept (reported weak).
+    ``finish`` realises and checks a row on the plant (:func:`_finish` of this row).
     """
     weak = weak_targets(g, plant, sigs, factor, omega, target, comp)
     g.info["weak_targets"] = weak
@@ -569,19 +560,7 @@ def _strengthen(
                 raised_from=nu,
                 weak_at_least=list(weak),
             )
-            g2, comp2 = _finish(
-                plant,
-                faults,
-                sigs,
-                target,
-                decouple,
-                Qm,
-                d,
-                cur,
-                omega=omega,
-                row=row,
-                factor=factor,
-            )
+            g2, comp2 = finish(cur)
         except (_NumericalDesignError, np.linalg.LinAlgError, NotIsolableError):
             continue
         weak2 = weak_targets(g2, plant, sigs, factor, omega, target, comp2)

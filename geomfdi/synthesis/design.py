@@ -84,6 +84,37 @@ def _check_method(method: Any) -> str:
     return str(method)
 
 
+def _plant_and_faults(plant: Any, faults: Any) -> tuple[Plant, list[Fault]]:
+    """The plant as a :class:`Plant` and the faults bound to it."""
+    plant = _coerce_plant(plant)
+    return plant, bind_faults(plant, _coerce_faults(faults))
+
+
+def _checked_options(method: Any, minimal: Any, filter_pole: Any) -> tuple[str, bool, float | None]:
+    """``method``, ``minimal`` and ``filter_pole`` of a numerical design, validated."""
+    return (
+        _check_method(method),
+        as_bool(minimal, "minimal"),
+        as_float(filter_pole, "filter_pole", allow_none=True),
+    )
+
+
+def _check_rows_method(rdim: int, method: Any, exact: Any) -> None:
+    """Rows beyond the first (``residual_dim > 1``) need ``method="exact"``, ``exact=False``."""
+    if rdim > 1 and (exact or method != "exact"):
+        raise DesignError(
+            "residual_dim: rows beyond the first are designed by the least-order method "
+            f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
+            argument="residual_dim",
+        )
+
+
+def _factor_and_scale(plant: Plant) -> tuple[PlantFactor, float]:
+    """The plant's Schur factor and its time scale ``ω`` (default poles, pole scaling)."""
+    factor = PlantFactor(plant)
+    return factor, plant_scale(plant.A, plant.dt, eigenvalues=np.diag(factor.TA))
+
+
 def _design_row(
     plant: Plant,
     faults: list[Fault],
@@ -323,8 +354,7 @@ def design_residual_generator(
         from geomfdi.synthesis.approximate.bank import gap_residual_generator
 
         return gap_residual_generator(
-            (gp := _coerce_plant(plant)),
-            bind_faults(gp, _coerce_faults(faults)),
+            *_plant_and_faults(plant, faults),
             target,
             decouple=decouple,
             poles=None if poles is None else checked_poles(poles),
@@ -334,12 +364,7 @@ def design_residual_generator(
             band=band,
         )
     rdim = check_residual_dim(residual_dim)
-    if rdim > 1 and (exact or method != "exact"):
-        raise DesignError(
-            "residual_dim: rows beyond the first are designed by the least-order method "
-            f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
-            argument="residual_dim",
-        )
+    _check_rows_method(rdim, method, exact)
     # --- exact / parametric design (geomfdi.synthesis.exact.design) ---
     if exact:
         from geomfdi.synthesis.exact.design import exact_dispatch
@@ -355,19 +380,15 @@ def design_residual_generator(
             filter_pole=filter_pole,
         )
     # --- end exact ---
-    plant = _coerce_plant(plant)
-    faults = bind_faults(plant, _coerce_faults(faults))
-    method = _check_method(method)
-    minimal = as_bool(minimal, "minimal")
-    filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
+    plant, faults = _plant_and_faults(plant, faults)
+    method, minimal, filter_pole = _checked_options(method, minimal, filter_pole)
     poles = checked_poles(poles)
     tgt, dec = target_decouple(target, decouple, len(faults))
     mg = checked_margin(margin, plant.dt)
     if filter_pole is not None:  # validated by the transform even when unused
         pseudo_actuator_model(plant, faults, "exact", filter_pole=filter_pole)
     sigs = fault_matrices(faults, plant.n, plant.q)
-    factor = PlantFactor(plant)
-    omega = plant_scale(plant.A, plant.dt, eigenvalues=np.diag(factor.TA))
+    factor, omega = _factor_and_scale(plant)
     with record_design() as rec:
         g = _design_row(
             plant,
@@ -530,8 +551,7 @@ def design_bank(
         from geomfdi.synthesis.approximate.bank import gap_bank
 
         bank = gap_bank(
-            (gp := _coerce_plant(plant)),
-            bind_faults(gp, _coerce_faults(faults)),
+            *_plant_and_faults(plant, faults),
             structure,
             poles=poles,
             residual_dim=residual_dim,
@@ -562,11 +582,8 @@ def design_bank(
             filter_pole=filter_pole,
         )
     # --- end exact ---
-    plant = _coerce_plant(plant)
-    faults = bind_faults(plant, _coerce_faults(faults))
-    method = _check_method(method)
-    minimal = as_bool(minimal, "minimal")
-    filter_pole = as_float(filter_pole, "filter_pole", allow_none=True)
+    plant, faults = _plant_and_faults(plant, faults)
+    method, minimal, filter_pole = _checked_options(method, minimal, filter_pole)
     nf = len(faults)
     S = as_real_array(structure, "structure")
     if S.ndim == 1:
@@ -581,12 +598,7 @@ def design_bank(
     req = S.astype(bool)
     _warn_inseparable(req, faults)
     dims = _row_dims(residual_dim, req.shape[0])
-    if max(dims, default=1) > 1 and (exact or method != "exact"):
-        raise DesignError(
-            "residual_dim: rows beyond the first are designed by the least-order method "
-            f"(method='exact', exact=False); got method={method!r}, exact={exact!r}",
-            argument="residual_dim",
-        )
+    _check_rows_method(max(dims, default=1), method, exact)
     sigs = fault_matrices(faults, plant.n, plant.q)
     info: dict[str, Any] = {}
     if method != "exact" or filter_pole is not None:
@@ -598,8 +610,7 @@ def design_bank(
     mg = checked_margin(margin, plant.dt)
     rows = req.shape[0]
     per_row = row_poles(poles, rows)
-    factor = PlantFactor(plant)
-    omega = plant_scale(plant.A, plant.dt, eigenvalues=np.diag(factor.TA))
+    factor, omega = _factor_and_scale(plant)
     gens: list[ResidualGenerator | None] = []
     diags: list[str] = []
     achieved = np.zeros_like(req)

@@ -34,7 +34,7 @@ from geomfdi.generators.generator import ResidualGenerator
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.approximate.factorization import co_outer_factor
-from geomfdi.synthesis.approximate.gap_design import finish, series
+from geomfdi.synthesis.approximate.gap_design import combine_rows, require_stable, series
 from geomfdi.synthesis.approximate.measure import hinf
 from geomfdi.synthesis.approximate.nullspace import (
     _PROBES,
@@ -132,7 +132,7 @@ def design_fault_estimator(
             argument="faults",
         )
     T = np.linalg.inv(Gi0)
-    g = finish(ResidualGenerator(Qt.F, Qt.E, Qt.G, T @ Qt.M, T @ Qt.H, T @ Qt.K, dt=dt))
+    g = combine_rows(Qt, T, dt)
     g.method = "estimator"
     g.target = tuple(range(len(faults)))
     Ae, Be, Ce, De = channel(g, A, Bf, C, Df)
@@ -142,10 +142,7 @@ def design_fault_estimator(
     noise = hinf(*channel(g, A, Bw, C, Dw), dt) if Bw.shape[1] else 0.0
     leak_u = hinf(*channel(g, A, plant.B, C, plant.D, known_input=True), dt)
     leak_d = hinf(*channel(g, A, plant.Bd, C, plant.Dd), dt) if plant.nd else 0.0
-    poles_g = g.poles
-    stable = bool(np.all(np.abs(poles_g) < 1)) if dt > 0 else bool(np.all(poles_g.real < 0))
-    if not stable:
-        raise DesignError("plant: the estimator came out unstable", argument="plant")
+    poles_g = require_stable(g, dt, "plant: the estimator came out unstable", argument="plant")
     g.info.update(
         exact=bool(err <= EXACT_TOL),
         error_norm=err,

@@ -20,7 +20,6 @@ See *Theory: approximate synthesis* (``docs/theory/approximate-synthesis.md``).
 
 from __future__ import annotations
 
-import warnings
 from typing import Any
 
 import numpy as np
@@ -28,7 +27,6 @@ import scipy.optimize as sopt
 
 from geomfdi.errors import DesignError, NotIsolableError
 from geomfdi.generators.generator import ResidualGenerator
-from geomfdi.generators.realization import minimal_realization
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.approximate.factorization import co_outer_factor
@@ -37,11 +35,11 @@ from geomfdi.synthesis.approximate.nullspace import (
     channel,
     decoupling_basis,
     frequency_grid,
+    quiet_minimal,
     transfer_on_grid,
 )
-from geomfdi.tolerance import CloseRankWarning
 
-__all__ = ["gap_design", "series", "choose_rows", "finish"]
+__all__ = ["gap_design", "series", "choose_rows", "finish", "combine_rows", "require_stable"]
 
 
 def series(g: ResidualGenerator, Ai, Bi, Ci, Di) -> ResidualGenerator:
@@ -198,25 +196,69 @@ def choose_rows(
 
 def finish(g: ResidualGenerator) -> ResidualGenerator:
     """Minimal realisation of a generator (inputs ``[y; u]``)."""
-    B = np.hstack([-g.E, g.G])
-    D = np.hstack([-g.H, g.K])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", CloseRankWarning)
-        mr = minimal_realization(g.F, B, g.M, D)
+    A, B, C, D = quiet_minimal(g.F, np.hstack([-g.E, g.G]), g.M, np.hstack([-g.H, g.K]))
     q = g.q
     return ResidualGenerator(
-        mr.A,
-        -mr.B[:, :q],
-        mr.B[:, q:],
-        mr.C,
-        -mr.D[:, :q],
-        mr.D[:, q:],
+        A,
+        -B[:, :q],
+        B[:, q:],
+        C,
+        -D[:, :q],
+        D[:, q:],
         dt=g.dt,
         target=g.target,
         decoupled=g.decoupled,
         method="gap",
         info=dict(g.info),
     )
+
+
+def combine_rows(
+    Q: ResidualGenerator,
+    rows: np.ndarray | int,
+    dt: float,
+    target: tuple[int, ...] = (),
+    decouple: tuple[int, ...] = (),
+) -> ResidualGenerator:
+    """``finish(T Q)``: the residual ``T r_Q`` realised minimally.
+
+    ``rows`` is the matrix ``T`` (one column per output of ``Q``), or an integer ``k``
+    for the first ``k`` outputs of ``Q`` as they are.
+    """
+    if isinstance(rows, int):
+        M, H, K = Q.M[:rows], Q.H[:rows], Q.K[:rows]
+    else:
+        M, H, K = rows @ Q.M, rows @ Q.H, rows @ Q.K
+    return finish(
+        ResidualGenerator(Q.F, Q.E, Q.G, M, H, K, dt=dt, target=target, decoupled=decouple)
+    )
+
+
+def require_stable(
+    g: ResidualGenerator, dt: float, message: str, argument: str | None = None
+) -> np.ndarray:
+    """The poles of ``g``; :class:`DesignError` (``message``) when one is not stable."""
+    poles = g.poles
+    stable = bool(np.all(np.abs(poles) < 1)) if dt > 0 else bool(np.all(poles.real < 0))
+    if not stable:
+        raise DesignError(message, argument=argument)
+    return poles
+
+
+def _noise_decoupled_info(num: Any, *, measured: bool) -> dict[str, Any]:
+    """``info`` of a design that decouples the noise exactly (gap ``∞``, ``γ = 0``)."""
+    info = {"gap": float("inf"), "beta": num.beta, "gamma": 0.0}
+    if measured:
+        info["gamma_measured"] = num.gamma
+    info.update(
+        fault_norms=num.fault_norms,
+        leak_u=num.leak_u,
+        leak_d=num.leak_d,
+        noise_decoupled=True,
+        regularization=0.0,
+        standard=True,
+    )
+    return info
 
 
 def _exact_noise_decoupling(plant, faults, target, decouple, Bw, Dw, poles):
@@ -281,24 +323,16 @@ def gap_design(
         band, band_pts = band_grid(band, plant.dt)
     A, C, dt = plant.A, plant.C, plant.dt
     tsigs = [sigs[j] for j in target]
-    g = _exact_noise_decoupling(plant, faults, target, decouple, Bw, Dw, poles)
-    if g is not None:
-        num = gap_numbers(
+
+    def numbers(g: ResidualGenerator) -> Any:  # β, γ, gap and leaks measured on the plant
+        return gap_numbers(
             g, A, plant.B, plant.Bd, Bw, C, plant.D, plant.Dd, Dw, tsigs, dt, band=band
         )
+
+    g = _exact_noise_decoupling(plant, faults, target, decouple, Bw, Dw, poles)
+    if g is not None:
         g.method = "gap"
-        g.info.update(
-            gap=float("inf"),
-            beta=num.beta,
-            gamma=0.0,
-            gamma_measured=num.gamma,
-            fault_norms=num.fault_norms,
-            leak_u=num.leak_u,
-            leak_d=num.leak_d,
-            noise_decoupled=True,
-            regularization=0.0,
-            standard=True,
-        )
+        g.info.update(_noise_decoupled_info(numbers(g), measured=True))
         return g
     Q1 = decoupling_basis(plant, faults, sigs, target, decouple, poles=poles)
     rho = Q1.n_outputs
@@ -312,32 +346,9 @@ def gap_design(
     Aw, Bw1, Cw, Dw1 = channel(Q1, A, Bw, C, Dw)
     scale = hinf(Aw, Bw1, Cw, Dw1, dt)
     if scale == 0:  # no noise, or none reaches the decoupling basis: the exact design
-        g = finish(
-            ResidualGenerator(
-                Q1.F,
-                Q1.E,
-                Q1.G,
-                Q1.M[:rdim],
-                Q1.H[:rdim],
-                Q1.K[:rdim],
-                dt=dt,
-                target=target,
-                decoupled=decouple,
-            )
-        )
-        num = gap_numbers(
-            g, A, plant.B, plant.Bd, Bw, C, plant.D, plant.Dd, Dw, tsigs, dt, band=band
-        )
+        g = combine_rows(Q1, rdim, dt, target, decouple)
+        g.info.update(_noise_decoupled_info(numbers(g), measured=False))
         g.info.update(
-            gap=float("inf"),
-            beta=num.beta,
-            gamma=0.0,
-            fault_norms=num.fault_norms,
-            leak_u=num.leak_u,
-            leak_d=num.leak_d,
-            noise_decoupled=True,
-            regularization=0.0,
-            standard=True,
             nullspace_dim=rho,
             residual_dim=rdim,
             poles=g.poles,
@@ -347,26 +358,12 @@ def gap_design(
     pts = frequency_grid(A, dt) if band is None else band_pts
     Gf = [transfer_on_grid(*channel(Qt, A, Bf, C, Df), pts) for Bf, Df in tsigs]
     Mrow, _ = choose_rows(Gf, rdim, _beta_grid if band is None else _beta_band)
-    gM = ResidualGenerator(
-        Qt.F,
-        Qt.E,
-        Qt.G,
-        Mrow @ Qt.M,
-        Mrow @ Qt.H,
-        Mrow @ Qt.K,
-        dt=dt,
-        target=target,
-        decoupled=decouple,
+    g = combine_rows(Qt, Mrow, dt, target, decouple)
+    poles_g = require_stable(
+        g, dt, "plant: the gap design produced an unstable generator", argument="plant"
     )
-    g = finish(gM)
-    poles_g = g.poles
-    stable = bool(np.all(np.abs(poles_g) < 1)) if dt > 0 else bool(np.all(poles_g.real < 0))
-    if not stable:
-        raise DesignError("plant: the gap design produced an unstable generator", argument="plant")
     if measure:
-        num = gap_numbers(
-            g, A, plant.B, plant.Bd, Bw, C, plant.D, plant.Dd, Dw, tsigs, dt, band=band
-        )
+        num = numbers(g)
         g.info.update(
             gap=num.gap,
             beta=num.beta,

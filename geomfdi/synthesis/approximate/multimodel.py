@@ -28,21 +28,20 @@ synthesis* (``docs/theory/approximate-synthesis.md``).
 
 from __future__ import annotations
 
-import warnings
 from typing import Any
 
 import numpy as np
 
 from geomfdi.errors import DesignError, NotIsolableError
 from geomfdi.generators.generator import ResidualGenerator
-from geomfdi.generators.realization import minimal_realization
 from geomfdi.model.faults import Fault, fault_matrices
 from geomfdi.model.plant import Plant
 from geomfdi.synthesis.approximate.factorization import co_outer_factor
 from geomfdi.synthesis.approximate.gap_design import (
     choose_rows,
-    finish,
+    combine_rows,
     gap_design,
+    require_stable,
     series,
 )
 from geomfdi.synthesis.approximate.measure import hinf
@@ -51,9 +50,9 @@ from geomfdi.synthesis.approximate.nullspace import (
     decoupling_basis,
     frequency_grid,
     noise_channel,
+    quiet_minimal,
     transfer_on_grid,
 )
-from geomfdi.tolerance import CloseRankWarning
 
 __all__ = ["robust_gap_design", "model_gaps"]
 
@@ -68,10 +67,7 @@ def _stack(chs: list[Channel]) -> Channel:
     B = block_diag(*[c[1] for c in chs])
     C = np.hstack([c[2] for c in chs])
     D = np.hstack([c[3] for c in chs])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", CloseRankWarning)
-        mr = minimal_realization(A, B, C, D)
-    return mr.A, mr.B, mr.C, mr.D
+    return quiet_minimal(A, B, C, D)
 
 
 def _channels(
@@ -208,18 +204,7 @@ def _stacked_candidate(
             transfer_on_grid(*channel(Qt, m.A, sigs[j][0], m.C, sigs[j][1]), pts) for j in target
         ]
     Mrow, _ = choose_rows(Gf, rdim)
-    gM = ResidualGenerator(
-        Qt.F,
-        Qt.E,
-        Qt.G,
-        Mrow @ Qt.M,
-        Mrow @ Qt.H,
-        Mrow @ Qt.K,
-        dt=m0.dt,
-        target=target,
-        decoupled=decouple,
-    )
-    g = finish(gM)
+    g = combine_rows(Qt, Mrow, m0.dt, target, decouple)
     g.info.update(nullspace_dim=rho, residual_dim=rdim, regularization=fac.regularization)
     return g
 
@@ -301,11 +286,9 @@ def robust_gap_design(
         scored.append((float(np.min(gaps)), cands[i][0], cands[i][1], gaps, leaks))
     nominal = scored[0]
     worst, name, g, gaps, leaks = max(scored, key=lambda t: t[0])
-    poles_g = g.poles
-    dt = models[0].dt
-    stable = bool(np.all(np.abs(poles_g) < 1)) if dt > 0 else bool(np.all(poles_g.real < 0))
-    if not stable:
-        raise DesignError("models: the robust design produced an unstable generator")
+    poles_g = require_stable(
+        g, models[0].dt, "models: the robust design produced an unstable generator"
+    )
     g.method = "gap"
     g.info.update(
         gap=worst,

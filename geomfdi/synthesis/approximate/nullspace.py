@@ -31,9 +31,25 @@ __all__ = [
     "transfer_on_grid",
     "frequency_grid",
     "noise_channel",
+    "quiet_minimal",
 ]
 
 _PROBES = (0.7071 + 0.3183j, 1.618 + 2.7183j, 0.5772 - 1.4142j)
+
+
+def quiet_minimal(
+    A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, B, C, D)`` of the minimal realisation, close rank decisions not warned.
+
+    The channels and generators of the approximate design only feed norms, the
+    factorisation and the delivered minimal form; a close decision there is no news to
+    the user (:func:`~geomfdi.generators.realization.minimal_realization`).
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CloseRankWarning)
+        mr = minimal_realization(A, B, C, D)
+    return mr.A, mr.B, mr.C, mr.D
 
 
 def noise_channel(plant: Plant) -> tuple[np.ndarray, np.ndarray]:
@@ -211,15 +227,9 @@ def channel(
         T = short
         Bc = -(g.E @ Dx + T @ Bx) + (g.G if known_input else 0.0)
         Dc = -g.H @ Dx + (g.K if known_input else 0.0)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", CloseRankWarning)
-            mr = minimal_realization(g.F, np.reshape(Bc, (nw, Dc.shape[1])), g.M, Dc)
-        return mr.A, mr.B, mr.C, mr.D
+        return quiet_minimal(g.F, np.reshape(Bc, (nw, Dc.shape[1])), g.M, Dc)
     Ac = np.block([[A, np.zeros((n, nw))], [-g.E @ C, g.F]])
     Bc = np.vstack([Bx, -g.E @ Dx + (g.G if known_input else 0.0)])
     Cc = np.hstack([-g.H @ C, g.M])
     Dc = -g.H @ Dx + (g.K if known_input else 0.0)
-    with warnings.catch_warnings():  # the channel only feeds norms and the factorisation
-        warnings.simplefilter("ignore", CloseRankWarning)
-        mr = minimal_realization(Ac, Bc, Cc, Dc)
-    return mr.A, mr.B, mr.C, mr.D
+    return quiet_minimal(Ac, Bc, Cc, Dc)
