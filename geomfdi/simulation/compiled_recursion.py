@@ -134,7 +134,7 @@ def _library() -> Any:
             lib: Any = fn
         except (GeomFDIError, OSError) as exc:
             warnings.warn(
-                f"{exc}; batch simulations use the numpy recursion",
+                f"{exc}; simulations use the numpy recursion",
                 BackendFallbackWarning,
                 stacklevel=2,
             )

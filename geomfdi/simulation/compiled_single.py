@@ -405,6 +405,7 @@ def _single(
     res: list[list[np.ndarray]] = []
     optr, ots = [], []
     views: list[np.ndarray] = []  # (p_j, N) of every output
+    addrs: list[int] = []  # and its address
     for b, outs in enumerate(outputs):
         res.append([])
         for j, Cm in enumerate(outs):
@@ -419,6 +420,7 @@ def _single(
             res[b].append(dest)
             views.append(dest[:, 0, :])
             base, s0 = _address(dest), dest.strides[0]
+            addrs.append(base)
             optr += [base + r * s0 for r in range(Cm.shape[0])]
             ots += [dest.strides[2] // 8] * Cm.shape[0]
     x0v = np.asarray(x0, dtype=float)[:, 0]
@@ -475,7 +477,7 @@ def _single(
     if status != 0:
         raise MemoryError("the single-run recursion could not allocate its work arrays")
     # then the feedthrough of every output row: D direct, and C V1 d of the folded drives
-    _add_feedthrough(direct, st, drives, arrs, N, _groups(views))
+    _add_feedthrough(direct, st, drives, arrs, N, _groups(views, addrs))
     if not final:
         return res
     for i, V1, _ in st.folds:
@@ -486,24 +488,29 @@ def _single(
 _DALL: dict[int, tuple[Any, Any, list[tuple[np.ndarray, bool]]]] = {}
 
 
-def _groups(views: list[np.ndarray]) -> list[tuple[int, np.ndarray]]:
-    """Output views (p_j, N) merged where they are consecutive rows of one array:
-    ``(first output row, (p, N) view)`` (one product per group and signal)."""
-    out: list[tuple[int, np.ndarray]] = []
-    row = 0
-    for v in views:
-        p_j = v.shape[0]
-        if out:
-            r0, g = out[-1]
-            if g.strides == v.strides and _address(v) == _address(g) + g.shape[0] * g.strides[0]:
-                merged = np.lib.stride_tricks.as_strided(
-                    g, (g.shape[0] + p_j, g.shape[1]), g.strides, writeable=True
-                )
-                out[-1] = (r0, merged)
-                row += p_j
+def _groups(views: list[np.ndarray], addrs: list[int]) -> list[tuple[int, np.ndarray]]:
+    """Output views (p_j, N) (at ``addrs``) merged where they are consecutive rows of one
+    array: ``(first output row, (p, N) view)`` (one product per group and signal)."""
+    spans: list[list[int]] = []  # [first view, last view, rows]
+    for k, v in enumerate(views):
+        if spans:
+            g = spans[-1]
+            last = views[g[1]]
+            if (
+                last.strides == v.strides
+                and addrs[k] == addrs[g[1]] + last.shape[0] * last.strides[0]
+            ):
+                g[1] = k
+                g[2] += v.shape[0]
                 continue
+        spans.append([k, k, v.shape[0]])
+    out, row = [], 0
+    for k0, k1, rows in spans:
+        v = views[k0]
+        if k1 > k0:
+            v = np.lib.stride_tricks.as_strided(v, (rows, v.shape[1]), v.strides, writeable=True)
         out.append((row, v))
-        row += p_j
+        row += rows
     return out
 
 
