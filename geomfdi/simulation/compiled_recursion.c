@@ -326,19 +326,22 @@ int gfsim_single(int64_t L, int64_t nr, const double *ar, int64_t nc, const doub
                  const int64_t *sptr, const int64_t *seg, const double *coef, const double *ys,
                  int64_t ysld, const gfsim_chan *och, double *z)
 {
-    int64_t nS = nr + 2 * nc, nmax = 1, i, c, o, b, k, q;
-    double *g, *xn, *dv;
+    const int64_t T = GFSIM_T;
+    int64_t nS = nr + 2 * nc, nmax = 1, i, c, o, b, k, q, t;
+    double *g, *xn, *dv, *yb;
     for (b = 0; b < nb; ++b) {
         nS += bsize[b];
         if (bsize[b] > nmax) nmax = bsize[b];
     }
-    g = (double *)malloc(sizeof(double) * (size_t)(nS + nmax + nz + 1));
+    g = (double *)malloc(sizeof(double) * (size_t)(nS + nmax + nz + T * p + 1));
     if (!g) return -1;
     xn = g + nS;
     dv = xn + nmax;
+    yb = dv + nz; /* the outputs of a tile of T samples, sample-major */
     for (k = 0; k < L; ++k) {
-        /* outputs of sample k */
+        /* outputs of sample k (into the tile, scattered to the rows when it is full) */
         const double *cf = coef;
+        double *yt = yb + (k % T) * p;
         for (o = 0; o < p; ++o) {
             double s = ys ? ys[o * ysld + k] : 0.0;
             for (q = sptr[o]; q < sptr[o + 1]; ++q) {
@@ -346,7 +349,15 @@ int gfsim_single(int64_t L, int64_t nr, const double *ar, int64_t nc, const doub
                 s += gfsim_dot(cf, z + seg[2 * q], len);
                 cf += len;
             }
-            ((double *)och[o].p)[k * och[o].ts] = s;
+            yt[o] = s;
+        }
+        if (k % T == T - 1 || k == L - 1) {
+            const int64_t k0 = k - k % T, nt = k % T + 1;
+            for (o = 0; o < p; ++o) {
+                double *dst = (double *)och[o].p + k0 * och[o].ts;
+                const int64_t ts = och[o].ts;
+                for (t = 0; t < nt; ++t) dst[t * ts] = yb[t * p + o];
+            }
         }
         if (k == L - 1) break;
         /* the drive samples of step k -> k+1 */
