@@ -177,15 +177,26 @@ class OpenLoopEngine:
             or (ctx.d.ndim == 3 and ctx.d.shape[0] > 1)
         )
         self.R = R = int(runs) if per_run else 1
-        ws = []
-        for (_, g), Pi, use in zip(self.gens, self.Pis, self.use_pi, strict=True):
-            w = Pi @ x0T if use else np.zeros((g.order, 1))
-            if self.decoupled:  # the state w~ = w - Pi x
-                w = w - Pi @ x0T
-            ws.append(np.broadcast_to(w, (g.order, R)))
         # the carried states: plant (n, R0) and bank (sum of orders, R)
         self.x = x0T
-        self.w = np.vstack(ws)
+        if self.decoupled:  # the state w~ = w - Pi x: zero at a consistent start
+            nw = sum(g.order for _, g in self.gens)
+            if all(self.use_pi):
+                self.w = np.zeros((nw, R))
+            else:
+                Pi_all = np.vstack(self.Pis)
+                self.w = np.broadcast_to(-(Pi_all @ x0T), (nw, R)).copy()
+                i0 = 0
+                for (_, g), use in zip(self.gens, self.use_pi, strict=True):
+                    if use:
+                        self.w[i0 : i0 + g.order] = 0.0
+                    i0 += g.order
+        else:
+            ws = []
+            for (_, g), Pi, use in zip(self.gens, self.Pis, self.use_pi, strict=True):
+                w = Pi @ x0T if use else np.zeros((g.order, 1))
+                ws.append(np.broadcast_to(w, (g.order, R)))
+            self.w = np.vstack(ws)
         self.holds = [{} for _ in self.fault_lists]
 
     # ------------------------------------------------------------------ helpers

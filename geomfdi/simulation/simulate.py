@@ -129,6 +129,7 @@ from geomfdi._threads import limit_blas_threads, thread_pool
 from geomfdi._validation import as_bool
 from geomfdi.errors import GeomFDIError
 from geomfdi.evaluation.decision import (
+    NO_ALARM,
     as_threshold,
     detection_events,
 )
@@ -180,6 +181,12 @@ def stop_divergent(
     from geomfdi.evaluation.decision import NO_ALARM
     from geomfdi.simulation.nonlinear import DivergenceWarning
 
+    if bound is None and x.size:
+        # the default bound is 1e6 (1 + max |x| before the first onset): when the largest
+        # |x| of the record is below 1e6 (1 + its smallest possible value), nothing diverged
+        top = max(float(np.max(x)), -float(np.min(x)))
+        if np.isfinite(top) and top <= 1e6:
+            return None
     if x.shape[0]:  # max |x| per sample without a temporary |x| of the record's size
         mag = np.maximum(np.max(x, axis=0), -np.min(x, axis=0))
         mag[np.isnan(mag)] = np.inf  # max propagates nan: a non-finite state is inf here
@@ -589,7 +596,9 @@ def _stream_one(
     eng = make_engine(ctx, x0, xc0, [sched], True, 1, L)
     streams = noise_streams(ctx, [rng])
     rows = empty((1, nres, N))
-    rows[...] = 0.0
+    for k, g in enumerate(gens):  # every other row is written by the engine
+        if g is None:
+            rows[:, k] = 0.0
     alarms = empty((nres, N), dtype=bool)
     isolated = empty((N,), dtype=int)
     candidates = empty((nf, N), dtype=bool)
@@ -609,11 +618,15 @@ def _stream_one(
         x, y, yh, u = (a if a.flags.c_contiguous else np.ascontiguousarray(a) for a in parts)
         vectors = [None if a is None else a[:, 0] for a in pc.vectors]
         ws = [None if a is None else a[:, 0] for a in pc.ws]
-        al, iso = ds.step(rows)
-        alarms[:] = al[0]
-        isolated[:] = iso.isolated[0]
-        candidates[:] = iso.candidates[0]
-        suspects[:] = iso.suspects[0]
+        if thr is None:  # no threshold: no alarm, no decision
+            alarms[...], isolated[...] = False, NO_ALARM
+            candidates[...], suspects[...] = False, False
+        else:
+            al, iso = ds.step(rows)
+            alarms[:] = al[0]
+            isolated[:] = iso.isolated[0]
+            candidates[:] = iso.candidates[0]
+            suspects[:] = iso.suspects[0]
         for k, g in enumerate(gens):  # a scalar residual's component is its row
             if g is not None and g.n_outputs == 1:
                 vectors[k] = rows[0, k : k + 1]
