@@ -1,8 +1,10 @@
 """The bank recursion of many runs at once, compiled (C99, SIMD over the runs).
 
 :func:`bank_recursion` is what :meth:`OpenLoopEngine.advance
-<geomfdi.simulation.open_loop.OpenLoopEngine.advance>` calls for the residual
-generators of a batch: with two runs or more (a run axis to vectorise) it runs
+<geomfdi.simulation.open_loop.OpenLoopEngine.advance>` calls (through
+:func:`geomfdi.simulation.compiled_single.run_recursion`, which takes one run to the
+library's single-run kernel) for the residual generators of a batch: with two runs or
+more (a run axis to vectorise) it runs
 :func:`compiled_block_recursion`, a fixed C99 kernel (``compiled_recursion.c``, the
 dimensions passed at run time) compiled once per machine with the system's C compiler
 (:mod:`geomfdi._cbuild`: cached by hash, built on first use in a process); a single run,

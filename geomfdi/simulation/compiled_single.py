@@ -485,7 +485,7 @@ def _single(
     return res, (st.Tout @ z)[:, None]
 
 
-_DALL: dict[int, tuple[Any, Any, list[tuple[np.ndarray, bool]]]] = {}
+_DALL: dict[int, tuple[_Setup, Any, Any, list[tuple[np.ndarray, bool]]]] = {}
 
 
 def _groups(views: list[np.ndarray], addrs: list[int]) -> list[tuple[int, np.ndarray]]:
@@ -571,9 +571,9 @@ def _stacked(
     for the signals of ``dmats`` (``C V1`` of the folds ``merged`` into them added),
     then ``C V1`` of the other folds (kept while the same matrices come again)."""
     mkey = (tuple(widths), tuple(sorted(merged.items())))
-    hit = _DALL.get(id(st))
-    if hit is not None and hit[0] is dmats and hit[1] == mkey:
-        return hit[2]
+    hit = _DALL.get(id(st))  # the entry holds st and dmats: their ids stay theirs
+    if hit is not None and hit[0] is st and hit[1] is dmats and hit[2] == mkey:
+        return hit[3]
     nd = int(sum(widths))
     p = int(sum(sum(ps) for ps in st.out_rows))
     rows = [
@@ -594,5 +594,5 @@ def _stacked(
     out = [(np.ascontiguousarray(D), bool(D.size and np.any(D))) for D in parts]
     if len(_DALL) >= _SETUP_ENTRIES:
         _DALL.clear()
-    _DALL[id(st)] = (dmats, mkey, out)
+    _DALL[id(st)] = (st, dmats, mkey, out)
     return out
