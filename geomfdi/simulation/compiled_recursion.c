@@ -294,6 +294,32 @@ static void gfsim_force(int64_t i0, int64_t i1, int64_t nS, int64_t nz, const do
 {
     int64_t i = i0, c;
 #ifdef GFS_VEC
+    for (; i + 16 <= i1; i += 16) { /* sixteen states: four independent sums */
+        gfs_v4 a0, a1, a2, a3;
+        if (init) {
+            a0 = gfs_load(init + i) * gfs_load(z + i);
+            a1 = gfs_load(init + i + 4) * gfs_load(z + i + 4);
+            a2 = gfs_load(init + i + 8) * gfs_load(z + i + 8);
+            a3 = gfs_load(init + i + 12) * gfs_load(z + i + 12);
+        } else {
+            a0 = (gfs_v4){0.0, 0.0, 0.0, 0.0};
+            a1 = a0;
+            a2 = a0;
+            a3 = a0;
+        }
+        for (c = 0; c < nz; ++c) {
+            const double *Vc = V + c * nS + i;
+            const double dc = dv[c];
+            a0 += gfs_load(Vc) * dc;
+            a1 += gfs_load(Vc + 4) * dc;
+            a2 += gfs_load(Vc + 8) * dc;
+            a3 += gfs_load(Vc + 12) * dc;
+        }
+        gfs_store(out + i, a0);
+        gfs_store(out + i + 4, a1);
+        gfs_store(out + i + 8, a2);
+        gfs_store(out + i + 12, a3);
+    }
     for (; i + 8 <= i1; i += 8) {
         gfs_v4 a0, a1;
         if (init) {
@@ -343,13 +369,20 @@ int gfsim_single(int64_t L, int64_t nr, const double *ar, int64_t nc, const doub
         const double *cf = coef;
         double *yt = yb + (k % T) * p;
         for (o = 0; o < p; ++o) {
-            double s = ys ? ys[o * ysld + k] : 0.0;
-            for (q = sptr[o]; q < sptr[o + 1]; ++q) {
-                const int64_t len = seg[2 * q + 1];
-                s += gfsim_dot(cf, z + seg[2 * q], len);
-                cf += len;
+            const int64_t q0 = sptr[o], q1 = sptr[o + 1];
+            double s;
+            if (q1 == q0 + 1 && seg[2 * q0 + 1] == 1) { /* one coefficient (a state) */
+                s = cf[0] * z[seg[2 * q0]];
+                cf += 1;
+            } else {
+                s = 0.0;
+                for (q = q0; q < q1; ++q) {
+                    const int64_t len = seg[2 * q + 1];
+                    s += gfsim_dot(cf, z + seg[2 * q], len);
+                    cf += len;
+                }
             }
-            yt[o] = s;
+            yt[o] = ys ? ys[o * ysld + k] + s : s;
         }
         if (k % T == T - 1 || k == L - 1) {
             const int64_t k0 = k - k % T, nt = k % T + 1;
@@ -405,7 +438,11 @@ int gfsim_single(int64_t L, int64_t nr, const double *ar, int64_t nc, const doub
                     for (j = 0; j < n; ++j) a += Apk[aoff + j * n + i] * zb[j];
                     xn[i] = a;
                 }
-                for (i = 0; i < n; ++i) z[i0 + i] = xn[i];
+                i = 0;
+#ifdef GFS_VEC
+                for (; i + 4 <= n; i += 4) gfs_store(z + i0 + i, gfs_load(xn + i));
+#endif
+                for (; i < n; ++i) z[i0 + i] = xn[i];
                 i0 += n;
                 aoff += n * n;
             }
