@@ -62,7 +62,7 @@ def _blocks(rng, kinds):
     return out
 
 
-def _system(seed, kinds, N, *, scaled=True, with_direct=True, states=True):
+def _system(seed, kinds, N, *, scaled=True, with_direct=True, states=True, rows=2):
     rng = np.random.default_rng(seed)
     blocks = _blocks(rng, kinds)
     nS = sum(b.shape[0] for b in blocks)
@@ -74,13 +74,13 @@ def _system(seed, kinds, N, *, scaled=True, with_direct=True, states=True):
     W = rng.standard_normal((nS, sum(d.arr.shape[0] for d in drives)))
     x0 = rng.standard_normal((nS, 1))
     outputs = [
-        [rng.standard_normal((2, b.shape[0]))] + ([np.eye(b.shape[0])] if states else [])
+        [rng.standard_normal((rows, b.shape[0]))] + ([np.eye(b.shape[0])] if states else [])
         for b in blocks
     ]
     direct = None
     if with_direct:
         sig = [rng.standard_normal((4, 1, N)), e]
-        direct = (sig, [[rng.standard_normal((2, 7))] + [None] * states for _ in blocks])
+        direct = (sig, [[rng.standard_normal((rows, 7))] + [None] * states for _ in blocks])
     return blocks, W, drives, x0, outputs, direct
 
 
@@ -93,25 +93,31 @@ def _close(a, b, rtol=1e-11):
 @needs_cc
 @pytest.mark.parametrize(
     "kinds",
-    [["real"], ["complex"], ["jordan"], ["real", "complex", "jordan", "real"]],
+    [["real"], ["complex"], ["jordan"], ["real", "complex", "jordan", "real"], ["real"] * 5],
     ids=lambda k: "+".join(k),
 )
 @pytest.mark.parametrize("with_direct", [True, False])
 @pytest.mark.parametrize("states", [True, False], ids=["states", "rows"])
 def test_single_recursion_equals_its_definition_and_the_numpy_path(kinds, with_direct, states):
     N = 400
+    rows = 1 if len(kinds) == 5 else 2  # one residual per block
     blocks, W, drives, x0, outputs, direct = _system(
-        len(kinds), kinds, N, with_direct=with_direct, states=states
+        len(kinds), kinds, N, with_direct=with_direct, states=states, rows=rows
     )
     cs._SETUPS.clear()
     got, xf = cs.single_recursion(blocks, W, drives, x0, outputs, N, direct=direct, final=True)
     (st,) = cs._SETUPS.values()
     if not states:  # outputs of two rows: the modal form is cheaper where it exists
         assert (st.ca.size > 0) == ("complex" in kinds)
-        assert 2 * st.ca.size + st.ar.size == 4 * kinds.count("real") + 5 * kinds.count("complex")
+        padded = 4 * st.ilp - 20 if st.ilp else 0  # interleaved: rows of 8 modes, 3 unused
+        assert 2 * st.ca.size + st.ar.size - padded == 4 * kinds.count("real") + 5 * kinds.count(
+            "complex"
+        )
         assert st.bs.sum() == 3 * kinds.count("jordan")
     if with_direct:  # the first-order hold of e folded (e is a feedthrough signal)
         assert len(st.folds) == 1
+    # scalar residuals of five real blocks: the modes interleaved (2 vectors of outputs)
+    assert st.ilp == (8 if kinds == ["real"] * 5 and not states else 0)
     ref, xr = _reference(blocks, W, drives, x0, outputs, N, direct)
     num, xn = block_recursion(blocks, W, drives, x0, outputs, N, direct=direct, final=True)
     for g, r, m in zip(sum(got, []), sum(ref, []), sum(num, []), strict=True):

@@ -243,7 +243,9 @@ int gfsim_run(int64_t nS, int64_t R, int64_t L, int64_t nb, const int64_t *bsize
  *
  * with T diagonal on the real modes (ar), the rotation [[ca, cb], [-cb, ca]] on each
  * pair and the dense blocks.  Output row o reads the segments seg[sptr[o] .. sptr[o+1]-1]
- * (start and length each) of z, its coefficients packed in coef in that order.
+ * (start and length each) of z, its coefficients packed in coef in that order; or, with
+ * ilp > 0 (real modes interleaved: mode j of output o at j ilp + o, ilp a multiple of
+ * 4), out[o] = sum over j of ilc[j ilp + o] z[j ilp + o], four outputs per vector.
  * Vectorised over the states, four at a time; z holds z(0) on entry and z(L-1) on
  * return.
  */
@@ -349,17 +351,18 @@ static void gfsim_force(int64_t i0, int64_t i1, int64_t nS, int64_t nz, const do
 int gfsim_single(int64_t L, int64_t nr, const double *ar, int64_t nc, const double *ca,
                  const double *cb, int64_t nb, const int64_t *bsize, const double *Apk,
                  int64_t nz, const double *V, const gfsim_chan *dch, int64_t p,
-                 const int64_t *sptr, const int64_t *seg, const double *coef, const double *ys,
-                 int64_t ysld, const gfsim_chan *och, double *z)
+                 const int64_t *sptr, const int64_t *seg, const double *coef, int64_t ilp,
+                 const double *ilc, const double *ys, int64_t ysld, const gfsim_chan *och,
+                 double *z)
 {
-    const int64_t T = GFSIM_T;
+    const int64_t T = GFSIM_T, pw = ilp > p ? ilp : p; /* values per sample in the tile */
     int64_t nS = nr + 2 * nc, nmax = 1, i, c, o, b, k, q, t;
     double *g, *xn, *dv, *yb;
     for (b = 0; b < nb; ++b) {
         nS += bsize[b];
         if (bsize[b] > nmax) nmax = bsize[b];
     }
-    g = (double *)malloc(sizeof(double) * (size_t)(nS + nmax + nz + T * p + 1));
+    g = (double *)malloc(sizeof(double) * (size_t)(nS + nmax + nz + T * pw + 1));
     if (!g) return -1;
     xn = g + nS;
     dv = xn + nmax;
@@ -367,8 +370,33 @@ int gfsim_single(int64_t L, int64_t nr, const double *ar, int64_t nc, const doub
     for (k = 0; k < L; ++k) {
         /* outputs of sample k (into the tile, scattered to the rows when it is full) */
         const double *cf = coef;
-        double *yt = yb + (k % T) * p;
-        for (o = 0; o < p; ++o) {
+        double *yt = yb + (k % T) * pw;
+        if (ilp) { /* interleaved modes: output b = sum over j of ilc z at j ilp + b */
+            for (o = 0; o < ilp; o += 4) {
+                i = o;
+#ifdef GFS_VEC
+                gfs_v4 a = gfs_load(ilc + i) * gfs_load(z + i);
+                for (i += ilp; i < nr; i += ilp) a += gfs_load(ilc + i) * gfs_load(z + i);
+                gfs_store(yt + o, a);
+#else
+                double a0 = ilc[i] * z[i], a1 = ilc[i + 1] * z[i + 1];
+                double a2 = ilc[i + 2] * z[i + 2], a3 = ilc[i + 3] * z[i + 3];
+                for (i += ilp; i < nr; i += ilp) {
+                    a0 += ilc[i] * z[i];
+                    a1 += ilc[i + 1] * z[i + 1];
+                    a2 += ilc[i + 2] * z[i + 2];
+                    a3 += ilc[i + 3] * z[i + 3];
+                }
+                yt[o] = a0;
+                yt[o + 1] = a1;
+                yt[o + 2] = a2;
+                yt[o + 3] = a3;
+#endif
+            }
+            if (ys)
+                for (o = 0; o < p; ++o) yt[o] += ys[o * ysld + k];
+        }
+        for (o = 0; o < p && !ilp; ++o) {
             const int64_t q0 = sptr[o], q1 = sptr[o + 1];
             double s;
             if (q1 == q0 + 1 && seg[2 * q0 + 1] == 1) { /* one coefficient (a state) */
@@ -389,7 +417,7 @@ int gfsim_single(int64_t L, int64_t nr, const double *ar, int64_t nc, const doub
             for (o = 0; o < p; ++o) {
                 double *dst = (double *)och[o].p + k0 * och[o].ts;
                 const int64_t ts = och[o].ts;
-                for (t = 0; t < nt; ++t) dst[t * ts] = yb[t * p + o];
+                for (t = 0; t < nt; ++t) dst[t * ts] = yb[t * pw + o];
             }
         }
         if (k == L - 1) break;

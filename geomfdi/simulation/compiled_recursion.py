@@ -128,9 +128,9 @@ def _library() -> Any:
             fn.restype = ctypes.c_int
             one = dll.gfsim_single
             # gfsim_single(L, nr, ar, nc, ca, cb, nb, bsize, Apk, nz, V, dch, p, sptr, seg,
-            #              coef, ys, ysld, och, z)
+            #              coef, ilp, ilc, ys, ysld, och, z)
             one.argtypes = [i64, i64, vp, i64, vp, vp, i64, vp, vp, i64, vp, vp, i64, vp, vp]
-            one.argtypes = [*one.argtypes, vp, vp, i64, vp, vp]
+            one.argtypes = [*one.argtypes, vp, i64, vp, vp, i64, vp, vp]
             one.restype = ctypes.c_int
             _SINGLE[key] = one
             lib: Any = fn

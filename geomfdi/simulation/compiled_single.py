@@ -179,10 +179,13 @@ class _Setup:
     sptr: np.ndarray  # (p + 1,) first segment of every output row
     seg: np.ndarray  # start and length of every segment
     coef: np.ndarray  # packed coefficients
+    ilp: int  # interleaved modes: blocks per row of modes (0: not interleaved)
+    ilc: np.ndarray  # their output coefficients, in the modes' order
 
 
 _SETUPS: dict[Any, _Setup] = {}
 _SETUP_ENTRIES = 32
+_INTERLEAVE_MIN = 4  # fewest scalar-residual blocks whose modes are interleaved
 
 
 def _block_form(A: np.ndarray, out_cost: int, own_cost: int) -> Any:
@@ -225,13 +228,34 @@ def _setup(
         forms.append(_block_form(np.asarray(A, dtype=float), p_b * n, own))
     nr = sum(f[0].size for f in forms if f is not None)
     nc = sum(f[1].size for f in forms if f is not None)
-    Tout = np.zeros((nS, nS))
+    # a bank of scalar residuals with real modes only: the modes interleaved, mode j of
+    # block b at j P + b (P: the blocks, rounded up to whole vectors), so that the
+    # outputs of all blocks are one vector sum over j (no sum across a vector)
+    P = len(blocks)
+    inter = (
+        P >= _INTERLEAVE_MIN
+        and all(f is not None and f[1].size == 0 for f in forms)
+        and all(len(outs) == 1 and outs[0].shape[0] == 1 for outs in outputs)
+    )
+    Pp = -(-P // 4) * 4 if inter else 0
+    if inter:
+        nr = max(sizes) * Pp
+    nL = nr + 2 * nc + sum(s for s, f in zip(sizes, forms, strict=True) if f is None)
+    Tout = np.zeros((nS, nL))
     ar, ca, cb, dense = [], [], [], []
     idx: list[list[np.ndarray]] = []  # per block: layout indices of each part
     r0 = c0 = 0
     d0 = nr + 2 * nc
+    ar_ = np.zeros(nr)
     for b, (A, f) in enumerate(zip(blocks, forms, strict=True)):
         sl = slice(offs[b], offs[b + 1])
+        if inter:
+            lr, _, Z = f
+            ir = np.arange(lr.size) * Pp + b
+            Tout[sl, ir] = Z
+            ar_[ir] = lr
+            idx.append([ir, ir[:0], ir[:0], ir[:0]])
+            continue
         if f is None:
             ii = np.arange(d0, d0 + sizes[b])
             Tout[sl, ii] = np.eye(sizes[b])
@@ -251,15 +275,16 @@ def _setup(
         r0 += lr.size
         c0 += lc.size
     # the inverse, block by block (each block's own basis)
-    Tin = np.zeros((nS, nS))
+    Tin = np.zeros((nL, nS))
     for b in range(len(blocks)):
         sl = slice(offs[b], offs[b + 1])
         ii = np.concatenate(idx[b])
         Tin[ii, sl] = np.linalg.inv(Tout[sl, ii])
-    ar_ = np.concatenate(ar) if ar else np.zeros(0)
+    if not inter:
+        ar_ = np.concatenate(ar) if ar else np.zeros(0)
     ca_, cb_ = (np.concatenate(ca), np.concatenate(cb)) if ca else (np.zeros(0), np.zeros(0))
     # the transition in layout coordinates (for the folded first-order hold)
-    Tl = np.zeros((nS, nS))
+    Tl = np.zeros((nL, nL))
     Tl[np.arange(nr), np.arange(nr)] = ar_
     re, im = nr + np.arange(nc), nr + nc + np.arange(nc)
     Tl[re, re], Tl[re, im], Tl[im, re], Tl[im, im] = ca_, cb_, -cb_, ca_
@@ -275,7 +300,7 @@ def _setup(
         sl = slice(offs[b], offs[b + 1])
         for C in outs:
             for row in np.asarray(C, dtype=float):
-                full = np.zeros(nS)
+                full = np.zeros(nL)
                 full[np.concatenate(idx[b])] = row @ Tout[sl, np.concatenate(idx[b])]
                 Cz_rows.append(full)
                 for part in idx[b]:
@@ -286,14 +311,17 @@ def _setup(
                         segs += [int(part[0]) + lo, hi - lo]
                         coef.append(vals[lo:hi])
                 sptr.append(len(segs) // 2)
-    Cz = np.array(Cz_rows).reshape(len(Cz_rows), nS)
+    Cz = np.array(Cz_rows).reshape(len(Cz_rows), nL)
+    ilc = np.zeros(nr if inter else 0)
+    if inter:  # the coefficient of mode j of block b at j P + b, like the modes
+        ilc = Cz.sum(axis=0)[:nr].copy()
     # drive channels: a drive read at shifts 0 and 1 of one array is folded (module doc)
     col = np.cumsum([0] + [k for k, _, _, _ in layout])
     groups: dict[int, dict[int, int]] = {}
     for i, (_, shift, scaled, g) in enumerate(layout):
         if not scaled:
             groups.setdefault(g, {})[shift] = i
-    # folding saves nS k multiply-adds per sample; it adds a feedthrough of every output
+    # folding saves nL k multiply-adds per sample; it adds a feedthrough of every output
     # row (free when there is one already)
     p_tot = Cz.shape[0]
     fold = {
@@ -301,7 +329,7 @@ def _setup(
         for g, s in groups.items()
         if sorted(s) == [0, 1]
         and _count(layout, g) == 2
-        and (has_direct or nS * layout[s[0]][0] > 4 * p_tot)
+        and (has_direct or nL * layout[s[0]][0] > 4 * p_tot)
     }
     Vcols, chans, folds = [], [], []
     skip = set()
@@ -323,7 +351,7 @@ def _setup(
             if np.any(V[:, col[i] + r]):
                 Vcols.append(V[:, col[i] + r])
                 chans.append((i, r, shift))
-    Vt = np.array(Vcols).reshape(len(Vcols), nS)
+    Vt = np.array(Vcols).reshape(len(Vcols), nL)
     return _Setup(
         ar=np.ascontiguousarray(ar_),
         ca=np.ascontiguousarray(ca_),
@@ -342,6 +370,8 @@ def _setup(
         sptr=np.array(sptr, dtype=np.int64),
         seg=np.array(segs + [0, 0], dtype=np.int64),
         coef=np.concatenate(coef + [np.zeros(1)]),
+        ilp=Pp,
+        ilc=np.concatenate([ilc, np.zeros(1)]),
     )
 
 
@@ -468,6 +498,8 @@ def _single(
         st.sptr.ctypes.data,
         st.seg.ctypes.data,
         st.coef.ctypes.data,
+        st.ilp,
+        st.ilc.ctypes.data,
         None,
         0,
         och.ctypes.data,
