@@ -148,9 +148,9 @@ def _library() -> Any:
 def single_kernel() -> Any:
     """The one-run kernel of the same library (:mod:`geomfdi.simulation.compiled_single`),
     or ``None`` when no compiler works."""
-    if _library() is None:
-        return None
-    return _SINGLE.get(_lib_key())
+    key = _lib_key()
+    lib = _LIBS[key] if key in _LIBS else _library()
+    return None if lib is None else _SINGLE.get(key)
 
 
 def _runs(drives: list[Drive], x0: np.ndarray, direct: Any) -> int:
