@@ -340,6 +340,11 @@ static void gfsim_force(int64_t i0, int64_t i1, int64_t nS, int64_t nz, const do
         gfs_store(out + i, a0);
         gfs_store(out + i + 4, a1);
     }
+    for (; i + 4 <= i1; i += 4) {
+        gfs_v4 a0 = init ? gfs_load(init + i) * gfs_load(z + i) : (gfs_v4){0.0, 0.0, 0.0, 0.0};
+        for (c = 0; c < nz; ++c) a0 += gfs_load(V + c * nS + i) * dv[c];
+        gfs_store(out + i, a0);
+    }
 #endif
     for (; i < i1; ++i) {
         double a = init ? init[i] * z[i] : 0.0;
@@ -447,18 +452,30 @@ int gfsim_single(int64_t L, int64_t nr, const double *ar, int64_t nc, const doub
 #ifdef GFS_VEC
                 for (; i + 8 <= n; i += 8) { /* eight rows in registers over the columns */
                     gfs_v4 a0 = gfs_load(g + i0 + i), a1 = gfs_load(g + i0 + i + 4);
-                    for (j = 0; j < n; ++j) {
+                    gfs_v4 b0 = {0.0, 0.0, 0.0, 0.0}, b1 = b0; /* odd columns: shorter chains */
+                    for (j = 0; j + 2 <= n; j += 2) {
+                        const double *Aj = Apk + aoff + j * n + i, *Ak = Aj + n;
+                        a0 += gfs_load(Aj) * zb[j];
+                        a1 += gfs_load(Aj + 4) * zb[j];
+                        b0 += gfs_load(Ak) * zb[j + 1];
+                        b1 += gfs_load(Ak + 4) * zb[j + 1];
+                    }
+                    if (j < n) {
                         const double *Aj = Apk + aoff + j * n + i;
                         a0 += gfs_load(Aj) * zb[j];
                         a1 += gfs_load(Aj + 4) * zb[j];
                     }
-                    gfs_store(xn + i, a0);
-                    gfs_store(xn + i + 4, a1);
+                    gfs_store(xn + i, a0 + b0);
+                    gfs_store(xn + i + 4, a1 + b1);
                 }
                 for (; i + 4 <= n; i += 4) {
-                    gfs_v4 a0 = gfs_load(g + i0 + i);
-                    for (j = 0; j < n; ++j) a0 += gfs_load(Apk + aoff + j * n + i) * zb[j];
-                    gfs_store(xn + i, a0);
+                    gfs_v4 a0 = gfs_load(g + i0 + i), b0 = {0.0, 0.0, 0.0, 0.0};
+                    for (j = 0; j + 2 <= n; j += 2) {
+                        a0 += gfs_load(Apk + aoff + j * n + i) * zb[j];
+                        b0 += gfs_load(Apk + aoff + (j + 1) * n + i) * zb[j + 1];
+                    }
+                    if (j < n) a0 += gfs_load(Apk + aoff + j * n + i) * zb[j];
+                    gfs_store(xn + i, a0 + b0);
                 }
 #endif
                 for (; i < n; ++i) {
