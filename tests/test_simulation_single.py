@@ -164,6 +164,20 @@ def test_single_recursion_writes_strided_destinations_and_carries_the_state():
         _close(rows[:, k], whole[k][0][0])
 
 
+@needs_cc
+def test_single_recursion_with_a_block_of_order_zero():
+    blocks, W, drives, x0, outputs, direct = _system(8, ["real", "complex"], 300, states=False)
+    blocks.insert(1, np.zeros((0, 0)))  # a generator without states: feedthrough only
+    outputs.insert(1, [np.zeros((2, 0))])
+    direct[1].insert(1, [np.ones((2, 7))])
+    got, xf = cs.single_recursion(blocks, W, drives, x0, outputs, 300, direct=direct, final=True)
+    ref, xr = _reference(blocks, W, drives, x0, outputs, 300, direct)
+    for g, r in zip(sum(got, []), sum(ref, []), strict=True):
+        _close(g, r)
+    _close(xf, xr)
+    assert np.any(got[1][0] != 0)
+
+
 def test_single_recursion_refuses_several_runs():
     blocks, W, drives, x0, outputs, _ = _system(1, ["real"], 50, scaled=False)
     with pytest.raises(GeomFDIError, match="one run"):

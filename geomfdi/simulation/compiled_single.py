@@ -23,7 +23,11 @@ product per signal.  A drive read at the start and at the end of each step (the
 first-order hold, ``W0 d[k] + W1 d[k+1]``) is folded into one channel by the exact
 change of state ``z~[k] = z[k] - V1 d[k]``, ``z~[k+1] = T z~[k] + (V0 + T V1) d[k]``,
 ``C z[k] = C z~[k] + C V1 d[k]`` (``V = Z^-1 W`` in the modal coordinates): half the
-forcing work.  See the user guide, *Performance* (``docs/guide/performance.md``).
+forcing work.  A bank of four or more scalar residuals whose generators have real modes
+only (the usual case) interleaves the modes, mode ``j`` of generator ``b`` at
+``j P + b`` (``P``: the generators, rounded up to whole vectors of four), so that the
+residuals of four generators are one vector sum over ``j``.  See the user guide,
+*Performance* (``docs/guide/performance.md``).
 """
 
 from __future__ import annotations
@@ -169,13 +173,13 @@ class _Setup:
     cb: np.ndarray
     bs: np.ndarray  # sizes of the dense blocks (then a 0)
     Apk: np.ndarray  # the dense blocks, column-major one after the other
-    Tin: np.ndarray  # layout coordinates from the original ones (nS, nS)
-    Tout: np.ndarray  # and back
-    Vt: np.ndarray  # (channels, nS): forcing of every kernel channel
+    Tin: np.ndarray  # layout coordinates from the original ones (nL, nS)
+    Tout: np.ndarray  # and back (nS, nL)
+    Vt: np.ndarray  # (channels, nL): forcing of every kernel channel
     chans: tuple[tuple[int, int, int], ...]  # (drive, row, shift) of every kernel channel
     chan_index: tuple[np.ndarray, ...]  # the same as three index arrays
     out_rows: tuple[tuple[int, ...], ...]  # rows of every output of every block
-    folds: tuple[tuple[int, np.ndarray, np.ndarray], ...]  # (drive, V1 (nS, k), C V1)
+    folds: tuple[tuple[int, np.ndarray, np.ndarray], ...]  # (drive, V1 (nL, k), C V1)
     sptr: np.ndarray  # (p + 1,) first segment of every output row
     seg: np.ndarray  # start and length of every segment
     coef: np.ndarray  # packed coefficients
