@@ -186,6 +186,20 @@ class _Setup:
     ilp: int  # interleaved modes: blocks per row of modes (0: not interleaved)
     ilc: np.ndarray  # their output coefficients, in the modes' order
 
+    def __post_init__(self) -> None:
+        # the kernel's arguments that depend on the matrices only (the arrays live as
+        # long as the set-up)
+        head = (
+            self.ar.size, self.ar.ctypes.data, self.ca.size, self.ca.ctypes.data,
+            self.cb.ctypes.data, self.bs.size - 1, self.bs.ctypes.data, self.Apk.ctypes.data,
+            len(self.chans), self.Vt.ctypes.data,
+        )  # fmt: skip
+        tail = (
+            self.sptr.ctypes.data, self.seg.ctypes.data, self.coef.ctypes.data, self.ilp,
+            self.ilc.ctypes.data,
+        )  # fmt: skip
+        object.__setattr__(self, "args", (head, tail))
+
 
 _SETUPS: dict[Any, _Setup] = {}
 _SETUP_ENTRIES = 32
@@ -405,7 +419,12 @@ def _address(a: np.ndarray) -> int:
 
 def _usable(a: np.ndarray) -> bool:
     """Float64 with strides in whole elements: the kernel reads it in place."""
-    return a.dtype == np.float64 and not any(st % 8 for st in a.strides)
+    if a.dtype != np.float64:
+        return False
+    for st in a.strides:
+        if st % 8:
+            return False
+    return True
 
 
 def _single(
@@ -438,25 +457,28 @@ def _single(
     # destinations: one kernel channel per output row
     res: list[list[np.ndarray]] = []
     optr, ots = [], []
-    views: list[np.ndarray] = []  # (p_j, N) of every output
-    addrs: list[int] = []  # and its address
+    views: list[tuple[np.ndarray, int]] = []  # every output (p_j, 1, N) and its address
     for b, outs in enumerate(outputs):
         res.append([])
         for j, Cm in enumerate(outs):
-            dest = out[b][j] if out is not None and out[b][j] is not None else None
+            dest = out[b][j] if out is not None else None
             if dest is None:
                 dest = np.empty((Cm.shape[0], 1, N))
-            if not (_usable(dest) and dest.flags.writeable) or dest.shape != (Cm.shape[0], 1, N):
+            elif not (_usable(dest) and dest.flags.writeable) or dest.shape != (Cm.shape[0], 1, N):
                 raise ShapeError(
                     f"out: expected writeable float64 arrays ({Cm.shape[0]}, 1, {N})",
                     argument="out",
                 )
             res[b].append(dest)
-            views.append(dest[:, 0, :])
-            base, s0 = _address(dest), dest.strides[0]
-            addrs.append(base)
-            optr += [base + r * s0 for r in range(Cm.shape[0])]
-            ots += [dest.strides[2] // 8] * Cm.shape[0]
+            base = dest.ctypes.data
+            s0, _, s2 = dest.strides
+            views.append((dest, base))
+            if Cm.shape[0] == 1:
+                optr.append(base)
+                ots.append(s2 // 8)
+            else:
+                optr += [base + r * s0 for r in range(Cm.shape[0])]
+                ots += [s2 // 8] * Cm.shape[0]
     x0v = np.asarray(x0, dtype=float)[:, 0]
     if N == 0:
         return (res, np.array(x0v[:, None])) if final else res
@@ -466,54 +488,32 @@ def _single(
         z -= V1 @ arrs[i][:, 0, 0]
     z = np.ascontiguousarray(z)
     # drive channels: row r of drive i from sample `shift` (its scale, when given)
-    dch = np.zeros(max(len(st.chans), 1), dtype=_CHAN)
-    scales: list[np.ndarray | None] = []
-    if st.chans:
-        di, dr, dsh = st.chan_index
-        base = np.array([_address(a) for a in arrs], dtype=np.int64)
-        s0 = np.array([a.strides[0] for a in arrs], dtype=np.int64)
-        s2 = np.array([a.strides[2] for a in arrs], dtype=np.int64)
-        dch["p"] = base[di] + dr * s0[di] + dsh * s2[di]
-        dch["ts"] = s2[di] // 8
-        scales = [None if d.scale is None else np.asarray(d.scale[0], dtype=float) for d in drives]
-        for c, i in enumerate(di.tolist()):
-            sc = scales[i]
-            if sc is not None:
-                if not _usable(sc):
-                    sc = scales[i] = np.ascontiguousarray(sc)
-                dch[c]["sp"], dch[c]["sts"] = _address(sc), sc.strides[1] // 8
-    och = np.zeros(max(len(optr), 1), dtype=_CHAN)
-    och["p"][: len(optr)] = optr
-    och["ts"][: len(optr)] = ots
+    where = [(_address(a), a.strides[0], a.strides[2]) for a in arrs]
+    scales = [None if d.scale is None else np.asarray(d.scale[0], dtype=float) for d in drives]
+    rows_ch = []
+    for i, r, shift in st.chans:
+        a0, s0, s2 = where[i]
+        sc = scales[i]
+        if sc is None:
+            rows_ch.append((a0 + r * s0 + shift * s2, 0, s2 // 8, 0, 0, 0))
+        else:
+            if not _usable(sc):
+                sc = scales[i] = np.ascontiguousarray(sc)
+            rows_ch.append(
+                (a0 + r * s0 + shift * s2, 0, s2 // 8, _address(sc), 0, sc.strides[1] // 8)
+            )
+    dch = np.array(rows_ch or [(0, 0, 0, 0, 0, 0)], dtype=_CHAN)
+    och = np.array([(a, 0, ts, 0, 0, 0) for a, ts in zip(optr, ots, strict=True)] or [(0,) * 6],
+                   dtype=_CHAN)  # fmt: skip
+    head, tail = st.args  # type: ignore[attr-defined]
     status = kernel(
-        N,
-        st.ar.size,
-        st.ar.ctypes.data,
-        st.ca.size,
-        st.ca.ctypes.data,
-        st.cb.ctypes.data,
-        st.bs.size - 1,
-        st.bs.ctypes.data,
-        st.Apk.ctypes.data,
-        len(st.chans),
-        st.Vt.ctypes.data,
-        dch.ctypes.data,
-        len(optr),
-        st.sptr.ctypes.data,
-        st.seg.ctypes.data,
-        st.coef.ctypes.data,
-        st.ilp,
-        st.ilc.ctypes.data,
-        None,
-        0,
-        och.ctypes.data,
-        z.ctypes.data,
+        N, *head, dch.ctypes.data, len(optr), *tail, None, 0, och.ctypes.data, z.ctypes.data
     )
     del scales  # alive until the kernel has returned
     if status != 0:
         raise MemoryError("the single-run recursion could not allocate its work arrays")
     # then the feedthrough of every output row: D direct, and C V1 d of the folded drives
-    _add_feedthrough(direct, st, drives, arrs, N, _groups(views, addrs))
+    _add_feedthrough(direct, st, drives, arrs, N, _groups(views))
     if not final:
         return res
     for i, V1, _ in st.folds:
@@ -524,28 +524,30 @@ def _single(
 _DALL: dict[int, tuple[_Setup, Any, Any, list[tuple[np.ndarray, bool]]]] = {}
 
 
-def _groups(views: list[np.ndarray], addrs: list[int]) -> list[tuple[int, np.ndarray]]:
-    """Output views (p_j, N) (at ``addrs``) merged where they are consecutive rows of one
-    array: ``(first output row, (p, N) view)`` (one product per group and signal)."""
-    spans: list[list[int]] = []  # [first view, last view, rows]
-    for k, v in enumerate(views):
+def _groups(views: list[tuple[np.ndarray, int]]) -> list[tuple[int, np.ndarray]]:
+    """The outputs ``(p_j, 1, N)`` (with their addresses) merged where they are
+    consecutive rows of one array: ``(first output row, (p, N) view)`` (one product per
+    group and signal)."""
+    spans: list[list[int]] = []  # [first output, rows, address past the last row]
+    for k, (v, a) in enumerate(views):
+        p_j = v.shape[0]
         if spans:
             g = spans[-1]
-            last = views[g[1]]
-            if (
-                last.strides == v.strides
-                and addrs[k] == addrs[g[1]] + last.shape[0] * last.strides[0]
-            ):
-                g[1] = k
-                g[2] += v.shape[0]
+            v0 = views[g[0]][0]
+            if v0.strides == v.strides and a == g[2]:
+                g[1] += p_j
+                g[2] += p_j * v.strides[0]
                 continue
-        spans.append([k, k, v.shape[0]])
+        spans.append([k, p_j, a + p_j * v.strides[0]])
     out, row = [], 0
-    for k0, k1, rows in spans:
-        v = views[k0]
-        if k1 > k0:
-            v = np.lib.stride_tricks.as_strided(v, (rows, v.shape[1]), v.strides, writeable=True)
-        out.append((row, v))
+    for k, rows, _ in spans:
+        v = views[k][0]
+        if rows == v.shape[0]:
+            view = v[:, 0, :]
+        else:
+            st = (v.strides[0], v.strides[2])
+            view = np.lib.stride_tricks.as_strided(v, (rows, v.shape[2]), st, writeable=True)
+        out.append((row, view))
         row += rows
     return out
 
