@@ -13,6 +13,7 @@ import geomfdi as gf
 from geomfdi.errors import GeomFDIError
 from geomfdi.simulation import compiled_single as cs
 from geomfdi.simulation import result_memory as rm
+from geomfdi.simulation.initial_state import InitialStateWarning
 from geomfdi.simulation.lifting import Drive, block_recursion
 
 needs_cc = pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler (cc)")
@@ -322,3 +323,56 @@ def test_simulate_results_do_not_share_memory():
         for b in arrays[i + 1 :]:
             assert not np.shares_memory(a, b)
     assert np.allclose(r2.x, 2 * r1.x, atol=1e-12)  # r1 kept its values
+
+
+@needs_cc
+@pytest.mark.parametrize("kw", [{}, {"faults": [gf.BiasFault(0, start=0.5, bias=0.2)]}])
+def test_discrete_plant_compiled_equals_numpy_path(kw, monkeypatch):
+    import warnings
+
+    import scipy.linalg
+
+    plant, bank = _twelve_states(nb=4)
+    dt, n, m = 1e-2, plant.n, plant.m
+    E = scipy.linalg.expm(np.block([[plant.A, plant.B], [np.zeros((m, n + m))]]) * dt)
+    dplant = gf.Plant(E[:n, :n], E[:n, n:], plant.C, dt=dt)
+    dbank = bank.discretize(dt)
+    t = np.arange(800) * dt
+    u = np.vstack([np.sin(3 * t), np.cos(2 * t), 0.2 * np.ones_like(t)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the sampled bank is not exactly consistent
+        got = gf.simulate(dplant, dbank, t, u, **kw)
+        monkeypatch.setenv("GEOMFDI_SIM_BACKEND", "numpy")
+        ref = gf.simulate(dplant, dbank, t, u, **kw)
+    for a, b in [(got.residuals, ref.residuals), (got.x, ref.x), (got.y, ref.y)]:
+        assert np.max(np.abs(a - b)) <= 1e-10 * max(1.0, float(np.max(np.abs(b))))
+
+
+@needs_cc
+def test_vector_residual_compiled_equals_numpy_path(monkeypatch):
+    plant, bank = _twelve_states(nb=4)
+    g = bank.generators[0]
+    rng = np.random.default_rng(3)
+    M2 = np.vstack([g.M, rng.standard_normal((1, g.order))])
+    # a second residual component that the healthy loop drives (no consistent start)
+    H2 = np.vstack([g.H, rng.standard_normal((1, plant.q))])
+    g2 = gf.ResidualGenerator(g.F, g.E, g.G, M2, H2, np.zeros((2, 3)))
+    gens = [g2] + list(bank.generators[1:])
+    S = np.zeros((4, 12), dtype=bool)
+    vbank = gf.ResidualBank(gens, S, S, np.zeros(12, bool), ["ok"] * 4, [gf.SensorFault(0)])
+    t = np.arange(1200) * 2e-3
+    u = np.vstack([np.sin(3 * t), np.cos(2 * t), 0.2 * np.ones_like(t)])
+    kw = dict(faults=[gf.BiasFault(3, start=1.0, bias=0.4)], keep_states=True)
+    with pytest.warns(InitialStateWarning):
+        got = gf.simulate(plant, vbank, t, u, **kw)
+    monkeypatch.setenv("GEOMFDI_SIM_BACKEND", "numpy")
+    with pytest.warns(InitialStateWarning):
+        ref = gf.simulate(plant, vbank, t, u, **kw)
+    assert got.residual_vectors[0].shape == (2, t.size)
+    for a, b in [
+        (got.residuals, ref.residuals),
+        (got.residual_vectors[0], ref.residual_vectors[0]),
+    ]:
+        assert np.max(np.abs(a - b)) <= 1e-10 * max(1.0, float(np.max(np.abs(b))))
+    for a, b in zip(got.w, ref.w, strict=True):
+        assert np.max(np.abs(a - b)) <= 1e-10 * max(1.0, float(np.max(np.abs(b))))
