@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import geomfdi as gf
-from geomfdi.errors import GeomFDIError
+from geomfdi.errors import BackendFallbackWarning, GeomFDIError
 from geomfdi.simulation import compiled_single as cs
 from geomfdi.simulation import result_memory as rm
 from geomfdi.simulation.initial_state import InitialStateWarning
@@ -201,6 +201,19 @@ def test_run_recursion_uses_the_single_kernel_for_one_run_only(monkeypatch):
     assert calls == [1]
     for a, b in zip(sum(got, []), sum(ref, []), strict=True):
         assert np.array_equal(a, b)
+
+
+def test_run_recursion_without_a_compiler_is_the_numpy_path(monkeypatch, tmp_path):
+    monkeypatch.setenv("CC", "no-such-compiler-xyz")
+    monkeypatch.setenv("GEOMFDI_CACHE_DIR", str(tmp_path))
+    blocks, W, drives, x0, outputs, direct = _system(4, ["real", "complex"], 200)
+    with pytest.warns(BackendFallbackWarning, match="compiler"):
+        got = cs.run_recursion(blocks, W, drives, x0, outputs, 200, direct=direct)
+    ref = block_recursion(blocks, W, drives, x0, outputs, 200, direct=direct)
+    for a, b in zip(sum(got, []), sum(ref, []), strict=True):
+        assert np.array_equal(a, b)
+    with pytest.raises(GeomFDIError, match="compiler"):
+        cs.single_recursion(blocks, W, drives, x0, outputs, 200, direct=direct)
 
 
 # ------------------------------------------------------------------ simulate
