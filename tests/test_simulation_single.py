@@ -166,6 +166,21 @@ def test_single_recursion_writes_strided_destinations_and_carries_the_state():
 
 
 @needs_cc
+@pytest.mark.parametrize("kind", ["jordan", "complex"])
+def test_single_recursion_of_a_plant_whose_outputs_are_its_states(kind):
+    blocks, W, drives, x0, outputs, _ = _system(5, [kind], 333, with_direct=False)
+    n = blocks[0].shape[0]
+    outputs = [[np.eye(n)]]
+    cs._SETUPS.clear()
+    got, xf = cs.single_recursion(blocks, W, drives, x0, outputs, 333, final=True)
+    (st,) = cs._SETUPS.values()
+    assert st.ilp == -1 and st.bs.sum() == n  # its own coordinates, the state copied out
+    ref, xr = _reference(blocks, W, drives, x0, outputs, 333)
+    _close(got[0][0], ref[0][0])
+    _close(xf, xr)
+
+
+@needs_cc
 def test_single_recursion_with_a_block_of_order_zero():
     blocks, W, drives, x0, outputs, direct = _system(8, ["real", "complex"], 300, states=False)
     blocks.insert(1, np.zeros((0, 0)))  # a generator without states: feedthrough only

@@ -245,7 +245,8 @@ int gfsim_run(int64_t nS, int64_t R, int64_t L, int64_t nb, const int64_t *bsize
  * pair and the dense blocks.  Output row o reads the segments seg[sptr[o] .. sptr[o+1]-1]
  * (start and length each) of z, its coefficients packed in coef in that order; or, with
  * ilp > 0 (real modes interleaved: mode j of output o at j ilp + o, ilp a multiple of
- * 4), out[o] = sum over j of ilc[j ilp + o] z[j ilp + o], four outputs per vector.
+ * 4), out[o] = sum over j of ilc[j ilp + o] z[j ilp + o], four outputs per vector; or,
+ * with ilp < 0, out[o] = z[o] (the outputs are the state, in its own coordinates).
  * Vectorised over the states, four at a time; z holds z(0) on entry and z(L-1) on
  * return.
  */
@@ -376,7 +377,15 @@ int gfsim_single(int64_t L, int64_t nr, const double *ar, int64_t nc, const doub
         /* outputs of sample k (into the tile, scattered to the rows when it is full) */
         const double *cf = coef;
         double *yt = yb + (k % T) * pw;
-        if (ilp) { /* interleaved modes: output b = sum over j of ilc z at j ilp + b */
+        if (ilp < 0) { /* the outputs are the state itself: out[o] = z[o] */
+            i = 0;
+#ifdef GFS_VEC
+            for (; i + 4 <= p; i += 4) gfs_store(yt + i, gfs_load(z + i));
+#endif
+            for (; i < p; ++i) yt[i] = z[i];
+            if (ys)
+                for (o = 0; o < p; ++o) yt[o] += ys[o * ysld + k];
+        } else if (ilp) { /* interleaved modes: output b = sum over j of ilc z at j ilp + b */
             for (o = 0; o < ilp; o += 4) {
                 i = o;
 #ifdef GFS_VEC
@@ -401,7 +410,7 @@ int gfsim_single(int64_t L, int64_t nr, const double *ar, int64_t nc, const doub
             if (ys)
                 for (o = 0; o < p; ++o) yt[o] += ys[o * ysld + k];
         }
-        for (o = 0; o < p && !ilp; ++o) {
+        for (o = 0; o < p && ilp == 0; ++o) {
             const int64_t q0 = sptr[o], q1 = sptr[o + 1];
             double s;
             if (q1 == q0 + 1 && seg[2 * q0 + 1] == 1) { /* one coefficient (a state) */

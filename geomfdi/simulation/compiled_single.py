@@ -183,7 +183,7 @@ class _Setup:
     sptr: np.ndarray  # (p + 1,) first segment of every output row
     seg: np.ndarray  # start and length of every segment
     coef: np.ndarray  # packed coefficients
-    ilp: int  # interleaved modes: blocks per row of modes (0: not interleaved)
+    ilp: int  # interleaved modes: blocks per row of modes (0: not; -1: outputs = state)
     ilc: np.ndarray  # their output coefficients, in the modes' order
 
     def __post_init__(self) -> None:
@@ -330,6 +330,8 @@ def _setup(
                         coef.append(vals[lo:hi])
                 sptr.append(len(segs) // 2)
     Cz = np.array(Cz_rows).reshape(len(Cz_rows), nL)
+    if not inter and Cz.shape == (nL, nL) and np.array_equal(Cz, np.eye(nL)):
+        Pp = -1  # the outputs are the state itself (a plant's): copied, not summed
     ilc = np.zeros(nr if inter else 0)
     if inter:  # the coefficient of mode j of block b at j P + b, like the modes
         ilc = Cz.sum(axis=0)[:nr].copy()
