@@ -45,7 +45,7 @@ from geomfdi.simulation.compiled_recursion import (
     sim_backend,
     single_kernel,
 )
-from geomfdi.simulation.lifting import Drive, _digest, block_recursion
+from geomfdi.simulation.lifting import Drive, _digest, _workspace, block_recursion
 from geomfdi.simulation.recursion import _MODAL_COND
 
 __all__ = ["run_recursion", "single_recursion"]
@@ -568,7 +568,16 @@ def _accumulate(D: np.ndarray, S: np.ndarray, Y: np.ndarray) -> None:
         if not np.may_share_memory(r, Y):  # the wrapper worked on a copy
             Y[...] = r.T
         return
-    Y += D @ S
+    # rows of a longer record (a time chunk): the product in a work array of the thread
+    # (kept: a fresh temporary of the chunk's size would fault its pages in every call)
+    pool = _workspace()
+    size = Y.shape[0] * Y.shape[1]
+    buf = pool.get(("feedthrough", "d"))
+    if buf is None or buf.size < size:
+        buf = pool[("feedthrough", "d")] = np.empty(max(size, 1))
+    tmp = buf[:size].reshape(Y.shape)
+    np.matmul(D, S, out=tmp)
+    Y += tmp
 
 
 def _add_feedthrough(

@@ -159,8 +159,9 @@ class OpenLoopEngine:
         #: work arrays reused window after window (``None``: fresh arrays); with one, the
         #: readings of a returned :class:`Piece` are valid until the next :meth:`advance`
         self.workspace: Workspace | None = None
-        #: allocates the arrays of a :class:`Piece` that the caller keeps (the plant
-        #: state, the healthy readings and the inputs; ``None``: :func:`numpy.empty`)
+        #: ``alloc(shape, name)`` of the plant state, the healthy readings and the inputs
+        #: of a :class:`Piece` (the caller's result arrays, or work arrays it copies from;
+        #: ``None``: :func:`numpy.empty`)
         self.result_alloc: Any = None
         self.restart(x0, runs)
 
@@ -309,13 +310,13 @@ class OpenLoopEngine:
         # than lifting them: fewer lifted outputs per state)
         alloc = self.result_alloc
         Rx = max(self.x.shape[1], e.shape[1])
-        xd = None if alloc is None else alloc((n, Rx, L))
+        xd = None if alloc is None else alloc((n, Rx, L), "X")
         ((X,),) = run_recursion(
             [self.dis.Ad], self.WX, dX, self.x, [[np.eye(n)]], L, key=("plant", self.key),
             batch=False, out=[[xd]],
         )  # fmt: skip
-        y0c = _affine(self.Cy0, X, self.Dy0, e, alloc)
-        u = _affine(self.Cu, X, self.Du, e, alloc)
+        y0c = _affine(self.Cy0, X, self.Dy0, e, alloc, "y0c")
+        u = _affine(self.Cu, X, self.Du, e, alloc, "u")
         self.x = np.ascontiguousarray(X[:, :, -1])
         work = self._work
         if v is not None:
@@ -444,14 +445,22 @@ def _generator_key(ctx: Context, k: int, g: Any) -> bytes:
 
 
 def _affine(
-    Cm: np.ndarray, X: np.ndarray, Dm: np.ndarray, e: np.ndarray, alloc: Any = None
+    Cm: np.ndarray,
+    X: np.ndarray,
+    Dm: np.ndarray,
+    e: np.ndarray,
+    alloc: Any = None,
+    name: str = "",
 ) -> np.ndarray:
     """``Cm X + Dm e`` for state-major ``X`` (n, R, L) and ``e`` (ne, R | 1, L), in an
-    array from ``alloc(shape)`` when given."""
+    array from ``alloc(shape, name)`` when given."""
     n, R, L = X.shape
     ne, Re, _ = e.shape
     p = Cm.shape[0]
-    new = np.empty if alloc is None else alloc
+
+    def new(shape: tuple[int, ...]) -> np.ndarray:
+        return np.empty(shape) if alloc is None else alloc(shape, name)
+
     if Re >= R and not np.any(Cm):  # no state term (the input of an open loop)
         out = new((p, Re, L))
         if p <= ne and np.array_equal(Dm, np.eye(p, ne)):  # the leading rows of e

@@ -29,6 +29,8 @@ __all__ = ["empty"]
 
 _POOL_BYTES = 64 * 2**20  # kept per thread, at most
 _MIN_BYTES = 2**16  # smaller arrays come from the C library's small-block heap anyway
+_MAX_BYTES = 2**22  # larger ones: numpy asks for huge pages (a fault per 2 MiB), and their
+# release keeps the C library's threshold for mapping fresh memory above the temporaries
 _LOCAL = threading.local()
 
 
@@ -74,7 +76,7 @@ def empty(shape: tuple[int, ...], dtype: Any = float) -> np.ndarray:
     """
     dt = np.dtype(dtype)
     nbytes = math.prod(shape) * dt.itemsize
-    if nbytes < _MIN_BYTES:
+    if nbytes < _MIN_BYTES or nbytes >= _MAX_BYTES:
         return np.empty(shape, dtype=dt)
     pool = _pool()
     blk = _find(pool, nbytes)

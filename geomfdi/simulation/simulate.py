@@ -156,7 +156,13 @@ from geomfdi.simulation.results import (
 )
 from geomfdi.simulation.schedule import FaultSchedule, fault_schedule, structure_columns
 from geomfdi.simulation.signals import FaultSignal
-from geomfdi.simulation.streaming import DecisionStream, Workspace, chunk_plan, time_chunks
+from geomfdi.simulation.streaming import (
+    DecisionStream,
+    Workspace,
+    chunk_plan,
+    thread_workspace,
+    time_chunks,
+)
 
 
 def stop_divergent(
@@ -607,7 +613,7 @@ def _stream_one(
     chunks = time_chunks(N, L)
     if len(chunks) == 1 and isinstance(eng, OpenLoopEngine) and eng.workspace is None:
         # one chunk covers the record: the engine's arrays are the result's
-        eng.result_alloc = empty
+        eng.result_alloc = lambda shape, name: empty(shape)
         v, wp = noise_window(ctx, streams, 0, N)
         pc = eng.advance(0, N, v, wp, rows)
         y, yh = pc.y[:, 0], pc.y0n[:, 0]
@@ -636,8 +642,15 @@ def _stream_one(
     vectors = [None if g is None or g.n_outputs == 1 else np.empty((g.n_outputs, N)) for g in gens]
     ws = [None if g is None or not keep else np.empty((g.order, N)) for g in gens]
     xc = np.empty((ctx.ctrl.nc, N)) if feedback else None
+    if isinstance(eng, OpenLoopEngine) and eng.workspace is None:
+        # the chunks' signals are copied into the result: work arrays kept by the thread
+        work = thread_workspace()
+        eng.workspace = work
+        eng.result_alloc = lambda shape, name: work.get(name, shape)
+    else:
+        work = None
     for s, e, e1 in chunks:
-        v, wp = noise_window(ctx, streams, s, e1)
+        v, wp = noise_window(ctx, streams, s, e1, work)
         pc = eng.advance(s, e1, v, wp, rows[:, :, s:e1])
         x[:, s:e1], y[:, s:e1] = from_balanced(ctx, pc.X[:, 0]), pc.y[:, 0]
         yh[:, s:e1], u[:, s:e1] = pc.y0n[:, 0], pc.u[:, 0]
