@@ -4,14 +4,17 @@
   :mod:`~geomfdi.simulation.input_faults` -- actuator and general additive fault signals;
   :mod:`~geomfdi.simulation.schedule` -- a fault list checked once against the plant.
 * :mod:`~geomfdi.simulation.discretization`, :mod:`~geomfdi.simulation.recursion`,
-  :mod:`~geomfdi.simulation.lifting`, :mod:`~geomfdi.simulation.lti` -- the loop-free LTI core.
+  :mod:`~geomfdi.simulation.lifting`, :mod:`~geomfdi.simulation.lti` -- the loop-free LTI core;
+  :mod:`~geomfdi.simulation.compiled_recursion` (many runs) and
+  :mod:`~geomfdi.simulation.compiled_single` (one run) -- its compiled kernels.
 * :mod:`~geomfdi.simulation.noise`, :mod:`~geomfdi.simulation.initial_state`,
   :mod:`~geomfdi.simulation.context` -- the inputs of a simulation.
 * :mod:`~geomfdi.simulation.open_loop`, :mod:`~geomfdi.simulation.closed_loop` -- the engines,
   advanced in time chunks; :mod:`~geomfdi.simulation.streaming` -- chunk sizes, decisions
   and summaries accumulated chunk by chunk.
 * :mod:`~geomfdi.simulation.simulate`, :mod:`~geomfdi.simulation.batch`,
-  :mod:`~geomfdi.simulation.results` -- ``simulate``, ``simulate_batch`` and their results.
+  :mod:`~geomfdi.simulation.results` -- ``simulate``, ``simulate_batch`` and their results;
+  :mod:`~geomfdi.simulation.result_memory` -- the returned arrays' memory, reused.
 * :mod:`~geomfdi.simulation.calibration` -- thresholds from noise-only simulations.
 
 Layer: above :mod:`geomfdi.generators`.  It may import :mod:`geomfdi.model`,

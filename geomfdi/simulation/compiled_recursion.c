@@ -229,3 +229,279 @@ int gfsim_run(int64_t nS, int64_t R, int64_t L, int64_t nb, const int64_t *bsize
     free(ptrs);
     return 0;
 }
+
+/* ------------------------------------------------------------------------------------
+ * One run (geomfdi.simulation.compiled_single): the states in the layout
+ *
+ *     z = [real modes (nr) | real parts of the complex pairs (nc) | their imaginary
+ *          parts (nc) | dense blocks (sizes bsize, packed column-major in Apk)]
+ *
+ * and for k = 0 .. L-1
+ *
+ *     out[o](k) = ys[o, k] + sum over the output's segments of coef * z(k)
+ *     z(k+1)    = T z(k) + sum_c V[c, :] d_c(k)                          (k < L-1)
+ *
+ * with T diagonal on the real modes (ar), the rotation [[ca, cb], [-cb, ca]] on each
+ * pair and the dense blocks.  Output row o reads the segments seg[sptr[o] .. sptr[o+1]-1]
+ * (start and length each) of z, its coefficients packed in coef in that order; or, with
+ * ilp > 0 (real modes interleaved: mode j of output o at j ilp + o, ilp a multiple of
+ * 4), out[o] = sum over j of ilc[j ilp + o] z[j ilp + o], four outputs per vector; or,
+ * with ilp < 0, out[o] = z[o] (the outputs are the state, in its own coordinates).
+ * Vectorised over the states, four at a time; z holds z(0) on entry and z(L-1) on
+ * return.
+ */
+#if defined(__GNUC__) || defined(__clang__)
+typedef double gfs_v4 __attribute__((vector_size(4 * sizeof(double))));
+static inline gfs_v4 gfs_load(const double *p)
+{
+    gfs_v4 v;
+    __builtin_memcpy(&v, p, sizeof v);
+    return v;
+}
+static inline void gfs_store(double *p, gfs_v4 v) { __builtin_memcpy(p, &v, sizeof v); }
+#define GFS_VEC 1
+#endif
+
+static inline double gfsim_dot(const double *c, const double *x, int64_t n)
+{
+    int64_t i = 0;
+    double s;
+    if (n == 1) return c[0] * x[0];
+#ifdef GFS_VEC
+    if (n >= 4) {
+        gfs_v4 a = gfs_load(c) * gfs_load(x);
+        for (i = 4; i + 4 <= n; i += 4) a += gfs_load(c + i) * gfs_load(x + i);
+        s = (a[0] + a[1]) + (a[2] + a[3]);
+    } else {
+        s = 0.0;
+    }
+#else
+    double s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    s = 0.0;
+    for (; i + 4 <= n; i += 4) {
+        s += c[i] * x[i];
+        s1 += c[i + 1] * x[i + 1];
+        s2 += c[i + 2] * x[i + 2];
+        s3 += c[i + 3] * x[i + 3];
+    }
+    s = (s + s1) + (s2 + s3);
+#endif
+    for (; i < n; ++i) s += c[i] * x[i];
+    return s;
+}
+
+/* g[i] = (init ? init[i] * z[i] : 0) + sum_c V[c, i] dv[c] for i0 <= i < i1, written to
+   out (which may be z itself: each element is read before it is written) */
+static void gfsim_force(int64_t i0, int64_t i1, int64_t nS, int64_t nz, const double *V,
+                        const double *dv, const double *init, const double *z, double *out)
+{
+    int64_t i = i0, c;
+#ifdef GFS_VEC
+    for (; i + 16 <= i1; i += 16) { /* sixteen states: four independent sums */
+        gfs_v4 a0, a1, a2, a3;
+        if (init) {
+            a0 = gfs_load(init + i) * gfs_load(z + i);
+            a1 = gfs_load(init + i + 4) * gfs_load(z + i + 4);
+            a2 = gfs_load(init + i + 8) * gfs_load(z + i + 8);
+            a3 = gfs_load(init + i + 12) * gfs_load(z + i + 12);
+        } else {
+            a0 = (gfs_v4){0.0, 0.0, 0.0, 0.0};
+            a1 = a0;
+            a2 = a0;
+            a3 = a0;
+        }
+        for (c = 0; c < nz; ++c) {
+            const double *Vc = V + c * nS + i;
+            const double dc = dv[c];
+            a0 += gfs_load(Vc) * dc;
+            a1 += gfs_load(Vc + 4) * dc;
+            a2 += gfs_load(Vc + 8) * dc;
+            a3 += gfs_load(Vc + 12) * dc;
+        }
+        gfs_store(out + i, a0);
+        gfs_store(out + i + 4, a1);
+        gfs_store(out + i + 8, a2);
+        gfs_store(out + i + 12, a3);
+    }
+    for (; i + 8 <= i1; i += 8) {
+        gfs_v4 a0, a1;
+        if (init) {
+            a0 = gfs_load(init + i) * gfs_load(z + i);
+            a1 = gfs_load(init + i + 4) * gfs_load(z + i + 4);
+        } else {
+            a0 = (gfs_v4){0.0, 0.0, 0.0, 0.0};
+            a1 = a0;
+        }
+        for (c = 0; c < nz; ++c) {
+            const double *Vc = V + c * nS + i;
+            const double dc = dv[c];
+            a0 += gfs_load(Vc) * dc;
+            a1 += gfs_load(Vc + 4) * dc;
+        }
+        gfs_store(out + i, a0);
+        gfs_store(out + i + 4, a1);
+    }
+    for (; i + 4 <= i1; i += 4) {
+        gfs_v4 a0 = init ? gfs_load(init + i) * gfs_load(z + i) : (gfs_v4){0.0, 0.0, 0.0, 0.0};
+        for (c = 0; c < nz; ++c) a0 += gfs_load(V + c * nS + i) * dv[c];
+        gfs_store(out + i, a0);
+    }
+#endif
+    for (; i < i1; ++i) {
+        double a = init ? init[i] * z[i] : 0.0;
+        for (c = 0; c < nz; ++c) a += V[c * nS + i] * dv[c];
+        out[i] = a;
+    }
+}
+
+int gfsim_single(int64_t L, int64_t nr, const double *ar, int64_t nc, const double *ca,
+                 const double *cb, int64_t nb, const int64_t *bsize, const double *Apk,
+                 int64_t nz, const double *V, const gfsim_chan *dch, int64_t p,
+                 const int64_t *sptr, const int64_t *seg, const double *coef, int64_t ilp,
+                 const double *ilc, const double *ys, int64_t ysld, const gfsim_chan *och,
+                 double *z)
+{
+    const int64_t T = GFSIM_T, pw = ilp > p ? ilp : p; /* values per sample in the tile */
+    int64_t nS = nr + 2 * nc, nmax = 1, i, c, o, b, k, q, t;
+    double *g, *xn, *dv, *yb;
+    for (b = 0; b < nb; ++b) {
+        nS += bsize[b];
+        if (bsize[b] > nmax) nmax = bsize[b];
+    }
+    g = (double *)malloc(sizeof(double) * (size_t)(nS + nmax + nz + T * pw + 1));
+    if (!g) return -1;
+    xn = g + nS;
+    dv = xn + nmax;
+    yb = dv + nz; /* the outputs of a tile of T samples, sample-major */
+    for (k = 0; k < L; ++k) {
+        /* outputs of sample k (into the tile, scattered to the rows when it is full) */
+        const double *cf = coef;
+        double *yt = yb + (k % T) * pw;
+        if (ilp < 0) { /* the outputs are the state itself: out[o] = z[o] */
+            i = 0;
+#ifdef GFS_VEC
+            for (; i + 4 <= p; i += 4) gfs_store(yt + i, gfs_load(z + i));
+#endif
+            for (; i < p; ++i) yt[i] = z[i];
+            if (ys)
+                for (o = 0; o < p; ++o) yt[o] += ys[o * ysld + k];
+        } else if (ilp) { /* interleaved modes: output b = sum over j of ilc z at j ilp + b */
+            for (o = 0; o < ilp; o += 4) {
+                i = o;
+#ifdef GFS_VEC
+                gfs_v4 a = gfs_load(ilc + i) * gfs_load(z + i);
+                for (i += ilp; i < nr; i += ilp) a += gfs_load(ilc + i) * gfs_load(z + i);
+                gfs_store(yt + o, a);
+#else
+                double a0 = ilc[i] * z[i], a1 = ilc[i + 1] * z[i + 1];
+                double a2 = ilc[i + 2] * z[i + 2], a3 = ilc[i + 3] * z[i + 3];
+                for (i += ilp; i < nr; i += ilp) {
+                    a0 += ilc[i] * z[i];
+                    a1 += ilc[i + 1] * z[i + 1];
+                    a2 += ilc[i + 2] * z[i + 2];
+                    a3 += ilc[i + 3] * z[i + 3];
+                }
+                yt[o] = a0;
+                yt[o + 1] = a1;
+                yt[o + 2] = a2;
+                yt[o + 3] = a3;
+#endif
+            }
+            if (ys)
+                for (o = 0; o < p; ++o) yt[o] += ys[o * ysld + k];
+        }
+        for (o = 0; o < p && ilp == 0; ++o) {
+            const int64_t q0 = sptr[o], q1 = sptr[o + 1];
+            double s;
+            if (q1 == q0 + 1 && seg[2 * q0 + 1] == 1) { /* one coefficient (a state) */
+                s = cf[0] * z[seg[2 * q0]];
+                cf += 1;
+            } else {
+                s = 0.0;
+                for (q = q0; q < q1; ++q) {
+                    const int64_t len = seg[2 * q + 1];
+                    s += gfsim_dot(cf, z + seg[2 * q], len);
+                    cf += len;
+                }
+            }
+            yt[o] = ys ? ys[o * ysld + k] + s : s;
+        }
+        if (k % T == T - 1 || k == L - 1) {
+            const int64_t k0 = k - k % T, nt = k % T + 1;
+            for (o = 0; o < p; ++o) {
+                double *dst = (double *)och[o].p + k0 * och[o].ts;
+                const int64_t ts = och[o].ts;
+                for (t = 0; t < nt; ++t) dst[t * ts] = yb[t * pw + o];
+            }
+        }
+        if (k == L - 1) break;
+        /* the drive samples of step k -> k+1 */
+        for (c = 0; c < nz; ++c) {
+            const double *src = dch[c].p + k * dch[c].ts;
+            dv[c] = dch[c].sp ? dch[c].sp[k * dch[c].sts] * src[0] : src[0];
+        }
+        /* real modes in place: z = ar z + V d; the forcing of the others into g */
+        gfsim_force(0, nr, nS, nz, V, dv, ar, z, z);
+        gfsim_force(nr, nS, nS, nz, V, dv, NULL, z, g);
+        {
+            double *zr = z + nr, *zi = zr + nc;
+            const double *gr = g + nr, *gi = gr + nc;
+            for (i = 0; i < nc; ++i) {
+                const double re = zr[i], im = zi[i];
+                zr[i] = (ca[i] * re + cb[i] * im) + gr[i];
+                zi[i] = (ca[i] * im - cb[i] * re) + gi[i];
+            }
+        }
+        {
+            int64_t i0 = nr + 2 * nc, aoff = 0, n, j;
+            for (b = 0; b < nb; ++b) {
+                const double *zb = z + i0;
+                n = bsize[b];
+                i = 0;
+#ifdef GFS_VEC
+                for (; i + 8 <= n; i += 8) { /* eight rows in registers over the columns */
+                    gfs_v4 a0 = gfs_load(g + i0 + i), a1 = gfs_load(g + i0 + i + 4);
+                    gfs_v4 b0 = {0.0, 0.0, 0.0, 0.0}, b1 = b0; /* odd columns: shorter chains */
+                    for (j = 0; j + 2 <= n; j += 2) {
+                        const double *Aj = Apk + aoff + j * n + i, *Ak = Aj + n;
+                        a0 += gfs_load(Aj) * zb[j];
+                        a1 += gfs_load(Aj + 4) * zb[j];
+                        b0 += gfs_load(Ak) * zb[j + 1];
+                        b1 += gfs_load(Ak + 4) * zb[j + 1];
+                    }
+                    if (j < n) {
+                        const double *Aj = Apk + aoff + j * n + i;
+                        a0 += gfs_load(Aj) * zb[j];
+                        a1 += gfs_load(Aj + 4) * zb[j];
+                    }
+                    gfs_store(xn + i, a0 + b0);
+                    gfs_store(xn + i + 4, a1 + b1);
+                }
+                for (; i + 4 <= n; i += 4) {
+                    gfs_v4 a0 = gfs_load(g + i0 + i), b0 = {0.0, 0.0, 0.0, 0.0};
+                    for (j = 0; j + 2 <= n; j += 2) {
+                        a0 += gfs_load(Apk + aoff + j * n + i) * zb[j];
+                        b0 += gfs_load(Apk + aoff + (j + 1) * n + i) * zb[j + 1];
+                    }
+                    if (j < n) a0 += gfs_load(Apk + aoff + j * n + i) * zb[j];
+                    gfs_store(xn + i, a0 + b0);
+                }
+#endif
+                for (; i < n; ++i) {
+                    double a = g[i0 + i];
+                    for (j = 0; j < n; ++j) a += Apk[aoff + j * n + i] * zb[j];
+                    xn[i] = a;
+                }
+                i = 0;
+#ifdef GFS_VEC
+                for (; i + 4 <= n; i += 4) gfs_store(z + i0 + i, gfs_load(xn + i));
+#endif
+                for (; i < n; ++i) z[i0 + i] = xn[i];
+                i0 += n;
+                aoff += n * n;
+            }
+        }
+    }
+    free(g);
+    return 0;
+}

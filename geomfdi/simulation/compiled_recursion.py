@@ -1,8 +1,10 @@
 """The bank recursion of many runs at once, compiled (C99, SIMD over the runs).
 
 :func:`bank_recursion` is what :meth:`OpenLoopEngine.advance
-<geomfdi.simulation.open_loop.OpenLoopEngine.advance>` calls for the residual
-generators of a batch: with two runs or more (a run axis to vectorise) it runs
+<geomfdi.simulation.open_loop.OpenLoopEngine.advance>` calls (through
+:func:`geomfdi.simulation.compiled_single.run_recursion`, which takes one run to the
+library's single-run kernel) for the residual generators of a batch: with two runs or
+more (a run axis to vectorise) it runs
 :func:`compiled_block_recursion`, a fixed C99 kernel (``compiled_recursion.c``, the
 dimensions passed at run time) compiled once per machine with the system's C compiler
 (:mod:`geomfdi._cbuild`: cached by hash, built on first use in a process); a single run,
@@ -30,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._cbuild import build_library, cache_dir
+from geomfdi._cbuild import build_library
 from geomfdi._threads import thread_pool, work_threads
 from geomfdi.errors import BackendFallbackWarning, GeomFDIError, ShapeError
 from geomfdi.simulation.lifting import Drive, block_recursion
@@ -59,6 +61,7 @@ _CHAN = np.dtype(
     ]
 )
 _LIBS: dict[tuple[str, str], Any] = {}  # (cache folder, compiler) -> library, or None: failed
+_SINGLE: dict[tuple[str, str], Any] = {}  # the same library's one-run kernel
 _LOCK = threading.Lock()
 
 
@@ -96,10 +99,17 @@ def batch_runs() -> int:
     return BATCH_RUNS if sim_backend() == "c" else 1
 
 
+def _lib_key() -> tuple[str | None, ...]:
+    """What selects a library: the variables that set :func:`geomfdi._cbuild.cache_dir`
+    and the compiler (read from the environment: cheap, every call checks it)."""
+    env = os.environ
+    return tuple(env.get(v) for v in ("GEOMFDI_CACHE_DIR", "XDG_CACHE_HOME", "HOME", "CC"))
+
+
 def _library() -> Any:
     """The compiled kernel (built on first use), or ``None`` when no compiler works
     (then a :class:`BackendFallbackWarning`, once per cache folder and compiler)."""
-    key = (str(cache_dir()), os.environ.get("CC", "cc"))
+    key = _lib_key()
     if key in _LIBS:
         return _LIBS[key]
     with _LOCK:
@@ -116,16 +126,31 @@ def _library() -> Any:
             fn.argtypes = [i64, i64, i64, i64, vp, vp, i64, vp, vp, vp, i64, i64, vp, vp, vp]
             fn.argtypes = [*fn.argtypes, i64, vp, vp, vp, i64, vp, vp]
             fn.restype = ctypes.c_int
+            one = dll.gfsim_single
+            # gfsim_single(L, nr, ar, nc, ca, cb, nb, bsize, Apk, nz, V, dch, p, sptr, seg,
+            #              coef, ilp, ilc, ys, ysld, och, z)
+            one.argtypes = [i64, i64, vp, i64, vp, vp, i64, vp, vp, i64, vp, vp, i64, vp, vp]
+            one.argtypes = [*one.argtypes, vp, i64, vp, vp, i64, vp, vp]
+            one.restype = ctypes.c_int
+            _SINGLE[key] = one
             lib: Any = fn
         except (GeomFDIError, OSError) as exc:
             warnings.warn(
-                f"{exc}; batch simulations use the numpy recursion",
+                f"{exc}; simulations use the numpy recursion",
                 BackendFallbackWarning,
                 stacklevel=2,
             )
             lib = None
         _LIBS[key] = lib
     return lib
+
+
+def single_kernel() -> Any:
+    """The one-run kernel of the same library (:mod:`geomfdi.simulation.compiled_single`),
+    or ``None`` when no compiler works."""
+    key = _lib_key()
+    lib = _LIBS[key] if key in _LIBS else _library()
+    return None if lib is None else _SINGLE.get(key)
 
 
 def _runs(drives: list[Drive], x0: np.ndarray, direct: Any) -> int:

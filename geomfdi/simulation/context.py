@@ -75,9 +75,15 @@ _MATRICES = ("F", "E", "G", "M", "H", "K")
 def generator_key(g: ResidualGenerator) -> bytes:
     """A fingerprint of the matrices of ``g``: their shapes and their values as floats
     (what the simulation reads), one hash over the concatenated entries."""
-    mats = [np.asarray(getattr(g, name)) for name in _MATRICES]
-    h = hashlib.blake2b(np.concatenate([a.ravel() for a in mats], dtype=float), digest_size=16)
-    h.update(repr([a.shape for a in mats]).encode())
+    h = hashlib.blake2b(digest_size=16)
+    shapes = []
+    for name in _MATRICES:  # the entries in turn: the digest of their concatenation
+        a = getattr(g, name)
+        if not (isinstance(a, np.ndarray) and a.dtype == np.float64 and a.flags.c_contiguous):
+            a = np.ascontiguousarray(a, dtype=float)
+        h.update(a)
+        shapes.append(a.shape)
+    h.update(repr(shapes).encode())
     return h.digest()
 
 

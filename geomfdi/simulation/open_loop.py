@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from geomfdi.simulation.compiled_recursion import bank_recursion
+from geomfdi.simulation.compiled_single import run_recursion
 from geomfdi.simulation.context import Context, Piece
 from geomfdi.simulation.initial_state import (
     EXACT_TOL,
@@ -28,7 +28,7 @@ from geomfdi.simulation.initial_state import (
     joint_sylvester,
     start_error,
 )
-from geomfdi.simulation.lifting import Drive, _digest, block_recursion
+from geomfdi.simulation.lifting import Drive, _digest
 from geomfdi.simulation.profiles import fault_profiles, profile_groups
 from geomfdi.simulation.signals import (
     BiasFault,
@@ -151,6 +151,7 @@ class OpenLoopEngine:
         self.W_all = setup["W_all"]
         self.Fd = setup["Fd"]
         self.outs, self.dmats = setup["outs"], setup["dmats"]
+        self.setup = setup
         ctx.info["channels"] = chan
         ctx.info["plant_state_decoupled"] = decoupled
         self.Pis = Pis
@@ -158,6 +159,10 @@ class OpenLoopEngine:
         #: work arrays reused window after window (``None``: fresh arrays); with one, the
         #: readings of a returned :class:`Piece` are valid until the next :meth:`advance`
         self.workspace: Workspace | None = None
+        #: ``alloc(shape, name)`` of the plant state, the healthy readings and the inputs
+        #: of a :class:`Piece` (the caller's result arrays, or work arrays it copies from;
+        #: ``None``: :func:`numpy.empty`)
+        self.result_alloc: Any = None
         self.restart(x0, runs)
 
     def restart(self, x0: np.ndarray, runs: int) -> None:
@@ -173,15 +178,26 @@ class OpenLoopEngine:
             or (ctx.d.ndim == 3 and ctx.d.shape[0] > 1)
         )
         self.R = R = int(runs) if per_run else 1
-        ws = []
-        for (_, g), Pi, use in zip(self.gens, self.Pis, self.use_pi, strict=True):
-            w = Pi @ x0T if use else np.zeros((g.order, 1))
-            if self.decoupled:  # the state w~ = w - Pi x
-                w = w - Pi @ x0T
-            ws.append(np.broadcast_to(w, (g.order, R)))
         # the carried states: plant (n, R0) and bank (sum of orders, R)
         self.x = x0T
-        self.w = np.vstack(ws)
+        if self.decoupled:  # the state w~ = w - Pi x: zero at a consistent start
+            nw = sum(g.order for _, g in self.gens)
+            if all(self.use_pi):
+                self.w = np.zeros((nw, R))
+            else:
+                Pi_all = np.vstack(self.Pis)
+                self.w = np.broadcast_to(-(Pi_all @ x0T), (nw, R)).copy()
+                i0 = 0
+                for (_, g), use in zip(self.gens, self.use_pi, strict=True):
+                    if use:
+                        self.w[i0 : i0 + g.order] = 0.0
+                    i0 += g.order
+        else:
+            ws = []
+            for (_, g), Pi, use in zip(self.gens, self.Pis, self.use_pi, strict=True):
+                w = Pi @ x0T if use else np.zeros((g.order, 1))
+                ws.append(np.broadcast_to(w, (g.order, R)))
+            self.w = np.vstack(ws)
         self.holds = [{} for _ in self.fault_lists]
 
     # ------------------------------------------------------------------ helpers
@@ -292,11 +308,15 @@ class OpenLoopEngine:
         dX = [Drive(e), Drive(e, 1)] if foh else [Drive(e)]
         # the state only; the readings and inputs from it by two plain products (cheaper
         # than lifting them: fewer lifted outputs per state)
-        ((X,),) = block_recursion(
-            [self.dis.Ad], self.WX, dX, self.x, [[np.eye(n)]], L, key=("plant", self.key)
-        )
-        y0c = _affine(self.Cy0, X, self.Dy0, e)
-        u = _affine(self.Cu, X, self.Du, e)
+        alloc = self.result_alloc
+        Rx = max(self.x.shape[1], e.shape[1])
+        xd = None if alloc is None else alloc((n, Rx, L), "X")
+        ((X,),) = run_recursion(
+            [self.dis.Ad], self.WX, dX, self.x, [[np.eye(n)]], L, key=("plant", self.key),
+            batch=False, out=[[xd]],
+        )  # fmt: skip
+        y0c = _affine(self.Cy0, X, self.Dy0, e, alloc, "y0c")
+        u = _affine(self.Cu, X, self.Du, e, alloc, "u")
         self.x = np.ascontiguousarray(X[:, :, -1])
         work = self._work
         if v is not None:
@@ -355,15 +375,16 @@ class OpenLoopEngine:
         for k, g in gens:
             view = rows[:, k : k + 1].transpose(1, 0, 2) if g.n_outputs == 1 else None
             dests.append([view, None] if ctx.keep_states else [view])
-        # many runs: the compiled kernel (SIMD over the runs), else the numpy recursion
-        res, self.w = bank_recursion(
+        # compiled kernels: one run vectorised over the states, many runs over the runs
+        # (geomfdi.simulation.compiled_single, compiled_recursion), else numpy
+        res, self.w = run_recursion(
             self.Fd,
             self.W_all,
             drives,
             self.w,
             self.outs,
             L,
-            direct=([y, u, X] if self.decoupled else [y, u], self.dmats),
+            direct=self._direct(X, y, y0c, u, e),
             out=dests,
             final=True,
             key=("bank", self.key),
@@ -377,6 +398,35 @@ class OpenLoopEngine:
             if ctx.keep_states:
                 ws[k] = rk[1]
         return Piece(s, X, y, y0n, u, vectors, ws)
+
+    def _direct(
+        self, X: np.ndarray, y: np.ndarray, y0c: np.ndarray, u: np.ndarray, e: np.ndarray
+    ) -> tuple[list[np.ndarray], list[list[np.ndarray | None]]]:
+        """The generators' feedthrough signals and matrices: ``-H y + K u`` (and ``M Pi x``
+        for decoupled states).  When the readings are the healthy ones (no sensor fault
+        on the window, no noise) ``y = Cy0 x + Dy0 e`` and ``u = Cu x + Du e``, so the
+        feedthrough is ``(-H Cy0 + K Cu + M Pi) x + (-H Dy0 + K Du) e``: two products
+        instead of three, the matrices (kept with the set-up) formed once."""
+        if y is not y0c:
+            return ([y, u, X] if self.decoupled else [y, u], self.dmats)
+        xe = self.setup.get("dmats_xe")
+        if xe is None:
+            q, m = self.ctx.plant.q, self.ctx.plant.m
+            xe = []
+            for ms in self.dmats:
+                row = []
+                for D in ms:
+                    if D is None:
+                        row.append(None)
+                        continue
+                    Dy, Du = D[:, :q], D[:, q : q + m]
+                    DX = Dy @ self.Cy0 + Du @ self.Cu
+                    if self.decoupled:
+                        DX = DX + D[:, q + m :]
+                    row.append(np.hstack([DX, Dy @ self.Dy0 + Du @ self.Du]))
+                xe.append(row)
+            self.setup["dmats_xe"] = xe
+        return [X, e], xe
 
     def _work(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
         """A float work array of the window (from :attr:`workspace` when set)."""
@@ -394,12 +444,33 @@ def _generator_key(ctx: Context, k: int, g: Any) -> bytes:
     return _digest([g.F, g.E, g.G, g.M, g.H, g.K])
 
 
-def _affine(Cm: np.ndarray, X: np.ndarray, Dm: np.ndarray, e: np.ndarray) -> np.ndarray:
-    """``Cm X + Dm e`` for state-major ``X`` (n, R, L) and ``e`` (ne, R | 1, L)."""
+def _affine(
+    Cm: np.ndarray,
+    X: np.ndarray,
+    Dm: np.ndarray,
+    e: np.ndarray,
+    alloc: Any = None,
+    name: str = "",
+) -> np.ndarray:
+    """``Cm X + Dm e`` for state-major ``X`` (n, R, L) and ``e`` (ne, R | 1, L), in an
+    array from ``alloc(shape, name)`` when given."""
     n, R, L = X.shape
-    out = (Cm @ X.reshape(n, R * L)).reshape(Cm.shape[0], R, L)
+    ne, Re, _ = e.shape
+    p = Cm.shape[0]
+
+    def new(shape: tuple[int, ...]) -> np.ndarray:
+        return np.empty(shape) if alloc is None else alloc(shape, name)
+
+    if Re >= R and not np.any(Cm):  # no state term (the input of an open loop)
+        out = new((p, Re, L))
+        if p <= ne and np.array_equal(Dm, np.eye(p, ne)):  # the leading rows of e
+            out[...] = e[:p]
+        else:
+            np.matmul(Dm, e.reshape(ne, Re * L), out=out.reshape(p, Re * L))
+        return out
+    out = new((p, R, L))
+    np.matmul(Cm, X.reshape(n, R * L), out=out.reshape(p, R * L))
     if Dm.size and np.any(Dm):
-        ne, Re, _ = e.shape
         out += (Dm @ e.reshape(ne, Re * L)).reshape(Dm.shape[0], Re, L)
     return out
 

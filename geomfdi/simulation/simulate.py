@@ -129,6 +129,7 @@ from geomfdi._threads import limit_blas_threads, thread_pool
 from geomfdi._validation import as_bool
 from geomfdi.errors import GeomFDIError
 from geomfdi.evaluation.decision import (
+    NO_ALARM,
     as_threshold,
     detection_events,
 )
@@ -149,12 +150,19 @@ from geomfdi.simulation.context import (
 )
 from geomfdi.simulation.noise import Noise, NoiseStream
 from geomfdi.simulation.open_loop import OpenLoopEngine
+from geomfdi.simulation.result_memory import empty
 from geomfdi.simulation.results import (
     SimulationResult,
 )
 from geomfdi.simulation.schedule import FaultSchedule, fault_schedule, structure_columns
 from geomfdi.simulation.signals import FaultSignal
-from geomfdi.simulation.streaming import DecisionStream, Workspace, chunk_plan, time_chunks
+from geomfdi.simulation.streaming import (
+    DecisionStream,
+    Workspace,
+    chunk_plan,
+    thread_workspace,
+    time_chunks,
+)
 
 
 def stop_divergent(
@@ -179,6 +187,12 @@ def stop_divergent(
     from geomfdi.evaluation.decision import NO_ALARM
     from geomfdi.simulation.nonlinear import DivergenceWarning
 
+    if bound is None and x.size:
+        # the default bound is 1e6 (1 + max |x| before the first onset): when the largest
+        # |x| of the record is below 1e6 (1 + its smallest possible value), nothing diverged
+        top = max(float(np.max(x)), -float(np.min(x)))
+        if np.isfinite(top) and top <= 1e6:
+            return None
     if x.shape[0]:  # max |x| per sample without a temporary |x| of the record's size
         mag = np.maximum(np.max(x, axis=0), -np.min(x, axis=0))
         mag[np.isnan(mag)] = np.inf  # max propagates nan: a non-finite state is inf here
@@ -587,19 +601,56 @@ def _stream_one(
     _, L = chunk_plan(N, 1, chunk_width(ctx, keep_states=keep, loop=loop))
     eng = make_engine(ctx, x0, xc0, [sched], True, 1, L)
     streams = noise_streams(ctx, [rng])
-    rows = np.zeros((1, nres, N))
-    x, y = np.empty((p.n, N)), np.empty((p.q, N))
-    yh, u = np.empty((p.q, N)), np.empty((p.m, N))
+    rows = empty((1, nres, N))
+    for k, g in enumerate(gens):  # every other row is written by the engine
+        if g is None:
+            rows[:, k] = 0.0
+    alarms = empty((nres, N), dtype=bool)
+    isolated = empty((N,), dtype=int)
+    candidates = empty((nf, N), dtype=bool)
+    suspects = empty((nf, N), dtype=bool)
+    ds = DecisionStream(thr, view.structure, rule)
+    chunks = time_chunks(N, L)
+    if len(chunks) == 1 and isinstance(eng, OpenLoopEngine) and eng.workspace is None:
+        # one chunk covers the record: the engine's arrays are the result's
+        eng.result_alloc = lambda shape, name: empty(shape)
+        v, wp = noise_window(ctx, streams, 0, N)
+        pc = eng.advance(0, N, v, wp, rows)
+        y, yh = pc.y[:, 0], pc.y0n[:, 0]
+        if np.may_share_memory(y, yh):  # the faulty readings are the healthy ones
+            y = empty(yh.shape)
+            y[...] = yh
+        parts = [from_balanced(ctx, pc.X[:, 0]), y, yh, pc.u[:, 0]]
+        x, y, yh, u = (a if a.flags.c_contiguous else np.ascontiguousarray(a) for a in parts)
+        vectors = [None if a is None else a[:, 0] for a in pc.vectors]
+        ws = [None if a is None else a[:, 0] for a in pc.ws]
+        if thr is None:  # no threshold: no alarm, no decision
+            alarms[...], isolated[...] = False, NO_ALARM
+            candidates[...], suspects[...] = False, False
+        else:
+            al, iso = ds.step(rows)
+            alarms[:] = al[0]
+            isolated[:] = iso.isolated[0]
+            candidates[:] = iso.candidates[0]
+            suspects[:] = iso.suspects[0]
+        for k, g in enumerate(gens):  # a scalar residual's component is its row
+            if g is not None and g.n_outputs == 1:
+                vectors[k] = rows[0, k : k + 1]
+        return rows[0], alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws, None
+    x, y = empty((p.n, N)), empty((p.q, N))
+    yh, u = empty((p.q, N)), empty((p.m, N))
     vectors = [None if g is None or g.n_outputs == 1 else np.empty((g.n_outputs, N)) for g in gens]
     ws = [None if g is None or not keep else np.empty((g.order, N)) for g in gens]
     xc = np.empty((ctx.ctrl.nc, N)) if feedback else None
-    alarms = np.empty((nres, N), dtype=bool)
-    isolated = np.empty(N, dtype=int)
-    candidates = np.empty((nf, N), dtype=bool)
-    suspects = np.empty((nf, N), dtype=bool)
-    ds = DecisionStream(thr, view.structure, rule)
-    for s, e, e1 in time_chunks(N, L):
-        v, wp = noise_window(ctx, streams, s, e1)
+    if isinstance(eng, OpenLoopEngine) and eng.workspace is None:
+        # the chunks' signals are copied into the result: work arrays kept by the thread
+        work = thread_workspace()
+        eng.workspace = work
+        eng.result_alloc = lambda shape, name: work.get(name, shape)
+    else:
+        work = None
+    for s, e, e1 in chunks:
+        v, wp = noise_window(ctx, streams, s, e1, work)
         pc = eng.advance(s, e1, v, wp, rows[:, :, s:e1])
         x[:, s:e1], y[:, s:e1] = from_balanced(ctx, pc.X[:, 0]), pc.y[:, 0]
         yh[:, s:e1], u[:, s:e1] = pc.y0n[:, 0], pc.u[:, 0]

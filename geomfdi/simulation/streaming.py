@@ -22,6 +22,7 @@ decision rules themselves.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 from typing import Any
 
@@ -42,7 +43,14 @@ from geomfdi.evaluation.persistence import (
 from geomfdi.limits import get_limits
 from geomfdi.simulation.signals import first_active
 
-__all__ = ["DecisionStream", "RunSummary", "Workspace", "chunk_plan", "time_chunks"]
+__all__ = [
+    "DecisionStream",
+    "RunSummary",
+    "Workspace",
+    "chunk_plan",
+    "thread_workspace",
+    "time_chunks",
+]
 
 #: The fewest samples of a time chunk (each chunk costs a fixed Python overhead).
 MIN_CHUNK = 16
@@ -116,6 +124,21 @@ class Workspace:
         if buf is None or buf.size < size:
             buf = self._bufs[key] = np.empty(size, dtype=dt)
         return buf[:size].reshape(shape)
+
+
+_LOCAL = threading.local()
+_THREAD_WORK_BYTES = 64 * 2**20  # chunk work arrays kept per thread between calls
+
+
+def thread_workspace() -> Workspace:
+    """The calling thread's :class:`Workspace`, kept from call to call (a single run's
+    chunks reuse the arrays of the previous call's: freed chunk-sized temporaries would
+    be handed back to the operating system and faulted in again); renewed when its
+    buffers outgrow ``_THREAD_WORK_BYTES``."""
+    work = getattr(_LOCAL, "work", None)
+    if work is None or sum(b.nbytes for b in work._bufs.values()) > _THREAD_WORK_BYTES:
+        work = _LOCAL.work = Workspace()
+    return work
 
 
 def time_chunks(N: int, L: int) -> list[tuple[int, int, int]]:
