@@ -456,7 +456,7 @@ def _compiled(
 
 
 #: Runs per SIMD group of the kernel (``GFSIM_G``: 16 with AVX-512, 8 with AVX): the
-#: run parts of :func:`_call_parts` are whole groups.
+#: fewest runs worth a thread of their own in :func:`_call_parts`.
 _GROUP = 16
 #: Fewest state-samples (runs x samples x states) per thread in :func:`_call_parts`.
 _MIN_PART_WORK = 2**18
@@ -465,21 +465,24 @@ _CHANNEL_ARGS = (8, 17, 20)  # positions of the channel tables in the kernel's a
 
 def _call_parts(lib: Any, args: list[Any], R: int, work_per_run: int) -> int:
     """Run the kernel on ``args`` (channel tables and the states ``X`` as arrays), the
-    runs split into contiguous parts of whole SIMD groups, one per work thread
-    (:func:`geomfdi._threads.work_threads`; ``ctypes`` releases the interpreter lock
-    for the call).  A part sees its runs only: the channels' base pointers move to its
-    first run (a run stride of 0, a signal shared by the runs, stays), its states are a
-    contiguous copy written back after.  The runs are independent and each is computed
-    by the same instructions in either case, so the results do not depend on the split.
+    runs split into contiguous parts of about equal size (whole groups of 8 runs), one
+    per work thread (:func:`geomfdi._threads.work_threads`; ``ctypes`` releases the
+    interpreter lock for the call).  A part sees its runs only: the channels' base
+    pointers move to its first run (a run stride of 0, a signal shared by the runs,
+    stays), its states are a contiguous copy written back after.  The runs are
+    independent and each is computed by the same instructions in either case, so the
+    results do not depend on the split.
     """
-    groups = -(-R // _GROUP)
-    k = min(work_threads(), groups, max(1, R * work_per_run // _MIN_PART_WORK))
+    k = min(work_threads(), -(-R // _GROUP), max(1, R * work_per_run // _MIN_PART_WORK))
     X = args[-1]
     if k <= 1:
         return lib(*[a.ctypes.data if isinstance(a, np.ndarray) else a for a in args])
-    edges = [min(R, round(i * groups / k) * _GROUP) for i in range(k + 1)]
+    # parts of about R / k runs, cut at whole groups of the narrower SIMD width (8)
+    edges = [0] + [round(i * R / (k * 8)) * 8 for i in range(1, k)] + [R]
     calls = []
     for r0, r1 in zip(edges[:-1], edges[1:], strict=True):
+        if r1 <= r0:
+            continue
         part = list(args)
         part[1] = r1 - r0
         for pos in _CHANNEL_ARGS:
