@@ -58,54 +58,56 @@ def _blocks(spec: CodeSpec) -> list[tuple[int, int, int, int]]:
 
 
 def _block_tables(spec: CodeSpec, P: str) -> str:
-    """``{P}_G<g>_A, _B, _C, _D``: generator ``g``'s blocks of ``A``, ``B``, ``C``, ``D``."""
+    """``{P}_G<g>_AT, _CT``: generator ``g``'s blocks of ``A`` and ``C``, transposed
+    (column by column), and ``{P}_BT``, ``{P}_DT``: the whole ``B`` and ``D`` transposed
+    (:func:`_update_c` reads them column by column)."""
     parts = []
     for g, (o, n, c0, nc) in enumerate(_blocks(spec)):
         if n:
-            parts.append(_table("double", f"{P}_G{g}_A", spec.A[o : o + n, o : o + n]))
-            parts.append(_table("double", f"{P}_G{g}_B", spec.B[o : o + n]))
-            parts.append(_table("double", f"{P}_G{g}_C", spec.C[c0 : c0 + nc, o : o + n]))
-        parts.append(_table("double", f"{P}_G{g}_D", spec.D[c0 : c0 + nc]))
+            parts.append(_table("double", f"{P}_G{g}_AT", spec.A[o : o + n, o : o + n].T))
+            parts.append(_table("double", f"{P}_G{g}_CT", spec.C[c0 : c0 + nc, o : o + n].T))
+    if spec.nw:
+        parts.append(_table("double", f"{P}_BT", np.asarray(spec.B).T))
+    parts.append(_table("double", f"{P}_DT", np.asarray(spec.D).T))
     return "".join(parts)
 
 
 def _update_c(spec: CodeSpec, P: str) -> str:
-    """``c = C xi + D z`` and ``xn = A xi + B z`` generator by generator.
+    """``c = C xi + D z`` and ``xn = A xi + B z``.
 
-    Each generator's blocks of ``A`` and ``C`` are its own small dense tables, looped over
-    with constant bounds (unrolled by the compiler); the zeros outside the blocks are never
-    read.  Every entry is summed in the order of its dense row (the block's columns, then
-    ``D`` or ``B``), so the results are bitwise those of the dense rows.
+    Each generator's blocks of ``A`` and ``C`` are its own small dense tables (the zeros
+    outside the blocks are never read), then ``B z`` and ``D z`` for the whole bank.  The
+    loops run over the columns outside and the rows inside, so that the compiler updates
+    several rows with one vector instruction; every entry is still summed in the order of
+    its dense row (the block's columns, then ``B`` or ``D``, from 0.0), so the results are
+    bitwise those of a row-by-row dot product.
     """
     out = []
     for g, (o, n, c0, nc) in enumerate(_blocks(spec)):
         G = f"{P}_G{g}"
-        x = f"s->xi + {o}"
         states = f"states {o}..{o + n - 1}" if n else "no state"
         head = f"        /* generator {g}: {states}, components {c0}..{c0 + nc - 1} */"
         if not n:
             out.append(f"""{head}
-        for (i = 0; i < {nc}; ++i) {{
-            acc = 0.0;
-            for (j = 0; j < NZ; ++j) acc += {G}_D[i * NZ + j] * z[j];
-            c[{c0} + i] = acc;
-        }}""")
+        for (i = 0; i < {nc}; ++i) c[{c0} + i] = 0.0;""")
             continue
         out.append(f"""{head}
-        x = {x};
-        for (i = 0; i < {nc}; ++i) {{
-            acc = 0.0;
-            for (j = 0; j < {n}; ++j) acc += {G}_C[i * {n} + j] * x[j];
-            for (j = 0; j < NZ; ++j) acc += {G}_D[i * NZ + j] * z[j];
-            c[{c0} + i] = acc;
+        x = s->xi + {o};
+        for (i = 0; i < {nc}; ++i) c[{c0} + i] = 0.0;
+        for (j = 0; j < {n}; ++j)
+            for (i = 0; i < {nc}; ++i) c[{c0} + i] += {G}_CT[j * {nc} + i] * x[j];
+        for (i = 0; i < {n}; ++i) xn[{o} + i] = 0.0;
+        for (j = 0; j < {n}; ++j)
+            for (i = 0; i < {n}; ++i) xn[{o} + i] += {G}_AT[j * {n} + i] * x[j];""")
+    state_part = (
+        f"\n            for (i = 0; i < {P}_NW; ++i) xn[i] += {P}_BT[j * {P}_NW + i] * z[j];"
+        if spec.nw
+        else ""
+    )
+    out.append(f"""        for (j = 0; j < NZ; ++j) {{ /* the inputs' part, every row at once */
+            for (i = 0; i < NC; ++i) c[i] += {P}_DT[j * NC + i] * z[j];{state_part}
         }}
-        for (i = 0; i < {n}; ++i) {{
-            acc = 0.0;
-            for (j = 0; j < {n}; ++j) acc += {G}_A[i * {n} + j] * x[j];
-            for (j = 0; j < NZ; ++j) acc += {G}_B[i * NZ + j] * z[j];
-            xn[{o} + i] = acc;
-        }}""")
-    out.append(f"""        for (i = 0; i < NC; ++i) /* an overflow: the sample is missing */
+        for (i = 0; i < NC; ++i) /* an overflow: the sample is missing */
             ok &= c[i] - c[i] == 0.0;
         for (i = 0; i < {P}_NW; ++i) ok &= xn[i] - xn[i] == 0.0;""")
     return "\n".join(out)
@@ -341,7 +343,7 @@ static void {name}_start({name}_state *s, const double *z)
 {_decide_c(spec, P, name)}
 int {name}_step({name}_state *s, const double *y, const double *u, double *r, int *alarms)
 {{
-    double z[{_alloc(nz)}], c[{_alloc(nc)}], xn[{_alloc(nw)}], acc;{x_decl}
+    double z[{_alloc(nz)}], c[{_alloc(nc)}], xn[{_alloc(nw)}];{x_decl}
     int raw[{P}_NR], pattern[{P}_NR];
     int i, j, ok = 1, any = 0{extra_decl};
     for (j = 0; j < {P}_NY; ++j) z[j] = y[j];
