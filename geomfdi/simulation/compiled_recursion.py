@@ -458,8 +458,10 @@ def _compiled(
 #: Runs per SIMD group of the kernel (``GFSIM_G``: 16 with AVX-512, 8 with AVX): the
 #: fewest runs worth a thread of their own in :func:`_call_parts`.
 _GROUP = 16
-#: Fewest state-samples (runs x samples x states) per thread in :func:`_call_parts`.
-_MIN_PART_WORK = 2**18
+#: Fewest state-samples (runs x samples x states) per thread in :func:`_call_parts`: a
+#: call of a few milliseconds gains little from a second thread (measured on 2 cores:
+#: 1.1-1.3x at 2e6 state-samples per call, 1.5-1.8x at 2e7).
+_MIN_PART_WORK = 2**22
 _CHANNEL_ARGS = (8, 17, 20)  # positions of the channel tables in the kernel's arguments
 
 
