@@ -96,6 +96,27 @@ def test_inexact_consistent_state_is_not_used():
     np.testing.assert_allclose(res.residuals[0], t * np.exp(-t), atol=1e-12)
 
 
+def test_inexact_start_is_warned_only_from_a_non_zero_state():
+    """The same generator as above: from x0 = 0 the zero start is the consistent one
+    (w0 = Pi 0 for any Pi), so nothing is warned and the residual is exactly zero; a
+    batch whose later runs start away from zero warns once, when it meets them."""
+    plant = gf.Plant([[-1.0]], [[1.0]], [[1.0]])
+    g = gf.ResidualGenerator([[-1.0]], [[-1.0]], [[0.0]], [[1.0]], [[0.0]], [[0.0]])
+    t = np.linspace(0.0, 2.0, 201)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", gf.InitialStateWarning)
+        res = gf.simulate(plant, g, t, x0=[0.0])
+    assert res.info["initial_state"][0] == "zero"
+    np.testing.assert_array_equal(res.residuals[0], 0.0)
+    x0 = np.zeros((40, 1))
+    x0[-1] = 1.0  # the last run only: in a later chunk of runs
+    with pytest.warns(gf.InitialStateWarning, match="starts at zero") as caught:
+        batch = gf.simulate_batch(plant, g, t, runs=40, x0=x0, chunk_size=8, progress=False)
+    assert sum(issubclass(w.category, gf.InitialStateWarning) for w in caught) == 1
+    np.testing.assert_array_equal(batch.residuals[:-1], 0.0)
+    np.testing.assert_allclose(batch.residuals[-1, 0], t * np.exp(-t), atol=1e-12)
+
+
 def test_seeds_of_none_draw_fresh_entropy_per_run():
     plant = gf.Plant([[-1.0]], [[1.0]], [[1.0]])
     g = gf.ResidualGenerator([[-2.0]], [[-1.0]], [[1.0]], [[1.0]], [[1.0]], [[0.0]])

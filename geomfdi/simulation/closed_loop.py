@@ -235,7 +235,9 @@ class OutputFeedbackEngine:
             if ctx.consistent:
                 Sig = -g.E @ L0["Ymx"] + g.G @ L0["Ux"]
                 Nout = -g.H @ L0["Ymx"] + g.K @ L0["Ux"]
-                Pi = consistent_start(k, g.F, L0["AX"], Sig, g.M, Nout, ctx.info)
+                Pi = consistent_start(  # from X0 = 0 the zero start is consistent
+                    k, g.F, L0["AX"], Sig, g.M, Nout, ctx.info, warn=bool(np.any(X0))
+                )
                 if Pi is not None:
                     S0[:, i : i + nw] = X0 @ Pi.T
             ctx.info.setdefault("w0", {})[k] = np.array(S0[0, i : i + nw])

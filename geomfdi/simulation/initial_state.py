@@ -230,13 +230,17 @@ def consistent_start(
     N_out: np.ndarray,
     info: dict,
     Pi: np.ndarray | None = None,
+    *,
+    warn: bool = True,
 ) -> np.ndarray | None:
     """``Pi`` to start generator ``k`` at ``w0 = Pi X0``, or None when no exact one exists.
 
     The start is used only when ``Pi`` solves the Sylvester equation to a relative
     :data:`EXACT_TOL` in balanced coordinates (checked, not assumed): otherwise the
-    generator starts at zero with an :class:`InitialStateWarning`, never from a wrong
-    state.  ``info`` records ``init_mismatch``, ``init_residual`` and ``initial_state``.
+    generator starts at zero with an :class:`InitialStateWarning` (``warn=False``: the
+    caller warns, :func:`inexact_start`, when a start state is not zero: from ``X0 = 0``
+    the zero start is the consistent one), never from a wrong state.  ``info`` records
+    ``init_mismatch``, ``init_residual`` and ``initial_state``.
     """
     if Pi is None:
         Pi, mm = consistent_initial_state(F, A_cl, Sigma, M, N_out)
@@ -246,7 +250,8 @@ def consistent_start(
     info.setdefault("init_mismatch", {})[k] = mm
     info.setdefault("init_residual", {})[k] = res
     if not res <= EXACT_TOL:
-        inexact_start(k, res)
+        if warn:
+            inexact_start(k, res)
         info.setdefault("initial_state", {})[k] = "zero"
         return None
     check_mismatch(k, mm)

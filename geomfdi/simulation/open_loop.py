@@ -25,6 +25,7 @@ from geomfdi.simulation.context import Context, Piece
 from geomfdi.simulation.initial_state import (
     EXACT_TOL,
     consistent_start,
+    inexact_start,
     joint_sylvester,
     start_error,
 )
@@ -163,12 +164,23 @@ class OpenLoopEngine:
         #: of a :class:`Piece` (the caller's result arrays, or work arrays it copies from;
         #: ``None``: :func:`numpy.empty`)
         self.result_alloc: Any = None
+        #: generators without an exact consistent start (they start at zero), warned of
+        #: once a run starts from a non-zero state (from x0 = 0 zero is the consistent one)
+        self._inexact = {
+            k: setup["info"]["init_residual"][k]
+            for k, state in setup["info"].get("initial_state", {}).items()
+            if state == "zero"
+        }
         self.restart(x0, runs)
 
     def restart(self, x0: np.ndarray, runs: int) -> None:
         """Start a new chunk of ``runs`` runs from the initial plant states ``x0``
         (R0, n) at the first sample (the matrices are kept: the same fault lists)."""
         ctx = self.ctx
+        if self._inexact and np.any(x0):
+            for k, residual in self._inexact.items():
+                inexact_start(k, residual)
+            self._inexact = {}
         x0T = np.ascontiguousarray(x0.T)
         per_run = (
             ctx.Lv is not None
@@ -519,7 +531,9 @@ def _bank_setup(
     for j, ((k, g), o0, o1) in enumerate(zip(gens, offs[:-1], offs[1:], strict=True)):
         if ctx.consistent:
             N_out = -g.H @ Cy0 + g.K @ Cu
-            Pis[j] = consistent_start(k, g.F, A_X, Sig_all[o0:o1], g.M, N_out, info, Pis[j])
+            Pis[j] = consistent_start(
+                k, g.F, A_X, Sig_all[o0:o1], g.M, N_out, info, Pis[j], warn=False
+            )  # the engine warns of an inexact start from a non-zero state
     known = info.get("init_residual", {}) if ctx.consistent else {}
     decoupled = not ctx.discrete and all(
         Pi is not None
