@@ -35,3 +35,11 @@ def seed001():
     B = [[1, 0, 1], [0, 1, 1], [0, 1, 0]]
     C = [[0, 1, 0], [0, 0, 1], [1, 0, 2]]
     return gf.Plant(A, B, C)
+
+
+@pytest.fixture
+def c_cache(tmp_path_factory, monkeypatch):
+    """Compiled libraries (simulation kernels, monitors) built into one cache folder of
+    the test session, and the simulation backend left at its default."""
+    monkeypatch.setenv("GEOMFDI_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "gfcache"))
+    monkeypatch.delenv("GEOMFDI_SIM_BACKEND", raising=False)

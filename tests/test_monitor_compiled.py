@@ -15,9 +15,7 @@ from geomfdi.errors import GeomFDIError
 needs_cc = pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler (cc)")
 
 
-@pytest.fixture(autouse=True)
-def _cache(tmp_path_factory, monkeypatch):
-    monkeypatch.setenv("GEOMFDI_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "gfcache"))
+pytestmark = pytest.mark.usefixtures("c_cache")
 
 
 def _data(q: int, m: int, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

@@ -16,10 +16,7 @@ from geomfdi.simulation.lifting import Drive, block_recursion
 needs_cc = pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler (cc)")
 
 
-@pytest.fixture(autouse=True)
-def _cache(tmp_path_factory, monkeypatch):
-    monkeypatch.setenv("GEOMFDI_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "gfcache"))
-    monkeypatch.delenv("GEOMFDI_SIM_BACKEND", raising=False)
+pytestmark = pytest.mark.usefixtures("c_cache")
 
 
 def _reference(blocks, W, drives, x0, outputs, N, direct=None):

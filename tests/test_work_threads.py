@@ -29,10 +29,7 @@ sim = importlib.import_module("geomfdi.simulation.simulate")  # the module, not 
 needs_cc = pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler (cc)")
 
 
-@pytest.fixture(autouse=True)
-def _cache(tmp_path_factory, monkeypatch):
-    monkeypatch.setenv("GEOMFDI_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "gfcache"))
-    monkeypatch.delenv("GEOMFDI_SIM_BACKEND", raising=False)
+pytestmark = pytest.mark.usefixtures("c_cache")
 
 
 @th.limit_blas_threads
