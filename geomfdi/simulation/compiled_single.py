@@ -45,8 +45,9 @@ from geomfdi.simulation.compiled_recursion import (
     sim_backend,
     single_kernel,
 )
-from geomfdi.simulation.lifting import Drive, _digest, _workspace, block_recursion
+from geomfdi.simulation.lifting import Drive, _digest, block_recursion
 from geomfdi.simulation.recursion import _MODAL_COND
+from geomfdi.simulation.workspace import thread_workspace
 
 __all__ = ["run_recursion", "single_recursion"]
 
@@ -570,12 +571,7 @@ def _accumulate(D: np.ndarray, S: np.ndarray, Y: np.ndarray) -> None:
         return
     # rows of a longer record (a time chunk): the product in a work array of the thread
     # (kept: a fresh temporary of the chunk's size would fault its pages in every call)
-    pool = _workspace()
-    size = Y.shape[0] * Y.shape[1]
-    buf = pool.get(("feedthrough", "d"))
-    if buf is None or buf.size < size:
-        buf = pool[("feedthrough", "d")] = np.empty(max(size, 1))
-    tmp = buf[:size].reshape(Y.shape)
+    tmp = thread_workspace("recursion").get("feedthrough", Y.shape)
     np.matmul(D, S, out=tmp)
     Y += tmp
 

@@ -10,8 +10,6 @@ and :func:`driven_recursion` are its one-system forms.
 from __future__ import annotations
 
 import hashlib
-import math
-import threading
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,6 +18,7 @@ import scipy.linalg
 
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.simulation.recursion import matrix_product, modal_form, recursion_inplace
+from geomfdi.simulation.workspace import thread_workspace
 
 __all__ = ["Drive", "block_recursion", "driven_recursion", "linear_recursion"]
 
@@ -64,22 +63,6 @@ _TOEPLITZ_SPLITS = 4  # row blocks of the block-Toeplitz product
 _MAX_LIFT = 32
 _CHUNK_DOUBLES = 2**20
 _MIN_BLOCKS = 512
-_WORKSPACE_BYTES = 64 * 2**20  # work arrays kept per thread between calls, at most
-_LOCAL = threading.local()
-
-
-def _workspace() -> dict[tuple[str, str], np.ndarray]:
-    """The calling thread's work arrays of :func:`block_recursion`, kept between calls.
-
-    Fresh memory costs a page fault per page on first use, a sizeable share of a
-    simulation's time; the chunk-sized work arrays (about ``8 * _CHUNK_DOUBLES`` bytes)
-    are therefore reused from call to call instead (dropped when they outgrow
-    ``_WORKSPACE_BYTES``).  Results never live in them.
-    """
-    pool = getattr(_LOCAL, "pool", None)
-    if pool is None:
-        pool = _LOCAL.pool = {}
-    return pool
 
 
 def _lift_factor(n_states: int, n_out: int, n_drive: int, complex_: bool) -> int:
@@ -489,14 +472,8 @@ def block_recursion(
     per = nL * Rd + M * (2 * p_tot * R + nd * Rdd + p_tot * Rdd) + (2 if cplx else 1) * nS * R
     Lb = chunk // M if chunk else max(_MIN_BLOCKS, min(2**14, _CHUNK_DOUBLES // max(per, 1)))
     Lc = max(Lb, 1) * M
-    pool = _workspace()
-
-    def work(name: str, shape: tuple[int, ...], dt: Any = float) -> np.ndarray:
-        size = math.prod(shape)
-        key = (name, np.dtype(dt).char)
-        if key not in pool or pool[key].size < size:
-            pool[key] = np.empty(max(size, 1), dtype=dt)
-        return pool[key][:size].reshape(shape)
+    # chunk-sized work arrays, kept by the thread from call to call (geomfdi.simulation.workspace)
+    work = thread_workspace("recursion").get
 
     s = 0
     while s < N:
@@ -605,8 +582,6 @@ def block_recursion(
                     part += F[o0 : o0 + p, :, nf * M :]
         z = zc[:, :, nb].copy()
         s = e
-    if sum(a.nbytes for a in pool.values()) > _WORKSPACE_BYTES:
-        pool.clear()
     res: list[list[np.ndarray]] = [[] for _ in outputs]
     for b, _, _, dest, _ in flat:
         res[b].append(dest)

@@ -644,7 +644,7 @@ def _stream_one(
     xc = np.empty((ctx.ctrl.nc, N)) if feedback else None
     if isinstance(eng, OpenLoopEngine) and eng.workspace is None:
         # the chunks' signals are copied into the result: work arrays kept by the thread
-        work = thread_workspace()
+        work = thread_workspace("single run")
         eng.workspace = work
         eng.result_alloc = lambda shape, name: work.get(name, shape)
     else:

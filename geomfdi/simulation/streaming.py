@@ -22,7 +22,6 @@ decision rules themselves.
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Sequence
 from typing import Any
 
@@ -42,6 +41,7 @@ from geomfdi.evaluation.persistence import (
 )
 from geomfdi.limits import get_limits
 from geomfdi.simulation.signals import first_active
+from geomfdi.simulation.workspace import Workspace, thread_workspace
 
 __all__ = [
     "DecisionStream",
@@ -100,45 +100,6 @@ def chunk_plan(
         runs_per_chunk = max(1, min(runs, max(cells // max(N, 1), wanted)))
     L = max(MIN_CHUNK, cells // runs_per_chunk)
     return int(runs_per_chunk), int(min(L, N))
-
-
-class Workspace:
-    """Chunk-sized work arrays of one call, reused from chunk to chunk.
-
-    Fresh memory of a chunk's size (megabytes) is mapped from the operating system and
-    faulted in page by page on first use, then unmapped when freed: a sizeable share of
-    a batch's time.  The arrays of one name are therefore views of one buffer, grown when
-    a chunk needs more.  Nothing returned to the caller lives in them.
-    """
-
-    def __init__(self) -> None:
-        self._bufs: dict[tuple[str, str], np.ndarray] = {}
-
-    def get(self, name: str, shape: tuple[int, ...], dtype: Any = float) -> np.ndarray:
-        """An uninitialised C-contiguous array ``shape`` of ``dtype``, the buffer
-        ``name`` (its content is that of the previous use)."""
-        dt = np.dtype(dtype)
-        size = int(np.prod(shape, dtype=np.int64))
-        key = (name, dt.str)
-        buf = self._bufs.get(key)
-        if buf is None or buf.size < size:
-            buf = self._bufs[key] = np.empty(size, dtype=dt)
-        return buf[:size].reshape(shape)
-
-
-_LOCAL = threading.local()
-_THREAD_WORK_BYTES = 64 * 2**20  # chunk work arrays kept per thread between calls
-
-
-def thread_workspace() -> Workspace:
-    """The calling thread's :class:`Workspace`, kept from call to call (a single run's
-    chunks reuse the arrays of the previous call's: freed chunk-sized temporaries would
-    be handed back to the operating system and faulted in again); renewed when its
-    buffers outgrow ``_THREAD_WORK_BYTES``."""
-    work = getattr(_LOCAL, "work", None)
-    if work is None or sum(b.nbytes for b in work._bufs.values()) > _THREAD_WORK_BYTES:
-        work = _LOCAL.work = Workspace()
-    return work
 
 
 def time_chunks(N: int, L: int) -> list[tuple[int, int, int]]:
