@@ -257,11 +257,19 @@ def compiled_block_recursion(
     return _compiled(lib, blocks, W, drives, x0, outputs, N, direct, out, final)
 
 
+def _usable(a: np.ndarray) -> bool:
+    """Float64 with strides in whole elements: the kernels read it in place."""
+    if a.dtype != np.float64:
+        return False
+    for st in a.strides:  # a loop: cheaper than all() on a generator for 2-3 strides
+        if st % 8:
+            return False
+    return True
+
+
 def _f64(a: np.ndarray) -> np.ndarray:
     """``a`` as float64 with strides in whole elements (a copy only when needed)."""
-    if a.dtype == np.float64 and all(s % 8 == 0 for s in a.strides):
-        return a
-    return np.ascontiguousarray(a, dtype=float)
+    return a if _usable(a) else np.ascontiguousarray(a, dtype=float)
 
 
 def _channels(rows: list[tuple[np.ndarray, np.ndarray | None]]) -> np.ndarray:
@@ -510,6 +518,6 @@ def _call_parts(lib: Any, args: list[Any], R: int, work_per_run: int) -> int:
 
 def _dest_view(dv: np.ndarray) -> np.ndarray:
     """A destination row (R, N) checked for the kernel's element strides."""
-    if any(s % 8 for s in dv.strides) or not dv.flags.writeable:
+    if not (_usable(dv) and dv.flags.writeable):
         raise ShapeError("out: destinations must be writeable float64 arrays", argument="out")
     return dv

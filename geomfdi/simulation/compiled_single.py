@@ -41,6 +41,8 @@ from scipy.linalg.blas import dgemm as _dgemm
 from geomfdi.errors import ShapeError
 from geomfdi.simulation.compiled_recursion import (
     _CHAN,
+    _f64,
+    _usable,
     bank_recursion,
     sim_backend,
     single_kernel,
@@ -420,16 +422,6 @@ def _address(a: np.ndarray) -> int:
     return a.__array_interface__["data"][0]
 
 
-def _usable(a: np.ndarray) -> bool:
-    """Float64 with strides in whole elements: the kernel reads it in place."""
-    if a.dtype != np.float64:
-        return False
-    for st in a.strides:
-        if st % 8:
-            return False
-    return True
-
-
 def _single(
     kernel: Any,
     blocks: list[np.ndarray],
@@ -485,7 +477,7 @@ def _single(
     x0v = np.asarray(x0, dtype=float)[:, 0]
     if N == 0:
         return (res, np.array(x0v[:, None])) if final else res
-    arrs = [d.arr if _usable(d.arr) else np.ascontiguousarray(d.arr, dtype=float) for d in drives]
+    arrs = [_f64(d.arr) for d in drives]
     z = st.Tin @ x0v
     for i, V1, _ in st.folds:
         z -= V1 @ arrs[i][:, 0, 0]
@@ -500,8 +492,7 @@ def _single(
         if sc is None:
             rows_ch.append((a0 + r * s0 + shift * s2, 0, s2 // 8, 0, 0, 0))
         else:
-            if not _usable(sc):
-                sc = scales[i] = np.ascontiguousarray(sc)
+            sc = scales[i] = _f64(sc)
             rows_ch.append(
                 (a0 + r * s0 + shift * s2, 0, s2 // 8, _address(sc), 0, sc.strides[1] // 8)
             )
