@@ -202,26 +202,26 @@ def test_generated_step_sums_every_entry_in_its_dense_row_order():
     for n, (c0, c1) in zip(spec.orders, comps, strict=True):
         blocks.append((o, n, c0, c1))
         o += n
+
+    def dense_row(Mx: list[float], Mz: list[float], states: range, x, z) -> float:
+        acc = 0.0  # from 0.0: the block's columns in order, then the inputs
+        for j in states:
+            acc += Mx[j] * x[j]
+        for j in range(len(z)):
+            acc += Mz[j] * z[j]
+        return acc
+
     x = [0.0] * spec.nw
     want = np.empty((spec.nc, Y.shape[1]))
     for k in range(Y.shape[1]):
         z = [float(v) for v in (*Y[:, k], *U[:, k])]
         c, xn = [0.0] * spec.nc, [0.0] * spec.nw
         for o, n, c0, c1 in blocks:
+            states = range(o, o + n)
             for i in range(c0, c1):
-                acc = 0.0
-                for j in range(o, o + n):
-                    acc += C[i][j] * x[j]
-                for j in range(len(z)):
-                    acc += D[i][j] * z[j]
-                c[i] = acc
-            for i in range(o, o + n):
-                acc = 0.0
-                for j in range(o, o + n):
-                    acc += A[i][j] * x[j]
-                for j in range(len(z)):
-                    acc += B[i][j] * z[j]
-                xn[i] = acc
+                c[i] = dense_row(C[i], D[i], states, x, z)
+            for i in states:
+                xn[i] = dense_row(A[i], B[i], states, x, z)
         want[:, k] = c
         x = xn
     scalar = [r for r, sl in enumerate(spec.rows) if sl is not None and sl[1] - sl[0] == 1]
