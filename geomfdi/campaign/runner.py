@@ -134,12 +134,20 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
         list(scen[s].faults(float(z), float(o)))
         for s, z, o in zip(block.scenario, block.size, block.onset, strict=True)
     ]
+    test = job["test"]
+    stat = None
     with warnings.catch_warnings():
         if job["perturbed"]:
             # a bank designed on the nominal plant is not decoupled from a perturbed one:
             # expected, and the point of the campaign (its residuals see the inputs)
             warnings.filterwarnings("ignore", message=".*not decoupled.*")
-        if job.get("system") is not None:
+        plan = _fused_plan(job, block.model)
+        if plan is not None:
+            from geomfdi.simulation.fused import fused_runs
+
+            residuals = fused_runs(plan, fault_lists, seeds)
+            stat = residuals if plan.window else None
+        elif job.get("system") is not None:
             residuals = _nonlinear_runs(job, fault_lists, seeds)
         else:
             residuals = simulate_batch(
@@ -157,8 +165,9 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
                 chunk_size=len(seeds),
                 progress=False,
             ).residuals
-    test = job["test"]
-    stat, diverged = cut_divergent(test.statistic(residuals), test.thresholds)
+    stat, diverged = cut_divergent(
+        test.statistic(residuals) if stat is None else stat, test.thresholds
+    )
     out = evaluate_runs(
         job["t"], stat, test.thresholds, block.onset, job["window"], job["eval_start"]
     )
@@ -247,6 +256,55 @@ def _nonlinear_runs(job: dict[str, Any], fault_lists: list[Any], seeds: list[Any
             )
             out.append(res.residuals)
     return np.stack(out)
+
+
+class PlanCache(dict):  # type: ignore[type-arg]
+    """The fused plans of a campaign's models (:mod:`geomfdi.simulation.fused`), made in
+    the process that runs the blocks: shipped to a worker, the cache travels empty."""
+
+    def __reduce__(self) -> tuple[Any, tuple[()]]:
+        return PlanCache, ()
+
+
+def _fused_plan(job: dict[str, Any], model: int) -> Any:
+    """The fused plan of ``model`` (made once per process), or ``None``: the campaign
+    runs its blocks through :func:`geomfdi.simulate_batch` (the reason in the cache).
+
+    Decided once per campaign and model from every fault list of the grid (one per
+    scenario, size and onset): a campaign whose faults, noise or plant the fused pass
+    does not cover (:mod:`geomfdi.simulation.fused`) never uses it.
+    """
+    cache = job.get("fused")
+    if cache is None or job.get("system") is not None:
+        return None
+    if model not in cache:
+        from geomfdi.evaluation.statistics import ChiSquareTest
+        from geomfdi.simulation.fused import fused_plan
+
+        test = job["test"]
+        chi2 = isinstance(test, ChiSquareTest) and type(test).statistic is ChiSquareTest.statistic
+        lists = [
+            list(sc.faults(float(z), float(o)))
+            for sc in job["scenarios"]
+            for z in sc.sizes
+            for o in sc.onsets
+        ]
+        plan, why = fused_plan(
+            job["plants"][model],
+            job["bank"],
+            job["t"],
+            job["u"],
+            fault_lists=lists,
+            noise=job["noise"],
+            controller=job["controller"],
+            d=job["d"],
+            x0=job["x0"],
+            hold=job["hold"],
+            window=int(test.window) if chi2 else 0,
+        )
+        cache[model] = plan
+        cache[("why", model)] = why
+    return cache[model]
 
 
 def _run_task(job: dict[str, Any], blocks: list[_Block]) -> list[dict[str, np.ndarray]]:
@@ -504,6 +562,7 @@ class Campaign:
             "nominal": self.plant,
             "design_faults": list(getattr(self.bank, "faults", [])),
             "persistence": self.persistence,
+            "fused": PlanCache(),
         }
 
     # ------------------------------------------------------------------- running

@@ -1,0 +1,325 @@
+/* The hot loop of a Monte-Carlo block, fused: readings, sensor faults, the bank's
+ * recursion and the windowed chi-square statistic of many runs in one pass
+ * (geomfdi.simulation.fused).
+ *
+ * For every run r of the block and sample k of the window s .. s+L-1 (k absolute):
+ *
+ *   y0n_i(k) = y0c[i, k] + lv[i] z_i(r, k)             (noisy reading; lv NULL: z is v)
+ *   y_i(k)   = eta_i(r, k) y0n_i(k) + lam_i(r, k)        (sensor faults, Hou, Wen & Chen
+ *                                                        2011 eq. 3-5)
+ *   rhoL_i   = y_i(k) - eta_i(k) y0c[i, k]               (the sensor's own drive channels
+ *   rhoR_i   = (eta_i(k) y0n_i(k+1) + lam_i(k)) - eta_i(k) y0c[i, k+1]   over the interval)
+ *
+ * with eta and lam piecewise constant per (sensor, run) (segments: first sample, eta,
+ * lam); the drive channel c of the bank is one of
+ *
+ *   kind 0: y_i(k), 1: rhoL_i, 2: rhoR_i, 3: (eta_i(k) - 1) sh[row, k],
+ *   kind 4: (eta_i(k) - 1) sh[row, k+1]
+ *
+ * and the bank is the recursion of compiled_recursion.c, the same operations in the
+ * same order:
+ *
+ *   out[o](k) = (ys[o, k] + sum_c D[o, c] y_{esens[c]}(k)) + sum_t C[o, t] x[ostart[o] + t]
+ *   x(k+1)    = (fs[:, k] + sum_c W[:, c] d_c(k)) + A x(k)
+ *
+ * A residual row j is the output rbeg[j] (one output) or the norm of the outputs
+ * rbeg[j] .. rbeg[j+1]-1; with win > 0 the statistic written is the windowed sum of
+ * squares, S(k) = c(k) - c(k - win) (c(k) for k < win) with c the running sum of
+ * squares, clipped at 0: the sequential sums of numpy's cumsum, bit for bit.
+ * Only the runs r0 .. r1-1 of the R runs are computed (the arrays indexed by the absolute
+ * run: parts of a block run on different threads).  The states X (nS, R), the running sums cs (nrow, R) and the ring of the last win
+ * running sums (win, nrow, R) are carried from one window to the next.
+ *
+ * Runs go in groups of GFSIM_G lanes (two vectors of the compiler's vector extension),
+ * samples in tiles of GFSIM_T; the missing lanes of the last group repeat its last run
+ * (computed, never stored).
+ */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+
+#if defined(__AVX512F__)
+#define GFSIM_W 8
+#elif defined(__AVX__)
+#define GFSIM_W 4
+#else
+#define GFSIM_W 2
+#endif
+#define GFSIM_G (2 * GFSIM_W)
+#define GFSIM_T 64
+
+#if defined(__GNUC__) || defined(__clang__)
+typedef double gfsim_vec __attribute__((vector_size(GFSIM_W * sizeof(double)), may_alias));
+typedef struct {
+    gfsim_vec v[2];
+} gfsim_lane;
+static const gfsim_vec gfsim_zero = {0};
+#define LANE(x, j) ((x).v[(j) / GFSIM_W][(j) % GFSIM_W])
+#define AXPY(y, a, x)                                                        \
+    do {                                                                     \
+        const double a_ = (a);                                               \
+        (y).v[0] += a_ * (x).v[0];                                           \
+        (y).v[1] += a_ * (x).v[1];                                           \
+    } while (0)
+#define FILL(y, s)                                                           \
+    do {                                                                     \
+        const double s_ = (s);                                               \
+        (y).v[0] = gfsim_zero + s_;                                          \
+        (y).v[1] = gfsim_zero + s_;                                          \
+    } while (0)
+#else
+typedef struct {
+    double v[GFSIM_G];
+} gfsim_lane;
+#define LANE(x, j) ((x).v[j])
+#define AXPY(y, a, x)                                                        \
+    do {                                                                     \
+        const double a_ = (a);                                               \
+        int q_;                                                              \
+        for (q_ = 0; q_ < GFSIM_G; ++q_) (y).v[q_] += a_ * (x).v[q_];        \
+    } while (0)
+#define FILL(y, s)                                                           \
+    do {                                                                     \
+        const double s_ = (s);                                               \
+        int q_;                                                              \
+        for (q_ = 0; q_ < GFSIM_G; ++q_) (y).v[q_] = s_;                     \
+    } while (0)
+#endif
+
+/* out[i] = init[i, k] + sum_c M[i, c] v[c] (init NULL: 0), as gfsim_gemv */
+static void gff_gemv(int64_t rows, int64_t cols, const double *M, const gfsim_lane *v,
+                     const double *init, int64_t ild, int64_t k, gfsim_lane *out)
+{
+    int64_t i, c;
+    for (i = 0; i + 4 <= rows; i += 4) {
+        const double *M0 = M + i * cols, *M1 = M0 + cols, *M2 = M1 + cols, *M3 = M2 + cols;
+        gfsim_lane a0, a1, a2, a3;
+        FILL(a0, init ? init[i * ild + k] : 0.0);
+        FILL(a1, init ? init[(i + 1) * ild + k] : 0.0);
+        FILL(a2, init ? init[(i + 2) * ild + k] : 0.0);
+        FILL(a3, init ? init[(i + 3) * ild + k] : 0.0);
+        for (c = 0; c < cols; ++c) {
+            const gfsim_lane vc = v[c];
+            AXPY(a0, M0[c], vc);
+            AXPY(a1, M1[c], vc);
+            AXPY(a2, M2[c], vc);
+            AXPY(a3, M3[c], vc);
+        }
+        out[i] = a0;
+        out[i + 1] = a1;
+        out[i + 2] = a2;
+        out[i + 3] = a3;
+    }
+    for (; i < rows; ++i) {
+        const double *Mi = M + i * cols;
+        gfsim_lane a;
+        FILL(a, init ? init[i * ild + k] : 0.0);
+        for (c = 0; c < cols; ++c) AXPY(a, Mi[c], v[c]);
+        out[i] = a;
+    }
+}
+
+int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t L, int64_t q,
+                const double *y0c,
+                const double *const *zp, const int64_t *zts, const double *lv,
+                const int64_t *segptr, const int64_t *segk, const double *segeta,
+                const double *seglam, int64_t nz, const int64_t *dkind, const int64_t *dsens,
+                const int64_t *drow, const double *W, const double *sh, const double *fs,
+                int64_t nS, int64_t nb, const int64_t *bsize, const double *A, int64_t p,
+                const int64_t *ostart, const int64_t *olen, const double *C, int64_t nd,
+                const int64_t *esens, const double *D, const double *ys, int64_t nrow,
+                const int64_t *rbeg, const int64_t *rdst, int64_t win, double *X, double *cs,
+                double *ring, double *out, int64_t ors, int64_t oos, int64_t ots)
+{
+    const int64_t G = GFSIM_G, T = GFSIM_T;
+    /* samples with a step from them: all but the record's last */
+    const int64_t steps = s + L < N ? L : L - 1;
+    int64_t g0, i, j, k, k0, c, o, t, b, i0, aoff, coff, run[GFSIM_G], cur[64 * GFSIM_G];
+    gfsim_lane *x, *xn, *y0n, *y, *eta, *lam, *d, *e, *yo, *rw, *csl, *rg;
+    void *raw;
+    size_t nl;
+    if (q > 64) return -2;
+    nl = (size_t)(2 * nS + 4 * (T + 1) * q + nz + nd + p + T * nrow + nrow
+                  + (win > 0 ? win * nrow : 0) + 2);
+    raw = malloc(sizeof(gfsim_lane) * (nl + 1));
+    if (!raw) return -1;
+    x = (gfsim_lane *)(((uintptr_t)raw + sizeof(gfsim_lane) - 1) / sizeof(gfsim_lane)
+                       * sizeof(gfsim_lane));
+    xn = x + nS;
+    y0n = xn + nS;
+    y = y0n + (T + 1) * q;
+    eta = y + (T + 1) * q;
+    lam = eta + (T + 1) * q;
+    d = lam + (T + 1) * q;
+    e = d + nz;
+    yo = e + nd;
+    rw = yo + p;     /* the tile's residual rows (or statistics), rw[t nrow + j] */
+    csl = rw + T * nrow;
+    rg = csl + nrow; /* ring[(k mod win) nrow + j] */
+    for (g0 = r0; g0 < r1; g0 += G) {
+        const int64_t gn = r1 - g0 < G ? r1 - g0 : G;
+        for (j = 0; j < G; ++j) run[j] = g0 + (j < gn ? j : gn - 1);
+        for (i = 0; i < nS; ++i)
+            for (j = 0; j < G; ++j) LANE(x[i], j) = X[i * R + run[j]];
+        if (win > 0) {
+            for (o = 0; o < nrow; ++o)
+                for (j = 0; j < G; ++j) LANE(csl[o], j) = cs[o * R + run[j]];
+            for (t = 0; t < win; ++t)
+                for (o = 0; o < nrow; ++o)
+                    for (j = 0; j < G; ++j)
+                        LANE(rg[t * nrow + o], j) = ring[(t * nrow + o) * R + run[j]];
+        }
+        for (i = 0; i < q; ++i)
+            for (j = 0; j < G; ++j) cur[i * G + j] = segptr[i * R + run[j]];
+        for (k0 = 0; k0 < L; k0 += T) {
+            const int64_t nt = L - k0 < T ? L - k0 : T; /* outputs of the tile */
+            const int64_t ns = steps - k0 < nt ? steps - k0 : nt; /* steps from them */
+            const int64_t nv = ns == nt ? nt + 1 : nt; /* readings needed (k+1 of a step) */
+            /* the fault profiles of the tile's samples: lanes filled segment by segment */
+            for (i = 0; i < q; ++i)
+                for (j = 0; j < G; ++j) {
+                    const int64_t r = run[j], end = segptr[i * R + r + 1];
+                    int64_t sg = cur[i * G + j];
+                    t = 0;
+                    while (t < nv) {
+                        int64_t stop;
+                        k = s + k0 + t;
+                        while (sg + 1 < end && segk[sg + 1] <= k) ++sg;
+                        stop = sg + 1 < end ? segk[sg + 1] - (s + k0) : nv;
+                        if (stop > nv) stop = nv;
+                        for (; t < stop; ++t) {
+                            LANE(eta[t * q + i], j) = segeta[sg];
+                            LANE(lam[t * q + i], j) = seglam[sg];
+                        }
+                    }
+                    cur[i * G + j] = sg;
+                }
+            /* the noisy and the faulty readings */
+            for (i = 0; i < q; ++i) {
+                const double *yc = y0c + i * N + s + k0;
+                for (j = 0; j < G; ++j) {
+                    const int64_t r = run[j];
+                    const double *src = zp ? zp[r * q + i] + k0 * zts[r * q + i] : NULL;
+                    const int64_t ts = zp ? zts[r * q + i] : 0;
+                    if (!src) {
+                        for (t = 0; t < nv; ++t) LANE(y0n[t * q + i], j) = yc[t];
+                    } else if (lv) {
+                        const double li = lv[i];
+                        for (t = 0; t < nv; ++t) LANE(y0n[t * q + i], j) = yc[t] + li * src[t * ts];
+                    } else {
+                        for (t = 0; t < nv; ++t) LANE(y0n[t * q + i], j) = yc[t] + src[t * ts];
+                    }
+                }
+            }
+            for (t = 0; t < nv * q; ++t) {
+                y[t] = eta[t];
+                y[t].v[0] *= y0n[t].v[0];
+                y[t].v[1] *= y0n[t].v[1];
+                y[t].v[0] += lam[t].v[0];
+                y[t].v[1] += lam[t].v[1];
+            }
+            for (t = 0; t < nt; ++t) {
+                const int64_t kr = k0 + t; /* within the window */
+                gfsim_lane *rt = rw + t * nrow;
+                k = s + kr;
+                /* outputs of sample k: ys + D y, then C x */
+                for (c = 0; c < nd; ++c) e[c] = y[t * q + esens[c]];
+                gff_gemv(p, nd, D, e, ys, N, k, yo);
+                coff = 0;
+                for (o = 0; o < p; ++o) {
+                    const gfsim_lane *xs = x + ostart[o];
+                    for (i = 0; i < olen[o]; ++i) AXPY(yo[o], C[coff + i], xs[i]);
+                    coff += olen[o];
+                }
+                /* residual rows: one output, or the norm of several */
+                for (o = 0; o < nrow; ++o) {
+                    const int64_t a = rbeg[o], bnd = rbeg[o + 1];
+                    if (bnd - a == 1) {
+                        rt[o] = yo[a];
+                    } else {
+                        gfsim_lane sq = yo[a];
+                        int64_t m;
+                        sq.v[0] *= yo[a].v[0];
+                        sq.v[1] *= yo[a].v[1];
+                        for (m = a + 1; m < bnd; ++m) {
+                            sq.v[0] += yo[m].v[0] * yo[m].v[0];
+                            sq.v[1] += yo[m].v[1] * yo[m].v[1];
+                        }
+                        for (j = 0; j < G; ++j) LANE(rt[o], j) = sqrt(LANE(sq, j));
+                    }
+                }
+                if (win > 0) { /* the windowed sum of squares */
+                    const int64_t slot = (k % win) * nrow;
+                    for (o = 0; o < nrow; ++o) {
+                        gfsim_lane v = rt[o], old = rg[slot + o];
+                        csl[o].v[0] += v.v[0] * v.v[0];
+                        csl[o].v[1] += v.v[1] * v.v[1];
+                        rg[slot + o] = csl[o];
+                        if (k >= win) {
+                            v.v[0] = csl[o].v[0] - old.v[0];
+                            v.v[1] = csl[o].v[1] - old.v[1];
+                        } else {
+                            v = csl[o];
+                        }
+                        for (j = 0; j < G; ++j)
+                            if (LANE(v, j) < 0.0) LANE(v, j) = 0.0;
+                        rt[o] = v;
+                    }
+                }
+                if (t >= ns) break; /* the record's last sample: no step from it */
+                /* the drive samples of step k -> k+1 */
+                for (c = 0; c < nz; ++c) {
+                    const int64_t ii = dsens[c], kind = dkind[c];
+                    const gfsim_lane et = eta[t * q + ii];
+                    gfsim_lane v;
+                    if (kind == 0) {
+                        v = y[t * q + ii];
+                    } else if (kind == 1) {
+                        const double yc = y0c[ii * N + k];
+                        v.v[0] = y[t * q + ii].v[0] - et.v[0] * yc;
+                        v.v[1] = y[t * q + ii].v[1] - et.v[1] * yc;
+                    } else if (kind == 2) {
+                        const double yc = y0c[ii * N + k + 1];
+                        const gfsim_lane yr = y0n[(t + 1) * q + ii], lm = lam[t * q + ii];
+                        v.v[0] = (et.v[0] * yr.v[0] + lm.v[0]) - et.v[0] * yc;
+                        v.v[1] = (et.v[1] * yr.v[1] + lm.v[1]) - et.v[1] * yc;
+                    } else {
+                        const double sv = sh[drow[c] * N + k + (kind == 4)];
+                        v.v[0] = (et.v[0] - 1.0) * sv;
+                        v.v[1] = (et.v[1] - 1.0) * sv;
+                    }
+                    d[c] = v;
+                }
+                gff_gemv(nS, nz, W, d, fs, N - 1, k, xn);
+                i0 = 0;
+                aoff = 0;
+                for (b = 0; b < nb; ++b) {
+                    const int64_t n = bsize[b];
+                    for (c = 0; c < n; ++c)
+                        for (i = 0; i < n; ++i) AXPY(xn[i0 + i], A[aoff + i * n + c], x[i0 + c]);
+                    i0 += n;
+                    aoff += n * n;
+                }
+                for (i = 0; i < nS; ++i) x[i] = xn[i];
+            }
+            /* scatter the tile's rows */
+            for (o = 0; o < nrow; ++o)
+                for (j = 0; j < gn; ++j) {
+                    double *dst = out + (g0 + j) * ors + rdst[o] * oos + k0 * ots;
+                    for (t = 0; t < nt; ++t) dst[t * ots] = LANE(rw[t * nrow + o], j);
+                }
+        }
+        for (i = 0; i < nS; ++i)
+            for (j = 0; j < gn; ++j) X[i * R + g0 + j] = LANE(x[i], j);
+        if (win > 0) {
+            for (o = 0; o < nrow; ++o)
+                for (j = 0; j < gn; ++j) cs[o * R + g0 + j] = LANE(csl[o], j);
+            for (t = 0; t < win; ++t)
+                for (o = 0; o < nrow; ++o)
+                    for (j = 0; j < gn; ++j)
+                        ring[(t * nrow + o) * R + g0 + j] = LANE(rg[t * nrow + o], j);
+        }
+    }
+    free(raw);
+    return 0;
+}

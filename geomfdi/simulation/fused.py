@@ -1,0 +1,439 @@
+"""The runs of a Monte-Carlo block in one compiled pass: :func:`fused_plan`, :func:`fused_runs`.
+
+A campaign's block (many runs of one plant model, one shared initial state and input,
+each run with its own noise seed and sensor-fault list) spends its time in per-run
+passes over arrays of ``runs x samples``: the noisy readings, the faulty readings, the
+drive channels of the sensors, the bank's recursion, the test's statistic.  This module
+does them in one pass of C (``compiled_fused.c``, built once per machine like the batch
+recursion of :mod:`geomfdi.simulation.compiled_recursion`), runs in SIMD lanes, sample
+after sample, nothing but the statistic written out:
+
+* what every run shares is computed once per plan with the code of
+  :class:`~geomfdi.simulation.open_loop.OpenLoopEngine` (the same set-up): the plant's
+  state ``x``, the healthy readings ``y0c``, the inputs ``u``, the bank's shared forcing
+  (inputs, disturbances, and the plant state when the generators are not decoupled) and
+  shared feedthrough;
+* per run and sample: ``y0n = y0c + Lv z`` (``z`` as drawn by the run's noise stream,
+  :func:`geomfdi.simulation.simulate.noise_streams`), ``y = eta y0n + lam`` (the sensor
+  faults, Hou, Wen & Chen 2011, eq. 3-5, with ``eta, lam`` piecewise constant per run),
+  the drive channels of the first-order (or zero-order) hold over each interval, the
+  generators' states and outputs (vector residuals: their norm) with the operations of
+  the batch recursion in the same order, and, for a :class:`~geomfdi.ChiSquareTest`, the
+  windowed sum of squares (the sequential running sum of ``numpy.cumsum``: the
+  statistic of the residuals, bit for bit).
+
+The residuals equal those of :func:`geomfdi.simulate_batch` to rounding (and, with
+the same time chunks, bit for bit).  What the fused pass does not cover is decided once
+per plan (:func:`fused_plan` returns ``None`` with the reason): a nonlinear plant,
+output feedback or actuator faults inside the loop, process noise or random noise
+inputs, per-run initial states or disturbances, additive (input) faults, sensor faults
+whose profile is not a pair of numbers (a callable gain or bias, a stuck sensor holding
+its reading), ``GEOMFDI_SIM_BACKEND=numpy`` or no working C compiler (one
+:class:`~geomfdi.errors.BackendFallbackWarning`).  See the user guide, *Performance*
+(``docs/guide/performance.md``).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import threading
+import warnings
+from collections.abc import Sequence
+from concurrent.futures import wait
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from geomfdi._cbuild import build_library
+from geomfdi._threads import limit_blas_threads, thread_pool, work_threads
+from geomfdi.errors import BackendFallbackWarning, GeomFDIError
+from geomfdi.simulation.compiled_recursion import _layout, _lib_key, sim_backend
+from geomfdi.simulation.compiled_single import run_recursion
+from geomfdi.simulation.context import prepare, state_vector, to_balanced
+from geomfdi.simulation.lifting import Drive
+
+__all__ = ["FusedPlan", "fused_plan", "fused_runs"]
+
+_SOURCE = Path(__file__).with_name("compiled_fused.c")
+_LIBS: dict[Any, Any] = {}
+_LOCK = threading.Lock()
+_POOLS = threading.local()
+#: Samples per window of a fused pass (the noise of a window is taken at once).
+WINDOW = 2**16
+#: Runs per SIMD group of the kernel at most (AVX-512: 16): parts of a block split
+#: between threads are cut at multiples of it.
+_GROUP = 16
+#: Fewest run-samples per thread (a shorter pass gains nothing from a second thread).
+_MIN_PART_WORK = 2**18
+
+
+def _library() -> Any:
+    """The fused kernel (built on first use), or ``None`` without a working compiler
+    (then one :class:`BackendFallbackWarning` per cache folder and compiler)."""
+    key = _lib_key()
+    if key in _LIBS:
+        return _LIBS[key]
+    with _LOCK:
+        if key in _LIBS:
+            return _LIBS[key]
+        try:
+            src = _SOURCE.read_text(encoding="utf-8")
+            path = build_library("gffused", {"gffused.c": src}, "gffused.c")
+            fn = ctypes.CDLL(str(path)).gffused_run
+            i64, vp = ctypes.c_int64, ctypes.c_void_p
+            kinds = "iiiiiii" + "vvvvvvvv" + "ivvvvvv" + "iivvivvvivvvivvivvvviii"
+            fn.argtypes = [i64 if c == "i" else vp for c in kinds]
+            fn.restype = ctypes.c_int
+            lib: Any = fn
+        except (GeomFDIError, OSError) as exc:
+            warnings.warn(
+                f"{exc}; campaign blocks use the vectorised simulation",
+                BackendFallbackWarning,
+                stacklevel=2,
+            )
+            lib = None
+        _LIBS[key] = lib
+    return lib
+
+
+@dataclass
+class FusedPlan:
+    """What every run of a plan shares (:func:`fused_plan`); the arrays the kernel reads."""
+
+    N: int
+    q: int
+    n_rows: int
+    y0c: np.ndarray  # (q, N)
+    lv: np.ndarray | None  # (q,) diagonal of Lv, or None (Lv applied in numpy)
+    Lv: np.ndarray | None
+    ctx: Any
+    kind: np.ndarray  # per own drive channel: 0 y, 1 rhoL, 2 rhoR, 3/4 scaled shared
+    sens: np.ndarray
+    srow: np.ndarray
+    W: np.ndarray  # (nS, nz) own channels' columns
+    sh: np.ndarray  # (n + ne, N) shared rows scaled by (eta - 1)
+    fs: np.ndarray | None  # (nS, N-1)
+    lay: Any
+    esens: np.ndarray
+    D: np.ndarray
+    ys: np.ndarray | None  # (p, N)
+    rbeg: np.ndarray
+    rdst: np.ndarray
+    w0: np.ndarray  # (nS,) initial bank state of every run
+
+
+def _why_not(ctx: Any, schedules: Sequence[Any], x0: np.ndarray) -> str | None:
+    """Why the fused pass cannot simulate these runs (None: it can)."""
+    from geomfdi.simulation.profiles import structure_key
+
+    if ctx.ctrl.mode == "output":
+        return "output feedback"
+    if ctx.Lw is not None or ctx.nwp:
+        return "process noise or random noise inputs"
+    if ctx.d.ndim == 3 or x0.shape[0] > 1:
+        return "per-run disturbances or initial states"
+    if ctx.plant.q > 64:
+        return "more than 64 sensors"
+    for sc in schedules:
+        if sc.inputs:
+            return "actuator or additive faults"
+        if structure_key(sc.sensor) is None:
+            return "a sensor fault whose profile is not a pair of numbers"
+    return None
+
+
+@limit_blas_threads
+def fused_plan(
+    plant: Any,
+    bank: Any,
+    t: Any,
+    u: Any,
+    *,
+    fault_lists: Sequence[Sequence[Any]],
+    noise: Any,
+    controller: Any = None,
+    d: Any = None,
+    x0: Any = None,
+    hold: str = "foh",
+    window: int = 0,
+) -> tuple[FusedPlan | None, str]:
+    """The shared part of runs whose fault lists are among ``fault_lists``, or ``None``
+    and the reason when the fused pass does not cover them (module docstring).
+
+    Parameters
+    ----------
+    plant, bank, t, u, controller, d, x0, hold
+        As for :func:`geomfdi.simulate_batch` (``x0`` one state for every run).
+    fault_lists : sequence of fault lists
+        Every fault list the runs may have (a campaign: one per scenario, size and onset).
+    noise : Noise
+    window : int
+        The chi-square window of the statistic (0: the runs give their residuals).
+
+    Returns
+    -------
+    (FusedPlan or None, str)
+    """
+    from geomfdi.model.plant import as_plant
+    from geomfdi.simulation.open_loop import OpenLoopEngine, _affine
+    from geomfdi.simulation.schedule import fault_schedule
+    from geomfdi.simulation.simulate import make_engine
+
+    if sim_backend() != "c":
+        return None, "GEOMFDI_SIM_BACKEND=numpy"
+    plant = as_plant(plant)
+    ctx = prepare(plant, bank, t, u, d, noise, controller, hold, True, False)
+    schedules = [fault_schedule(fl, plant) for fl in fault_lists] or [fault_schedule([], plant)]
+    x0a = state_vector(x0, plant.n, "x0")
+    why = _why_not(ctx, schedules, x0a)
+    if why is not None:
+        return None, why
+    if _library() is None:
+        return None, "no working C compiler"
+    N, q = ctx.N, plant.q
+    x0c = to_balanced(ctx, x0a)
+    eng = make_engine(ctx, x0c, np.zeros((1, 0)), schedules, False, len(schedules), N)
+    if not isinstance(eng, OpenLoopEngine):
+        return None, "faults inside the closed loop"
+    p = ctx.plant
+    n, m, nd = p.n, p.m, p.nd
+    es = ctx.u_ext
+    e = (np.vstack([es, ctx.d]) if nd else es)[:, None, :]
+    ne = e.shape[0]
+    foh = eng.foh
+    dX = [Drive(e), Drive(e, 1)] if foh else [Drive(e)]
+    ((X,),) = run_recursion(
+        [eng.dis.Ad], eng.WX, dX, eng.x, [[np.eye(n)]], N, key=("plant", eng.key), batch=False
+    )
+    y0c = _affine(eng.Cy0, X, eng.Dy0, e)[:, 0]
+    uu = _affine(eng.Cu, X, eng.Du, e)[:, 0]
+    X2 = X[:, 0]
+    # ---- the bank's drive channels, in the columns' order of W_all (OpenLoopEngine.advance)
+    shared: list[tuple[np.ndarray, int]] = []  # (rows (k, N), shift)
+    own: list[tuple[int, int, int]] = []  # (kind, sensor, shared row)
+    if ctx.discrete:
+        own += [(0, i, 0) for i in range(q)]
+        shared.append((uu, 0))
+    else:
+        if not eng.decoupled:
+            shared.append((X2, 0))
+        shared.append((e[:, 0], 0))
+        if foh:
+            shared.append((e[:, 0], 1))
+        own += [(1, i, 0) for i in eng.sens]
+        if foh:
+            own += [(2, i, 0) for i in eng.sens]
+        for i in eng.chan:
+            own += [(3, i, r) for r in range(n)] + [(3, i, n + r) for r in range(ne)]
+            if foh:
+                own += [(4, i, n + r) for r in range(ne)]
+    W_all = np.asarray(eng.W_all, dtype=float)
+    ncs = sum(a.shape[0] for a, _ in shared)
+    if W_all.shape[1] != ncs + len(own):
+        return None, "an unexpected layout of the bank's drive channels"
+    blocks, outs, dmats = eng.Fd, eng.outs, eng.dmats
+    dsig = [uu, X2] if eng.decoupled else [uu]  # the shared direct signals, after y
+    lay = _layout(blocks, W_all, outs, dmats, q + sum(a.shape[0] for a in dsig))
+    fs = None
+    if shared and N > 1:
+        rows = np.concatenate([a[:, sh : sh + N - 1] for a, sh in shared])
+        fs = np.ascontiguousarray(W_all[:, :ncs] @ rows)
+    keep = [c for c in range(len(own)) if lay.wcols[ncs + c]]
+    Wp = np.ascontiguousarray(W_all[:, [ncs + c for c in keep]])
+    kind = np.array([own[c][0] for c in keep] + [0], dtype=np.int64)
+    sens = np.array([own[c][1] for c in keep] + [0], dtype=np.int64)
+    srow = np.array([own[c][2] for c in keep] + [0], dtype=np.int64)
+    Dall = lay.Dall
+    ys = None
+    if Dall.shape[1] > q and lay.dcols[q:].any():
+        ys = np.ascontiguousarray(Dall[:, q:] @ np.concatenate(dsig))
+    ecols = [c for c in range(q) if lay.dcols[c]]
+    # ---- residual rows: the outputs of each generator (one row, or the norm of several)
+    rbeg, rdst, o = [0], [], 0
+    for (k, _), Cs in zip(eng.gens, outs, strict=True):
+        o += Cs[0].shape[0]
+        rbeg.append(o)
+        rdst.append(k)
+    w0 = np.array(eng.w[:, 0], dtype=float)
+    Lv = ctx.Lv
+    lv = None
+    if Lv is not None:
+        dg = np.diagonal(Lv)
+        if np.all(dg != 0) and np.count_nonzero(Lv) == dg.size:
+            lv = np.ascontiguousarray(dg, dtype=float)
+    plan = FusedPlan(
+        N=N,
+        q=q,
+        n_rows=len(ctx.view.generators),
+        y0c=np.ascontiguousarray(y0c, dtype=float),
+        lv=lv,
+        Lv=Lv,
+        ctx=ctx,
+        kind=kind,
+        sens=sens,
+        srow=srow,
+        W=Wp,
+        sh=np.ascontiguousarray(np.vstack([X2, e[:, 0]]), dtype=float),
+        fs=fs,
+        lay=lay,
+        esens=np.array(ecols + [0], dtype=np.int64),
+        D=np.ascontiguousarray(Dall[:, ecols]),
+        ys=ys,
+        rbeg=np.array(rbeg, dtype=np.int64),
+        rdst=np.array(rdst + [0], dtype=np.int64),
+        w0=w0,
+    )
+    plan.window = int(window)  # type: ignore[attr-defined]
+    return plan, ""
+
+
+def _segments(plan: FusedPlan, fault_lists: Sequence[Sequence[Any]]) -> tuple[np.ndarray, ...]:
+    """The piecewise-constant profiles ``(eta, lam)`` per (sensor, run): pointers, first
+    samples, values; composed in list order as :func:`geomfdi.simulation.profiles.
+    fault_profiles` does (``eta <- g eta``, ``lam <- g lam + b`` where active)."""
+    from geomfdi.simulation.profiles import _values
+    from geomfdi.simulation.schedule import fault_schedule
+    from geomfdi.simulation.signals import activity_span
+
+    t, q, R = plan.ctx.t, plan.q, len(fault_lists)
+    per: list[list[tuple[int, int, float, float]]] = [[] for _ in range(q * R)]
+    cache: dict[int, Any] = {}
+    for r, fl in enumerate(fault_lists):
+        # the sensor faults as the simulation sees them (output names resolved, gains on
+        # the physical reading: geomfdi.simulation.physical)
+        for f in fault_schedule(fl, plan.ctx.original or plan.ctx.plant).sensor:
+            span = cache.get(id(f))
+            if span is None:
+                span = cache[id(f)] = activity_span(f, t)
+            if span is None or span[0] >= span[1]:
+                continue
+            g, b = _values(f)
+            per[f.sensor * R + r].append((span[0], span[1], float(g), float(b)))
+    ptr, ks, etas, lams = [0], [], [], []
+    for faults in per:
+        cuts = sorted({0} | {k for a, z, _, _ in faults for k in (a, z) if 0 < k < plan.N})
+        for k in cuts:
+            eta, lam = 1.0, 0.0
+            for a, z, g, b in faults:
+                if a <= k < z:
+                    if g != 1.0:
+                        eta *= g
+                        lam *= g
+                    lam += b
+            ks.append(k)
+            etas.append(eta)
+            lams.append(lam)
+        ptr.append(len(ks))
+    return (
+        np.array(ptr, dtype=np.int64),
+        np.array(ks, dtype=np.int64),
+        np.array(etas, dtype=float),
+        np.array(lams, dtype=float),
+    )
+
+
+def fused_runs(
+    plan: FusedPlan,
+    fault_lists: Sequence[Sequence[Any]],
+    seeds: Sequence[Any],
+    out: np.ndarray | None = None,
+) -> np.ndarray:
+    """The statistic (``plan`` with a chi-square window) or the residuals of the runs,
+    ``(R, n_residuals, N)``.
+
+    Parameters
+    ----------
+    plan : FusedPlan
+    fault_lists : sequence of fault lists
+        One per run (each among the plan's).
+    seeds : sequence
+        One noise seed per run (as :func:`geomfdi.simulate_batch`'s ``seeds``).
+    out : ndarray, optional
+        Array ``(R, n_residuals, N)`` to fill (rows of missing generators: 0).
+    """
+    from geomfdi.simulation.simulate import noise_streams, run_parts
+
+    lib = _library()
+    R, N, q = len(fault_lists), plan.N, plan.q
+    nrow = plan.rbeg.size - 1
+    if out is None:
+        out = np.zeros((R, plan.n_rows, N))
+    elif nrow < plan.n_rows:
+        out[:] = 0.0
+    ctx, lay = plan.ctx, plan.lay
+    segptr, segk, segeta, seglam = _segments(plan, fault_lists)
+    rngs = [np.random.default_rng(sd) for sd in seeds]
+    parts = work_threads()
+    pool = getattr(_POOLS, "pool", None)  # the draws' buffers, reused block after block
+    if pool is None:
+        pool = _POOLS.pool = {}
+    streams = noise_streams(ctx, rngs, pool, parts) if plan.Lv is not None else None
+    win = int(getattr(plan, "window", 0))
+    nS = int(lay.bs[:-1].sum())
+    X = np.ascontiguousarray(np.broadcast_to(plan.w0[:, None], (nS, R)))
+    cs = np.zeros((nrow, R))
+    ring = np.zeros((max(win, 1), nrow, R))
+    zp = np.zeros(R * q, dtype=np.uintp)
+    zts = np.ones(R * q, dtype=np.int64)
+    k = max(1, min(work_threads(), -(-R // _GROUP), R * N // _MIN_PART_WORK))
+    edges = [0] + [round(i * R / (k * _GROUP)) * _GROUP for i in range(1, k)] + [R]
+    spans = [(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
+    for s in range(0, N, WINDOW):
+        e = min(s + WINDOW, N)
+        keep = []
+        if streams is not None:
+            e1 = min(e + 1, N)  # the reading at the end of the window's last interval
+            zs: list[Any] = [None] * R
+
+            def draw(part: slice, s: int = s, e1: int = e1, zs: list[Any] = zs) -> None:
+                for r in range(part.start, part.stop):
+                    z = streams[r].take(s, e1)[0]
+                    if plan.lv is None:
+                        z = plan.Lv @ z
+                    zs[r] = z if z.strides[1] == 8 else np.ascontiguousarray(z)
+
+            split = run_parts(R, parts)
+            if len(split) == 1:
+                draw(split[0])
+            else:
+                wait([thread_pool(len(split)).submit(draw, part) for part in split])
+            for r, z in enumerate(zs):
+                keep.append(z)
+                zp[r * q : (r + 1) * q] = z.ctypes.data + np.arange(q) * z.strides[0]
+        args = [
+            R, 0, 0, N, s, e - s, q, plan.y0c.ctypes.data,
+            zp.ctypes.data if streams is not None else None, zts.ctypes.data,
+            plan.lv.ctypes.data if plan.lv is not None else None,
+            segptr.ctypes.data, segk.ctypes.data, segeta.ctypes.data, seglam.ctypes.data,
+            plan.W.shape[1], plan.kind.ctypes.data, plan.sens.ctypes.data,
+            plan.srow.ctypes.data, plan.W.ctypes.data, plan.sh.ctypes.data,
+            None if plan.fs is None else plan.fs.ctypes.data,
+            nS, lay.bs.size - 1, lay.bs.ctypes.data, lay.Apk.ctypes.data,
+            int(plan.rbeg[-1]), lay.ostart.ctypes.data, lay.olen.ctypes.data,
+            lay.Cpk.ctypes.data, plan.D.shape[1], plan.esens.ctypes.data,
+            plan.D.ctypes.data, None if plan.ys is None else plan.ys.ctypes.data,
+            nrow, plan.rbeg.ctypes.data, plan.rdst.ctypes.data, win,
+            X.ctypes.data, cs.ctypes.data, ring.ctypes.data,
+            out[:, :, s:].ctypes.data, out.strides[0] // 8, out.strides[1] // 8,
+            out.strides[2] // 8,
+        ]  # fmt: skip
+
+        def call(span: tuple[int, int], args: list[Any] = args) -> int:
+            a = list(args)
+            a[1], a[2] = span
+            return int(lib(*a))
+
+        if len(spans) == 1:
+            status = call(spans[0])
+        else:
+            futs = [thread_pool(len(spans)).submit(call, sp) for sp in spans]
+            wait(futs)
+            status = min(f.result() for f in futs)
+        del keep
+        if status != 0:
+            raise MemoryError("the fused block could not allocate its work arrays")
+    for st in streams or ():
+        st.release()
+    return out
