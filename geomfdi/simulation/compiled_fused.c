@@ -67,6 +67,13 @@ static const gfsim_vec gfsim_zero = {0};
         (y).v[0] = gfsim_zero + s_;                                          \
         (y).v[1] = gfsim_zero + s_;                                          \
     } while (0)
+/* lane copies as two vector moves (a structure copy may go through narrower moves,
+   which stall the wider loads that follow) */
+#define COPY(y, x)                                                           \
+    do {                                                                     \
+        (y).v[0] = (x).v[0];                                                 \
+        (y).v[1] = (x).v[1];                                                 \
+    } while (0)
 #else
 typedef struct {
     double v[GFSIM_G];
@@ -84,6 +91,7 @@ typedef struct {
         int q_;                                                              \
         for (q_ = 0; q_ < GFSIM_G; ++q_) (y).v[q_] = s_;                     \
     } while (0)
+#define COPY(y, x) ((y) = (x))
 #endif
 
 /* out[i] = init[i, k] + sum_c M[i, c] v[c] (init NULL: 0), as gfsim_gemv */
@@ -99,23 +107,24 @@ static void gff_gemv(int64_t rows, int64_t cols, const double *M, const gfsim_la
         FILL(a2, init ? init[(i + 2) * ild + k] : 0.0);
         FILL(a3, init ? init[(i + 3) * ild + k] : 0.0);
         for (c = 0; c < cols; ++c) {
-            const gfsim_lane vc = v[c];
+            gfsim_lane vc;
+            COPY(vc, v[c]);
             AXPY(a0, M0[c], vc);
             AXPY(a1, M1[c], vc);
             AXPY(a2, M2[c], vc);
             AXPY(a3, M3[c], vc);
         }
-        out[i] = a0;
-        out[i + 1] = a1;
-        out[i + 2] = a2;
-        out[i + 3] = a3;
+        COPY(out[i], a0);
+        COPY(out[i + 1], a1);
+        COPY(out[i + 2], a2);
+        COPY(out[i + 3], a3);
     }
     for (; i < rows; ++i) {
         const double *Mi = M + i * cols;
         gfsim_lane a;
         FILL(a, init ? init[i * ild + k] : 0.0);
         for (c = 0; c < cols; ++c) AXPY(a, Mi[c], v[c]);
-        out[i] = a;
+        COPY(out[i], a);
     }
 }
 
@@ -176,7 +185,27 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
             const int64_t ns = steps - k0 < nt ? steps - k0 : nt; /* steps from them */
             const int64_t nv = ns == nt ? nt + 1 : nt; /* readings needed (k+1 of a step) */
             /* the fault profiles of the tile's samples: lanes filled segment by segment */
-            for (i = 0; i < q; ++i)
+            for (i = 0; i < q; ++i) {
+                /* the usual tile: no lane's profile changes in it (one vector each) */
+                gfsim_lane ev, lv_;
+                int same = 1;
+                for (j = 0; j < G && same; ++j) {
+                    const int64_t r = run[j], end = segptr[i * R + r + 1];
+                    int64_t sg = cur[i * G + j];
+                    k = s + k0;
+                    while (sg + 1 < end && segk[sg + 1] <= k) ++sg;
+                    cur[i * G + j] = sg;
+                    if (sg + 1 < end && segk[sg + 1] < k + nv) same = 0;
+                    LANE(ev, j) = segeta[sg];
+                    LANE(lv_, j) = seglam[sg];
+                }
+                if (same) {
+                    for (t = 0; t < nv; ++t) {
+                        COPY(eta[t * q + i], ev);
+                        COPY(lam[t * q + i], lv_);
+                    }
+                    continue;
+                }
                 for (j = 0; j < G; ++j) {
                     const int64_t r = run[j], end = segptr[i * R + r + 1];
                     int64_t sg = cur[i * G + j];
@@ -194,6 +223,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                     }
                     cur[i * G + j] = sg;
                 }
+            }
             /* the noisy and the faulty readings */
             for (i = 0; i < q; ++i) {
                 const double *yc = y0c + i * N + s + k0;
@@ -212,18 +242,15 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                 }
             }
             for (t = 0; t < nv * q; ++t) {
-                y[t] = eta[t];
-                y[t].v[0] *= y0n[t].v[0];
-                y[t].v[1] *= y0n[t].v[1];
-                y[t].v[0] += lam[t].v[0];
-                y[t].v[1] += lam[t].v[1];
+                y[t].v[0] = eta[t].v[0] * y0n[t].v[0] + lam[t].v[0];
+                y[t].v[1] = eta[t].v[1] * y0n[t].v[1] + lam[t].v[1];
             }
             for (t = 0; t < nt; ++t) {
                 const int64_t kr = k0 + t; /* within the window */
                 gfsim_lane *rt = rw + t * nrow;
                 k = s + kr;
                 /* outputs of sample k: ys + D y, then C x */
-                for (c = 0; c < nd; ++c) e[c] = y[t * q + esens[c]];
+                for (c = 0; c < nd; ++c) COPY(e[c], y[t * q + esens[c]]);
                 gff_gemv(p, nd, D, e, ys, N, k, yo);
                 coff = 0;
                 for (o = 0; o < p; ++o) {
@@ -235,12 +262,12 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                 for (o = 0; o < nrow; ++o) {
                     const int64_t a = rbeg[o], bnd = rbeg[o + 1];
                     if (bnd - a == 1) {
-                        rt[o] = yo[a];
+                        COPY(rt[o], yo[a]);
                     } else {
-                        gfsim_lane sq = yo[a];
+                        gfsim_lane sq;
                         int64_t m;
-                        sq.v[0] *= yo[a].v[0];
-                        sq.v[1] *= yo[a].v[1];
+                        sq.v[0] = yo[a].v[0] * yo[a].v[0];
+                        sq.v[1] = yo[a].v[1] * yo[a].v[1];
                         for (m = a + 1; m < bnd; ++m) {
                             sq.v[0] += yo[m].v[0] * yo[m].v[0];
                             sq.v[1] += yo[m].v[1] * yo[m].v[1];
@@ -251,44 +278,45 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                 if (win > 0) { /* the windowed sum of squares */
                     const int64_t slot = (k % win) * nrow;
                     for (o = 0; o < nrow; ++o) {
-                        gfsim_lane v = rt[o], old = rg[slot + o];
-                        csl[o].v[0] += v.v[0] * v.v[0];
-                        csl[o].v[1] += v.v[1] * v.v[1];
-                        rg[slot + o] = csl[o];
+                        gfsim_lane v, c1;
+                        c1.v[0] = csl[o].v[0] + rt[o].v[0] * rt[o].v[0];
+                        c1.v[1] = csl[o].v[1] + rt[o].v[1] * rt[o].v[1];
                         if (k >= win) {
-                            v.v[0] = csl[o].v[0] - old.v[0];
-                            v.v[1] = csl[o].v[1] - old.v[1];
+                            v.v[0] = c1.v[0] - rg[slot + o].v[0];
+                            v.v[1] = c1.v[1] - rg[slot + o].v[1];
                         } else {
-                            v = csl[o];
+                            COPY(v, c1);
                         }
+                        COPY(csl[o], c1);
+                        COPY(rg[slot + o], c1);
                         for (j = 0; j < G; ++j)
                             if (LANE(v, j) < 0.0) LANE(v, j) = 0.0;
-                        rt[o] = v;
+                        COPY(rt[o], v);
                     }
                 }
                 if (t >= ns) break; /* the record's last sample: no step from it */
                 /* the drive samples of step k -> k+1 */
                 for (c = 0; c < nz; ++c) {
                     const int64_t ii = dsens[c], kind = dkind[c];
-                    const gfsim_lane et = eta[t * q + ii];
-                    gfsim_lane v;
+                    gfsim_lane et, v;
+                    COPY(et, eta[t * q + ii]);
                     if (kind == 0) {
-                        v = y[t * q + ii];
+                        COPY(v, y[t * q + ii]);
                     } else if (kind == 1) {
                         const double yc = y0c[ii * N + k];
                         v.v[0] = y[t * q + ii].v[0] - et.v[0] * yc;
                         v.v[1] = y[t * q + ii].v[1] - et.v[1] * yc;
                     } else if (kind == 2) {
                         const double yc = y0c[ii * N + k + 1];
-                        const gfsim_lane yr = y0n[(t + 1) * q + ii], lm = lam[t * q + ii];
-                        v.v[0] = (et.v[0] * yr.v[0] + lm.v[0]) - et.v[0] * yc;
-                        v.v[1] = (et.v[1] * yr.v[1] + lm.v[1]) - et.v[1] * yc;
+                        const gfsim_lane *yr = y0n + (t + 1) * q + ii, *lm = lam + t * q + ii;
+                        v.v[0] = (et.v[0] * yr->v[0] + lm->v[0]) - et.v[0] * yc;
+                        v.v[1] = (et.v[1] * yr->v[1] + lm->v[1]) - et.v[1] * yc;
                     } else {
                         const double sv = sh[drow[c] * N + k + (kind == 4)];
                         v.v[0] = (et.v[0] - 1.0) * sv;
                         v.v[1] = (et.v[1] - 1.0) * sv;
                     }
-                    d[c] = v;
+                    COPY(d[c], v);
                 }
                 gff_gemv(nS, nz, W, d, fs, N - 1, k, xn);
                 i0 = 0;
@@ -300,7 +328,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                     i0 += n;
                     aoff += n * n;
                 }
-                for (i = 0; i < nS; ++i) x[i] = xn[i];
+                for (i = 0; i < nS; ++i) COPY(x[i], xn[i]);
             }
             /* scatter the tile's rows */
             for (o = 0; o < nrow; ++o)

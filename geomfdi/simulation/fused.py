@@ -67,6 +67,9 @@ WINDOW = 2**16
 _GROUP = 16
 #: Fewest run-samples per thread (a shorter pass gains nothing from a second thread).
 _MIN_PART_WORK = 2**18
+#: Runs whose noise is drawn and passed through the kernel at a time (their draws stay
+#: in the cache; the next runs draw into the same buffers).
+_SUB = 16
 
 
 def _library() -> Any:
@@ -353,7 +356,7 @@ def fused_runs(
     out : ndarray, optional
         Array ``(R, n_residuals, N)`` to fill (rows of missing generators: 0).
     """
-    from geomfdi.simulation.simulate import noise_streams, run_parts
+    from geomfdi.simulation.simulate import noise_streams
 
     lib = _library()
     R, N, q = len(fault_lists), plan.N, plan.q
@@ -364,76 +367,72 @@ def fused_runs(
         out[:] = 0.0
     ctx, lay = plan.ctx, plan.lay
     segptr, segk, segeta, seglam = _segments(plan, fault_lists)
-    rngs = [np.random.default_rng(sd) for sd in seeds]
-    parts = work_threads()
-    pool = getattr(_POOLS, "pool", None)  # the draws' buffers, reused block after block
-    if pool is None:
-        pool = _POOLS.pool = {}
-    streams = noise_streams(ctx, rngs, pool, parts) if plan.Lv is not None else None
     win = int(getattr(plan, "window", 0))
     nS = int(lay.bs[:-1].sum())
-    X = np.ascontiguousarray(np.broadcast_to(plan.w0[:, None], (nS, R)))
+    X = np.array(np.broadcast_to(plan.w0[:, None], (nS, R)), order="C")
     cs = np.zeros((nrow, R))
     ring = np.zeros((max(win, 1), nrow, R))
     zp = np.zeros(R * q, dtype=np.uintp)
     zts = np.ones(R * q, dtype=np.int64)
+    base = [
+        R, 0, 0, N, 0, 0, q, plan.y0c.ctypes.data,
+        zp.ctypes.data if plan.Lv is not None else None, zts.ctypes.data,
+        plan.lv.ctypes.data if plan.lv is not None else None,
+        segptr.ctypes.data, segk.ctypes.data, segeta.ctypes.data, seglam.ctypes.data,
+        plan.W.shape[1], plan.kind.ctypes.data, plan.sens.ctypes.data,
+        plan.srow.ctypes.data, plan.W.ctypes.data, plan.sh.ctypes.data,
+        None if plan.fs is None else plan.fs.ctypes.data,
+        nS, lay.bs.size - 1, lay.bs.ctypes.data, lay.Apk.ctypes.data,
+        int(plan.rbeg[-1]), lay.ostart.ctypes.data, lay.olen.ctypes.data,
+        lay.Cpk.ctypes.data, plan.D.shape[1], plan.esens.ctypes.data,
+        plan.D.ctypes.data, None if plan.ys is None else plan.ys.ctypes.data,
+        nrow, plan.rbeg.ctypes.data, plan.rdst.ctypes.data, win,
+        X.ctypes.data, cs.ctypes.data, ring.ctypes.data,
+        0, out.strides[0] // 8, out.strides[1] // 8, out.strides[2] // 8,
+    ]  # fmt: skip
+
+    def runs(a: int, b: int) -> int:
+        """Runs ``a .. b-1``, a few at a time: their noise drawn, then passed through
+        the kernel while it is in the cache (the buffers reused by the next few)."""
+        pool = getattr(_POOLS, "pool", None)  # this thread's draw buffers, kept
+        if pool is None:
+            pool = _POOLS.pool = {}
+        for a1 in range(a, b, _SUB):
+            b1 = min(a1 + _SUB, b)
+            rngs = [np.random.default_rng(sd) for sd in seeds[a1:b1]]
+            streams = noise_streams(ctx, rngs, pool, 1) if plan.Lv is not None else None
+            for s in range(0, N, WINDOW):
+                e = min(s + WINDOW, N)
+                keep = []
+                for r, st in enumerate(streams or (), start=a1):
+                    # the window's readings and the one at the end of its last interval
+                    z = st.take(s, min(e + 1, N))[0]
+                    if plan.lv is None:
+                        z = plan.Lv @ z
+                    if z.strides[1] != 8:
+                        z = np.ascontiguousarray(z)
+                    keep.append(z)
+                    zp[r * q : (r + 1) * q] = z.ctypes.data + np.arange(q) * z.strides[0]
+                args = list(base)
+                args[1], args[2], args[4], args[5] = a1, b1, s, e - s
+                args[-4] = out[:, :, s:].ctypes.data
+                status = int(lib(*args))
+                del keep
+                if status != 0:
+                    return status
+            for st in streams or ():
+                st.release()
+        return 0
+
     k = max(1, min(work_threads(), -(-R // _GROUP), R * N // _MIN_PART_WORK))
     edges = [0] + [round(i * R / (k * _GROUP)) * _GROUP for i in range(1, k)] + [R]
     spans = [(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
-    for s in range(0, N, WINDOW):
-        e = min(s + WINDOW, N)
-        keep = []
-        if streams is not None:
-            e1 = min(e + 1, N)  # the reading at the end of the window's last interval
-            zs: list[Any] = [None] * R
-
-            def draw(part: slice, s: int = s, e1: int = e1, zs: list[Any] = zs) -> None:
-                for r in range(part.start, part.stop):
-                    z = streams[r].take(s, e1)[0]
-                    if plan.lv is None:
-                        z = plan.Lv @ z
-                    zs[r] = z if z.strides[1] == 8 else np.ascontiguousarray(z)
-
-            split = run_parts(R, parts)
-            if len(split) == 1:
-                draw(split[0])
-            else:
-                wait([thread_pool(len(split)).submit(draw, part) for part in split])
-            for r, z in enumerate(zs):
-                keep.append(z)
-                zp[r * q : (r + 1) * q] = z.ctypes.data + np.arange(q) * z.strides[0]
-        args = [
-            R, 0, 0, N, s, e - s, q, plan.y0c.ctypes.data,
-            zp.ctypes.data if streams is not None else None, zts.ctypes.data,
-            plan.lv.ctypes.data if plan.lv is not None else None,
-            segptr.ctypes.data, segk.ctypes.data, segeta.ctypes.data, seglam.ctypes.data,
-            plan.W.shape[1], plan.kind.ctypes.data, plan.sens.ctypes.data,
-            plan.srow.ctypes.data, plan.W.ctypes.data, plan.sh.ctypes.data,
-            None if plan.fs is None else plan.fs.ctypes.data,
-            nS, lay.bs.size - 1, lay.bs.ctypes.data, lay.Apk.ctypes.data,
-            int(plan.rbeg[-1]), lay.ostart.ctypes.data, lay.olen.ctypes.data,
-            lay.Cpk.ctypes.data, plan.D.shape[1], plan.esens.ctypes.data,
-            plan.D.ctypes.data, None if plan.ys is None else plan.ys.ctypes.data,
-            nrow, plan.rbeg.ctypes.data, plan.rdst.ctypes.data, win,
-            X.ctypes.data, cs.ctypes.data, ring.ctypes.data,
-            out[:, :, s:].ctypes.data, out.strides[0] // 8, out.strides[1] // 8,
-            out.strides[2] // 8,
-        ]  # fmt: skip
-
-        def call(span: tuple[int, int], args: list[Any] = args) -> int:
-            a = list(args)
-            a[1], a[2] = span
-            return int(lib(*a))
-
-        if len(spans) == 1:
-            status = call(spans[0])
-        else:
-            futs = [thread_pool(len(spans)).submit(call, sp) for sp in spans]
-            wait(futs)
-            status = min(f.result() for f in futs)
-        del keep
-        if status != 0:
-            raise MemoryError("the fused block could not allocate its work arrays")
-    for st in streams or ():
-        st.release()
+    if len(spans) == 1:
+        status = runs(*spans[0])
+    else:
+        futs = [thread_pool(len(spans)).submit(runs, a, b) for a, b in spans]
+        wait(futs)
+        status = min(f.result() for f in futs)
+    if status != 0:
+        raise MemoryError("the fused block could not allocate its work arrays")
     return out
