@@ -145,7 +145,14 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
         if plan is not None:
             from geomfdi.simulation.fused import fused_runs
 
-            residuals = fused_runs(plan, fault_lists, seeds)
+            from geomfdi.simulation.workspace import thread_workspace
+
+            # the statistic in this thread's work array, reused block after block (the
+            # table's columns computed from it are new arrays)
+            shape = (len(seeds), plan.n_rows, plan.N)
+            residuals = fused_runs(
+                plan, fault_lists, seeds, thread_workspace("campaign").get("statistic", shape)
+            )
             stat = residuals if plan.window else None
         elif job.get("system") is not None:
             residuals = _nonlinear_runs(job, fault_lists, seeds)

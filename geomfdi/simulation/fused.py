@@ -40,7 +40,7 @@ import threading
 import warnings
 from collections.abc import Sequence
 from concurrent.futures import wait
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -125,6 +125,8 @@ class FusedPlan:
     rbeg: np.ndarray
     rdst: np.ndarray
     w0: np.ndarray  # (nS,) initial bank state of every run
+    window: int = 0  # the chi-square window (0: residuals)
+    segments: dict[Any, Any] = field(default_factory=dict)  # fault list -> profiles
 
 
 def _why_not(ctx: Any, schedules: Sequence[Any], x0: np.ndarray) -> str | None:
@@ -287,39 +289,47 @@ def fused_plan(
         rbeg=np.array(rbeg, dtype=np.int64),
         rdst=np.array(rdst + [0], dtype=np.int64),
         w0=w0,
+        window=int(window),
     )
-    plan.window = int(window)  # type: ignore[attr-defined]
     return plan, ""
 
 
-def _segments(plan: FusedPlan, fault_lists: Sequence[Sequence[Any]]) -> tuple[np.ndarray, ...]:
-    """The piecewise-constant profiles ``(eta, lam)`` per (sensor, run): pointers, first
-    samples, values; composed in list order as :func:`geomfdi.simulation.profiles.
-    fault_profiles` does (``eta <- g eta``, ``lam <- g lam + b`` where active)."""
+def _list_key(faults: Sequence[Any]) -> Any:
+    """What a fault list's profiles depend on (its faults' types and attributes), or
+    ``None`` when some attribute is not hashable."""
+    try:
+        key = tuple((type(f), tuple(sorted(vars(f).items()))) for f in faults)
+        hash(key)
+    except TypeError:
+        return None
+    return key
+
+
+def _profile_segments(plan: FusedPlan, faults: Sequence[Any]) -> list[tuple[list[Any], ...]]:
+    """Per sensor, the segments ``(first samples, eta, lam)`` of one run's fault list,
+    composed in list order as :func:`geomfdi.simulation.profiles.fault_profiles` does
+    (``eta <- g eta``, ``lam <- g lam + b`` where a fault is active)."""
     from geomfdi.simulation.profiles import _values
     from geomfdi.simulation.schedule import fault_schedule
     from geomfdi.simulation.signals import activity_span
 
-    t, q, R = plan.ctx.t, plan.q, len(fault_lists)
-    per: list[list[tuple[int, int, float, float]]] = [[] for _ in range(q * R)]
-    cache: dict[int, Any] = {}
-    for r, fl in enumerate(fault_lists):
-        # the sensor faults as the simulation sees them (output names resolved, gains on
-        # the physical reading: geomfdi.simulation.physical)
-        for f in fault_schedule(fl, plan.ctx.original or plan.ctx.plant).sensor:
-            span = cache.get(id(f))
-            if span is None:
-                span = cache[id(f)] = activity_span(f, t)
-            if span is None or span[0] >= span[1]:
-                continue
-            g, b = _values(f)
-            per[f.sensor * R + r].append((span[0], span[1], float(g), float(b)))
-    ptr, ks, etas, lams = [0], [], [], []
-    for faults in per:
-        cuts = sorted({0} | {k for a, z, _, _ in faults for k in (a, z) if 0 < k < plan.N})
+    q, N = plan.q, plan.N
+    per: list[list[tuple[int, int, float, float]]] = [[] for _ in range(q)]
+    # the sensor faults as the simulation sees them (output names resolved, gains on the
+    # physical reading: geomfdi.simulation.physical)
+    for f in fault_schedule(list(faults), plan.ctx.original or plan.ctx.plant).sensor:
+        span = activity_span(f, plan.ctx.t)
+        if span is None or span[0] >= span[1]:
+            continue
+        g, b = _values(f)
+        per[f.sensor].append((span[0], span[1], float(g), float(b)))
+    out = []
+    for fl in per:
+        cuts = sorted({0} | {k for a, z, _, _ in fl for k in (a, z) if 0 < k < N})
+        ks, etas, lams = [], [], []
         for k in cuts:
             eta, lam = 1.0, 0.0
-            for a, z, g, b in faults:
+            for a, z, g, b in fl:
                 if a <= k < z:
                     if g != 1.0:
                         eta *= g
@@ -328,7 +338,35 @@ def _segments(plan: FusedPlan, fault_lists: Sequence[Sequence[Any]]) -> tuple[np
             ks.append(k)
             etas.append(eta)
             lams.append(lam)
-        ptr.append(len(ks))
+        out.append((ks, etas, lams))
+    return out
+
+
+def _segments(plan: FusedPlan, fault_lists: Sequence[Sequence[Any]]) -> tuple[np.ndarray, ...]:
+    """The piecewise-constant profiles of the runs, per (sensor, run): pointers into the
+    first samples, ``eta`` and ``lam`` of the segments (:func:`_profile_segments`, kept
+    per distinct fault list)."""
+    q, R = plan.q, len(fault_lists)
+    cache = plan.segments
+    runs = []
+    for fl in fault_lists:
+        key = _list_key(fl)
+        seg = cache.get(key) if key is not None else None
+        if seg is None:
+            seg = _profile_segments(plan, fl)
+            if key is not None:
+                if len(cache) > 4096:
+                    cache.clear()
+                cache[key] = seg
+        runs.append(seg)
+    ptr, ks, etas, lams = [0], [], [], []
+    for i in range(q):
+        for seg in runs:
+            k, e, lm = seg[i]
+            ks += k
+            etas += e
+            lams += lm
+            ptr.append(len(ks))
     return (
         np.array(ptr, dtype=np.int64),
         np.array(ks, dtype=np.int64),
@@ -367,7 +405,7 @@ def fused_runs(
         out[:] = 0.0
     ctx, lay = plan.ctx, plan.lay
     segptr, segk, segeta, seglam = _segments(plan, fault_lists)
-    win = int(getattr(plan, "window", 0))
+    win = plan.window
     nS = int(lay.bs[:-1].sum())
     X = np.array(np.broadcast_to(plan.w0[:, None], (nS, R)), order="C")
     cs = np.zeros((nrow, R))
