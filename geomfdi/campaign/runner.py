@@ -142,6 +142,16 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
             # expected, and the point of the campaign (its residuals see the inputs)
             warnings.filterwarnings("ignore", message=".*not decoupled.*")
         plan = _fused_plan(job, block.model)
+        if plan is not None and plan.window:
+            # simulated and judged in one pass (None: a run diverged, or a rule the
+            # compiled isolation does not take; then the statistic is judged below)
+            from geomfdi.campaign.fused_scoring import fused_block
+
+            done = fused_block(
+                job, plan, fault_lists, seeds, block.onset, block.size, block.runs
+            )
+            if done is not None:
+                return done
         if plan is not None:
             from geomfdi.simulation.fused import fused_runs
 

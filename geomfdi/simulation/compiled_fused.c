@@ -128,6 +128,58 @@ static void gff_gemv(int64_t rows, int64_t cols, const double *M, const gfsim_la
     }
 }
 
+/* What the statistic of a block is judged by (geomfdi.campaign.fused_scoring), per run r
+ * and kernel row o (residual rdst[o]):
+ *
+ *   bad[r]      : a statistic non-finite or above lim[o] (the run diverged);
+ *   spre, spost : (R, nrow) max of z = S / thr[o] (0 for an infinite threshold) over
+ *                 the samples kpre0[r] .. kon[r]-1 and kon[r] .. kpost1[r]-1;
+ *   fhit        : (R, nrow) first sample of the second window with z > 1 (-1: none);
+ *   codes       : (R, kend) the alarm pattern of each sample k < kend, bit rdst[o] set
+ *                 when S > thr[o] and k >= kal0.
+ */
+typedef struct {
+    const double *thr, *lim;
+    int64_t kal0, kend;
+    uint8_t *codes;
+    const int64_t *kpre0, *kon, *kpost1;
+    double *spre, *spost;
+    int64_t *fhit;
+    uint8_t *bad;
+} gff_eval;
+
+static void gff_evaluate(const gff_eval *ev, const gfsim_lane *rw, int64_t nrow,
+                         const int64_t *rdst, int64_t g0, int64_t gn, int64_t kt, int64_t nt)
+{
+    int64_t j, t, o;
+    for (j = 0; j < gn; ++j) {
+        const int64_t r = g0 + j;
+        const int64_t a0 = ev->kpre0[r], a1 = ev->kon[r], a2 = ev->kpost1[r];
+        double *spre = ev->spre + r * nrow, *spost = ev->spost + r * nrow;
+        int64_t *fh = ev->fhit + r * nrow;
+        uint8_t *cd = ev->codes + r * ev->kend;
+        int bad = 0;
+        for (t = 0; t < nt; ++t) {
+            const int64_t k = kt + t;
+            unsigned code = 0;
+            for (o = 0; o < nrow; ++o) {
+                const double sv = LANE(rw[t * nrow + o], j), th = ev->thr[o];
+                const double z = isfinite(th) ? sv / th : 0.0;
+                if (!isfinite(sv) || fabs(sv) > ev->lim[o]) bad = 1;
+                if (k >= a0 && k < a1) {
+                    if (z > spre[o]) spre[o] = z;
+                } else if (k >= a1 && k < a2) {
+                    if (z > spost[o]) spost[o] = z;
+                    if (z > 1.0 && fh[o] < 0) fh[o] = k;
+                }
+                if (sv > th && k >= ev->kal0) code |= 1u << rdst[o];
+            }
+            if (k < ev->kend) cd[k] = (uint8_t)code;
+        }
+        if (bad) ev->bad[r] = 1;
+    }
+}
+
 int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t L, int64_t q,
                 const double *y0c,
                 const double *const *zp, const int64_t *zts, const double *lv,
@@ -138,7 +190,8 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                 const int64_t *ostart, const int64_t *olen, const double *C, int64_t nd,
                 const int64_t *esens, const double *D, const double *ys, int64_t nrow,
                 const int64_t *rbeg, const int64_t *rdst, int64_t win, double *X, double *cs,
-                double *ring, double *out, int64_t ors, int64_t oos, int64_t ots)
+                double *ring, double *out, int64_t ors, int64_t oos, int64_t ots,
+                const gff_eval *ev)
 {
     const int64_t G = GFSIM_G, T = GFSIM_T;
     /* samples with a step from them: all but the record's last */
@@ -330,12 +383,14 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                 }
                 for (i = 0; i < nS; ++i) COPY(x[i], xn[i]);
             }
-            /* scatter the tile's rows */
-            for (o = 0; o < nrow; ++o)
-                for (j = 0; j < gn; ++j) {
-                    double *dst = out + (g0 + j) * ors + rdst[o] * oos + k0 * ots;
-                    for (t = 0; t < nt; ++t) dst[t * ots] = LANE(rw[t * nrow + o], j);
-                }
+            /* scatter the tile's rows (when wanted), evaluate them (when asked) */
+            if (out)
+                for (o = 0; o < nrow; ++o)
+                    for (j = 0; j < gn; ++j) {
+                        double *dst = out + (g0 + j) * ors + rdst[o] * oos + k0 * ots;
+                        for (t = 0; t < nt; ++t) dst[t * ots] = LANE(rw[t * nrow + o], j);
+                    }
+            if (ev) gff_evaluate(ev, rw, nrow, rdst, g0, gn, s + k0, nt);
         }
         for (i = 0; i < nS; ++i)
             for (j = 0; j < gn; ++j) X[i * R + g0 + j] = LANE(x[i], j);
@@ -349,5 +404,117 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
         }
     }
     free(raw);
+    return 0;
+}
+
+/* The first isolation decision of each run from its alarm codes (geomfdi.campaign.
+ * fused_scoring), as geomfdi.campaign.scoring.isolate_runs decides it:
+ *
+ *   trivial (no rule):  pattern = the raw alarms, decision lut[pattern];
+ *   otherwise:          confirmed_i(j) = #{raw_i(j-d), d < n, j-d >= 0} >= k,
+ *                       pattern = the confirmed alarms held over the episode (latch;
+ *                       an episode ends after reset quiet samples, reset < 0: never) or
+ *                       the confirmed alarms, decision lut[pattern], settled (k-of-n
+ *                       samples with the same decision) unless k = n = 1.
+ *
+ * For run r, over its window kon[r] .. kpost1[r]-1: first[r] the first sample with a
+ * decision (a fault index or MULTIPLE, -4), dec[r] that decision, right[r] the first
+ * sample whose decision is the truth (truth[r] >= 0; MULTIPLE with rl[r, pattern] set),
+ * -1 for none.  Samples k < kend, codes (R, kend).
+ */
+#define GFF_NO_ALARM (-1)
+#define GFF_UNEXPLAINED (-2)
+#define GFF_AMBIGUOUS (-3)
+#define GFF_MULTIPLE (-4)
+#define GFF_NEVER (INT64_MIN / 4)
+
+int gffused_isolate(int64_t R, int64_t kend, int64_t nres, const uint8_t *codes,
+                    const int64_t *lut, int64_t trivial, int64_t k, int64_t n, int64_t latch,
+                    int64_t reset, int64_t nf, const int64_t *kon, const int64_t *kpost1,
+                    const int64_t *truth, const uint8_t *rl, int64_t *first, int64_t *dec,
+                    int64_t *right)
+{
+    int64_t r, j, i, d;
+    const int64_t ncode = (int64_t)1 << nres;
+    const int settle = !trivial && !(k == 1 && n == 1);
+    int64_t *hist = (int64_t *)malloc(sizeof(int64_t) * (size_t)(n > 0 ? n : 1));
+    uint8_t *ring = (uint8_t *)malloc((size_t)(n > 0 ? n : 1));
+    if (!hist || !ring) {
+        free(hist);
+        free(ring);
+        return -1;
+    }
+    for (r = 0; r < R; ++r) {
+        const uint8_t *cd = codes + r * kend;
+        const int64_t w0 = kon[r], w1 = kpost1[r] < kend ? kpost1[r] : kend, tr = truth[r];
+        int64_t cnt[8] = {0}, last_res[8], last_any = GFF_NEVER, ep = GFF_NEVER;
+        unsigned held = 0;
+        first[r] = -1;
+        dec[r] = GFF_NO_ALARM;
+        right[r] = -1;
+        for (i = 0; i < 8; ++i) last_res[i] = GFF_NEVER;
+        for (j = 0; j < w1; ++j) {
+            const unsigned raw = cd[j];
+            unsigned pat;
+            int64_t dj;
+            if (trivial) {
+                pat = raw;
+            } else {
+                unsigned conf = 0;
+                /* k of the last n raw alarms (a ring of the last n codes) */
+                for (i = 0; i < nres; ++i) {
+                    cnt[i] += (raw >> i) & 1u;
+                    if (j >= n) cnt[i] -= (ring[j % n] >> i) & 1u;
+                    if (cnt[i] >= k) conf |= 1u << i;
+                }
+                ring[j % n] = (uint8_t)raw;
+                if (!latch) {
+                    pat = conf;
+                } else if (reset < 0) {
+                    held |= conf;
+                    pat = held;
+                } else {
+                    const int64_t prev = last_any;
+                    if (conf) {
+                        last_any = j;
+                        if (prev == GFF_NEVER || j - prev - 1 >= reset) ep = j;
+                    }
+                    for (i = 0; i < nres; ++i)
+                        if ((conf >> i) & 1u) last_res[i] = j;
+                    pat = 0;
+                    if (ep > GFF_NEVER && j - last_any < reset)
+                        for (i = 0; i < nres; ++i)
+                            if (last_res[i] >= ep) pat |= 1u << i;
+                }
+            }
+            dj = lut[pat];
+            if (settle) {
+                int64_t same = 1;
+                const int64_t raw_dec = dj;
+                for (d = 1; d < n && d <= j; ++d) same += hist[(j - d) % n] == raw_dec;
+                hist[j % n] = raw_dec;
+                if (raw_dec == GFF_NO_ALARM || raw_dec == GFF_AMBIGUOUS) {
+                    dj = raw_dec;
+                } else if (same >= k && ((raw_dec >= 0 && raw_dec < nf) || raw_dec == GFF_MULTIPLE)) {
+                    dj = raw_dec;
+                } else {
+                    dj = GFF_UNEXPLAINED;
+                }
+            }
+            if (j < w0) continue;
+            if (first[r] < 0 && (dj >= 0 || dj == GFF_MULTIPLE)) {
+                first[r] = j;
+                dec[r] = dj;
+            }
+            if (right[r] < 0
+                && ((tr >= 0 && dj == tr)
+                    || (tr == GFF_MULTIPLE && dj == GFF_MULTIPLE && rl && rl[r * ncode + pat]))) {
+                right[r] = j;
+            }
+            if (first[r] >= 0 && right[r] >= 0) break;
+        }
+    }
+    free(hist);
+    free(ring);
     return 0;
 }

@@ -54,12 +54,36 @@ from geomfdi.simulation.compiled_single import run_recursion
 from geomfdi.simulation.context import prepare, state_vector, to_balanced
 from geomfdi.simulation.lifting import Drive
 
-__all__ = ["FusedPlan", "fused_plan", "fused_runs"]
+__all__ = ["FusedPlan", "evaluation_struct", "fused_plan", "fused_runs", "isolate_codes"]
 
 _SOURCE = Path(__file__).with_name("compiled_fused.c")
 _LIBS: dict[Any, Any] = {}
 _LOCK = threading.Lock()
 _POOLS = threading.local()
+_ISOLATE: dict[Any, Any] = {}
+
+
+class _Evaluation(ctypes.Structure):
+    """The kernel's ``gff_eval``: what a block's statistic is judged by."""
+
+    _fields_ = [
+        (name, ctypes.c_int64 if name in ("kal0", "kend") else ctypes.c_void_p)
+        for name in (
+            "thr", "lim", "kal0", "kend", "codes", "kpre0", "kon", "kpost1", "spre",
+            "spost", "fhit", "bad",
+        )
+    ]  # fmt: skip
+
+
+def evaluation_struct(arrays: dict[str, Any]) -> _Evaluation:
+    """The kernel's evaluation arguments from ``arrays`` (numpy arrays of the kernel's
+    dtypes, kept alive by the caller; ``kal0`` and ``kend`` integers): see
+    ``gff_eval`` in ``compiled_fused.c``."""
+    ev = _Evaluation()
+    for name, _ in _Evaluation._fields_:
+        v = arrays[name]
+        setattr(ev, name, int(v) if name in ("kal0", "kend") else v.ctypes.data)
+    return ev
 #: Samples per window of a fused pass (the noise of a window is taken at once).
 WINDOW = 2**16
 #: Runs per SIMD group of the kernel at most (AVX-512: 16): parts of a block split
@@ -86,9 +110,13 @@ def _library() -> Any:
             path = build_library("gffused", {"gffused.c": src}, "gffused.c")
             fn = ctypes.CDLL(str(path)).gffused_run
             i64, vp = ctypes.c_int64, ctypes.c_void_p
-            kinds = "iiiiiii" + "vvvvvvvv" + "ivvvvvv" + "iivvivvvivvvivvivvvviii"
+            kinds = "iiiiiii" + "vvvvvvvv" + "ivvvvvv" + "iivvivvvivvvivvivvvviiiv"
             fn.argtypes = [i64 if c == "i" else vp for c in kinds]
             fn.restype = ctypes.c_int
+            iso = ctypes.CDLL(str(path)).gffused_isolate
+            iso.argtypes = [i64 if c == "i" else vp for c in "iiivviiiiiivvvvvvv"]
+            iso.restype = ctypes.c_int
+            _ISOLATE[key] = iso
             lib: Any = fn
         except (GeomFDIError, OSError) as exc:
             warnings.warn(
@@ -380,9 +408,12 @@ def fused_runs(
     fault_lists: Sequence[Sequence[Any]],
     seeds: Sequence[Any],
     out: np.ndarray | None = None,
-) -> np.ndarray:
+    *,
+    evaluation: _Evaluation | None = None,
+) -> np.ndarray | None:
     """The statistic (``plan`` with a chi-square window) or the residuals of the runs,
-    ``(R, n_residuals, N)``.
+    ``(R, n_residuals, N)``; with ``evaluation`` (:func:`evaluation_struct`) and no
+    ``out`` only their evaluation (nothing returned).
 
     Parameters
     ----------
@@ -393,15 +424,17 @@ def fused_runs(
         One noise seed per run (as :func:`geomfdi.simulate_batch`'s ``seeds``).
     out : ndarray, optional
         Array ``(R, n_residuals, N)`` to fill (rows of missing generators: 0).
+    evaluation : optional
+        Scores, alarm codes and divergence of the statistic, filled by the kernel.
     """
     from geomfdi.simulation.simulate import noise_streams
 
     lib = _library()
     R, N, q = len(fault_lists), plan.N, plan.q
     nrow = plan.rbeg.size - 1
-    if out is None:
+    if out is None and evaluation is None:
         out = np.zeros((R, plan.n_rows, N))
-    elif nrow < plan.n_rows:
+    elif out is not None and nrow < plan.n_rows:
         out[:] = 0.0
     ctx, lay = plan.ctx, plan.lay
     segptr, segk, segeta, seglam = _segments(plan, fault_lists)
@@ -426,7 +459,8 @@ def fused_runs(
         plan.D.ctypes.data, None if plan.ys is None else plan.ys.ctypes.data,
         nrow, plan.rbeg.ctypes.data, plan.rdst.ctypes.data, win,
         X.ctypes.data, cs.ctypes.data, ring.ctypes.data,
-        0, out.strides[0] // 8, out.strides[1] // 8, out.strides[2] // 8,
+        None, *((0, 0, 0) if out is None else (st // 8 for st in out.strides)),
+        None if evaluation is None else ctypes.addressof(evaluation),
     ]  # fmt: skip
 
     def runs(a: int, b: int) -> int:
@@ -453,7 +487,7 @@ def fused_runs(
                     zp[r * q : (r + 1) * q] = z.ctypes.data + np.arange(q) * z.strides[0]
                 args = list(base)
                 args[1], args[2], args[4], args[5] = a1, b1, s, e - s
-                args[-4] = out[:, :, s:].ctypes.data
+                args[-5] = None if out is None else out[:, :, s:].ctypes.data
                 status = int(lib(*args))
                 del keep
                 if status != 0:
@@ -474,3 +508,50 @@ def fused_runs(
     if status != 0:
         raise MemoryError("the fused block could not allocate its work arrays")
     return out
+
+
+def isolate_codes(
+    codes: np.ndarray,
+    lut: np.ndarray,
+    rule: Any,
+    n_faults: int,
+    kon: np.ndarray,
+    kpost1: np.ndarray,
+    truth: np.ndarray,
+    right_lut: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The first decision of each run in its window from its alarm codes ``(R, kend)``
+    (``gffused_isolate`` in ``compiled_fused.c``): ``(first sample, decision, first
+    sample of the true decision)``, -1 for none.
+
+    ``lut`` (``2**n_res``,) decides each pattern code; ``rule`` a
+    :class:`~geomfdi.evaluation.persistence.Persistence` or ``None`` (per-sample
+    decisions); ``right_lut`` ``(R, 2**n_res)``: whether a pattern's suspects are the
+    run's true faults (runs of several faults).
+    """
+    lib = _library()
+    iso = _ISOLATE[_lib_key()]
+    R, kend = codes.shape
+    nres = int(lut.size).bit_length() - 1
+    trivial = rule is None or rule.trivial
+    k, n = (1, 1) if trivial else (rule.k, rule.n)
+    latch = 0 if trivial else int(rule.latch)
+    reset = -1 if trivial or rule.reset is None else int(rule.reset)
+    first = np.empty(R, dtype=np.int64)
+    dec = np.empty(R, dtype=np.int64)
+    right = np.empty(R, dtype=np.int64)
+    codes = np.ascontiguousarray(codes, dtype=np.uint8)
+    lut = np.ascontiguousarray(lut, dtype=np.int64)
+    kon = np.ascontiguousarray(kon, dtype=np.int64)
+    kpost1 = np.ascontiguousarray(kpost1, dtype=np.int64)
+    truth = np.ascontiguousarray(truth, dtype=np.int64)
+    rl = None if right_lut is None else np.ascontiguousarray(right_lut, dtype=np.uint8)
+    status = iso(
+        R, kend, nres, codes.ctypes.data, lut.ctypes.data, int(trivial), k, n, latch, reset,
+        n_faults, kon.ctypes.data, kpost1.ctypes.data, truth.ctypes.data,
+        None if rl is None else rl.ctypes.data, first.ctypes.data, dec.ctypes.data,
+        right.ctypes.data,
+    )  # fmt: skip
+    if lib is None or status != 0:
+        raise MemoryError("the isolation of a block could not allocate its work arrays")
+    return first, dec, right
