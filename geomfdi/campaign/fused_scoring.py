@@ -67,7 +67,7 @@ def fused_block(
 ) -> dict[str, np.ndarray] | None:
     """The table columns of a block's runs (``run_ids``; their fault lists, noise seeds,
     onsets and fault sizes), or ``None`` (module docstring)."""
-    from geomfdi.campaign.runner import _truth
+    from geomfdi.campaign.runner import DIVERGED_RATIO, _truth
     from geomfdi.evaluation.decision import MULTIPLE, isolate
     from geomfdi.evaluation.persistence import _decide_patterns, every_pattern
     from geomfdi.simulation.fused import evaluation_struct, fused_runs, isolate_codes
@@ -81,7 +81,9 @@ def fused_block(
     thr_all = np.asarray(test.thresholds, dtype=float)
     rows = plan.rdst[: plan.rbeg.size - 1]
     thr = np.ascontiguousarray(thr_all[rows])
-    lim = np.where(np.isfinite(thr), 1e6 * thr, np.inf)  # cut_divergent's DIVERGED_RATIO
+    # cut_divergent's limits (DIVERGED_RATIO); the largest double stands for no limit, so
+    # that a non-finite statistic is caught by the same comparison
+    lim = np.where(np.isfinite(thr), DIVERGED_RATIO * thr, np.finfo(float).max)
     kpre0, kon, kpost1 = _windows(t, onsets, job["window"], job["eval_start"])
     tol = 1e-9 * max(1.0, float(np.abs(t).max()))
     kal0 = int(np.searchsorted(t, job["eval_start"] - tol, side="left"))
@@ -149,7 +151,7 @@ def fused_block(
             want[list(truths[r][1])] = True
             right_lut[r] = np.all(table.suspects == want[:, None], axis=0)
     first, dec, right = isolate_codes(
-        arrays["codes"], table.isolated, rule, structure.shape[1], kon, kpost1, truth, right_lut
+        plan, arrays["codes"], table.isolated, rule, structure.shape[1], kon, kpost1, truth, right_lut
     )
     has = first >= 0
     ok = right >= 0

@@ -50,10 +50,17 @@
 
 #if defined(__GNUC__) || defined(__clang__)
 typedef double gfsim_vec __attribute__((vector_size(GFSIM_W * sizeof(double)), may_alias));
+typedef long long gfsim_ivec __attribute__((vector_size(GFSIM_W * sizeof(long long))));
 typedef struct {
     gfsim_vec v[2];
 } gfsim_lane;
 static const gfsim_vec gfsim_zero = {0};
+/* the lanes of v below zero set to zero (a NaN or -0.0 kept, as numpy.maximum(v, 0)) */
+#define CLIP0(v)                                                                     \
+    do {                                                                             \
+        (v).v[0] = (gfsim_vec)((gfsim_ivec)(v).v[0] & ~((v).v[0] < gfsim_zero));     \
+        (v).v[1] = (gfsim_vec)((gfsim_ivec)(v).v[1] & ~((v).v[1] < gfsim_zero));     \
+    } while (0)
 #define LANE(x, j) ((x).v[(j) / GFSIM_W][(j) % GFSIM_W])
 #define AXPY(y, a, x)                                                        \
     do {                                                                     \
@@ -92,10 +99,62 @@ typedef struct {
         for (q_ = 0; q_ < GFSIM_G; ++q_) (y).v[q_] = s_;                     \
     } while (0)
 #define COPY(y, x) ((y) = (x))
+#define CLIP0(v)                                                             \
+    do {                                                                     \
+        int q_;                                                              \
+        for (q_ = 0; q_ < GFSIM_G; ++q_)                                     \
+            if ((v).v[q_] < 0.0) (v).v[q_] = 0.0;                            \
+    } while (0)
+#endif
+
+
+/* Dimensions and channel layouts fixed at compile time (GFF_DIMS, set by
+   geomfdi.simulation.fused for the plan: loops of known length, unrolled, the layout
+   read from constants), else read from the arguments. */
+#ifdef GFF_DIMS
+#define Q_ ((int64_t)GFF_Q)
+#define NS_ ((int64_t)GFF_NS)
+#define NZ_ ((int64_t)GFF_NZ)
+#define P_ ((int64_t)GFF_P)
+#define ND_ ((int64_t)GFF_ND)
+#define NROW_ ((int64_t)GFF_NROW)
+#define NB_ ((int64_t)GFF_NB)
+static const int64_t gff_bs[] = {GFF_BSIZE 0}, gff_ost[] = {GFF_OSTART 0},
+                     gff_olen[] = {GFF_OLEN 0}, gff_dk[] = {GFF_DKIND 0},
+                     gff_ds[] = {GFF_DSENS 0}, gff_dr[] = {GFF_DROW 0},
+                     gff_es[] = {GFF_ESENS 0}, gff_rb[] = {GFF_RBEG 0}, gff_rd[] = {GFF_RDST 0};
+#define BS_(i) gff_bs[i]
+#define OST_(i) gff_ost[i]
+#define OLEN_(i) gff_olen[i]
+#define DK_(i) gff_dk[i]
+#define DS_(i) gff_ds[i]
+#define DR_(i) gff_dr[i]
+#define ES_(i) gff_es[i]
+#define RB_(i) gff_rb[i]
+#define RD_(i) gff_rd[i]
+#define GFF_INLINE static inline __attribute__((always_inline))
+#else
+#define Q_ q
+#define NS_ nS
+#define NZ_ nz
+#define P_ p
+#define ND_ nd
+#define NROW_ nrow
+#define NB_ nb
+#define BS_(i) bsize[i]
+#define OST_(i) ostart[i]
+#define OLEN_(i) olen[i]
+#define DK_(i) dkind[i]
+#define DS_(i) dsens[i]
+#define DR_(i) drow[i]
+#define ES_(i) esens[i]
+#define RB_(i) rbeg[i]
+#define RD_(i) rdst[i]
+#define GFF_INLINE static
 #endif
 
 /* out[i] = init[i, k] + sum_c M[i, c] v[c] (init NULL: 0), as gfsim_gemv */
-static void gff_gemv(int64_t rows, int64_t cols, const double *M, const gfsim_lane *v,
+GFF_INLINE void gff_gemv(int64_t rows, int64_t cols, const double *M, const gfsim_lane *v,
                      const double *init, int64_t ild, int64_t k, gfsim_lane *out)
 {
     int64_t i, c;
@@ -131,13 +190,23 @@ static void gff_gemv(int64_t rows, int64_t cols, const double *M, const gfsim_la
 /* What the statistic of a block is judged by (geomfdi.campaign.fused_scoring), per run r
  * and kernel row o (residual rdst[o]):
  *
- *   bad[r]      : a statistic non-finite or above lim[o] (the run diverged);
+ *   bad[r]      : a statistic non-finite or above lim[o] (the run diverged; lim[o] the
+ *                 largest double for an infinite threshold);
  *   spre, spost : (R, nrow) max of z = S / thr[o] (0 for an infinite threshold) over
  *                 the samples kpre0[r] .. kon[r]-1 and kon[r] .. kpost1[r]-1;
  *   fhit        : (R, nrow) first sample of the second window with z > 1 (-1: none);
  *   codes       : (R, kend) the alarm pattern of each sample k < kend, bit rdst[o] set
  *                 when S > thr[o] and k >= kal0.
  */
+#if defined(__GNUC__) || defined(__clang__)
+#define GFF_VECTOR_EVAL 1
+typedef struct {
+    gfsim_ivec v[2];
+} gfsim_ilane;
+#else
+#define GFF_VECTOR_EVAL 0
+#endif
+
 typedef struct {
     const double *thr, *lim;
     int64_t kal0, kend;
@@ -148,35 +217,82 @@ typedef struct {
     uint8_t *bad;
 } gff_eval;
 
-static void gff_evaluate(const gff_eval *ev, const gfsim_lane *rw, int64_t nrow,
+GFF_INLINE void gff_evaluate(const gff_eval *ev, const gfsim_lane *rw, int64_t nrow,
                          const int64_t *rdst, int64_t g0, int64_t gn, int64_t kt, int64_t nt)
 {
     int64_t j, t, o;
+#if GFF_VECTOR_EVAL
+    /* the alarm patterns and the divergence test of all lanes at once (lim: DBL_MAX for
+       an infinite threshold, so that only a non-finite statistic fails it) */
+    gfsim_ilane cl[GFSIM_T], okl;
+    const gfsim_ivec mag = {0}, one = mag + 0x7fffffffffffffffLL;
+    okl.v[0] = mag - 1;
+    okl.v[1] = mag - 1;
+    for (t = 0; t < nt; ++t) {
+        gfsim_ivec c0 = mag, c1 = mag;
+        for (o = 0; o < nrow; ++o) {
+            const gfsim_lane *sv = rw + t * nrow + o;
+            const gfsim_vec th = gfsim_zero + ev->thr[o], li = gfsim_zero + ev->lim[o];
+            const gfsim_ivec bit = mag + (1LL << rdst[o]);
+            c0 |= (gfsim_ivec)(sv->v[0] > th) & bit;
+            c1 |= (gfsim_ivec)(sv->v[1] > th) & bit;
+            okl.v[0] &= (gfsim_ivec)((gfsim_vec)((gfsim_ivec)sv->v[0] & one) <= li);
+            okl.v[1] &= (gfsim_ivec)((gfsim_vec)((gfsim_ivec)sv->v[1] & one) <= li);
+        }
+        cl[t].v[0] = c0;
+        cl[t].v[1] = c1;
+    }
+#endif
     for (j = 0; j < gn; ++j) {
         const int64_t r = g0 + j;
         const int64_t a0 = ev->kpre0[r], a1 = ev->kon[r], a2 = ev->kpost1[r];
         double *spre = ev->spre + r * nrow, *spost = ev->spost + r * nrow;
-        int64_t *fh = ev->fhit + r * nrow;
+        int64_t *fh = ev->fhit + r * nrow, lo, hi;
         uint8_t *cd = ev->codes + r * ev->kend;
+#if !GFF_VECTOR_EVAL
         int bad = 0;
+        /* divergence (lim: DBL_MAX for an infinite threshold, so that only a non-finite
+           statistic is caught there) and the alarm patterns */
         for (t = 0; t < nt; ++t) {
             const int64_t k = kt + t;
             unsigned code = 0;
             for (o = 0; o < nrow; ++o) {
-                const double sv = LANE(rw[t * nrow + o], j), th = ev->thr[o];
-                const double z = isfinite(th) ? sv / th : 0.0;
-                if (!isfinite(sv) || fabs(sv) > ev->lim[o]) bad = 1;
-                if (k >= a0 && k < a1) {
-                    if (z > spre[o]) spre[o] = z;
-                } else if (k >= a1 && k < a2) {
-                    if (z > spost[o]) spost[o] = z;
-                    if (z > 1.0 && fh[o] < 0) fh[o] = k;
-                }
-                if (sv > th && k >= ev->kal0) code |= 1u << rdst[o];
+                const double sv = LANE(rw[t * nrow + o], j);
+                bad |= !(fabs(sv) <= ev->lim[o]);
+                code |= (unsigned)(sv > ev->thr[o]) << rdst[o];
             }
-            if (k < ev->kend) cd[k] = (uint8_t)code;
+            if (k < ev->kend) cd[k] = k >= ev->kal0 ? (uint8_t)code : 0;
         }
         if (bad) ev->bad[r] = 1;
+#else
+        if (!LANE(okl, j)) ev->bad[r] = 1;
+        for (t = 0; t < nt; ++t) {
+            const int64_t k = kt + t;
+            if (k < ev->kend) cd[k] = k >= ev->kal0 ? (uint8_t)LANE(cl[t], j) : 0;
+        }
+#endif
+        /* the scores: the samples of the two windows in this tile */
+        lo = a0 > kt ? a0 - kt : 0;
+        hi = a1 - kt < nt ? a1 - kt : nt;
+        for (o = 0; o < nrow; ++o) {
+            const double th = ev->thr[o];
+            const int fin = isfinite(th);
+            for (t = lo; t < hi; ++t) {
+                const double z = fin ? LANE(rw[t * nrow + o], j) / th : 0.0;
+                if (z > spre[o]) spre[o] = z;
+            }
+        }
+        lo = a1 > kt ? a1 - kt : 0;
+        hi = a2 - kt < nt ? a2 - kt : nt;
+        for (o = 0; o < nrow; ++o) {
+            const double th = ev->thr[o];
+            const int fin = isfinite(th);
+            for (t = lo; t < hi; ++t) {
+                const double z = fin ? LANE(rw[t * nrow + o], j) / th : 0.0;
+                if (z > spost[o]) spost[o] = z;
+                if (z > 1.0 && fh[o] < 0) fh[o] = kt + t;
+            }
+        }
     }
 }
 
@@ -200,45 +316,49 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
     gfsim_lane *x, *xn, *y0n, *y, *eta, *lam, *d, *e, *yo, *rw, *csl, *rg;
     void *raw;
     size_t nl;
-    if (q > 64) return -2;
-    nl = (size_t)(2 * nS + 4 * (T + 1) * q + nz + nd + p + T * nrow + nrow
-                  + (win > 0 ? win * nrow : 0) + 2);
+#ifdef GFF_DIMS
+    if (q != Q_ || nS != NS_ || nz != NZ_ || p != P_ || nd != ND_ || nrow != NROW_ || nb != NB_)
+        return -3; /* not the layout this library was built for */
+#endif
+    if (Q_ > 64) return -2;
+    nl = (size_t)(2 * NS_ + 4 * (T + 1) * Q_ + NZ_ + ND_ + P_ + T * NROW_ + NROW_
+                  + (win > 0 ? win * NROW_ : 0) + 2);
     raw = malloc(sizeof(gfsim_lane) * (nl + 1));
     if (!raw) return -1;
     x = (gfsim_lane *)(((uintptr_t)raw + sizeof(gfsim_lane) - 1) / sizeof(gfsim_lane)
                        * sizeof(gfsim_lane));
-    xn = x + nS;
-    y0n = xn + nS;
-    y = y0n + (T + 1) * q;
-    eta = y + (T + 1) * q;
-    lam = eta + (T + 1) * q;
-    d = lam + (T + 1) * q;
-    e = d + nz;
-    yo = e + nd;
-    rw = yo + p;     /* the tile's residual rows (or statistics), rw[t nrow + j] */
-    csl = rw + T * nrow;
-    rg = csl + nrow; /* ring[(k mod win) nrow + j] */
+    xn = x + NS_;
+    y0n = xn + NS_;
+    y = y0n + (T + 1) * Q_;
+    eta = y + (T + 1) * Q_;
+    lam = eta + (T + 1) * Q_;
+    d = lam + (T + 1) * Q_;
+    e = d + NZ_;
+    yo = e + ND_;
+    rw = yo + P_; /* the tile's residual rows (or statistics), rw[t nrow + j] */
+    csl = rw + T * NROW_;
+    rg = csl + NROW_; /* ring[(k mod win) nrow + j] */
     for (g0 = r0; g0 < r1; g0 += G) {
         const int64_t gn = r1 - g0 < G ? r1 - g0 : G;
         for (j = 0; j < G; ++j) run[j] = g0 + (j < gn ? j : gn - 1);
-        for (i = 0; i < nS; ++i)
+        for (i = 0; i < NS_; ++i)
             for (j = 0; j < G; ++j) LANE(x[i], j) = X[i * R + run[j]];
         if (win > 0) {
-            for (o = 0; o < nrow; ++o)
+            for (o = 0; o < NROW_; ++o)
                 for (j = 0; j < G; ++j) LANE(csl[o], j) = cs[o * R + run[j]];
             for (t = 0; t < win; ++t)
-                for (o = 0; o < nrow; ++o)
+                for (o = 0; o < NROW_; ++o)
                     for (j = 0; j < G; ++j)
-                        LANE(rg[t * nrow + o], j) = ring[(t * nrow + o) * R + run[j]];
+                        LANE(rg[t * NROW_ + o], j) = ring[(t * NROW_ + o) * R + run[j]];
         }
-        for (i = 0; i < q; ++i)
+        for (i = 0; i < Q_; ++i)
             for (j = 0; j < G; ++j) cur[i * G + j] = segptr[i * R + run[j]];
         for (k0 = 0; k0 < L; k0 += T) {
             const int64_t nt = L - k0 < T ? L - k0 : T; /* outputs of the tile */
             const int64_t ns = steps - k0 < nt ? steps - k0 : nt; /* steps from them */
             const int64_t nv = ns == nt ? nt + 1 : nt; /* readings needed (k+1 of a step) */
             /* the fault profiles of the tile's samples: lanes filled segment by segment */
-            for (i = 0; i < q; ++i) {
+            for (i = 0; i < Q_; ++i) {
                 /* the usual tile: no lane's profile changes in it (one vector each) */
                 gfsim_lane ev, lv_;
                 int same = 1;
@@ -254,8 +374,8 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                 }
                 if (same) {
                     for (t = 0; t < nv; ++t) {
-                        COPY(eta[t * q + i], ev);
-                        COPY(lam[t * q + i], lv_);
+                        COPY(eta[t * Q_ + i], ev);
+                        COPY(lam[t * Q_ + i], lv_);
                     }
                     continue;
                 }
@@ -270,50 +390,50 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                         stop = sg + 1 < end ? segk[sg + 1] - (s + k0) : nv;
                         if (stop > nv) stop = nv;
                         for (; t < stop; ++t) {
-                            LANE(eta[t * q + i], j) = segeta[sg];
-                            LANE(lam[t * q + i], j) = seglam[sg];
+                            LANE(eta[t * Q_ + i], j) = segeta[sg];
+                            LANE(lam[t * Q_ + i], j) = seglam[sg];
                         }
                     }
                     cur[i * G + j] = sg;
                 }
             }
             /* the noisy and the faulty readings */
-            for (i = 0; i < q; ++i) {
+            for (i = 0; i < Q_; ++i) {
                 const double *yc = y0c + i * N + s + k0;
                 for (j = 0; j < G; ++j) {
                     const int64_t r = run[j];
-                    const double *src = zp ? zp[r * q + i] + k0 * zts[r * q + i] : NULL;
-                    const int64_t ts = zp ? zts[r * q + i] : 0;
+                    const double *src = zp ? zp[r * Q_ + i] + k0 * zts[r * Q_ + i] : NULL;
+                    const int64_t ts = zp ? zts[r * Q_ + i] : 0;
                     if (!src) {
-                        for (t = 0; t < nv; ++t) LANE(y0n[t * q + i], j) = yc[t];
+                        for (t = 0; t < nv; ++t) LANE(y0n[t * Q_ + i], j) = yc[t];
                     } else if (lv) {
                         const double li = lv[i];
-                        for (t = 0; t < nv; ++t) LANE(y0n[t * q + i], j) = yc[t] + li * src[t * ts];
+                        for (t = 0; t < nv; ++t) LANE(y0n[t * Q_ + i], j) = yc[t] + li * src[t * ts];
                     } else {
-                        for (t = 0; t < nv; ++t) LANE(y0n[t * q + i], j) = yc[t] + src[t * ts];
+                        for (t = 0; t < nv; ++t) LANE(y0n[t * Q_ + i], j) = yc[t] + src[t * ts];
                     }
                 }
             }
-            for (t = 0; t < nv * q; ++t) {
+            for (t = 0; t < nv * Q_; ++t) {
                 y[t].v[0] = eta[t].v[0] * y0n[t].v[0] + lam[t].v[0];
                 y[t].v[1] = eta[t].v[1] * y0n[t].v[1] + lam[t].v[1];
             }
             for (t = 0; t < nt; ++t) {
                 const int64_t kr = k0 + t; /* within the window */
-                gfsim_lane *rt = rw + t * nrow;
+                gfsim_lane *rt = rw + t * NROW_;
                 k = s + kr;
                 /* outputs of sample k: ys + D y, then C x */
-                for (c = 0; c < nd; ++c) COPY(e[c], y[t * q + esens[c]]);
-                gff_gemv(p, nd, D, e, ys, N, k, yo);
+                for (c = 0; c < ND_; ++c) COPY(e[c], y[t * Q_ + ES_(c)]);
+                gff_gemv(P_, ND_, D, e, ys, N, k, yo);
                 coff = 0;
-                for (o = 0; o < p; ++o) {
-                    const gfsim_lane *xs = x + ostart[o];
-                    for (i = 0; i < olen[o]; ++i) AXPY(yo[o], C[coff + i], xs[i]);
-                    coff += olen[o];
+                for (o = 0; o < P_; ++o) {
+                    const gfsim_lane *xs = x + OST_(o);
+                    for (i = 0; i < OLEN_(o); ++i) AXPY(yo[o], C[coff + i], xs[i]);
+                    coff += OLEN_(o);
                 }
                 /* residual rows: one output, or the norm of several */
-                for (o = 0; o < nrow; ++o) {
-                    const int64_t a = rbeg[o], bnd = rbeg[o + 1];
+                for (o = 0; o < NROW_; ++o) {
+                    const int64_t a = RB_(o), bnd = RB_(o + 1);
                     if (bnd - a == 1) {
                         COPY(rt[o], yo[a]);
                     } else {
@@ -329,8 +449,8 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                     }
                 }
                 if (win > 0) { /* the windowed sum of squares */
-                    const int64_t slot = (k % win) * nrow;
-                    for (o = 0; o < nrow; ++o) {
+                    const int64_t slot = (k % win) * NROW_;
+                    for (o = 0; o < NROW_; ++o) {
                         gfsim_lane v, c1;
                         c1.v[0] = csl[o].v[0] + rt[o].v[0] * rt[o].v[0];
                         c1.v[1] = csl[o].v[1] + rt[o].v[1] * rt[o].v[1];
@@ -342,65 +462,64 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                         }
                         COPY(csl[o], c1);
                         COPY(rg[slot + o], c1);
-                        for (j = 0; j < G; ++j)
-                            if (LANE(v, j) < 0.0) LANE(v, j) = 0.0;
+                        CLIP0(v);
                         COPY(rt[o], v);
                     }
                 }
                 if (t >= ns) break; /* the record's last sample: no step from it */
                 /* the drive samples of step k -> k+1 */
-                for (c = 0; c < nz; ++c) {
-                    const int64_t ii = dsens[c], kind = dkind[c];
+                for (c = 0; c < NZ_; ++c) {
+                    const int64_t ii = DS_(c), kind = DK_(c);
                     gfsim_lane et, v;
-                    COPY(et, eta[t * q + ii]);
+                    COPY(et, eta[t * Q_ + ii]);
                     if (kind == 0) {
-                        COPY(v, y[t * q + ii]);
+                        COPY(v, y[t * Q_ + ii]);
                     } else if (kind == 1) {
                         const double yc = y0c[ii * N + k];
-                        v.v[0] = y[t * q + ii].v[0] - et.v[0] * yc;
-                        v.v[1] = y[t * q + ii].v[1] - et.v[1] * yc;
+                        v.v[0] = y[t * Q_ + ii].v[0] - et.v[0] * yc;
+                        v.v[1] = y[t * Q_ + ii].v[1] - et.v[1] * yc;
                     } else if (kind == 2) {
                         const double yc = y0c[ii * N + k + 1];
-                        const gfsim_lane *yr = y0n + (t + 1) * q + ii, *lm = lam + t * q + ii;
+                        const gfsim_lane *yr = y0n + (t + 1) * Q_ + ii, *lm = lam + t * Q_ + ii;
                         v.v[0] = (et.v[0] * yr->v[0] + lm->v[0]) - et.v[0] * yc;
                         v.v[1] = (et.v[1] * yr->v[1] + lm->v[1]) - et.v[1] * yc;
                     } else {
-                        const double sv = sh[drow[c] * N + k + (kind == 4)];
+                        const double sv = sh[DR_(c) * N + k + (kind == 4)];
                         v.v[0] = (et.v[0] - 1.0) * sv;
                         v.v[1] = (et.v[1] - 1.0) * sv;
                     }
                     COPY(d[c], v);
                 }
-                gff_gemv(nS, nz, W, d, fs, N - 1, k, xn);
+                gff_gemv(NS_, NZ_, W, d, fs, N - 1, k, xn);
                 i0 = 0;
                 aoff = 0;
-                for (b = 0; b < nb; ++b) {
-                    const int64_t n = bsize[b];
+                for (b = 0; b < NB_; ++b) {
+                    const int64_t n = BS_(b);
                     for (c = 0; c < n; ++c)
                         for (i = 0; i < n; ++i) AXPY(xn[i0 + i], A[aoff + i * n + c], x[i0 + c]);
                     i0 += n;
                     aoff += n * n;
                 }
-                for (i = 0; i < nS; ++i) COPY(x[i], xn[i]);
+                for (i = 0; i < NS_; ++i) COPY(x[i], xn[i]);
             }
             /* scatter the tile's rows (when wanted), evaluate them (when asked) */
             if (out)
-                for (o = 0; o < nrow; ++o)
+                for (o = 0; o < NROW_; ++o)
                     for (j = 0; j < gn; ++j) {
-                        double *dst = out + (g0 + j) * ors + rdst[o] * oos + k0 * ots;
-                        for (t = 0; t < nt; ++t) dst[t * ots] = LANE(rw[t * nrow + o], j);
+                        double *dst = out + (g0 + j) * ors + RD_(o) * oos + k0 * ots;
+                        for (t = 0; t < nt; ++t) dst[t * ots] = LANE(rw[t * NROW_ + o], j);
                     }
-            if (ev) gff_evaluate(ev, rw, nrow, rdst, g0, gn, s + k0, nt);
+            if (ev) gff_evaluate(ev, rw, NROW_, rdst, g0, gn, s + k0, nt);
         }
-        for (i = 0; i < nS; ++i)
+        for (i = 0; i < NS_; ++i)
             for (j = 0; j < gn; ++j) X[i * R + g0 + j] = LANE(x[i], j);
         if (win > 0) {
-            for (o = 0; o < nrow; ++o)
+            for (o = 0; o < NROW_; ++o)
                 for (j = 0; j < gn; ++j) cs[o * R + g0 + j] = LANE(csl[o], j);
             for (t = 0; t < win; ++t)
-                for (o = 0; o < nrow; ++o)
+                for (o = 0; o < NROW_; ++o)
                     for (j = 0; j < gn; ++j)
-                        ring[(t * nrow + o) * R + g0 + j] = LANE(rg[t * nrow + o], j);
+                        ring[(t * NROW_ + o) * R + g0 + j] = LANE(rg[t * NROW_ + o], j);
         }
     }
     free(raw);

@@ -60,7 +60,6 @@ _SOURCE = Path(__file__).with_name("compiled_fused.c")
 _LIBS: dict[Any, Any] = {}
 _LOCK = threading.Lock()
 _POOLS = threading.local()
-_ISOLATE: dict[Any, Any] = {}
 
 
 class _Evaluation(ctypes.Structure):
@@ -94,12 +93,16 @@ _MIN_PART_WORK = 2**18
 #: Runs whose noise is drawn and passed through the kernel at a time (their draws stay
 #: in the cache; the next runs draw into the same buffers).
 _SUB = 16
+#: Build the kernel for each plan's dimensions (loops of known length; a library per
+#: layout, cached like the others); ``False``: one kernel reading them at run time.
+_SPECIALISE = True
 
 
-def _library() -> Any:
-    """The fused kernel (built on first use), or ``None`` without a working compiler
-    (then one :class:`BackendFallbackWarning` per cache folder and compiler)."""
-    key = _lib_key()
+def _library(flags: tuple[str, ...] = ()) -> Any:
+    """The fused kernel's ``(run, isolate)`` functions (built on first use; ``flags``
+    fix the dimensions of a plan, :func:`_dims_flags`), or ``None`` without a working
+    compiler (then one :class:`BackendFallbackWarning` per cache folder and compiler)."""
+    key = (_lib_key(), flags)
     if key in _LIBS:
         return _LIBS[key]
     with _LOCK:
@@ -107,26 +110,59 @@ def _library() -> Any:
             return _LIBS[key]
         try:
             src = _SOURCE.read_text(encoding="utf-8")
-            path = build_library("gffused", {"gffused.c": src}, "gffused.c")
-            fn = ctypes.CDLL(str(path)).gffused_run
+            path = build_library("gffused", {"gffused.c": src}, "gffused.c", flags)
+            dll = ctypes.CDLL(str(path))
             i64, vp = ctypes.c_int64, ctypes.c_void_p
+            fn = dll.gffused_run
             kinds = "iiiiiii" + "vvvvvvvv" + "ivvvvvv" + "iivvivvvivvvivvivvvviiiv"
             fn.argtypes = [i64 if c == "i" else vp for c in kinds]
             fn.restype = ctypes.c_int
-            iso = ctypes.CDLL(str(path)).gffused_isolate
+            iso = dll.gffused_isolate
             iso.argtypes = [i64 if c == "i" else vp for c in "iiivviiiiiivvvvvvv"]
             iso.restype = ctypes.c_int
-            _ISOLATE[key] = iso
-            lib: Any = fn
+            lib: Any = (fn, iso)
         except (GeomFDIError, OSError) as exc:
-            warnings.warn(
-                f"{exc}; campaign blocks use the vectorised simulation",
-                BackendFallbackWarning,
-                stacklevel=2,
-            )
-            lib = None
+            if flags:  # the plan's dimensions: the generic kernel does the same
+                lib = _library()
+            else:
+                warnings.warn(
+                    f"{exc}; campaign blocks use the vectorised simulation",
+                    BackendFallbackWarning,
+                    stacklevel=2,
+                )
+                lib = None
         _LIBS[key] = lib
     return lib
+
+
+def _dims_flags(plan: FusedPlan) -> tuple[str, ...]:
+    """Compiler flags that fix a plan's dimensions and channel layout in the kernel."""
+    lay = plan.lay
+
+    def ints(a: Any) -> str:
+        return "".join(f"{int(v)}," for v in a)
+
+    nrow = plan.rbeg.size - 1
+    nz = plan.W.shape[1]
+    return (
+        "-DGFF_DIMS",
+        f"-DGFF_Q={plan.q}",
+        f"-DGFF_NS={int(lay.bs[:-1].sum())}",
+        f"-DGFF_NZ={nz}",
+        f"-DGFF_P={int(plan.rbeg[-1])}",
+        f"-DGFF_ND={plan.D.shape[1]}",
+        f"-DGFF_NROW={nrow}",
+        f"-DGFF_NB={lay.bs.size - 1}",
+        f"-DGFF_BSIZE={ints(lay.bs[:-1])}",
+        f"-DGFF_OSTART={ints(lay.ostart[:-1])}",
+        f"-DGFF_OLEN={ints(lay.olen[:-1])}",
+        f"-DGFF_DKIND={ints(plan.kind[:nz])}",
+        f"-DGFF_DSENS={ints(plan.sens[:nz])}",
+        f"-DGFF_DROW={ints(plan.srow[:nz])}",
+        f"-DGFF_ESENS={ints(plan.esens[: plan.D.shape[1]])}",
+        f"-DGFF_RBEG={ints(plan.rbeg)}",
+        f"-DGFF_RDST={ints(plan.rdst[:nrow])}",
+    )
 
 
 @dataclass
@@ -155,6 +191,7 @@ class FusedPlan:
     w0: np.ndarray  # (nS,) initial bank state of every run
     window: int = 0  # the chi-square window (0: residuals)
     segments: dict[Any, Any] = field(default_factory=dict)  # fault list -> profiles
+    lib: Any = None  # the kernel's (run, isolate), built for the plan's dimensions
 
 
 def _why_not(ctx: Any, schedules: Sequence[Any], x0: np.ndarray) -> str | None:
@@ -319,6 +356,9 @@ def fused_plan(
         w0=w0,
         window=int(window),
     )
+    plan.lib = _library(_dims_flags(plan) if _SPECIALISE else ())
+    if plan.lib is None:
+        return None, "no working C compiler"
     return plan, ""
 
 
@@ -429,7 +469,7 @@ def fused_runs(
     """
     from geomfdi.simulation.simulate import noise_streams
 
-    lib = _library()
+    lib = plan.lib[0]
     R, N, q = len(fault_lists), plan.N, plan.q
     nrow = plan.rbeg.size - 1
     if out is None and evaluation is None:
@@ -511,6 +551,7 @@ def fused_runs(
 
 
 def isolate_codes(
+    plan: FusedPlan,
     codes: np.ndarray,
     lut: np.ndarray,
     rule: Any,
@@ -529,8 +570,7 @@ def isolate_codes(
     decisions); ``right_lut`` ``(R, 2**n_res)``: whether a pattern's suspects are the
     run's true faults (runs of several faults).
     """
-    lib = _library()
-    iso = _ISOLATE[_lib_key()]
+    iso = plan.lib[1]
     R, kend = codes.shape
     nres = int(lut.size).bit_length() - 1
     trivial = rule is None or rule.trivial
@@ -552,6 +592,6 @@ def isolate_codes(
         None if rl is None else rl.ctypes.data, first.ctypes.data, dec.ctypes.data,
         right.ctypes.data,
     )  # fmt: skip
-    if lib is None or status != 0:
+    if status != 0:
         raise MemoryError("the isolation of a block could not allocate its work arrays")
     return first, dec, right
