@@ -131,10 +131,13 @@ def fused_block(
         return out
     # ---- the first isolation decision (isolate_runs)
     cache: dict[Any, Any] = {}
-    truths = [
-        _truth(fl, float(z), job["design_faults"], job["nominal"], cache)
-        for fl, z in zip(fault_lists, sizes, strict=True)
-    ]
+    known: dict[tuple[int, float], Any] = {}  # the runs of one fault list share it
+    truths = []
+    for fl, z in zip(fault_lists, sizes, strict=True):
+        key = (id(fl), float(z))
+        if key not in known:
+            known[key] = _truth(fl, float(z), job["design_faults"], job["nominal"], cache)
+        truths.append(known[key])
     truth = np.array([tr for tr, _ in truths], dtype=np.int64)
     pats = every_pattern(n)
     table = (

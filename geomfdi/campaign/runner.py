@@ -130,10 +130,14 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
         for r in block.repetition
     ]
     scen = job["scenarios"]
-    fault_lists = [
-        list(scen[s].faults(float(z), float(o)))
-        for s, z, o in zip(block.scenario, block.size, block.onset, strict=True)
-    ]
+    # one list per (scenario, size, onset), shared by its runs (nothing changes a list)
+    cells: dict[tuple[int, float, float], list[Any]] = {}
+    fault_lists = []
+    for s, z, o in zip(block.scenario, block.size, block.onset, strict=True):
+        cell = (int(s), float(z), float(o))
+        if cell not in cells:
+            cells[cell] = list(scen[cell[0]].faults(cell[1], cell[2]))
+        fault_lists.append(cells[cell])
     test = job["test"]
     stat = None
     with warnings.catch_warnings():

@@ -572,7 +572,16 @@ int gffused_isolate(int64_t R, int64_t kend, int64_t nres, const uint8_t *codes,
         dec[r] = GFF_NO_ALARM;
         right[r] = -1;
         for (i = 0; i < 8; ++i) last_res[i] = GFF_NEVER;
-        for (j = 0; j < w1; ++j) {
+        /* before the first alarm every state is at rest (no counts, nothing held, the
+           decision of the empty pattern): start there */
+        for (j = 0; j < w1 && !cd[j]; ++j) {
+        }
+        for (d = 0; d < n; ++d) {
+            ring[d] = 0;
+            hist[d] = lut[0];
+        }
+        if (lut[0] != GFF_NO_ALARM) j = 0; /* (a decision without alarms: from the start) */
+        for (; j < w1; ++j) {
             const unsigned raw = cd[j];
             unsigned pat;
             int64_t dj;
