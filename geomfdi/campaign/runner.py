@@ -292,8 +292,9 @@ def _fused_plan(job: dict[str, Any], model: int) -> Any:
     runs its blocks through :func:`geomfdi.simulate_batch` (the reason in the cache).
 
     Decided once per campaign and model from every fault list of the grid (one per
-    scenario, size and onset): a campaign whose faults, noise or plant the fused pass
-    does not cover (:mod:`geomfdi.simulation.fused`) never uses it.
+    scenario, size and onset, built with the job in the calling process: a worker
+    builds only the lists of its own runs): a campaign whose faults, noise or plant
+    the fused pass does not cover (:mod:`geomfdi.simulation.fused`) never uses it.
     """
     cache = job.get("fused")
     if cache is None or job.get("system") is not None:
@@ -304,18 +305,12 @@ def _fused_plan(job: dict[str, Any], model: int) -> Any:
 
         test = job["test"]
         chi2 = isinstance(test, ChiSquareTest) and type(test).statistic is ChiSquareTest.statistic
-        lists = [
-            list(sc.faults(float(z), float(o)))
-            for sc in job["scenarios"]
-            for z in sc.sizes
-            for o in sc.onsets
-        ]
         plan, why = fused_plan(
             job["plants"][model],
             job["bank"],
             job["t"],
             job["u"],
-            fault_lists=lists,
+            fault_lists=job["cell_faults"],
             noise=job["noise"],
             controller=job["controller"],
             d=job["d"],
@@ -584,6 +579,12 @@ class Campaign:
             "design_faults": list(getattr(self.bank, "faults", [])),
             "persistence": self.persistence,
             "fused": PlanCache(),
+            "cell_faults": [
+                list(sc.faults(float(z), float(o)))
+                for sc in self.scenarios
+                for z in sc.sizes
+                for o in sc.onsets
+            ],
         }
 
     # ------------------------------------------------------------------- running
