@@ -154,7 +154,15 @@ def fused_block(
             want[list(truths[r][1])] = True
             right_lut[r] = np.all(table.suspects == want[:, None], axis=0)
     first, dec, right = isolate_codes(
-        plan, arrays["codes"], table.isolated, rule, structure.shape[1], kon, kpost1, truth, right_lut
+        plan,
+        arrays["codes"],
+        table.isolated,
+        rule,
+        structure.shape[1],
+        kon,
+        kpost1,
+        truth,
+        right_lut,
     )
     has = first >= 0
     ok = right >= 0

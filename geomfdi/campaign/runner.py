@@ -151,14 +151,11 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
             # compiled isolation does not take; then the statistic is judged below)
             from geomfdi.campaign.fused_scoring import fused_block
 
-            done = fused_block(
-                job, plan, fault_lists, seeds, block.onset, block.size, block.runs
-            )
+            done = fused_block(job, plan, fault_lists, seeds, block.onset, block.size, block.runs)
             if done is not None:
                 return done
         if plan is not None:
             from geomfdi.simulation.fused import fused_runs
-
             from geomfdi.simulation.workspace import thread_workspace
 
             # the statistic in this thread's work array, reused block after block (the

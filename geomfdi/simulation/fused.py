@@ -83,6 +83,8 @@ def evaluation_struct(arrays: dict[str, Any]) -> _Evaluation:
         v = arrays[name]
         setattr(ev, name, int(v) if name in ("kal0", "kend") else v.ctypes.data)
     return ev
+
+
 #: Samples per window of a fused pass (the noise of a window is taken at once).
 WINDOW = 2**16
 #: Runs per SIMD group of the kernel at most (AVX-512: 16): parts of a block split
@@ -268,7 +270,7 @@ def fused_plan(
     if not isinstance(eng, OpenLoopEngine):
         return None, "faults inside the closed loop"
     p = ctx.plant
-    n, m, nd = p.n, p.m, p.nd
+    n, nd = p.n, p.nd
     es = ctx.u_ext
     e = (np.vstack([es, ctx.d]) if nd else es)[:, None, :]
     ne = e.shape[0]
@@ -281,40 +283,45 @@ def fused_plan(
     uu = _affine(eng.Cu, X, eng.Du, e)[:, 0]
     X2 = X[:, 0]
     # ---- the bank's drive channels, in the columns' order of W_all (OpenLoopEngine.advance)
-    shared: list[tuple[np.ndarray, int]] = []  # (rows (k, N), shift)
-    own: list[tuple[int, int, int]] = []  # (kind, sensor, shared row)
-    if ctx.discrete:
-        own += [(0, i, 0) for i in range(q)]
-        shared.append((uu, 0))
+    # per column: a shared signal row (array row, shift) or a run's own channel (kind,
+    # sensor, shared row); the runs' own channels in the kernel, the shared as one product
+    cols: list[tuple[Any, ...]] = []
+
+    def shared(a: np.ndarray, sh: int = 0) -> None:
+        cols.extend(("s", a[r], sh) for r in range(a.shape[0]))
+
+    if ctx.discrete:  # w[k+1] = F w[k] - E y[k] + G u[k]
+        cols += [("o", 0, i, 0) for i in range(q)]
+        shared(uu)
     else:
         if not eng.decoupled:
-            shared.append((X2, 0))
-        shared.append((e[:, 0], 0))
+            shared(X2)
+        shared(e[:, 0])
         if foh:
-            shared.append((e[:, 0], 1))
-        own += [(1, i, 0) for i in eng.sens]
+            shared(e[:, 0], 1)
+        cols += [("o", 1, i, 0) for i in eng.sens]
         if foh:
-            own += [(2, i, 0) for i in eng.sens]
+            cols += [("o", 2, i, 0) for i in eng.sens]
         for i in eng.chan:
-            own += [(3, i, r) for r in range(n)] + [(3, i, n + r) for r in range(ne)]
+            cols += [("o", 3, i, r) for r in range(n)] + [("o", 3, i, n + r) for r in range(ne)]
             if foh:
-                own += [(4, i, n + r) for r in range(ne)]
+                cols += [("o", 4, i, n + r) for r in range(ne)]
     W_all = np.asarray(eng.W_all, dtype=float)
-    ncs = sum(a.shape[0] for a, _ in shared)
-    if W_all.shape[1] != ncs + len(own):
+    if W_all.shape[1] != len(cols):
         return None, "an unexpected layout of the bank's drive channels"
     blocks, outs, dmats = eng.Fd, eng.outs, eng.dmats
     dsig = [uu, X2] if eng.decoupled else [uu]  # the shared direct signals, after y
     lay = _layout(blocks, W_all, outs, dmats, q + sum(a.shape[0] for a in dsig))
     fs = None
-    if shared and N > 1:
-        rows = np.concatenate([a[:, sh : sh + N - 1] for a, sh in shared])
-        fs = np.ascontiguousarray(W_all[:, :ncs] @ rows)
-    keep = [c for c in range(len(own)) if lay.wcols[ncs + c]]
-    Wp = np.ascontiguousarray(W_all[:, [ncs + c for c in keep]])
-    kind = np.array([own[c][0] for c in keep] + [0], dtype=np.int64)
-    sens = np.array([own[c][1] for c in keep] + [0], dtype=np.int64)
-    srow = np.array([own[c][2] for c in keep] + [0], dtype=np.int64)
+    sc = [c for c, col in enumerate(cols) if col[0] == "s"]
+    if sc and N > 1:
+        rows = np.array([cols[c][1][cols[c][2] : cols[c][2] + N - 1] for c in sc])
+        fs = np.ascontiguousarray(W_all[:, sc] @ rows)
+    keep = [c for c, col in enumerate(cols) if col[0] == "o" and lay.wcols[c]]
+    Wp = np.ascontiguousarray(W_all[:, keep])
+    kind = np.array([cols[c][1] for c in keep] + [0], dtype=np.int64)
+    sens = np.array([cols[c][2] for c in keep] + [0], dtype=np.int64)
+    srow = np.array([cols[c][3] for c in keep] + [0], dtype=np.int64)
     Dall = lay.Dall
     ys = None
     if Dall.shape[1] > q and lay.dcols[q:].any():
@@ -414,7 +421,7 @@ def _segments(plan: FusedPlan, fault_lists: Sequence[Sequence[Any]]) -> tuple[np
     """The piecewise-constant profiles of the runs, per (sensor, run): pointers into the
     first samples, ``eta`` and ``lam`` of the segments (:func:`_profile_segments`, kept
     per distinct fault list)."""
-    q, R = plan.q, len(fault_lists)
+    q = plan.q
     cache = plan.segments
     runs = []
     for fl in fault_lists:

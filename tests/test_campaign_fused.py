@@ -1,0 +1,257 @@
+"""The fused pass of a campaign block (geomfdi.simulation.fused, geomfdi.campaign.fused_scoring)
+against what it replaces: the vectorised simulation (gf.simulate_batch), the test's
+statistic, and the numpy scores and isolation (evaluate_runs, isolate_runs)."""
+
+from __future__ import annotations
+
+import types
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import geomfdi as gf
+from geomfdi.campaign import runner
+from geomfdi.campaign.runner import evaluate_runs, isolate_runs
+from geomfdi.evaluation.decision import MULTIPLE, isolate
+from geomfdi.evaluation.persistence import _decide_patterns, every_pattern
+from geomfdi.io.cli import design_all
+from geomfdi.io.modelfile import load_model
+from geomfdi.simulation import fused
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+pytestmark = pytest.mark.usefixtures("c_cache")
+
+
+@pytest.fixture(scope="module")
+def hwc():
+    spec = load_model(EXAMPLES / "hou_wen_chen.toml")
+    return spec, design_all(spec)["exact"]
+
+
+class _Two:
+    """Biases on sensors 0 and 2 at once (a run of several faults: MULTIPLE truth)."""
+
+    def __call__(self, size: float, onset: float) -> list:
+        return [gf.BiasFault(0, start=onset, bias=size), gf.BiasFault(2, start=onset, bias=size)]
+
+
+def _campaign(spec, bank, *, samples=1500, window=25, **kw):
+    noise = kw.pop("noise", gf.Noise(measurement=[0.01, 0.02, 0.005], seed=7))
+    t = spec.t[:samples]
+    models = gf.residual_noise_models(spec.plant, bank, noise, step=0.002, controller=spec.K)
+    args = dict(
+        scenarios=[
+            gf.Scenario.sensor("bias", 1, sizes=[0.0, 0.01, 0.03], onsets=[1.5, 2.0]),
+            gf.Scenario.sensor("gain", 2, sizes=[0.05], onsets=[1.5]),
+            gf.Scenario.of_kind("stuck", 0, sizes=[0.0, 0.2], onsets=[1.8]),
+            gf.Scenario("two", _Two(), sizes=[0.03], onsets=[1.5]),
+        ],
+        noise=noise,
+        t=t,
+        runs=4,
+        test=gf.ChiSquareTest.design(models, window, 1e-3),
+        u=spec.u,
+        controller=spec.K,
+        x0=spec.x0,
+        detection_window=0.8,
+        eval_start=0.4,
+        block_size=10,
+        persistence=gf.Persistence(2, 3),
+    )
+    args.update(kw)
+    return gf.Campaign(spec.plant, bank, **args)
+
+
+def _reference(c, monkeypatch):
+    """The table without the fused pass (gf.simulate_batch and the numpy scoring)."""
+    with monkeypatch.context() as m:
+        m.setattr(runner, "_fused_plan", lambda job, model: None)
+        return c.run("serial", progress=False).table
+
+
+def _same_tables(a: pd.DataFrame, b: pd.DataFrame) -> None:
+    """Decisions and detections identical, numbers to rounding (1e-12 relative)."""
+    floats = [k for k in a.columns if a[k].dtype.kind == "f"]
+    pd.testing.assert_frame_equal(a.drop(columns=floats), b.drop(columns=floats))
+    for k in floats:
+        np.testing.assert_allclose(a[k], b[k], rtol=1e-12, atol=0, err_msg=k)
+
+
+@pytest.mark.parametrize(
+    "hold, rule",
+    [
+        ("foh", gf.Persistence(2, 3)),
+        ("zoh", gf.Persistence(3, 5, reset=20)),
+        ("foh", gf.Persistence(2, 4, latch=False)),
+        ("foh", None),
+        ("foh", gf.Persistence(1, 1, latch=True)),
+    ],
+)
+def test_fused_campaign_equals_the_vectorised_simulation(hwc, monkeypatch, hold, rule):
+    spec, bank = hwc
+    c = _campaign(spec, bank, hold=hold, persistence=rule)
+    job = c._job()
+    assert runner._fused_plan(job, 0) is not None, job["fused"][("why", 0)]
+    table = c.run("serial", progress=False).table
+    _same_tables(table, _reference(c, monkeypatch))
+    bank_rows = table[table["residual"] == "bank"]
+    # the sweep is not trivial: some runs detect, isolate right, wrong and not at all
+    assert bank_rows["detected"].any() and not bank_rows["detected"].all()
+    if rule is not None:
+        assert {"correct", "none"} <= set(bank_rows["isolation"].astype(str))
+
+
+def test_fused_statistic_and_residuals_equal_simulate_batch(hwc, monkeypatch):
+    spec, bank = hwc
+    t = spec.t[:900]
+    noise = gf.Noise(measurement=0.01, seed=3)
+    lists = [
+        [gf.BiasFault(1, start=0.5, bias=0.02)],
+        [
+            gf.GainFault(2, start=0.7, gain=1.3, bias=0.01, end=1.2),
+            gf.BiasFault(2, start=0.9, bias=-0.02),
+        ],
+        [],
+        [gf.StuckFault(0, start=0.3, value=0.1)],
+        [gf.GainFault(0, start=0.2, gain=0.5)],
+    ]
+    seeds = list(np.random.SeedSequence(5).spawn(len(lists)))
+    for hold in ("foh", "zoh"):
+        ref = gf.simulate_batch(
+            spec.plant, bank, t, spec.u, faults=lists, noise=noise, seeds=seeds,
+            controller=spec.K, x0=spec.x0, hold=hold, progress=False,
+        ).residuals  # fmt: skip
+        for window in (0, 20):
+            plan, why = fused.fused_plan(
+                spec.plant, bank, t, spec.u, fault_lists=lists, noise=noise,
+                controller=spec.K, x0=spec.x0, hold=hold, window=window,
+            )  # fmt: skip
+            assert plan is not None, why
+            got = fused.fused_runs(plan, lists, seeds)
+            want = ref if not window else gf.ChiSquareTest(window, np.ones(3)).statistic(ref)
+            np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-14 * np.abs(want).max())
+            # windows of the record carry every state: the same numbers, bit for bit
+            monkeypatch.setattr(fused, "WINDOW", 37)
+            np.testing.assert_array_equal(fused.fused_runs(plan, lists, seeds), got)
+            monkeypatch.undo()
+
+
+@pytest.mark.filterwarnings("ignore::geomfdi.simulation.initial_state.InitialStateWarning")
+def test_fused_vector_residual_discrete_plant_and_no_measurement_noise():
+    # a discrete plant, one generator of two outputs (its row: the norm of both)
+    p = gf.Plant([[0.9, 0.1], [0.0, 0.8]], [[1.0], [0.5]], [[1.0, 0.0], [0.0, 1.0]], dt=0.01)
+    g = gf.ResidualGenerator(
+        np.array([[0.5]]), np.array([[1.0, -1.0]]), np.array([[0.2]]),
+        np.array([[1.0], [2.0]]), np.array([[0.3, 0.1], [0.0, 1.0]]), np.array([[0.1], [0.0]]),
+        dt=0.01,
+    )  # fmt: skip
+    t = np.arange(400) * 0.01
+    u = np.sin(t)[None]
+    lists = [[gf.BiasFault(0, start=1.0, bias=0.3)], [gf.GainFault(1, start=2.0, gain=2.0)]]
+    for noise in (gf.Noise(measurement=[0.1, 0.2], seed=1), gf.Noise(seed=1)):
+        seeds = list(np.random.SeedSequence(2).spawn(2))
+        ref = gf.simulate_batch(
+            p, g, t, u, faults=lists, noise=noise, seeds=seeds, progress=False
+        ).residuals
+        plan, why = fused.fused_plan(p, g, t, u, fault_lists=lists, noise=noise)
+        assert plan is not None, why
+        got = fused.fused_runs(plan, lists, seeds)
+        assert np.all(got >= 0.0) and np.any(got != 0.0)  # norms
+        np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-14 * np.abs(ref).max())
+
+
+def test_what_the_fused_pass_does_not_take_falls_back(hwc):
+    spec, bank = hwc
+    t = spec.t[:200]
+    common = dict(controller=spec.K, x0=spec.x0)
+    plan, why = fused.fused_plan(
+        spec.plant, bank, t, spec.u, fault_lists=[[]],
+        noise=gf.Noise(measurement=0.01, process=0.01, seed=1), **common,
+    )  # fmt: skip
+    assert plan is None and "process noise" in why
+    held = [[gf.StuckFault(1, start=0.1)]]  # holds its reading: not a pair of numbers
+    plan, why = fused.fused_plan(
+        spec.plant, bank, t, spec.u, fault_lists=held, noise=gf.Noise(0.01, seed=1), **common
+    )
+    assert plan is None and "not a pair of numbers" in why
+    fine = gf.Noise(measurement=0.01, seed=1)
+    plan, _ = fused.fused_plan(spec.plant, bank, t, spec.u, fault_lists=[[]], noise=fine, **common)
+    assert plan is not None
+
+
+def test_a_diverging_run_is_cut_as_before(hwc, monkeypatch):
+    # thresholds so small that every statistic is over a million times its threshold:
+    # the block is judged by numpy (cut_divergent), the table as without the fused pass
+    spec, bank = hwc
+    c = _campaign(spec, bank, samples=800, test=gf.ChiSquareTest(25, np.full(3, 1e-15)))
+    table = c.run("serial", progress=False).table
+    assert table["diverged"].all()
+    _same_tables(table, _reference(c, monkeypatch))
+
+
+def test_fused_campaign_is_the_same_in_processes_and_replays_with_simulate(hwc):
+    spec, bank = hwc
+    c = _campaign(spec, bank, block_size=7)
+    res = c.run("serial", progress=False)
+    pd.testing.assert_frame_equal(res.table, c.run("processes", workers=2, progress=False).table)
+    g = c.grid()
+    root = np.random.SeedSequence(c.noise.seed)
+    tb = res.table.set_index(["run", "residual"])
+    for r in (5, 13, 30):
+        sc = c.scenarios[g["scenario"][r]]
+        seed = np.random.SeedSequence(root.entropy, spawn_key=(int(g["repetition"][r]),))
+        one = gf.simulate(
+            spec.plant, bank, c.t, c.u, faults=sc.faults(float(g["size"][r]), g["onset"][r]),
+            noise=gf.Noise(measurement=c.noise.measurement, seed=seed), controller=spec.K,
+            x0=spec.x0,
+        )  # fmt: skip
+        stat = c.test.statistic(one.residuals[None])
+        ev = evaluate_runs(c.t, stat, c.test.thresholds, g["onset"][r : r + 1], c.window,
+                           c.eval_start)  # fmt: skip
+        rows = tb.loc[r]
+        np.testing.assert_allclose(rows["score_post"], ev["score_post"][0], rtol=1e-9)
+        np.testing.assert_array_equal(rows["delay"].isna(), np.isnan(ev["delay"][0]))
+        np.testing.assert_allclose(rows["delay"].fillna(-1), np.nan_to_num(ev["delay"][0], nan=-1))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_compiled_isolation_equals_isolate_runs(seed):
+    rng = np.random.default_rng(seed)
+    R, n, N = 40, 3, 300
+    S = np.array([[1, 0, 1], [1, 1, 0], [0, 1, 1]], dtype=bool)
+    t = np.arange(N) * 0.01
+    thr = np.array([1.0, 1.0, np.inf if seed == 3 else 1.0])
+    # alarms in bursts, some runs quiet, some with two faults (MULTIPLE truths)
+    stat = rng.random((R, n, N)) * (rng.random((R, 1, 1)) * 1.6)
+    stat[: R // 4] *= 0.5
+    onsets = rng.choice([0.8, 1.5], R)
+    truth = rng.choice([-2, -1, 0, 1, 2, MULTIPLE], R)
+    sets = [frozenset({0, 2}) if tr == MULTIPLE else frozenset({tr}) for tr in truth]
+    rule = [gf.Persistence(2, 3), gf.Persistence(3, 5, reset=7), gf.Persistence(2, 3, latch=False),
+            None][seed]  # fmt: skip
+    W, e0 = 1.0, 0.3
+    ref = isolate_runs(t, stat, thr, S, rule, truth, sets, onsets, W, e0)
+    # the codes the kernel writes: the alarm pattern of each sample after eval_start
+    al = (stat > thr[:, None]) & (t >= e0 - 1e-9 * t.max())
+    codes = (al * (1 << np.arange(n))[None, :, None]).sum(axis=1).astype(np.uint8)
+    kon = np.searchsorted(t, onsets - 1e-9 * t.max())
+    kpost1 = np.searchsorted(t, onsets + W - 1e-9 * t.max())
+    pats = every_pattern(n)
+    table = isolate(pats, S) if rule is None or rule.trivial else _decide_patterns(pats, S)
+    rl = np.zeros((R, pats.shape[1]), dtype=np.uint8)
+    for r in np.flatnonzero(truth == MULTIPLE):
+        want = np.zeros(3, dtype=bool)
+        want[list(sets[r])] = True
+        rl[r] = np.all(table.suspects == want[:, None], axis=0)
+    lib = types.SimpleNamespace(lib=fused._library())
+    first, dec, right = fused.isolate_codes(
+        lib, codes, table.isolated, rule, 3, kon, kpost1, truth, rl
+    )
+    np.testing.assert_array_equal(np.where(first >= 0, dec, -1), ref["decision"])
+    outcome = np.where(first < 0, 2, np.where((right == first) & (truth != -1), 0, 1))
+    np.testing.assert_array_equal(outcome, ref["outcome"])
+    delay = np.where(right >= 0, t[np.maximum(right, 0)] - onsets, np.nan)
+    np.testing.assert_array_equal(delay, ref["iso_delay"])
+    assert len(set(ref["outcome"].tolist())) > 1
