@@ -27,6 +27,7 @@ from geomfdi.simulation.context import (
 )
 from geomfdi.simulation.noise import Noise, run_seeds
 from geomfdi.simulation.open_loop import OpenLoopEngine
+from geomfdi.simulation.result_memory import mapped
 from geomfdi.simulation.results import (
     BatchResult,
 )
@@ -159,13 +160,14 @@ def simulate_batch(
     check_allocation(N, runs, stored, argument="runs", what="simulate_batch")
     thr = as_threshold(threshold, nres, view.present)
     keep_r = store in ("residuals", "all")
-    R_res = np.zeros((runs, nres, N)) if keep_r else None
-    R_al = np.zeros((runs, nres, N), dtype=bool) if keep_r else None
-    R_iso = np.full((runs, N), NO_ALARM, dtype=int) if keep_r else None
-    R_x = np.zeros((runs, plant.n, N)) if store == "all" else None
-    R_y = np.zeros((runs, q, N)) if store == "all" else None
-    R_yh = np.zeros((runs, q, N)) if store == "all" else None
-    R_u = np.zeros((runs, plant.m, N)) if store == "all" else None
+    # the records in populated mappings (geomfdi.simulation.result_memory.mapped)
+    R_res = mapped((runs, nres, N)) if keep_r else None
+    R_al = mapped((runs, nres, N), bool) if keep_r else None
+    R_iso = mapped((runs, N), int, fill=NO_ALARM) if keep_r else None
+    R_x = mapped((runs, plant.n, N)) if store == "all" else None
+    R_y = mapped((runs, q, N)) if store == "all" else None
+    R_yh = mapped((runs, q, N)) if store == "all" else None
+    R_u = mapped((runs, plant.m, N)) if store == "all" else None
     cache: dict[Any, Any] = {}  # the column of each fault channel (not per run)
     columns = [structure_columns(sc.faults, view.design_faults, plant, cache) for sc in schedules]
     summary = RunSummary(ctx.t, [sc.faults for sc in schedules], columns, nres, window)
