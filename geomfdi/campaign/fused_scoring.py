@@ -62,12 +62,13 @@ def fused_block(
     fault_lists: list[list[Any]],
     seeds: list[Any],
     onsets: np.ndarray,
-    sizes: np.ndarray,
+    truths: list[tuple[int, frozenset[int]]] | None,
     run_ids: np.ndarray,
+    diverged_ratio: float,
 ) -> dict[str, np.ndarray] | None:
     """The table columns of a block's runs (``run_ids``; their fault lists, noise seeds,
-    onsets and fault sizes), or ``None`` (module docstring)."""
-    from geomfdi.campaign.runner import DIVERGED_RATIO, _truth
+    onsets and true structure columns), or ``None`` (module docstring).  A statistic
+    ``diverged_ratio`` times its threshold (or non-finite) marks a diverged run."""
     from geomfdi.evaluation.decision import MULTIPLE, isolate
     from geomfdi.evaluation.persistence import _decide_patterns, every_pattern
     from geomfdi.simulation.fused import evaluation_struct, fused_runs, isolate_codes
@@ -83,7 +84,7 @@ def fused_block(
     thr = np.ascontiguousarray(thr_all[rows])
     # cut_divergent's limits (DIVERGED_RATIO); the largest double stands for no limit, so
     # that a non-finite statistic is caught by the same comparison
-    lim = np.where(np.isfinite(thr), DIVERGED_RATIO * thr, np.finfo(float).max)
+    lim = np.where(np.isfinite(thr), diverged_ratio * thr, np.finfo(float).max)
     kpre0, kon, kpost1 = _windows(t, onsets, job["window"], job["eval_start"])
     tol = 1e-9 * max(1.0, float(np.abs(t).max()))
     kal0 = int(np.searchsorted(t, job["eval_start"] - tol, side="left"))
@@ -127,17 +128,9 @@ def fused_block(
     out = {"score_pre": score_pre, "score_post": score_post, "delay": delay}
     out["run"] = run_ids
     out["diverged"] = np.zeros(R, dtype=bool)
-    if structure is None:
+    if structure is None or truths is None:
         return out
     # ---- the first isolation decision (isolate_runs)
-    cache: dict[Any, Any] = {}
-    known: dict[tuple[int, float], Any] = {}  # the runs of one fault list share it
-    truths = []
-    for fl, z in zip(fault_lists, sizes, strict=True):
-        key = (id(fl), float(z))
-        if key not in known:
-            known[key] = _truth(fl, float(z), job["design_faults"], job["nominal"], cache)
-        truths.append(known[key])
     truth = np.array([tr for tr, _ in truths], dtype=np.int64)
     pats = every_pattern(n)
     table = (

@@ -151,7 +151,20 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
             # compiled isolation does not take; then the statistic is judged below)
             from geomfdi.campaign.fused_scoring import fused_block
 
-            done = fused_block(job, plan, fault_lists, seeds, block.onset, block.size, block.runs)
+            truths = None
+            if job["structure"] is not None:
+                cache: dict[Any, Any] = {}
+                known: dict[int, Any] = {}  # the runs of one cell share its list
+                truths = []
+                for fl, z in zip(fault_lists, block.size, strict=True):
+                    if id(fl) not in known:
+                        known[id(fl)] = _truth(
+                            fl, float(z), job["design_faults"], job["nominal"], cache
+                        )
+                    truths.append(known[id(fl)])
+            done = fused_block(
+                job, plan, fault_lists, seeds, block.onset, truths, block.runs, DIVERGED_RATIO
+            )
             if done is not None:
                 return done
         if plan is not None:
