@@ -450,6 +450,7 @@ def _segments(plan: FusedPlan, fault_lists: Sequence[Sequence[Any]]) -> tuple[np
     )
 
 
+@limit_blas_threads
 def fused_runs(
     plan: FusedPlan,
     fault_lists: Sequence[Sequence[Any]],
