@@ -12,8 +12,8 @@ the same numbers (the windows and the decision tables are computed here by their
 
 :func:`fused_block` returns ``None`` when it cannot judge the block this way: a run
 diverged (its statistic must be cut, :func:`~geomfdi.campaign.runner.cut_divergent`),
-more than 8 residuals, or a rule window over :data:`MAX_RULE_WINDOW` samples; the
-caller then evaluates the statistic with numpy.
+a threshold that is not positive, more than 8 residuals, or a rule window over
+:data:`MAX_RULE_WINDOW` samples; the caller then evaluates the statistic with numpy.
 """
 
 from __future__ import annotations
@@ -80,6 +80,8 @@ def fused_block(
         return None
     R = len(seeds)
     thr_all = np.asarray(test.thresholds, dtype=float)
+    if not np.all(thr_all > 0):  # (the kernel divides the windows' largest statistic)
+        return None
     rows = plan.rdst[: plan.rbeg.size - 1]
     thr = np.ascontiguousarray(thr_all[rows])
     # cut_divergent's limits (DIVERGED_RATIO); the largest double stands for no limit, so

@@ -266,32 +266,37 @@ GFF_INLINE void gff_evaluate(const gff_eval *ev, const gfsim_lane *rw, int64_t n
         if (bad) ev->bad[r] = 1;
 #else
         if (!LANE(okl, j)) ev->bad[r] = 1;
-        for (t = 0; t < nt; ++t) {
-            const int64_t k = kt + t;
-            if (k < ev->kend) cd[k] = k >= ev->kal0 ? (uint8_t)LANE(cl[t], j) : 0;
-        }
+        lo = ev->kal0 > kt ? ev->kal0 - kt : 0;
+        hi = ev->kend - kt < nt ? ev->kend - kt : nt;
+        for (t = 0; t < lo && t < hi; ++t) cd[kt + t] = 0;
+        for (t = lo; t < hi; ++t) cd[kt + t] = (uint8_t)LANE(cl[t], j);
 #endif
-        /* the scores: the samples of the two windows in this tile */
+        /* the scores: the largest statistic of each window divided by the threshold
+           (a correctly rounded division by a positive number keeps the order, so this
+           is the largest z), the first z > 1 (only where S > thr can z exceed 1) */
         lo = a0 > kt ? a0 - kt : 0;
         hi = a1 - kt < nt ? a1 - kt : nt;
-        for (o = 0; o < nrow; ++o) {
+        for (o = 0; o < nrow && lo < hi; ++o) {
             const double th = ev->thr[o];
-            const int fin = isfinite(th);
-            for (t = lo; t < hi; ++t) {
-                const double z = fin ? LANE(rw[t * nrow + o], j) / th : 0.0;
-                if (z > spre[o]) spre[o] = z;
-            }
+            double m = LANE(rw[lo * nrow + o], j);
+            for (t = lo + 1; t < hi; ++t)
+                if (LANE(rw[t * nrow + o], j) > m) m = LANE(rw[t * nrow + o], j);
+            m = isfinite(th) ? m / th : 0.0;
+            if (m > spre[o]) spre[o] = m;
         }
         lo = a1 > kt ? a1 - kt : 0;
         hi = a2 - kt < nt ? a2 - kt : nt;
-        for (o = 0; o < nrow; ++o) {
+        for (o = 0; o < nrow && lo < hi; ++o) {
             const double th = ev->thr[o];
             const int fin = isfinite(th);
+            double m = LANE(rw[lo * nrow + o], j);
             for (t = lo; t < hi; ++t) {
-                const double z = fin ? LANE(rw[t * nrow + o], j) / th : 0.0;
-                if (z > spost[o]) spost[o] = z;
-                if (z > 1.0 && fh[o] < 0) fh[o] = kt + t;
+                const double sv = LANE(rw[t * nrow + o], j);
+                if (sv > m) m = sv;
+                if (fin && sv > th && fh[o] < 0 && sv / th > 1.0) fh[o] = kt + t;
             }
+            m = fin ? m / th : 0.0;
+            if (m > spost[o]) spost[o] = m;
         }
     }
 }
