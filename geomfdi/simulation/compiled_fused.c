@@ -317,7 +317,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
     const int64_t G = GFSIM_G, T = GFSIM_T;
     /* samples with a step from them: all but the record's last */
     const int64_t steps = s + L < N ? L : L - 1;
-    int64_t g0, i, j, k, k0, c, o, t, b, i0, aoff, coff, run[GFSIM_G], cur[64 * GFSIM_G];
+    int64_t g0, i, j, k, k0, c, o, t, b, i0, aoff, coff, ks, run[GFSIM_G], cur[64 * GFSIM_G];
     gfsim_lane *x, *xn, *y0n, *y, *eta, *lam, *d, *e, *yo, *rw, *csl, *rg;
     void *raw;
     size_t nl;
@@ -358,6 +358,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
         }
         for (i = 0; i < Q_; ++i)
             for (j = 0; j < G; ++j) cur[i * G + j] = segptr[i * R + run[j]];
+        ks = win > 0 ? s % win : 0; /* the ring's slot of sample k (k mod win) */
         for (k0 = 0; k0 < L; k0 += T) {
             const int64_t nt = L - k0 < T ? L - k0 : T; /* outputs of the tile */
             const int64_t ns = steps - k0 < nt ? steps - k0 : nt; /* steps from them */
@@ -454,7 +455,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                     }
                 }
                 if (win > 0) { /* the windowed sum of squares */
-                    const int64_t slot = (k % win) * NROW_;
+                    const int64_t slot = ks * NROW_;
                     for (o = 0; o < NROW_; ++o) {
                         gfsim_lane v, c1;
                         c1.v[0] = csl[o].v[0] + rt[o].v[0] * rt[o].v[0];
@@ -470,6 +471,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                         CLIP0(v);
                         COPY(rt[o], v);
                     }
+                    if (++ks == win) ks = 0;
                 }
                 if (t >= ns) break; /* the record's last sample: no step from it */
                 /* the drive samples of step k -> k+1 */
