@@ -523,8 +523,8 @@ def fused_runs(
             streams = noise_streams(ctx, rngs, pool, 1) if plan.Lv is not None else None
             for s in range(0, N, WINDOW):
                 e = min(s + WINDOW, N)
-                keep = []
-                for r, st in enumerate(streams or (), start=a1):
+                keep, ptrs = [], []
+                for st in streams or ():
                     # the window's readings and the one at the end of its last interval
                     z = st.take(s, min(e + 1, N))[0]
                     if plan.lv is None:
@@ -532,7 +532,10 @@ def fused_runs(
                     if z.strides[1] != 8:
                         z = np.ascontiguousarray(z)
                     keep.append(z)
-                    zp[r * q : (r + 1) * q] = z.ctypes.data + np.arange(q) * z.strides[0]
+                    z0, step = z.ctypes.data, z.strides[0]
+                    ptrs += [z0 + i * step for i in range(q)]
+                if ptrs:
+                    zp[a1 * q : b1 * q] = ptrs
                 args = list(base)
                 args[1], args[2], args[4], args[5] = a1, b1, s, e - s
                 args[-5] = None if out is None else out[:, :, s:].ctypes.data
