@@ -216,6 +216,21 @@ def test_fused_campaign_is_the_same_in_processes_and_replays_with_simulate(hwc):
         np.testing.assert_allclose(rows["delay"].fillna(-1), np.nan_to_num(ev["delay"][0], nan=-1))
 
 
+def test_fused_campaign_is_the_same_on_dask(hwc):
+    distributed = pytest.importorskip("distributed")
+    spec, bank = hwc
+    c = _campaign(spec, bank, samples=900, block_size=7)
+    ref = c.run("serial", progress=False)
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        dk = c.run(client, progress=False)
+    pd.testing.assert_frame_equal(ref.table, dk.table, check_exact=True)
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_compiled_isolation_equals_isolate_runs(seed):
     rng = np.random.default_rng(seed)
