@@ -139,7 +139,7 @@ def test_fused_statistic_and_residuals_equal_simulate_batch(hwc, monkeypatch):
 
 
 @pytest.mark.filterwarnings("ignore::geomfdi.simulation.initial_state.InitialStateWarning")
-def test_fused_vector_residual_discrete_plant_and_no_measurement_noise():
+def test_fused_vector_residual_discrete_plant_undecoupled_bank_no_measurement_noise():
     # a discrete plant, one generator of two outputs (its row: the norm of both)
     p = gf.Plant([[0.9, 0.1], [0.0, 0.8]], [[1.0], [0.5]], [[1.0, 0.0], [0.0, 1.0]], dt=0.01)
     g = gf.ResidualGenerator(
@@ -160,6 +160,22 @@ def test_fused_vector_residual_discrete_plant_and_no_measurement_noise():
         got = fused.fused_runs(plan, lists, seeds)
         assert np.all(got >= 0.0) and np.any(got != 0.0)  # norms
         np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-14 * np.abs(ref).max())
+    # a continuous generator sharing a pole with the plant (no change of state removes
+    # the plant's state from it): the plant's state drives it, a shared forcing
+    pc = gf.Plant([[-1.0, 0.5], [0.0, -2.0]], [[1.0], [0.5]], [[1.0, 0.0], [0.0, 1.0]])
+    gc = gf.ResidualGenerator(
+        np.array([[-1.0]]), np.array([[1.0, -1.0]]), np.array([[0.2]]),
+        np.array([[1.0]]), np.array([[0.3, 0.1]]), np.array([[0.1]]),
+    )  # fmt: skip
+    noise = gf.Noise(measurement=[0.1, 0.2], seed=1)
+    ref = gf.simulate_batch(
+        pc, gc, t, u, faults=lists, noise=noise, seeds=seeds, x0=[1.0, -1.0], progress=False
+    ).residuals
+    plan, why = fused.fused_plan(pc, gc, t, u, fault_lists=lists, noise=noise, x0=[1.0, -1.0])
+    assert plan is not None, why
+    assert not plan.ctx.info["plant_state_decoupled"]
+    got = fused.fused_runs(plan, lists, seeds)
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-14 * np.abs(ref).max())
 
 
 def test_what_the_fused_pass_does_not_take_falls_back(hwc):
@@ -214,6 +230,17 @@ def test_fused_campaign_is_the_same_in_processes_and_replays_with_simulate(hwc):
         np.testing.assert_allclose(rows["score_post"], ev["score_post"][0], rtol=1e-9)
         np.testing.assert_array_equal(rows["delay"].isna(), np.isnan(ev["delay"][0]))
         np.testing.assert_allclose(rows["delay"].fillna(-1), np.nan_to_num(ev["delay"][0], nan=-1))
+
+
+def test_fused_campaign_of_perturbed_models_equals_the_vectorised_simulation(hwc, monkeypatch):
+    # one plan per model (the bank's set-up on each perturbed plant)
+    spec, bank = hwc
+    c = _campaign(spec, bank, samples=900, uncertainty=gf.Uncertainty(0.05, samples=2, seed=3))
+    job = c._job()
+    plans = [runner._fused_plan(job, m) for m in range(2)]
+    assert all(p is not None for p in plans)
+    assert plans[0] is not plans[1] and not np.array_equal(plans[0].y0c, plans[1].y0c)
+    _same_tables(c.run("serial", progress=False).table, _reference(c, monkeypatch))
 
 
 def test_fused_campaign_is_the_same_on_dask(hwc):
