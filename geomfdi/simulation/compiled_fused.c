@@ -497,13 +497,20 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                     }
                     COPY(d[c], v);
                 }
-                gff_gemv(NS_, NZ_, W, d, fs, N - 1, k, xn);
+                /* x(k+1) row by row: fs + W d, then A x (its block's columns in order):
+                   the sums of compiled_recursion.c, in registers */
                 i0 = 0;
                 aoff = 0;
                 for (b = 0; b < NB_; ++b) {
                     const int64_t n = BS_(b);
-                    for (c = 0; c < n; ++c)
-                        for (i = 0; i < n; ++i) AXPY(xn[i0 + i], A[aoff + i * n + c], x[i0 + c]);
+                    for (i = 0; i < n; ++i) {
+                        const double *Wi = W + (i0 + i) * NZ_, *Ai = A + aoff + i * n;
+                        gfsim_lane acc;
+                        FILL(acc, fs ? fs[(i0 + i) * (N - 1) + k] : 0.0);
+                        for (c = 0; c < NZ_; ++c) AXPY(acc, Wi[c], d[c]);
+                        for (c = 0; c < n; ++c) AXPY(acc, Ai[c], x[i0 + c]);
+                        COPY(xn[i0 + i], acc);
+                    }
                     i0 += n;
                     aoff += n * n;
                 }
