@@ -25,10 +25,12 @@
  * A residual row j is the output rbeg[j] (one output) or the norm of the outputs
  * rbeg[j] .. rbeg[j+1]-1; with win > 0 the statistic written is the windowed sum of
  * squares, S(k) = c(k) - c(k - win) (c(k) for k < win) with c the running sum of
- * squares, clipped at 0: the sequential sums of numpy's cumsum, bit for bit.
- * Only the runs r0 .. r1-1 of the R runs are computed (the arrays indexed by the absolute
- * run: parts of a block run on different threads).  The states X (nS, R), the running sums cs (nrow, R) and the ring of the last win
- * running sums (win, nrow, R) are carried from one window to the next.
+ * squares, clipped at 0: the sequential sums of numpy's cumsum, bit for bit.  The rows
+ * are written to out (when not NULL) and judged by gff_evaluate (when ev is given).
+ * Only the runs r0 .. r1-1 of the R runs are computed (the arrays indexed by the
+ * absolute run: parts of a block run on different threads).  The states X (nS, R), the
+ * running sums cs (nrow, R) and the ring of the last win running sums (win, nrow, R)
+ * are carried from one window to the next.
  *
  * Runs go in groups of GFSIM_G lanes (two vectors of the compiler's vector extension),
  * samples in tiles of GFSIM_T; the missing lanes of the last group repeat its last run
@@ -152,40 +154,6 @@ static const int64_t gff_bs[] = {GFF_BSIZE 0}, gff_ost[] = {GFF_OSTART 0},
 #define RD_(i) rdst[i]
 #define GFF_INLINE static
 #endif
-
-/* out[i] = init[i, k] + sum_c M[i, c] v[c] (init NULL: 0), as gfsim_gemv */
-GFF_INLINE void gff_gemv(int64_t rows, int64_t cols, const double *M, const gfsim_lane *v,
-                     const double *init, int64_t ild, int64_t k, gfsim_lane *out)
-{
-    int64_t i, c;
-    for (i = 0; i + 4 <= rows; i += 4) {
-        const double *M0 = M + i * cols, *M1 = M0 + cols, *M2 = M1 + cols, *M3 = M2 + cols;
-        gfsim_lane a0, a1, a2, a3;
-        FILL(a0, init ? init[i * ild + k] : 0.0);
-        FILL(a1, init ? init[(i + 1) * ild + k] : 0.0);
-        FILL(a2, init ? init[(i + 2) * ild + k] : 0.0);
-        FILL(a3, init ? init[(i + 3) * ild + k] : 0.0);
-        for (c = 0; c < cols; ++c) {
-            gfsim_lane vc;
-            COPY(vc, v[c]);
-            AXPY(a0, M0[c], vc);
-            AXPY(a1, M1[c], vc);
-            AXPY(a2, M2[c], vc);
-            AXPY(a3, M3[c], vc);
-        }
-        COPY(out[i], a0);
-        COPY(out[i + 1], a1);
-        COPY(out[i + 2], a2);
-        COPY(out[i + 3], a3);
-    }
-    for (; i < rows; ++i) {
-        const double *Mi = M + i * cols;
-        gfsim_lane a;
-        FILL(a, init ? init[i * ild + k] : 0.0);
-        for (c = 0; c < cols; ++c) AXPY(a, Mi[c], v[c]);
-        COPY(out[i], a);
-    }
-}
 
 /* What the statistic of a block is judged by (geomfdi.campaign.fused_scoring), per run r
  * and kernel row o (residual rdst[o]):
@@ -318,7 +286,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
     /* samples with a step from them: all but the record's last */
     const int64_t steps = s + L < N ? L : L - 1;
     int64_t g0, i, j, k, k0, c, o, t, b, i0, aoff, coff, ks, run[GFSIM_G], cur[64 * GFSIM_G];
-    gfsim_lane *x, *xn, *y0n, *y, *eta, *lam, *d, *e, *yo, *rw, *csl, *rg;
+    gfsim_lane *x, *xn, *y0n, *y, *eta, *lam, *d, *yo, *rw, *csl, *rg;
     void *raw;
     size_t nl;
 #ifdef GFF_DIMS
@@ -338,8 +306,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
     eta = y + (T + 1) * Q_;
     lam = eta + (T + 1) * Q_;
     d = lam + (T + 1) * Q_;
-    e = d + NZ_;
-    yo = e + ND_;
+    yo = d + NZ_;
     rw = yo + P_; /* the tile's residual rows (or statistics), rw[t nrow + j] */
     csl = rw + T * NROW_;
     rg = csl + NROW_; /* ring[(k mod win) nrow + j] */
@@ -429,12 +396,14 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                 gfsim_lane *rt = rw + t * NROW_;
                 k = s + kr;
                 /* outputs of sample k: ys + D y, then C x */
-                for (c = 0; c < ND_; ++c) COPY(e[c], y[t * Q_ + ES_(c)]);
-                gff_gemv(P_, ND_, D, e, ys, N, k, yo);
                 coff = 0;
-                for (o = 0; o < P_; ++o) {
+                for (o = 0; o < P_; ++o) { /* (each output's sum in registers) */
                     const gfsim_lane *xs = x + OST_(o);
-                    for (i = 0; i < OLEN_(o); ++i) AXPY(yo[o], C[coff + i], xs[i]);
+                    gfsim_lane acc;
+                    FILL(acc, ys ? ys[o * N + k] : 0.0);
+                    for (c = 0; c < ND_; ++c) AXPY(acc, D[o * ND_ + c], y[t * Q_ + ES_(c)]);
+                    for (i = 0; i < OLEN_(o); ++i) AXPY(acc, C[coff + i], xs[i]);
+                    COPY(yo[o], acc);
                     coff += OLEN_(o);
                 }
                 /* residual rows: one output, or the norm of several */
