@@ -483,7 +483,11 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                     i0 += n;
                     aoff += n * n;
                 }
-                for (i = 0; i < NS_; ++i) COPY(x[i], xn[i]);
+                { /* the new state is the current one (the buffers swap) */
+                    gfsim_lane *sw = x;
+                    x = xn;
+                    xn = sw;
+                }
             }
             /* scatter the tile's rows (when wanted), evaluate them (when asked) */
             if (out)
