@@ -297,6 +297,15 @@ def main(argv: list[str]) -> dict[str, Any]:
         f"{nblocks} blocks of {args.block} runs, blocks per task: {per}"
     )
     print(f"machine: {os.cpu_count()} CPUs, BLAS threads in this process: {blas}")
+    from geomfdi.campaign.runner import _fused_plan
+
+    job0 = camp._job()
+    fused = _fused_plan(job0, 0) is not None
+    print(
+        "blocks: the fused compiled pass (geomfdi.simulation.fused)"
+        if fused
+        else f"blocks: gf.simulate_batch (no fused pass: {job0['fused'][('why', 0)]})"
+    )
     # every method is a function of the campaign: a small one (8 blocks of 5 runs, so
     # that every worker gets tasks) warms each executor up before anything is timed
     small = setup(40, 400, 5)[0]
