@@ -8,8 +8,9 @@
   bias fault, state feedback, the bank of 10 of ``bench_simulation.make_bank``) against
   a loop of ``gf.simulate`` calls with the same seeds, both keeping every record
   (residuals, alarms, decisions: about 1 GB for 100 runs of 10^5 samples, whose fresh
-  pages the operating system faults in and zeroes: system time that varies from call to
-  call with the memory's fragmentation); then what a Monte-Carlo study keeps, the events
+  pages the operating system maps and zeroes: system time that varies from call to call
+  with the memory's state, less since large records are populated mappings, see
+  ``geomfdi.simulation.result_memory.mapped``); then what a Monte-Carlo study keeps, the events
   and peaks of every run: ``simulate_batch(store="summary")`` against a loop that keeps
   each run's events and peaks only.
 
