@@ -228,6 +228,7 @@ class _Steps:
             self.sgn = None if signs is None else signs[:, None]
         self.where = _stage()
         self.rtol = get_rtol(AT.shape[0])  # of the Aᵀ steps; the splits' below
+        self.split_tol: dict[int, float] = {}
         self.pending: list[tuple[int, float, float, str]] = []
         self.work: dict[int, list[np.ndarray]] = {}
 
@@ -273,7 +274,9 @@ class _Steps:
         if info or not math.isfinite(sum(sv)):  # being finite by construction
             s, Vt = _svd_vt(MX)
             sv = s.tolist()
-        tol = get_rtol(max(MX.shape[0], k)) * 1.0  # rank_decision(s, 1.0, ...)'s threshold
+        tol = self.split_tol.get(k)
+        if tol is None:  # rank_decision(s, 1.0, max(dim W*, k))'s threshold
+            tol = self.split_tol[k] = get_rtol(max(MX.shape[0], k)) * 1.0
         r, gap = _decide(sv, tol, 1.0)
         pending.append((r, tol, gap, _SPLIT))
         Vb[:, nv] = X[:, k - 1]
@@ -305,9 +308,10 @@ class _Steps:
         ny += 1
         history.append(n - ny)
         B = Vb[:, :nv]
+        BT = B.T
         P = self.AT @ Y_new
-        P -= B @ (B.T @ P)
-        P -= B @ (B.T @ P)
+        P -= B @ (BT @ P)
+        P -= B @ (BT @ P)
         p = P.ravel()
         nP = math.sqrt(p.dot(p))
         nA = self.nA
