@@ -55,9 +55,10 @@ def _tri_solve_many(T: np.ndarray, pts: np.ndarray, X: np.ndarray) -> np.ndarray
     out = np.empty((P, n, c), dtype=complex)
     if P <= FEW_POINTS:  # a LAPACK triangular solve per point: no row loop to amortise
         idx = np.arange(n)
+        M = -np.asarray(T, dtype=complex)  # one work matrix: only its diagonal changes
+        d = M[idx, idx].copy()
         for p, sp in enumerate(pts):
-            M = -np.asarray(T, dtype=complex)
-            M[idx, idx] += sp
+            M[idx, idx] = d + sp
             out[p] = scipy.linalg.solve_triangular(M, X, check_finite=False)
         return out
     step = max(1, int(2_000_000 // max(n * c, 1)))
