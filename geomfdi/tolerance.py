@@ -46,7 +46,7 @@ import contextlib
 import contextvars
 import threading
 import warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -280,7 +280,7 @@ def _stage() -> str:
     return _STAGE.get()
 
 
-def _record(decisions: Iterable[RankDecision], warn: bool = True, stacklevel: int = 2) -> None:
+def _record(decisions: Sequence[RankDecision], warn: bool = True, stacklevel: int = 2) -> None:
     """Hand decisions to the active :func:`record_decisions` blocks, in order; without
     any, warn of each close one (:class:`CloseRankWarning`) when ``warn``."""
     recorders = _RECORDERS.get()
