@@ -1,0 +1,259 @@
+/* Counter-based standard normals of geomfdi's simulation noise (generator "counter").
+ *
+ * The normal of (key, stream, row, sample g) is a pure function of these numbers
+ * (geomfdi.simulation.counter_normal, which holds a numpy implementation of the same
+ * operations in the same order; docs/guide/simulation.md):
+ *
+ *   1. Philox4x32-10 (Salmon, Moraes, Dror & Shaw 2011) of the counter
+ *      (j mod 2^32, j >> 32, row, tag | stream), j = g >> 1 the sample pair, with the
+ *      run's key (k0, k1), gives four 32-bit words x0 .. x3;
+ *   2. two uniforms in (0, 1] with 53 bits: u = ((w >> 11) + 1) 2^-53 of the 64-bit
+ *      words w = x1 2^32 + x0 (radius) and x3 2^32 + x2 (angle);
+ *   3. Box & Muller (1958): z(2j) = rho cos(2 pi v), z(2j+1) = rho sin(2 pi v),
+ *      rho = sqrt(-2 log u), with the polynomial log, sin and cos below (a few ulp, no
+ *      branch, so that the loops run in SIMD instructions).
+ *
+ * Every floating-point operation is an IEEE-754 double operation written out in order
+ * (+, -, *, /, sqrt: correctly rounded); the library is built without contraction into
+ * fused multiply-adds (-ffp-contract=off), so every machine gives the same bits.
+ */
+#include <stdint.h>
+#include <string.h>
+
+#define GFN_T 64 /* sample pairs per tile */
+
+static const uint64_t M0 = 0xD2511F53u, M1 = 0xCD9E8D57u; /* Philox4x32 multipliers */
+static const uint32_t W0 = 0x9E3779B9u, W1 = 0xBB67AE85u; /* its key increments */
+
+/* log(1 + f) = f - (f^2/2 - s (f^2/2 + R)), s = f / (2 + f), with
+   R = 2 s^2/3 + 2 s^4/5 + ... (Taylor series of 2 atanh(s) / s - 2, nine terms, summed
+   by estrin9) */
+static const double LG[9] = {
+    2.0 / 3.0, 2.0 / 5.0, 2.0 / 7.0, 2.0 / 9.0, 2.0 / 11.0,
+    2.0 / 13.0, 2.0 / 15.0, 2.0 / 17.0, 2.0 / 19.0,
+};
+/* log 2 = LN2_HI + LN2_LO, LN2_HI with 32 trailing zero bits (k LN2_HI exact) */
+static const double LN2_HI = 0x1.62e42p-1;
+static const double LN2_LO = 0x1.fdf473de6af28p-22;
+/* sin(pi r / 2) = r (S[0] + r^2 (S[1] + ...)), cos(pi r / 2) = 1 + r^2 (C[0] + ...),
+   |r| <= 1/2: Taylor coefficients (-1)^k (pi/2)^(2k+1) / (2k+1)! and
+   (-1)^(k+1) (pi/2)^(2k+2) / (2k+2)!, rounded to double */
+static const double SN[9] = {
+    0x1.921fb54442d18p+0,  -0x1.4abbce625be53p-1, 0x1.466bc6775aae2p-4,
+    -0x1.32d2cce62bd86p-8, 0x1.50783487ee782p-13, -0x1.e3074fde8871fp-19,
+    0x1.e8f434d018d63p-25, -0x1.6fadb9f155744p-31, 0x1.aaec32af93359p-38,
+};
+static const double CS[9] = {
+    -0x1.3bd3cc9be45dep+0, 0x1.03c1f081b5ac4p-2,  -0x1.55d3c7e3cbffap-6,
+    0x1.e1f506891babbp-11, -0x1.a6d1f2a204a8cp-16, 0x1.f9d38a3763cc3p-22,
+    -0x1.b6e24f44b128fp-28, 0x1.20c62c2f2d7f5p-34, -0x1.2a0c591af8314p-41,
+};
+
+static inline double from_bits(uint64_t b) {
+    double d;
+    memcpy(&d, &b, sizeof d);
+    return d;
+}
+
+static inline uint64_t to_bits(double d) {
+    uint64_t b;
+    memcpy(&b, &d, sizeof b);
+    return b;
+}
+
+/* Philox4x32-10 of one counter (Salmon et al. 2011): ten rounds, the key bumped between. */
+static void philox_one(const uint32_t ctr[4], const uint32_t key[2], uint32_t out[4]) {
+    uint32_t x0 = ctr[0], x1 = ctr[1], x2 = ctr[2], x3 = ctr[3], ka = key[0], kb = key[1];
+    for (int r = 0; r < 10; r++) {
+        uint64_t p0 = M0 * x0, p1 = M1 * x2;
+        uint32_t y0 = (uint32_t)(p1 >> 32) ^ x1 ^ ka, y2 = (uint32_t)(p0 >> 32) ^ x3 ^ kb;
+        x1 = (uint32_t)p1;
+        x3 = (uint32_t)p0;
+        x0 = y0;
+        x2 = y2;
+        ka += W0;
+        kb += W1;
+    }
+    out[0] = x0;
+    out[1] = x1;
+    out[2] = x2;
+    out[3] = x3;
+}
+
+/* The words of Philox4x32-10 for pairs j0 .. j0 + n - 1: a = x1 2^32 + x0, b = x3 2^32 + x2.
+   The words live in the low halves of 64-bit lanes (the high halves are ignored: a
+   product reads the low halves only). */
+#if defined(__AVX2__)
+#include <immintrin.h>
+static void philox_tile(uint64_t j0, int n, uint32_t row, uint32_t c3, uint32_t k0, uint32_t k1,
+                        uint64_t *restrict a, uint64_t *restrict b) {
+    __m256i ka[10], kb[10];
+    uint32_t ua = k0, ub = k1;
+    for (int r = 0; r < 10; r++) {
+        ka[r] = _mm256_set1_epi64x((int64_t)ua);
+        kb[r] = _mm256_set1_epi64x((int64_t)ub);
+        ua += W0;
+        ub += W1;
+    }
+    const __m256i m0 = _mm256_set1_epi64x((int64_t)M0), m1 = _mm256_set1_epi64x((int64_t)M1);
+    const __m256i vrow = _mm256_set1_epi64x(row), vc3 = _mm256_set1_epi64x(c3);
+    int t = 0;
+    for (; t + 8 <= n; t += 8) { /* two groups of four pairs, interleaved */
+        int64_t j = (int64_t)(j0 + (uint64_t)t);
+        __m256i ja = _mm256_set_epi64x(j + 3, j + 2, j + 1, j);
+        __m256i jb = _mm256_set_epi64x(j + 7, j + 6, j + 5, j + 4);
+        __m256i x0 = ja, x1 = _mm256_srli_epi64(ja, 32), x2 = vrow, x3 = vc3;
+        __m256i z0 = jb, z1 = _mm256_srli_epi64(jb, 32), z2 = vrow, z3 = vc3;
+        for (int r = 0; r < 10; r++) {
+            __m256i p0 = _mm256_mul_epu32(x0, m0), q0 = _mm256_mul_epu32(z0, m0);
+            __m256i p1 = _mm256_mul_epu32(x2, m1), q1 = _mm256_mul_epu32(z2, m1);
+            x0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p1, 32), x1), ka[r]);
+            z0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(q1, 32), z1), ka[r]);
+            x2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p0, 32), x3), kb[r]);
+            z2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(q0, 32), z3), kb[r]);
+            x1 = p1;
+            x3 = p0;
+            z1 = q1;
+            z3 = q0;
+        }
+        /* low half from x0 (x2), high half from x1 (x3) */
+        _mm256_storeu_si256((__m256i *)(a + t),
+                            _mm256_blend_epi32(x0, _mm256_slli_epi64(x1, 32), 0xAA));
+        _mm256_storeu_si256((__m256i *)(b + t),
+                            _mm256_blend_epi32(x2, _mm256_slli_epi64(x3, 32), 0xAA));
+        _mm256_storeu_si256((__m256i *)(a + t + 4),
+                            _mm256_blend_epi32(z0, _mm256_slli_epi64(z1, 32), 0xAA));
+        _mm256_storeu_si256((__m256i *)(b + t + 4),
+                            _mm256_blend_epi32(z2, _mm256_slli_epi64(z3, 32), 0xAA));
+    }
+    for (; t < n; t++) {
+        uint32_t ctr[4] = {(uint32_t)(j0 + (uint64_t)t), (uint32_t)((j0 + (uint64_t)t) >> 32), row,
+                           c3};
+        uint32_t key[2] = {k0, k1}, x[4];
+        philox_one(ctr, key, x);
+        a[t] = ((uint64_t)x[1] << 32) | x[0];
+        b[t] = ((uint64_t)x[3] << 32) | x[2];
+    }
+}
+#else
+static void philox_tile(uint64_t j0, int n, uint32_t row, uint32_t c3, uint32_t k0, uint32_t k1,
+                        uint64_t *restrict a, uint64_t *restrict b) {
+    for (int t = 0; t < n; t++) {
+        uint32_t ctr[4] = {(uint32_t)(j0 + (uint64_t)t), (uint32_t)((j0 + (uint64_t)t) >> 32), row,
+                           c3};
+        uint32_t key[2] = {k0, k1}, x[4];
+        philox_one(ctr, key, x);
+        a[t] = ((uint64_t)x[1] << 32) | x[0];
+        b[t] = ((uint64_t)x[3] << 32) | x[2];
+    }
+}
+#endif
+
+/* c[0] + c[1] x + ... + c[8] x^8 by Estrin's scheme (pairs, then powers x^2, x^4, x^8:
+   a short chain of dependent operations) */
+static inline double estrin9(const double *c, double x) {
+    double x2 = x * x, x4 = x2 * x2, x8 = x4 * x4;
+    double p01 = c[0] + c[1] * x, p23 = c[2] + c[3] * x;
+    double p45 = c[4] + c[5] * x, p67 = c[6] + c[7] * x;
+    double p03 = p01 + x2 * p23, p47 = p45 + x2 * p67;
+    return (p03 + x4 * p47) + x8 * c[8];
+}
+
+/* (w >> 11) + 1 as a double, exact (< 2^53 + 1): high and low 32 bits through the
+   exponent of 2^52 (no 64-bit integer conversion instruction needed) */
+static inline double uniform53(uint64_t w) {
+    uint64_t n = (w >> 11) + 1;
+    double hi = from_bits(0x4330000000000000u | (n >> 32)) - 0x1p52;
+    double lo = from_bits(0x4330000000000000u | (n & 0xffffffffu)) - 0x1p52;
+    return (hi * 0x1p32 + lo) * 0x1p-53;
+}
+
+/* log(u), 0 < u <= 1 (a normal number) */
+static inline double log_unit(double u) {
+    uint64_t bits = to_bits(u);
+    int64_t mant = (int64_t)(bits & 0x000fffffffffffffu);
+    /* u = 2^k m, m in [sqrt(2)/2, sqrt(2)): exponent 0 or -1 from the mantissa bits */
+    int64_t big = mant > 0x6a09e667f3bcd; /* those of sqrt(2) */
+    double m = from_bits((uint64_t)mant | ((uint64_t)(0x3ff - big) << 52));
+    /* k = e + big, exact, through the exponent of 2^52 */
+    double k = (from_bits(0x4330000000000000u | ((bits >> 52) + (uint64_t)big)) - 0x1p52) - 1023.0;
+    double f = m - 1.0;
+    double s = f / (2.0 + f);
+    double z = s * s;
+    double R = estrin9(LG, z);
+    R = z * R;
+    double hfsq = 0.5 * f * f;
+    return k * LN2_HI - ((hfsq - (s * (hfsq + R) + k * LN2_LO)) - f);
+}
+
+/* Box-Muller of n pairs: zc = rho cos(2 pi v), zs = rho sin(2 pi v) (two loops: shorter
+   chains of dependent operations, more of them in flight) */
+static void box_muller_tile(int n, const uint64_t *restrict a, const uint64_t *restrict b,
+                            double *restrict zc, double *restrict zs) {
+    double rho[GFN_T];
+    for (int t = 0; t < n; t++) rho[t] = __builtin_sqrt(-2.0 * log_unit(uniform53(a[t])));
+    for (int t = 0; t < n; t++) {
+        /* 4 v = N 2^-51, N = (b >> 11) + 1 in [1, 2^53]: the nearest quarter turn
+           q = (N + 2^50) >> 51 (a half rounds up) and r = 4 v - q, both exact */
+        int64_t N = (int64_t)(b[t] >> 11) + 1;
+        int64_t q = (N + ((int64_t)1 << 50)) >> 51;
+        int64_t k = N - (q << 51); /* [-2^50, 2^50) */
+        double r = (from_bits(0x4338000000000000u + (uint64_t)k) - 0x1.8p52) * 0x1p-51;
+        double r2 = r * r;
+        double S = estrin9(SN, r2), C = estrin9(CS, r2);
+        S = r * S;
+        C = 1.0 + r2 * C;
+        /* the angle is q pi/2 + pi r/2: swap on odd q, signs from q's low bits */
+        uint64_t sb = to_bits(S), cb = to_bits(C), swap = (uint64_t)0 - (uint64_t)(q & 1);
+        uint64_t cosb = (sb & swap) | (cb & ~swap), sinb = (cb & swap) | (sb & ~swap);
+        zc[t] = rho[t] * from_bits(cosb ^ ((uint64_t)((q + 1) & 2) << 62));
+        zs[t] = rho[t] * from_bits(sinb ^ ((uint64_t)(q & 2) << 62));
+    }
+}
+
+/* out[r * rstride + i * istride + k] = z(key r, stream, row row0 + i, sample s + k),
+   r < R, i < rows, k < L; keys (R, 3): k0, k1, tag (the high 30 bits of the counter's
+   last word; its low 2 bits are the stream). */
+int gfn_fill(int64_t R, int64_t rows, int64_t row0, int64_t stream, int64_t s, int64_t L,
+             const uint32_t *keys, double *out, int64_t rstride, int64_t istride) {
+    uint64_t a[GFN_T], b[GFN_T];
+    double zc[GFN_T], zs[GFN_T];
+    if (L <= 0) return 0;
+    int64_t jfirst = s >> 1, jlast = (s + L - 1) >> 1;
+    for (int64_t r = 0; r < R; r++) {
+        uint32_t k0 = keys[3 * r], k1 = keys[3 * r + 1];
+        uint32_t c3 = (keys[3 * r + 2] << 2) | ((uint32_t)stream & 3u);
+        for (int64_t i = 0; i < rows; i++) {
+            double *o = out + r * rstride + i * istride - s; /* o[g]: sample g */
+            uint32_t row = (uint32_t)(row0 + i);
+            for (int64_t j0 = jfirst; j0 <= jlast; j0 += GFN_T) {
+                int n = (int)((jlast - j0 + 1) < GFN_T ? (jlast - j0 + 1) : GFN_T);
+                philox_tile((uint64_t)j0, n, row, c3, k0, k1, a, b);
+                box_muller_tile(n, a, b, zc, zs);
+                int t0 = 0, t1 = n;
+                if (j0 == jfirst && (s & 1)) { /* the first sample is odd */
+                    o[s] = zs[0];
+                    t0 = 1;
+                }
+                if (j0 + n - 1 == jlast && ((s + L) & 1)) { /* the last sample is even */
+                    if (t1 - 1 >= t0) {
+                        o[2 * jlast] = zc[n - 1];
+                        t1 = n - 1;
+                    }
+                }
+                double *p = o + 2 * j0;
+                for (int t = t0; t < t1; t++) {
+                    p[2 * t] = zc[t];
+                    p[2 * t + 1] = zs[t];
+                }
+            }
+        }
+    }
+    return 0;
+}
+
+/* The raw Philox4x32-10 words of n (counter, key) pairs (known-answer tests):
+   ctr (n, 4), key (n, 2), out (n, 4). */
+void gfn_philox(int64_t n, const uint32_t *ctr, const uint32_t *key, uint32_t *out) {
+    for (int64_t t = 0; t < n; t++) philox_one(ctr + 4 * t, key + 2 * t, out + 4 * t);
+}
