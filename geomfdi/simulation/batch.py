@@ -149,6 +149,7 @@ def simulate_batch(
     x0a = state_vector(x0, plant.n, "x0", runs)
     xc0a = state_vector(xc0, ctx.ctrl.nc, "xc0")
     seeds = run_seeds(noise, seeds, runs)
+    kp = noise.process_rows(plant) if noise is not None else 0
     view = ctx.view
     nres = len(view.generators)
     N = ctx.N
@@ -178,7 +179,7 @@ def simulate_batch(
     kept["threads"] = work_threads()  # the noise draws of a chunk's runs, in parallel
     for a in range(0, runs, Rc):
         b = min(a + Rc, runs)
-        rngs = [None if sd is None else np.random.default_rng(sd) for sd in seeds[a:b]]
+        rngs = [None if sd is None else noise.source(sd, kp) for sd in seeds[a:b]]
         x0c = to_balanced(ctx, x0a[a:b] if x0a.shape[0] > 1 else x0a)
         chunk = schedules[a:b]
         ds = DecisionStream(thr, view.structure, rule, work)
