@@ -168,30 +168,36 @@ static inline double uniform53(uint64_t w) {
     return (hi * 0x1p32 + lo) * 0x1p-53;
 }
 
-/* log(u), 0 < u <= 1 (a normal number) */
-static inline double log_unit(double u) {
-    uint64_t bits = to_bits(u);
-    int64_t mant = (int64_t)(bits & 0x000fffffffffffffu);
-    /* u = 2^k m, m in [sqrt(2)/2, sqrt(2)): exponent 0 or -1 from the mantissa bits */
-    int64_t big = mant > 0x6a09e667f3bcd; /* those of sqrt(2) */
-    double m = from_bits((uint64_t)mant | ((uint64_t)(0x3ff - big) << 52));
-    /* k = e + big, exact, through the exponent of 2^52 */
-    double k = (from_bits(0x4330000000000000u | ((bits >> 52) + (uint64_t)big)) - 0x1p52) - 1023.0;
-    double f = m - 1.0;
-    double s = f / (2.0 + f);
-    double z = s * s;
-    double R = estrin9(LG, z);
-    R = z * R;
-    double hfsq = 0.5 * f * f;
-    return k * LN2_HI - ((hfsq - (s * (hfsq + R) + k * LN2_LO)) - f);
+/* log(u) of u = ((w >> 11) + 1) 2^-53 for n words, in three loops of short chains of
+   dependent operations (more of them in flight): u = 2^k m, m in [sqrt(2)/2, sqrt(2)),
+   f = m - 1, s = f / (2 + f), log u = k log 2 + f - (f^2/2 - s (f^2/2 + R)) */
+static void log_tile(int n, const uint64_t *restrict w, double *restrict lg) {
+    double f[GFN_T], k[GFN_T], s[GFN_T];
+    for (int t = 0; t < n; t++) {
+        uint64_t bits = to_bits(uniform53(w[t]));
+        int64_t mant = (int64_t)(bits & 0x000fffffffffffffu);
+        int64_t big = mant > 0x6a09e667f3bcd; /* the mantissa bits of sqrt(2) */
+        double m = from_bits((uint64_t)mant | ((uint64_t)(0x3ff - big) << 52));
+        /* k = e + big, exact, through the exponent of 2^52 */
+        k[t] = (from_bits(0x4330000000000000u | ((bits >> 52) + (uint64_t)big)) - 0x1p52) - 1023.0;
+        f[t] = m - 1.0;
+    }
+    for (int t = 0; t < n; t++) s[t] = f[t] / (2.0 + f[t]);
+    for (int t = 0; t < n; t++) {
+        double z = s[t] * s[t];
+        double R = z * estrin9(LG, z);
+        double hfsq = 0.5 * f[t] * f[t];
+        lg[t] = k[t] * LN2_HI - ((hfsq - (s[t] * (hfsq + R) + k[t] * LN2_LO)) - f[t]);
+    }
 }
 
-/* Box-Muller of n pairs: zc = rho cos(2 pi v), zs = rho sin(2 pi v) (two loops: shorter
+/* Box-Muller of n pairs: z[2t] = rho cos(2 pi v), z[2t + 1] = rho sin(2 pi v) (loops of shorter
    chains of dependent operations, more of them in flight) */
 static void box_muller_tile(int n, const uint64_t *restrict a, const uint64_t *restrict b,
-                            double *restrict zc, double *restrict zs) {
+                            double *restrict z) {
     double rho[GFN_T];
-    for (int t = 0; t < n; t++) rho[t] = __builtin_sqrt(-2.0 * log_unit(uniform53(a[t])));
+    log_tile(n, a, rho);
+    for (int t = 0; t < n; t++) rho[t] = __builtin_sqrt(-2.0 * rho[t]);
     for (int t = 0; t < n; t++) {
         /* 4 v = N 2^-51, N = (b >> 11) + 1 in [1, 2^53]: the nearest quarter turn
            q = (N + 2^50) >> 51 (a half rounds up) and r = 4 v - q, both exact */
@@ -206,8 +212,8 @@ static void box_muller_tile(int n, const uint64_t *restrict a, const uint64_t *r
         /* the angle is q pi/2 + pi r/2: swap on odd q, signs from q's low bits */
         uint64_t sb = to_bits(S), cb = to_bits(C), swap = (uint64_t)0 - (uint64_t)(q & 1);
         uint64_t cosb = (sb & swap) | (cb & ~swap), sinb = (cb & swap) | (sb & ~swap);
-        zc[t] = rho[t] * from_bits(cosb ^ ((uint64_t)((q + 1) & 2) << 62));
-        zs[t] = rho[t] * from_bits(sinb ^ ((uint64_t)(q & 2) << 62));
+        z[2 * t] = rho[t] * from_bits(cosb ^ ((uint64_t)((q + 1) & 2) << 62));
+        z[2 * t + 1] = rho[t] * from_bits(sinb ^ ((uint64_t)(q & 2) << 62));
     }
 }
 
@@ -217,7 +223,7 @@ static void box_muller_tile(int n, const uint64_t *restrict a, const uint64_t *r
 int gfn_fill(int64_t R, int64_t rows, int64_t row0, int64_t stream, int64_t s, int64_t L,
              const uint32_t *keys, double *out, int64_t rstride, int64_t istride) {
     uint64_t a[GFN_T], b[GFN_T];
-    double zc[GFN_T], zs[GFN_T];
+    double z[2 * GFN_T];
     if (L <= 0) return 0;
     int64_t jfirst = s >> 1, jlast = (s + L - 1) >> 1;
     for (int64_t r = 0; r < R; r++) {
@@ -229,22 +235,14 @@ int gfn_fill(int64_t R, int64_t rows, int64_t row0, int64_t stream, int64_t s, i
             for (int64_t j0 = jfirst; j0 <= jlast; j0 += GFN_T) {
                 int n = (int)((jlast - j0 + 1) < GFN_T ? (jlast - j0 + 1) : GFN_T);
                 philox_tile((uint64_t)j0, n, row, c3, k0, k1, a, b);
-                box_muller_tile(n, a, b, zc, zs);
-                int t0 = 0, t1 = n;
-                if (j0 == jfirst && (s & 1)) { /* the first sample is odd */
-                    o[s] = zs[0];
-                    t0 = 1;
-                }
-                if (j0 + n - 1 == jlast && ((s + L) & 1)) { /* the last sample is even */
-                    if (t1 - 1 >= t0) {
-                        o[2 * jlast] = zc[n - 1];
-                        t1 = n - 1;
-                    }
-                }
-                double *p = o + 2 * j0;
-                for (int t = t0; t < t1; t++) {
-                    p[2 * t] = zc[t];
-                    p[2 * t + 1] = zs[t];
+                /* samples 2 j0 .. 2 (j0 + n) - 1, of which s .. s + L - 1 are wanted */
+                int64_t g0 = 2 * j0 > s ? 2 * j0 : s;
+                int64_t g1 = 2 * (j0 + n) < s + L ? 2 * (j0 + n) : s + L;
+                if (g0 == 2 * j0 && g1 == 2 * (j0 + n)) {
+                    box_muller_tile(n, a, b, o + 2 * j0); /* straight into the output */
+                } else {
+                    box_muller_tile(n, a, b, z);
+                    for (int64_t g = g0; g < g1; g++) o[g] = z[g - 2 * j0];
                 }
             }
         }
