@@ -13,10 +13,11 @@ a sample index is a pure function of these four numbers,
    ``v`` of ``x3 2^32 + x2``;
 4. Box & Muller (1958): sample ``2j`` is ``sqrt(-2 log u) cos(2 pi v)``, sample
    ``2j + 1`` is ``sqrt(-2 log u) sin(2 pi v)``, with the polynomial ``log``, ``sin``
-   and ``cos`` of :data:`LOG_COEFS`, :data:`SIN_COEFS` and :data:`COS_COEFS` (Taylor
-   coefficients summed by Estrin's scheme; ``log`` after the reduction ``u = 2^k m``,
-   ``m`` in ``[sqrt(2)/2, sqrt(2))``; ``sin`` and ``cos`` after taking the nearest
-   quarter turn from ``4 v`` itself, exactly).
+   and ``cos`` of :data:`LOG_COEFS`, :data:`SIN_COEFS` and :data:`COS_COEFS`
+   (polynomials of degree 6 interpolating at Chebyshev nodes, summed by Estrin's
+   scheme; ``log`` after the reduction ``u = 2^k m``, ``m`` in ``[sqrt(2)/2, sqrt(2))``;
+   ``sin`` and ``cos`` after taking the nearest quarter turn from ``4 v`` itself,
+   exactly).
 
 :func:`fill_normals` runs the compiled kernel ``counter_normal.c`` (built like the batch
 recursion, :mod:`geomfdi._cbuild`, without fused multiply-adds) and falls back to
@@ -59,27 +60,37 @@ _W0, _W1 = np.uint64(0x9E3779B9), np.uint64(0xBB67AE85)  # key increments (Weyl)
 _LO32 = np.uint64(0xFFFFFFFF)
 _ROUNDS = 10
 
-#: ``R = z (2/3 + z (2/5 + ... + z 2/19))``, ``z = s^2``: ``log(1 + f) = 2 atanh(s)``.
-LOG_COEFS = tuple(2.0 / (2 * i + 3) for i in range(9))
+#: ``P`` of ``R = z P(z)``, ``z = s^2``: ``P(z) ~ (2 atanh(s) / s - 2) / z``, degree 6,
+#: interpolating at the Chebyshev nodes of ``0 <= z <= (3 - 2 sqrt(2))^2`` (40 digits,
+#: rounded to double; relative error of ``log`` below 5e-18 before rounding).
+LOG_COEFS = tuple(
+    float.fromhex(h)
+    for h in (
+        "0x1.5555555555558p-1", "0x1.99999999952e2p-2", "0x1.2492492df148dp-2",
+        "0x1.c71c62e5800a1p-3", "0x1.7462b4ab2ef6bp-3", "0x1.39fe606542ddep-3",
+        "0x1.2b584aae78a57p-3",
+    )
+)  # fmt: skip
 _LN2_HI = float.fromhex("0x1.62e42p-1")  # log 2 with 32 trailing zero bits
 _LN2_LO = float.fromhex("0x1.fdf473de6af28p-22")  # log 2 - _LN2_HI
 _SQRT2_MANT = 0x6A09E667F3BCD  # mantissa bits of sqrt(2)
-#: ``sin(pi r/2) / r`` in powers of ``r^2``: ``(-1)^k (pi/2)^(2k+1) / (2k+1)!``.
+#: ``sin(pi r/2) / r`` as a polynomial of degree 6 in ``r^2``, interpolating at the
+#: Chebyshev nodes of ``0 <= r^2 <= 1/4`` (40 digits, rounded to double).
 SIN_COEFS = tuple(
     float.fromhex(h)
     for h in (
-        "0x1.921fb54442d18p+0", "-0x1.4abbce625be53p-1", "0x1.466bc6775aae2p-4",
-        "-0x1.32d2cce62bd86p-8", "0x1.50783487ee782p-13", "-0x1.e3074fde8871fp-19",
-        "0x1.e8f434d018d63p-25", "-0x1.6fadb9f155744p-31", "0x1.aaec32af93359p-38",
+        "0x1.921fb54442d18p+0", "-0x1.4abbce625be41p-1", "0x1.466bc677587f8p-4",
+        "-0x1.32d2cce2e5b19p-8", "0x1.50782fda12d96p-13", "-0x1.e30071afc3e59p-19",
+        "0x1.e3f38399551bfp-25",
     )
 )  # fmt: skip
-#: ``(cos(pi r/2) - 1) / r^2`` in powers of ``r^2``: ``(-1)^(k+1) (pi/2)^(2k+2) / (2k+2)!``.
+#: ``(cos(pi r/2) - 1) / r^2`` as a polynomial of degree 6 in ``r^2`` (the same nodes).
 COS_COEFS = tuple(
     float.fromhex(h)
     for h in (
-        "-0x1.3bd3cc9be45dep+0", "0x1.03c1f081b5ac4p-2", "-0x1.55d3c7e3cbffap-6",
-        "0x1.e1f506891babbp-11", "-0x1.a6d1f2a204a8cp-16", "0x1.f9d38a3763cc3p-22",
-        "-0x1.b6e24f44b128fp-28", "0x1.20c62c2f2d7f5p-34", "-0x1.2a0c591af8314p-41",
+        "-0x1.3bd3cc9be45dep+0", "0x1.03c1f081b5ac0p-2", "-0x1.55d3c7e3cb241p-6",
+        "0x1.e1f5068688d5bp-11", "-0x1.a6d1eef479be1p-16", "0x1.f9ce245cada0bp-22",
+        "-0x1.b2f3eb054afcdp-28",
     )
 )  # fmt: skip
 
@@ -142,15 +153,13 @@ def _philox(x: list[Any], ka: Any, kb: Any) -> list[np.ndarray]:
     return [x0, x1, x2, x3]
 
 
-def _estrin9(c: tuple[float, ...], x: np.ndarray) -> np.ndarray:
-    """``c[0] + c[1] x + ... + c[8] x^8`` by Estrin's scheme, in the C kernel's order."""
+def _estrin7(c: tuple[float, ...], x: np.ndarray) -> np.ndarray:
+    """``c[0] + c[1] x + ... + c[6] x^6`` by Estrin's scheme, in the C kernel's order."""
     x2 = x * x
     x4 = x2 * x2
-    x8 = x4 * x4
-    p01, p23 = c[0] + c[1] * x, c[2] + c[3] * x
-    p45, p67 = c[4] + c[5] * x, c[6] + c[7] * x
-    p03, p47 = p01 + x2 * p23, p45 + x2 * p67
-    return (p03 + x4 * p47) + x8 * c[8]
+    p01, p23, p45 = c[0] + c[1] * x, c[2] + c[3] * x, c[4] + c[5] * x
+    p03, p46 = p01 + x2 * p23, p45 + x2 * c[6]
+    return p03 + x4 * p46
 
 
 def _uniform(w: np.ndarray) -> np.ndarray:
@@ -174,7 +183,7 @@ def log_unit(u: np.ndarray) -> np.ndarray:
     f = m - 1.0
     s = f / (2.0 + f)
     z = s * s
-    R = z * _estrin9(LOG_COEFS, z)
+    R = z * _estrin7(LOG_COEFS, z)
     hfsq = 0.5 * f * f
     return k * _LN2_HI - ((hfsq - (s * (hfsq + R) + k * _LN2_LO)) - f)
 
@@ -194,8 +203,8 @@ def quarter_sincos(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     big = (k.view(np.uint64) + np.uint64(0x4338000000000000)).view(np.float64)
     r = (big - 6755399441055744.0) * 2.0**-51  # 2^52 + 2^51
     r2 = r * r
-    S = r * _estrin9(SIN_COEFS, r2)
-    C = 1.0 + r2 * _estrin9(COS_COEFS, r2)
+    S = r * _estrin7(SIN_COEFS, r2)
+    C = 1.0 + r2 * _estrin7(COS_COEFS, r2)
     odd = (q & 1).astype(bool)
     cosb = np.where(odd, S, C).view(np.uint64)
     sinb = np.where(odd, C, S).view(np.uint64)
