@@ -100,33 +100,32 @@ static void philox_tile(uint64_t j0, int n, uint32_t row, uint32_t c3, uint32_t 
     const __m256i m0 = _mm256_set1_epi64x((int64_t)M0), m1 = _mm256_set1_epi64x((int64_t)M1);
     const __m256i vrow = _mm256_set1_epi64x(row), vc3 = _mm256_set1_epi64x(c3);
     int t = 0;
-    for (; t + 8 <= n; t += 8) { /* two groups of four pairs, interleaved */
-        int64_t j = (int64_t)(j0 + (uint64_t)t);
-        __m256i ja = _mm256_set_epi64x(j + 3, j + 2, j + 1, j);
-        __m256i jb = _mm256_set_epi64x(j + 7, j + 6, j + 5, j + 4);
-        __m256i x0 = ja, x1 = _mm256_srli_epi64(ja, 32), x2 = vrow, x3 = vc3;
-        __m256i z0 = jb, z1 = _mm256_srli_epi64(jb, 32), z2 = vrow, z3 = vc3;
-        for (int r = 0; r < 10; r++) {
-            __m256i p0 = _mm256_mul_epu32(x0, m0), q0 = _mm256_mul_epu32(z0, m0);
-            __m256i p1 = _mm256_mul_epu32(x2, m1), q1 = _mm256_mul_epu32(z2, m1);
-            x0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p1, 32), x1), ka[r]);
-            z0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(q1, 32), z1), ka[r]);
-            x2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p0, 32), x3), kb[r]);
-            z2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(q0, 32), z3), kb[r]);
-            x1 = p1;
-            x3 = p0;
-            z1 = q1;
-            z3 = q0;
+    for (; t + 16 <= n; t += 16) { /* four groups of four pairs, interleaved */
+        __m256i x0[4], x1[4], x2[4], x3[4];
+        for (int g = 0; g < 4; g++) {
+            int64_t j = (int64_t)(j0 + (uint64_t)(t + 4 * g));
+            x0[g] = _mm256_set_epi64x(j + 3, j + 2, j + 1, j);
+            x1[g] = _mm256_srli_epi64(x0[g], 32);
+            x2[g] = vrow;
+            x3[g] = vc3;
         }
-        /* low half from x0 (x2), high half from x1 (x3) */
-        _mm256_storeu_si256((__m256i *)(a + t),
-                            _mm256_blend_epi32(x0, _mm256_slli_epi64(x1, 32), 0xAA));
-        _mm256_storeu_si256((__m256i *)(b + t),
-                            _mm256_blend_epi32(x2, _mm256_slli_epi64(x3, 32), 0xAA));
-        _mm256_storeu_si256((__m256i *)(a + t + 4),
-                            _mm256_blend_epi32(z0, _mm256_slli_epi64(z1, 32), 0xAA));
-        _mm256_storeu_si256((__m256i *)(b + t + 4),
-                            _mm256_blend_epi32(z2, _mm256_slli_epi64(z3, 32), 0xAA));
+        for (int r = 0; r < 10; r++) {
+            for (int g = 0; g < 4; g++) {
+                __m256i p0 = _mm256_mul_epu32(x0[g], m0), p1 = _mm256_mul_epu32(x2[g], m1);
+                /* hi(M1 x2) ^ x1 ^ k0 and hi(M0 x0) ^ x3 ^ k1 (the key's xor first: off
+                   the multiplication's path) */
+                x0[g] = _mm256_xor_si256(_mm256_srli_epi64(p1, 32), _mm256_xor_si256(x1[g], ka[r]));
+                x2[g] = _mm256_xor_si256(_mm256_srli_epi64(p0, 32), _mm256_xor_si256(x3[g], kb[r]));
+                x1[g] = p1;
+                x3[g] = p0;
+            }
+        }
+        for (int g = 0; g < 4; g++) { /* low half from x0 (x2), high half from x1 (x3) */
+            _mm256_storeu_si256((__m256i *)(a + t + 4 * g),
+                                _mm256_blend_epi32(x0[g], _mm256_slli_epi64(x1[g], 32), 0xAA));
+            _mm256_storeu_si256((__m256i *)(b + t + 4 * g),
+                                _mm256_blend_epi32(x2[g], _mm256_slli_epi64(x3[g], 32), 0xAA));
+        }
     }
     for (; t < n; t++) {
         uint32_t ctr[4] = {(uint32_t)(j0 + (uint64_t)t), (uint32_t)((j0 + (uint64_t)t) >> 32), row,
@@ -160,13 +159,12 @@ static inline double estrin7(const double *c, double x) {
     return p03 + x4 * p46;
 }
 
-/* (w >> 11) + 1 as a double, exact (< 2^53 + 1): high and low 32 bits through the
-   exponent of 2^52 (no 64-bit integer conversion instruction needed) */
+/* u = ((w >> 11) + 1) 2^-53, exact: 1 + (w >> 12) 2^-52 through the exponent of 1 (52
+   bits), minus 1 (exact), plus 2^-53 (1 + the 53rd bit) (exact: a multiple of 2^-53 below
+   1 + 2^-53) -- no 64-bit integer conversion instruction needed */
 static inline double uniform53(uint64_t w) {
-    uint64_t n = (w >> 11) + 1;
-    double hi = from_bits(0x4330000000000000u | (n >> 32)) - 0x1p52;
-    double lo = from_bits(0x4330000000000000u | (n & 0xffffffffu)) - 0x1p52;
-    return (hi * 0x1p32 + lo) * 0x1p-53;
+    double a = from_bits(0x3ff0000000000000u | (w >> 12)) - 1.0;
+    return a + from_bits(0x3ca0000000000000u + (((w >> 11) & 1u) << 52));
 }
 
 /* log(u) of u = ((w >> 11) + 1) 2^-53 for n words, in three loops of short chains of
@@ -180,7 +178,7 @@ static void log_tile(int n, const uint64_t *restrict w, double *restrict lg) {
         int64_t big = mant > 0x6a09e667f3bcd; /* the mantissa bits of sqrt(2) */
         double m = from_bits((uint64_t)mant | ((uint64_t)(0x3ff - big) << 52));
         /* k = e + big, exact, through the exponent of 2^52 */
-        k[t] = (from_bits(0x4330000000000000u | ((bits >> 52) + (uint64_t)big)) - 0x1p52) - 1023.0;
+        k[t] = from_bits(0x4330000000000000u | ((bits >> 52) + (uint64_t)big)) - 0x1.00000000003ffp52;
         f[t] = m - 1.0;
     }
     for (int t = 0; t < n; t++) s[t] = f[t] / (2.0 + f[t]);
@@ -199,16 +197,22 @@ static void box_muller_tile(int n, const uint64_t *restrict a, const uint64_t *r
     double rho[GFN_T];
     log_tile(n, a, rho);
     for (int t = 0; t < n; t++) rho[t] = __builtin_sqrt(-2.0 * rho[t]);
+    double r[GFN_T];
+    uint64_t qs[GFN_T];
     for (int t = 0; t < n; t++) {
         /* 4 v = N 2^-51, N = (b >> 11) + 1 in [1, 2^53]: the nearest quarter turn
            q = (N + 2^50) >> 51 (a half rounds up) and r = 4 v - q, both exact */
-        int64_t N = (int64_t)(b[t] >> 11) + 1;
-        int64_t q = (N + ((int64_t)1 << 50)) >> 51;
-        int64_t k = N - (q << 51); /* [-2^50, 2^50) */
-        double r = (from_bits(0x4338000000000000u + (uint64_t)k) - 0x1.8p52) * 0x1p-51;
-        double r2 = r * r;
+        uint64_t N = (b[t] >> 11) + 1;
+        uint64_t q = (N + ((uint64_t)1 << 50)) >> 51;
+        uint64_t k = N - (q << 51); /* in [-2^50, 2^50) modulo 2^64 */
+        r[t] = (from_bits(0x4338000000000000u + k) - 0x1.8p52) * 0x1p-51;
+        qs[t] = q;
+    }
+    for (int t = 0; t < n; t++) {
+        uint64_t q = qs[t];
+        double r2 = r[t] * r[t];
         double S = estrin7(SN, r2), C = estrin7(CS, r2);
-        S = r * S;
+        S = r[t] * S;
         C = 1.0 + r2 * C;
         /* the angle is q pi/2 + pi r/2: swap on odd q, signs from q's low bits */
         uint64_t sb = to_bits(S), cb = to_bits(C), swap = (uint64_t)0 - (uint64_t)(q & 1);
