@@ -167,46 +167,40 @@ static inline double uniform53(uint64_t w) {
     return a + from_bits(0x3ca0000000000000u + (((w >> 11) & 1u) << 52));
 }
 
-/* log(u) of u = ((w >> 11) + 1) 2^-53 for n words, in three loops of short chains of
-   dependent operations (more of them in flight): u = 2^k m, m in [sqrt(2)/2, sqrt(2)),
-   f = m - 1, s = f / (2 + f), log u = k log 2 + f - (f^2/2 - s (f^2/2 + R)) */
-static void log_tile(int n, const uint64_t *restrict w, double *restrict lg) {
-    double f[GFN_T], k[GFN_T], s[GFN_T];
+/* Box & Muller (1958) for n pairs: z[2t] = rho cos(2 pi v), z[2t + 1] = rho sin(2 pi v),
+   rho = sqrt(-2 log u), in three loops of short chains of dependent operations (more of
+   them in flight):
+   1. u = 2^k m, m in [sqrt(2)/2, sqrt(2)), f = m - 1, s = f / (2 + f); the quarter turn
+      q and the rest r of 4 v;
+   2. log u = k log 2 + f - (f^2/2 - s (f^2/2 + R)), R = z LG(z), z = s^2;
+   3. sin and cos of pi r / 2, turned by q, times rho. */
+static void box_muller_tile(int n, const uint64_t *restrict a, const uint64_t *restrict b,
+                            double *restrict z) {
+    double f[GFN_T], k[GFN_T], s[GFN_T], lg[GFN_T], r[GFN_T];
+    uint64_t qs[GFN_T];
     for (int t = 0; t < n; t++) {
-        uint64_t bits = to_bits(uniform53(w[t]));
+        uint64_t bits = to_bits(uniform53(a[t]));
         int64_t mant = (int64_t)(bits & 0x000fffffffffffffu);
         int64_t big = mant > 0x6a09e667f3bcd; /* the mantissa bits of sqrt(2) */
         double m = from_bits((uint64_t)mant | ((uint64_t)(0x3ff - big) << 52));
         /* k = e + big, exact, through the exponent of 2^52 */
-        k[t] = from_bits(0x4330000000000000u | ((bits >> 52) + (uint64_t)big)) - 0x1.00000000003ffp52;
+        k[t] = from_bits(0x4330000000000000u | ((bits >> 52) + (uint64_t)big)) -
+               0x1.00000000003ffp52;
         f[t] = m - 1.0;
-    }
-    for (int t = 0; t < n; t++) s[t] = f[t] / (2.0 + f[t]);
-    for (int t = 0; t < n; t++) {
-        double z = s[t] * s[t];
-        double R = z * estrin7(LG, z);
-        double hfsq = 0.5 * f[t] * f[t];
-        lg[t] = k[t] * LN2_HI - ((hfsq - (s[t] * (hfsq + R) + k[t] * LN2_LO)) - f[t]);
-    }
-}
-
-/* Box-Muller of n pairs: z[2t] = rho cos(2 pi v), z[2t + 1] = rho sin(2 pi v) (loops of shorter
-   chains of dependent operations, more of them in flight) */
-static void box_muller_tile(int n, const uint64_t *restrict a, const uint64_t *restrict b,
-                            double *restrict z) {
-    double rho[GFN_T];
-    log_tile(n, a, rho);
-    for (int t = 0; t < n; t++) rho[t] = __builtin_sqrt(-2.0 * rho[t]);
-    double r[GFN_T];
-    uint64_t qs[GFN_T];
-    for (int t = 0; t < n; t++) {
+        s[t] = f[t] / (2.0 + f[t]);
         /* 4 v = N 2^-51, N = (b >> 11) + 1 in [1, 2^53]: the nearest quarter turn
            q = (N + 2^50) >> 51 (a half rounds up) and r = 4 v - q, both exact */
         uint64_t N = (b[t] >> 11) + 1;
         uint64_t q = (N + ((uint64_t)1 << 50)) >> 51;
-        uint64_t k = N - (q << 51); /* in [-2^50, 2^50) modulo 2^64 */
-        r[t] = (from_bits(0x4338000000000000u + k) - 0x1.8p52) * 0x1p-51;
+        uint64_t kq = N - (q << 51); /* in [-2^50, 2^50) modulo 2^64 */
+        r[t] = (from_bits(0x4338000000000000u + kq) - 0x1.8p52) * 0x1p-51;
         qs[t] = q;
+    }
+    for (int t = 0; t < n; t++) {
+        double zz = s[t] * s[t];
+        double R = zz * estrin7(LG, zz);
+        double hfsq = 0.5 * f[t] * f[t];
+        lg[t] = k[t] * LN2_HI - ((hfsq - (s[t] * (hfsq + R) + k[t] * LN2_LO)) - f[t]);
     }
     for (int t = 0; t < n; t++) {
         uint64_t q = qs[t];
@@ -217,8 +211,9 @@ static void box_muller_tile(int n, const uint64_t *restrict a, const uint64_t *r
         /* the angle is q pi/2 + pi r/2: swap on odd q, signs from q's low bits */
         uint64_t sb = to_bits(S), cb = to_bits(C), swap = (uint64_t)0 - (uint64_t)(q & 1);
         uint64_t cosb = (sb & swap) | (cb & ~swap), sinb = (cb & swap) | (sb & ~swap);
-        z[2 * t] = rho[t] * from_bits(cosb ^ ((uint64_t)((q + 1) & 2) << 62));
-        z[2 * t + 1] = rho[t] * from_bits(sinb ^ ((uint64_t)(q & 2) << 62));
+        double rho = __builtin_sqrt(-2.0 * lg[t]); /* the divider beside the polynomials */
+        z[2 * t] = rho * from_bits(cosb ^ ((uint64_t)((q + 1) & 2) << 62));
+        z[2 * t + 1] = rho * from_bits(sinb ^ ((uint64_t)(q & 2) << 62));
     }
 }
 
