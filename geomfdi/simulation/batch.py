@@ -87,8 +87,10 @@ def simulate_batch(
     faults : sequence of fault signals, or a sequence of such sequences
         One list shared by all runs, or one list per run (e.g. a sweep of fault sizes).
     noise : Noise, optional
-        Run ``i`` draws its noise from ``numpy.random.default_rng(seeds[i])``; by default
-        the seeds are ``SeedSequence(noise.seed).spawn(runs)``, so run ``i`` equals
+        Run ``i`` draws its noise from ``seeds[i]`` (``numpy.random.default_rng``, or
+        the counter generator of ``Noise(generator="counter")``, whose normals are the
+        same bits as ``simulate``'s for that seed); by default the seeds are
+        ``SeedSequence(noise.seed).spawn(runs)``, so run ``i`` equals
         ``simulate(..., noise=Noise(..., seed=seeds[i]))`` up to rounding (the bank of
         a batch runs in the compiled recursion of
         :mod:`geomfdi.simulation.compiled_recursion`; see the user guide,

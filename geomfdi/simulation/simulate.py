@@ -79,7 +79,9 @@ The plant's own noise inputs (``Plant(..., Bw=, Dw=)``) are given as a signal ``
 (simulated like ``d``) or drawn at random with ``Noise(inputs=...)`` (like the process
 noise, with ``Dw`` also in the readings).
 The standard-normal draws are made in blocks of 65 536 samples
-(:class:`~geomfdi.simulation.noise.NoiseStream`), so a sample's noise depends only on
+(:class:`~geomfdi.simulation.noise.NoiseStream`), or by the counter generator
+(``Noise(generator="counter")``, :mod:`geomfdi.simulation.counter_normal`: each normal a
+pure function of the seed, stream, row and sample), so a sample's noise depends only on
 the seed and its index.
 
 *Time chunks.*  The time axis is processed in chunks sized from the memory budget
