@@ -4,6 +4,7 @@ the reused memory of the returned arrays."""
 from __future__ import annotations
 
 import gc
+import mmap
 import shutil
 
 import numpy as np
@@ -304,7 +305,7 @@ def _address(a):
 
 
 def test_result_memory_is_reused_only_when_dropped(monkeypatch):
-    monkeypatch.setattr(rm._LOCAL, "blocks", [])
+    monkeypatch.setattr(rm._LOCAL, "blocks", [], raising=False)
     a = rm.empty((40, 1000))
     assert a.shape == (40, 1000) and a.flags.c_contiguous and a.flags.writeable
     a[...] = 1.0
@@ -325,13 +326,40 @@ def test_result_memory_is_reused_only_when_dropped(monkeypatch):
 
 def test_result_memory_budget(monkeypatch):
     monkeypatch.setattr(rm, "_POOL_BYTES", 2**20)
-    monkeypatch.setattr(rm._LOCAL, "blocks", [])
+    monkeypatch.setattr(rm._LOCAL, "blocks", [], raising=False)
     keep = [rm.empty((2**16,)) for _ in range(3)]  # 1.5 MiB: the third one is plain
     assert keep[0].base is not None and keep[1].base is not None and keep[2].base is None
     del keep
     gc.collect()
     again = rm.empty((2**17,))  # the freed blocks are dropped to make room
     assert again.base is not None and len(rm._LOCAL.blocks) == 1
+
+
+def _mapping(a):
+    """The mmap object at the end of ``a``'s chain of bases (None: numpy's own memory)."""
+    while a is not None and not isinstance(a, mmap.mmap):
+        a = getattr(a, "base", None) if isinstance(a, np.ndarray) else getattr(a, "obj", None)
+    return a
+
+
+@pytest.mark.skipif(not hasattr(mmap, "MAP_POPULATE"), reason="no MAP_POPULATE here")
+def test_mapped_arrays_are_populated_mappings_with_numpy_semantics(monkeypatch):
+    big = rm.mapped((3, 50_000), int, fill=-7)  # 1.2 MB: a mapping
+    assert _mapping(big) is not None and big.shape == (3, 50_000) and big.dtype == int
+    assert big.flags.c_contiguous and big.flags.writeable and np.all(big == -7)
+    zeros = rm.mapped((2**20,), bool)
+    assert _mapping(zeros) is not None and not zeros.any()
+    small = rm.mapped((10, 10))
+    assert _mapping(small) is None and not small.any()  # plain numpy under 1 MiB
+    other = rm.mapped((3, 50_000), int)
+    assert not np.shares_memory(big, other) and not other.any()
+    # the pool's overflow and arrays of 4 MiB and more are mapped too
+    monkeypatch.setattr(rm, "_POOL_BYTES", 2**20)
+    monkeypatch.setattr(rm._LOCAL, "blocks", [], raising=False)
+    keep = [rm.empty((2**17,)) for _ in range(2)]  # 1 MiB each: the second overflows
+    assert _mapping(keep[1]) is not None
+    assert _mapping(rm.empty((2**19,))) is not None
+    gc.collect()
 
 
 def test_simulate_results_do_not_share_memory():

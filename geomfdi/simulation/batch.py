@@ -27,6 +27,7 @@ from geomfdi.simulation.context import (
 )
 from geomfdi.simulation.noise import Noise, run_seeds
 from geomfdi.simulation.open_loop import OpenLoopEngine
+from geomfdi.simulation.result_memory import mapped
 from geomfdi.simulation.results import (
     BatchResult,
 )
@@ -162,13 +163,14 @@ def simulate_batch(
     check_allocation(N, runs, stored, argument="runs", what="simulate_batch")
     thr = as_threshold(threshold, nres, view.present)
     keep_r = store in ("residuals", "all")
-    R_res = np.zeros((runs, nres, N)) if keep_r else None
-    R_al = np.zeros((runs, nres, N), dtype=bool) if keep_r else None
-    R_iso = np.full((runs, N), NO_ALARM, dtype=int) if keep_r else None
-    R_x = np.zeros((runs, plant.n, N)) if store == "all" else None
-    R_y = np.zeros((runs, q, N)) if store == "all" else None
-    R_yh = np.zeros((runs, q, N)) if store == "all" else None
-    R_u = np.zeros((runs, plant.m, N)) if store == "all" else None
+    # the records in populated mappings (geomfdi.simulation.result_memory.mapped)
+    R_res = mapped((runs, nres, N)) if keep_r else None
+    R_al = mapped((runs, nres, N), bool) if keep_r else None
+    R_iso = mapped((runs, N), int, fill=NO_ALARM) if keep_r else None
+    R_x = mapped((runs, plant.n, N)) if store == "all" else None
+    R_y = mapped((runs, q, N)) if store == "all" else None
+    R_yh = mapped((runs, q, N)) if store == "all" else None
+    R_u = mapped((runs, plant.m, N)) if store == "all" else None
     cache: dict[Any, Any] = {}  # the column of each fault channel (not per run)
     columns = [structure_columns(sc.faults, view.design_faults, plant, cache) for sc in schedules]
     summary = RunSummary(ctx.t, [sc.faults for sc in schedules], columns, nres, window)
@@ -189,11 +191,15 @@ def simulate_batch(
         for s, e, pc, res, written in pieces:
             if keep_r and not written:
                 R_res[a:b, :, s:e] = res
-            absr = np.abs(res, out=work.get("abs", res.shape))
-            peaks = np.max(absr, axis=-1)
-            if thr is None:  # no alarm, no decision: R_al and R_iso stay as they are
+            records = (R_al, R_iso, a, b, s, e)
+            if thr is not None and _decide_compiled(ds, res, records, work, summary):
+                pass  # decided and summarised in one compiled pass
+            elif thr is None:  # no alarm, no decision: R_al and R_iso stay as they are
+                peaks = np.max(np.abs(res, out=work.get("abs", res.shape)), axis=-1)
                 summary.update(s, res, None, None, a, peaks=peaks)
             else:
+                absr = np.abs(res, out=work.get("abs", res.shape))
+                peaks = np.max(absr, axis=-1)
                 dest = R_al[a:b, :, s:e] if keep_r else work.get("alarms", res.shape, bool)
                 al, isolated, suspects = ds.decide(res, absolute=absr, peaks=peaks, out=dest)
                 summary.update(s, res, al, isolated, a, suspects, peaks=peaks)
@@ -243,6 +249,31 @@ def simulate_batch(
         persistence=rule,
         false_alarm_events=fa_events,
     )
+
+
+def _decide_compiled(
+    ds: DecisionStream,
+    res: np.ndarray,
+    records: tuple[Any, ...],
+    work: Workspace,
+    summary: RunSummary,
+) -> bool:
+    """The decisions of a chunk straight into the records (when kept) and its summary,
+    by :meth:`DecisionStream.decide_compiled`; False when it declined (nothing done).
+    ``records``: the alarms and decisions kept (or None), the chunk's runs ``a .. b-1``
+    and samples ``s .. e-1``."""
+    R_al, R_iso, a, b, s, e = records
+    R, L = res.shape[0], res.shape[-1]
+    if R_al is not None and R_iso is not None:
+        al, iso = R_al[a:b, :, s:e], R_iso[a:b, s:e]
+    else:
+        al, iso = work.get("alarms", res.shape, bool), work.get("isolated", (R, L), np.int64)
+    any_alarm = work.get("any alarm", (R, L), bool)
+    peaks = ds.decide_compiled(res, al, iso, any_alarm)
+    if peaks is None:
+        return False
+    summary.update(s, res, al, iso, a, None, peaks=peaks, any_alarm=any_alarm)
+    return True
 
 
 def _pieces(

@@ -164,6 +164,7 @@ class DecisionStream:
         self._raw: np.ndarray | None = None  # last raw alarms (k-of-n confirmation)
         self._held: tuple[np.ndarray, ...] | None = None  # episode state
         self._dec: np.ndarray | None = None  # last per-sample decisions (settling)
+        self._table_i64: np.ndarray | None = None  # the table for the compiled pass
 
     def _alarms(
         self,
@@ -252,6 +253,29 @@ class DecisionStream:
         code = self.workspace.get("pattern code", (R, L), dt)
         bit = self.workspace.get("pattern bit", (R, L), dt)
         return al, self._table[pattern_codes(al, out=code, scratch=bit)], None
+
+
+    def decide_compiled(
+        self,
+        res: np.ndarray,
+        alarms: np.ndarray,
+        isolated: np.ndarray,
+        any_alarm: np.ndarray,
+    ) -> np.ndarray | None:
+        """:meth:`decide` on the table of alarm patterns in one compiled pass
+        (:func:`geomfdi.simulation.compiled_decisions.table_decisions`): writes the
+        alarms, the decisions (R, L) and whether any row alarms (R, L) into the given
+        arrays and returns the chunk's peaks ``max |res|`` (R, n_rows).  ``None`` (nothing
+        usable written) without the table (a persistence rule, a moving-RMS statistic,
+        more than :data:`_TABLE_ROWS` rows) or when the kernel declines."""
+        if self._table is None or self._res_look or self.threshold is None:
+            return None
+        from geomfdi.simulation.compiled_decisions import table_decisions
+
+        table = self._table_i64
+        if table is None:
+            table = self._table_i64 = np.ascontiguousarray(self._table, dtype=np.int64)
+        return table_decisions(res, self.threshold.values, table, alarms, isolated, any_alarm)
 
 
 #: Most residual rows whose per-sample isolation is a table of the alarm patterns.
@@ -359,12 +383,14 @@ class RunSummary:
         r0: int = 0,
         suspects: np.ndarray | None = None,
         peaks: np.ndarray | None = None,
+        any_alarm: np.ndarray | None = None,
     ) -> None:
         """Add the chunk of samples ``s .. s+L-1`` of the runs ``r0 .. r0+R-1``:
         residuals and alarms (R, n_rows, L), isolation decisions (R, L) and their
         suspects (R, n_faults, L), which give the hypothesis of a ``MULTIPLE``
         decision.  ``alarms=None``: no alarm and no decision (no threshold).
-        ``peaks``: ``max |res|`` over the chunk (R, n_rows), when the caller has it.
+        ``peaks``: ``max |res|`` over the chunk (R, n_rows), when the caller has it;
+        ``any_alarm``: ``alarms.any(axis=-2)`` (R, L), likewise.
 
         Vectorised over the runs and their faults (the samples of each run's healthy
         part and of each fault's span are masks of the chunk).
@@ -380,7 +406,7 @@ class RunSummary:
             self._prev[r0 : r0 + R] &= n_h == 0
             return
         idx = np.arange(L)
-        a = alarms.any(axis=-2)
+        a = alarms.any(axis=-2) if any_alarm is None else any_alarm
         h = a & (idx < n_h[:, None])
         self.fa_alarms[r0 : r0 + R] += np.count_nonzero(h, axis=-1)
         rise = np.count_nonzero(h[:, 1:] & ~h[:, :-1], axis=-1)
