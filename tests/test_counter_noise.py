@@ -101,8 +101,9 @@ def test_the_normals_are_the_documented_function_of_the_counter():
 
 # ------------------------------------------------------------- C = numpy
 @pytest.mark.parametrize(
-    ("s", "e"), [(0, 4000), (7, 1008), (1, 2), (2, 3), (5, 5), (0, 1), (3, 130)]
-)
+    ("s", "e"),
+    [(0, 4000), (7, 1008), (1, 2), (2, 3), (5, 5), (0, 1), (3, 130), (2**33 - 301, 2**33 + 77)],
+)  # the last: pairs j across 2^32 (the counter's second word)
 def test_compiled_and_numpy_normals_are_the_same_bits(compiled, s, e):
     keys = keys_of([0, 1, 2**40, np.random.SeedSequence(9).spawn(3)[2]])
     for stream in (0, 1, 2):

@@ -100,6 +100,47 @@ static void philox_tile(uint64_t j0, int n, uint32_t row, uint32_t c3, uint32_t 
     const __m256i m0 = _mm256_set1_epi64x((int64_t)M0), m1 = _mm256_set1_epi64x((int64_t)M1);
     const __m256i vrow = _mm256_set1_epi64x(row), vc3 = _mm256_set1_epi64x(c3);
     int t = 0;
+    /* in a tile whose pairs share j >> 32 (every tile of a record under 2^33 samples),
+       the first round's product M1 x2 = M1 row and the second round's M0 x0 do not
+       depend on the pair: computed once (the same words) */
+    const int same_hi = (j0 >> 32) == ((j0 + (uint64_t)n) >> 32);
+    const uint64_t p1c = M1 * (uint64_t)row;
+    const uint32_t x0c = (uint32_t)(p1c >> 32) ^ (uint32_t)(j0 >> 32) ^ k0;
+    const uint64_t p0c = M0 * (uint64_t)x0c;
+    const __m256i c2a = _mm256_set1_epi64x((int64_t)(c3 ^ k1));                     /* round 1 */
+    const __m256i c0b = _mm256_set1_epi64x((int64_t)((uint32_t)p1c ^ (k0 + W0)));     /* round 2 */
+    const __m256i c2b = _mm256_set1_epi64x((int64_t)((uint32_t)(p0c >> 32) ^ (k1 + W1)));
+    const __m256i lo2 = _mm256_set1_epi64x((int64_t)(uint32_t)p0c);
+    for (; same_hi && t + 16 <= n; t += 16) {
+        __m256i x0[4], x1[4], x2[4], x3[4];
+        for (int g = 0; g < 4; g++) {
+            int64_t j = (int64_t)(j0 + (uint64_t)(t + 4 * g));
+            __m256i p0 = _mm256_mul_epu32(_mm256_set_epi64x(j + 3, j + 2, j + 1, j), m0);
+            /* after round 1: (x0c, lo(M1 row), hi(p0) ^ c3 ^ k1, lo(p0)) */
+            __m256i y2 = _mm256_xor_si256(_mm256_srli_epi64(p0, 32), c2a);
+            /* round 2: x0 = hi(M1 y2) ^ lo(M1 row) ^ k0', x2 = hi(M0 x0c) ^ lo(p0) ^ k1' */
+            __m256i p1 = _mm256_mul_epu32(y2, m1);
+            x0[g] = _mm256_xor_si256(_mm256_srli_epi64(p1, 32), c0b);
+            x2[g] = _mm256_xor_si256(p0, c2b);
+            x1[g] = p1;
+            x3[g] = lo2;
+        }
+        for (int r = 2; r < 10; r++) {
+            for (int g = 0; g < 4; g++) {
+                __m256i p0 = _mm256_mul_epu32(x0[g], m0), p1 = _mm256_mul_epu32(x2[g], m1);
+                x0[g] = _mm256_xor_si256(_mm256_srli_epi64(p1, 32), _mm256_xor_si256(x1[g], ka[r]));
+                x2[g] = _mm256_xor_si256(_mm256_srli_epi64(p0, 32), _mm256_xor_si256(x3[g], kb[r]));
+                x1[g] = p1;
+                x3[g] = p0;
+            }
+        }
+        for (int g = 0; g < 4; g++) { /* low half from x0 (x2), high half from x1 (x3) */
+            _mm256_storeu_si256((__m256i *)(a + t + 4 * g),
+                                _mm256_blend_epi32(x0[g], _mm256_slli_epi64(x1[g], 32), 0xAA));
+            _mm256_storeu_si256((__m256i *)(b + t + 4 * g),
+                                _mm256_blend_epi32(x2[g], _mm256_slli_epi64(x3[g], 32), 0xAA));
+        }
+    }
     for (; t + 16 <= n; t += 16) { /* four groups of four pairs, interleaved */
         __m256i x0[4], x1[4], x2[4], x3[4];
         for (int g = 0; g < 4; g++) {
