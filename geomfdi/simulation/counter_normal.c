@@ -250,8 +250,7 @@ static void box_muller_tile(int n, const uint64_t *restrict a, const uint64_t *r
         S = r[t] * S;
         C = 1.0 + r2 * C;
         /* the angle is q pi/2 + pi r/2: swap on odd q, signs from q's low bits */
-        uint64_t sb = to_bits(S), cb = to_bits(C), swap = (uint64_t)0 - (uint64_t)(q & 1);
-        uint64_t cosb = (sb & swap) | (cb & ~swap), sinb = (cb & swap) | (sb & ~swap);
+        uint64_t cosb = to_bits((q & 1) ? S : C), sinb = to_bits((q & 1) ? C : S);
         double rho = __builtin_sqrt(-2.0 * lg[t]); /* the divider beside the polynomials */
         z[2 * t] = rho * from_bits(cosb ^ ((uint64_t)((q + 1) & 2) << 62));
         z[2 * t + 1] = rho * from_bits(sinb ^ ((uint64_t)(q & 2) << 62));
