@@ -221,6 +221,18 @@ def test_the_numpy_backend_draws_the_same_noise(compiled, monkeypatch):
     np.testing.assert_array_equal(normals(keys, 0, 3, 2000, rows=2), c)
 
 
+def test_without_a_compiler_the_numpy_path_warns_and_draws_the_same(
+    compiled, tmp_path, monkeypatch
+):
+    keys = keys_of([3])
+    c = normals(keys, 2, 0, 999, rows=2)
+    monkeypatch.setenv("GEOMFDI_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
+    with pytest.warns(gf.BackendFallbackWarning, match="numpy"):
+        z = normals(keys, 2, 0, 999, rows=2)
+    np.testing.assert_array_equal(z, c)
+
+
 def _ctx(noise):
     plant = gf.Plant(np.diag([0.5, 0.8, -0.3]), np.eye(3)[:, :1], np.eye(3), dt=0.1)
     bank = gf.design_sensor_bank(plant)

@@ -310,11 +310,16 @@ def _library() -> Any:
     return lib
 
 
-def compiled() -> bool:
-    """Whether :func:`fill_normals` runs the C kernel (backend ``"c"`` and it builds)."""
+def _kernel() -> Any:
+    """The compiled library's functions when the backend is ``"c"`` and it builds."""
     from geomfdi.simulation.compiled_recursion import sim_backend
 
-    return sim_backend() == "c" and _library() is not None
+    return _library() if sim_backend() == "c" else None
+
+
+def compiled() -> bool:
+    """Whether :func:`fill_normals` runs the C kernel (backend ``"c"`` and it builds)."""
+    return _kernel() is not None
 
 
 def compiled_philox(counter: np.ndarray, key: np.ndarray) -> np.ndarray:
@@ -364,16 +369,11 @@ def fill_normals(
         and out.strides[2] == 8
         and all(st % 8 == 0 for st in out.strides)
     )
-    if usable and compiled():
-        fn = _LIBS[_lib_key_now()][0]
+    lib = _kernel() if usable else None
+    if lib is not None:
+        fn = lib[0]
         R, I, L = out.shape
         rs, is_ = out.strides[0] // 8, out.strides[1] // 8
         fn(R, I, int(row0), int(stream), int(s), L, keys.ctypes.data, out.ctypes.data, rs, is_)
         return out
     return numpy_normals(keys, stream, row0, s, e, out)
-
-
-def _lib_key_now() -> tuple[str | None, ...]:
-    from geomfdi.simulation.compiled_recursion import _lib_key
-
-    return _lib_key()
