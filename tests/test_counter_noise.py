@@ -341,7 +341,6 @@ def test_unknown_generator_is_an_error():
 
 
 # ------------------------------------------------------------------ campaigns
-@pytest.mark.slow
 def test_campaign_with_the_counter_generator_is_the_same_for_any_grouping(c_cache):
     from geomfdi.io.cli import design_all
     from geomfdi.io.modelfile import load_model
