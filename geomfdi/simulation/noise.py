@@ -130,7 +130,10 @@ class Noise:
         return CounterSource(run_key(seed), int(process_rows))
 
     def process_rows(self, plant: Plant) -> int:
-        """Rows of the process noise ``Lw z`` in the process draws (0: none)."""
+        """Rows of the process noise ``Lw z`` in the process draws (0: none; ``-1`` for
+        the numpy generator, which does not need them)."""
+        if self.generator == "numpy":
+            return -1
         Lw = self.factors(plant)[2]
         return 0 if Lw is None else Lw.shape[1]
 
