@@ -298,7 +298,6 @@ def noise_window(
     if isinstance(streams[0], CounterStream):
         rows = [ctx.plant.q if v is not None else 0, ctx.Lw.shape[1] if w is not None else 0]
         diag = [_diagonal(ctx.Lv), _diagonal(ctx.Lw)]
-        Lf_of = {id(scale[0]): ctx.Lv, id(scale[1]): ctx.Lw}
         # the normals go into the window itself (diagonal scaling, in place) or a buffer
         zbuf = [
             None if dest is None else dest if d is not None else new(f"noise z{k}", (n, R, L))
@@ -308,13 +307,13 @@ def noise_window(
         def draw(part: slice) -> None:
             zp = [None if z is None else z[:, part] for z in zbuf]
             counter_normals(streams[part], s, e1, zp[0], zp[1])  # type: ignore[arg-type]
-            for dest, z, d, f in zip((v, w), zp, diag, scale, strict=True):
+            for dest, z, d, Lf in zip((v, w), zp, diag, (ctx.Lv, ctx.Lw), strict=True):
                 if dest is None:
                     continue
                 if d is not None:  # the product each row's scaling forms, in place
                     np.multiply(d, z, out=z)
                 else:
-                    _combine(Lf_of[id(f)], z, dest[:, part])
+                    _combine(np.asarray(Lf), z, dest[:, part])
     else:
 
         def draw(part: slice) -> None:
