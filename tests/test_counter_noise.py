@@ -385,3 +385,20 @@ def test_model_files_accept_the_generator(tmp_path):
     (tmp_path / "bad.toml").write_text(good.replace('"counter"', '"pcg"'))
     with pytest.raises(ModelFileError, match="generator"):
         load_model(tmp_path / "bad.toml")
+
+
+def test_nonlinear_simulation_draws_the_counter_normals_of_its_seed(compiled):
+    from geomfdi.data.three_tank import three_tank_operating_point, three_tank_system
+
+    sys = three_tank_system()
+    h, Q = three_tank_operating_point()
+    lin = gf.Plant.linearize(sys, h, [*Q, 0.0])
+    plant = gf.Plant(lin.A, lin.B[:, :2], lin.C, x_op=h, u_op=Q, y_op=h)
+    faults = [gf.ActuatorFault(plant.B[:, 0], name="pump 1"), gf.ActuatorFault(lin.B[:, 2])]
+    bank = gf.design_bank(plant, faults, [[0, 1], [1, 0]])
+    t = np.arange(0.0, 300.0, 1.0)
+    noise = gf.Noise(measurement=1e-3, seed=5, generator="counter")
+    noisy = gf.simulate(sys, bank, t, noise=noise)
+    clean = gf.simulate(sys, bank, t)
+    z = normals(cn.run_key(5)[None], 0, 0, t.size, rows=plant.q)[0]
+    np.testing.assert_allclose(noisy.y - clean.y, 1e-3 * z, rtol=0, atol=1e-12)
