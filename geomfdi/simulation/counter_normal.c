@@ -111,11 +111,15 @@ static void philox_tile(uint64_t j0, int n, uint32_t row, uint32_t c3, uint32_t 
     const __m256i c0b = _mm256_set1_epi64x((int64_t)((uint32_t)p1c ^ (k0 + W0)));     /* round 2 */
     const __m256i c2b = _mm256_set1_epi64x((int64_t)((uint32_t)(p0c >> 32) ^ (k1 + W1)));
     const __m256i lo2 = _mm256_set1_epi64x((int64_t)(uint32_t)p0c);
+    /* the pairs' indices, four lanes per group, stepped by 16 (only their low words are
+       multiplied) */
+    __m256i jv = _mm256_add_epi64(_mm256_set1_epi64x((int64_t)j0), _mm256_set_epi64x(3, 2, 1, 0));
+    const __m256i four = _mm256_set1_epi64x(4);
     for (; same_hi && t + 16 <= n; t += 16) {
         __m256i x0[4], x1[4], x2[4], x3[4];
         for (int g = 0; g < 4; g++) {
-            int64_t j = (int64_t)(j0 + (uint64_t)(t + 4 * g));
-            __m256i p0 = _mm256_mul_epu32(_mm256_set_epi64x(j + 3, j + 2, j + 1, j), m0);
+            __m256i p0 = _mm256_mul_epu32(jv, m0);
+            jv = _mm256_add_epi64(jv, four);
             /* after round 1: (x0c, lo(M1 row), hi(p0) ^ c3 ^ k1, lo(p0)) */
             __m256i y2 = _mm256_xor_si256(_mm256_srli_epi64(p0, 32), c2a);
             /* round 2: x0 = hi(M1 y2) ^ lo(M1 row) ^ k0', x2 = hi(M0 x0c) ^ lo(p0) ^ k1' */
@@ -125,6 +129,7 @@ static void philox_tile(uint64_t j0, int n, uint32_t row, uint32_t c3, uint32_t 
             x1[g] = p1;
             x3[g] = lo2;
         }
+#pragma GCC unroll 8
         for (int r = 2; r < 10; r++) {
             for (int g = 0; g < 4; g++) {
                 __m256i p0 = _mm256_mul_epu32(x0[g], m0), p1 = _mm256_mul_epu32(x2[g], m1);
