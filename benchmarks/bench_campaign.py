@@ -51,7 +51,8 @@ checked to be identical.
 
 ``python benchmarks/bench_campaign.py`` (the full workload, many minutes on 2 cores);
 ``--quick`` (256 runs x 2000 samples, one repeat, under a minute); ``--runs``,
-``--samples``, ``--threads 1|default`` to choose.
+``--samples``, ``--threads 1|default`` to choose; ``--generator counter`` draws the noise
+with ``gf.Noise(generator="counter")`` (every method, and the noise-alone time).
 """
 
 from __future__ import annotations
@@ -76,6 +77,7 @@ import geomfdi as gf  # noqa: E402
 from geomfdi.campaign.runner import evaluate_runs, isolate_runs  # noqa: E402
 from geomfdi.io.cli import design_all  # noqa: E402
 from geomfdi.io.modelfile import load_model  # noqa: E402
+from geomfdi.simulation.counter_normal import fill_normals, run_key  # noqa: E402
 
 RULE = gf.Persistence(2, 3)
 _STATE: dict[str, Any] = {}  # the Dask cluster, shared by both thread modes
@@ -88,12 +90,14 @@ def _limit_threads(n: int | None) -> None:
         threadpool_limits(n)
 
 
-def setup(runs: int, samples: int, block: int) -> tuple[gf.Campaign, dict[str, Any]]:
+def setup(
+    runs: int, samples: int, block: int, generator: str = "numpy"
+) -> tuple[gf.Campaign, dict[str, Any]]:
     spec = load_model(ROOT / "examples" / "hou_wen_chen.toml")
     bank = design_all(spec)["exact"]
     t = 0.002 * np.arange(samples)
     onset = float(t[int(0.4 * samples)])
-    noise = gf.Noise(measurement=0.01, seed=1)
+    noise = gf.Noise(measurement=0.01, seed=1, generator=generator)
     models = gf.residual_noise_models(spec.plant, bank, noise, step=0.002, controller=spec.K)
     test = gf.ChiSquareTest.design(models, 50, 1e-4)
     sizes = np.linspace(0.0, 0.03, 10)
@@ -162,7 +166,10 @@ def noise_seconds(camp: gf.Campaign, ctx: dict[str, Any], runs: int) -> float:
     def draw() -> None:
         for r in range(runs):
             seed = np.random.SeedSequence(root.entropy, spawn_key=(r,))
-            np.random.default_rng(seed).standard_normal(out=buf)
+            if camp.noise.generator == "counter":
+                fill_normals(run_key(seed)[None], 0, 0, 0, N, buf[None])
+            else:
+                np.random.default_rng(seed).standard_normal(out=buf)
 
     total = camp.grid()["run"].size
     return min(_seconds(draw) for _ in range(2)) * total / runs
@@ -216,7 +223,7 @@ def loop_baseline(camp: gf.Campaign, ctx: dict[str, Any], n: int) -> float:
             t,
             camp.u,
             faults=sc.faults(size, float(onset[0])),
-            noise=gf.Noise(measurement=0.01, seed=seed),
+            noise=gf.Noise(measurement=0.01, seed=seed, generator=camp.noise.generator),
             controller=spec.K,
             x0=spec.x0,
         )
@@ -278,6 +285,9 @@ def main(argv: list[str]) -> dict[str, Any]:
         help="comma-separated parts of method names not to time (e.g. 'loop,1 worker')",
     )
     ap.add_argument("--quick", action="store_true", help="256 runs x 2000 samples, 1 repeat")
+    ap.add_argument(
+        "--generator", choices=("numpy", "counter"), default="numpy", help="gf.Noise(generator=)"
+    )
     args = ap.parse_args(argv)
     if args.repeats is None:
         args.repeats = 1 if args.quick else 2
@@ -287,14 +297,15 @@ def main(argv: list[str]) -> dict[str, Any]:
 
     blas = max((b["num_threads"] for b in threadpool_info() if b["user_api"] == "blas"), default=1)
     limit = 1 if blas == 1 else None  # the mode run_thread_modes set for this process
-    camp, ctx = setup(args.runs, args.samples, args.block)
+    camp, ctx = setup(args.runs, args.samples, args.block, args.generator)
     total = camp.grid()["run"].size
     nblocks = len(camp.blocks())
     per = args.blocks_per_task if args.blocks_per_task == "auto" else int(args.blocks_per_task)
     print(
         f"campaign: {total} runs x {args.samples} samples, bank of 3 (Hou-Wen-Chen, exact), "
         f"chi-square test (isolation {RULE.k} of {RULE.n} samples, held pattern), "
-        f"{nblocks} blocks of {args.block} runs, blocks per task: {per}"
+        f"{nblocks} blocks of {args.block} runs, blocks per task: {per}, "
+        f"noise generator {args.generator!r}"
     )
     print(f"machine: {os.cpu_count()} CPUs, BLAS threads in this process: {blas}")
     from geomfdi.campaign.runner import _fused_plan

@@ -46,7 +46,7 @@ import contextlib
 import contextvars
 import threading
 import warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -254,24 +254,46 @@ def rank_decision(
     rtol = _GLOBAL_RTOL if isinstance(local, _Unset) else local
     tol = max(rtol if rtol is not None else 1e3 * max(int(n), 1) * _EPS, float(noise)) * scale
     if s.size <= 16:  # the few values of a recursion step: plain floats, no array calls
-        sv = s.ravel().tolist()
-        rank = len([v for v in sv if v > tol])
+        rank, gap = _decide(s.ravel().tolist(), tol, scale)
     else:
-        sv = s
         rank = int(np.count_nonzero(s > tol))
-    floor = _EPS * scale
-    kept = float(sv[rank - 1]) if rank > 0 else scale
-    dropped = float(sv[rank]) if rank < s.size else 0.0
-    gap = kept / max(dropped, floor)
+        kept = float(s[rank - 1]) if rank > 0 else scale
+        dropped = float(s[rank]) if rank < s.size else 0.0
+        gap = kept / max(dropped, _EPS * scale)
     dec = RankDecision(rank=rank, tol=tol, gap=gap, what=what, where=_STAGE.get())
+    _record((dec,), warn, 3)
+    return dec
+
+
+def _decide(sv: list[float], tol: float, scale: float) -> tuple[int, float]:
+    """Rank and gap of :func:`rank_decision` from a few descending singular values given
+    as plain floats (``scale > 0``, ``tol`` the absolute threshold): for recursions that
+    take one small decision per step and record them with :func:`_record`."""
+    rank = len([v for v in sv if v > tol])
+    kept = sv[rank - 1] if rank > 0 else scale
+    dropped = sv[rank] if rank < len(sv) else 0.0
+    return rank, kept / max(dropped, _EPS * scale)
+
+
+def _stage() -> str:
+    """The label of the innermost :func:`decision_stage` (empty outside any)."""
+    return _STAGE.get()
+
+
+def _record(decisions: Sequence[RankDecision], warn: bool = True, stacklevel: int = 2) -> None:
+    """Hand decisions to the active :func:`record_decisions` blocks, in order; without
+    any, warn of each close one (:class:`CloseRankWarning`) when ``warn``."""
     recorders = _RECORDERS.get()
     for rec in recorders:
-        rec.append(dec)
-    if warn and dec.close and not recorders:
-        warnings.warn(
-            f"{what}: close rank decision (singular-value gap {gap:.3g} < {GAP_WARN:g} around "
-            f"tol {tol:.3g}); the result may change with the tolerance",
-            CloseRankWarning,
-            stacklevel=3,
-        )
-    return dec
+        rec.extend(decisions)
+    if not warn or recorders:
+        return
+    for dec in decisions:
+        if dec.close:
+            warnings.warn(
+                f"{dec.what}: close rank decision (singular-value gap {dec.gap:.3g} < "
+                f"{GAP_WARN:g} around tol {dec.tol:.3g}); the result may change with the "
+                "tolerance",
+                CloseRankWarning,
+                stacklevel=stacklevel + 1,
+            )

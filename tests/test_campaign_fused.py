@@ -103,6 +103,25 @@ def test_fused_campaign_equals_the_vectorised_simulation(hwc, monkeypatch, hold,
         assert {"correct", "none"} <= set(bank_rows["isolation"].astype(str))
 
 
+_COV = np.array([[1e-4, 2e-5, 0.0], [2e-5, 4e-4, 1e-5], [0.0, 1e-5, 2.5e-5]])
+
+
+@pytest.mark.parametrize(
+    "noise",
+    [
+        gf.Noise(measurement=[0.01, 0.02, 0.005], seed=7, generator="counter"),
+        gf.Noise(measurement=_COV, seed=7, generator="counter"),
+        gf.Noise(measurement=_COV, seed=7),
+    ],
+    ids=["counter", "counter-covariance", "numpy-covariance"],
+)
+def test_fused_campaign_with_either_generator_and_correlated_noise(hwc, monkeypatch, noise):
+    spec, bank = hwc
+    c = _campaign(spec, bank, samples=900, noise=noise)
+    assert runner._fused_plan(c._job(), 0) is not None
+    _same_tables(c.run("serial", progress=False).table, _reference(c, monkeypatch))
+
+
 def test_fused_statistic_and_residuals_equal_simulate_batch(hwc, monkeypatch):
     spec, bank = hwc
     t = spec.t[:900]

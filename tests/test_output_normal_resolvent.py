@@ -144,3 +144,51 @@ def test_output_normal_generator_checked_without_its_schur_form():
     np.testing.assert_array_equal(
         comp2.generator_tf_many(comp2.points), comp.generator_tf_many(comp.points)
     )
+
+
+def test_memo_keeps_results_within_its_byte_budget():
+    from geomfdi.generators.resolvents import _Memo
+
+    memo = _Memo(64, nbytes=1000)
+    made = []
+
+    def make(v):
+        return lambda: made.append(v) or np.full(50, float(v))  # 400 bytes
+
+    for k in (1, 2, 3):  # the third exceeds 1000 bytes: the oldest goes
+        memo.get(bytes([k]), make(k))
+    assert list(memo.data) == [bytes([2]), bytes([3])]
+    assert memo.get(bytes([2]), make(-2))[0] == 2.0 and made == [1, 2, 3]  # a hit
+    big = memo.get(b"big", lambda: np.zeros(1000))  # over the budget alone: kept alone
+    assert list(memo.data) == [b"big"] and memo.get(b"big", make(-1)) is big
+    few = _Memo(2, nbytes=1 << 30)
+    for k in (1, 2, 3):
+        few.get(bytes([k]), make(k))
+    assert list(few.data) == [bytes([2]), bytes([3])]  # and at most `size` results
+
+
+def test_bank_rows_compute_each_shared_resolvent_once(monkeypatch):
+    """The 200-state chain's sensor bank alternates between generator pole sets (orders
+    200, 198, 134): every remembered resolvent of its checks (output-normal rows and
+    columns, plant solves) is computed once per content (no result evicted before a
+    later row needs it)."""
+    import warnings
+    from collections import Counter
+
+    import geomfdi as gf
+    import geomfdi.generators.resolvents as res
+
+    made = Counter()
+    get = res._Memo.get
+
+    def counted(self, key, make):
+        return get(self, key, lambda: made.update([key]) or make())
+
+    monkeypatch.setattr(res._Memo, "get", counted)
+    p = gf.mass_spring_chain(100, sensors=10, forces=(33, 99), zeta=0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gf.CloseRankWarning)
+        bank = gf.design_sensor_bank(p)
+    assert len({g.order for g in bank.generators}) >= 3
+    assert len(made) >= 10
+    assert max(made.values()) == 1

@@ -106,7 +106,11 @@ class PlantFactor:
         self.UAva = self.UAh @ (va / max(np.linalg.norm(va), 1e-300))
         self.plant_random = _points(max(self.nA, 1e-300), plant.n + 2, np.diag(TA), seed=54321)
         self._random: dict[int, tuple[Any, np.ndarray]] = {}
-        self._solved = _Memo(4)
+        self._solved = _Memo(64)
+        # the resolvents of output-normal generators on this plant's checks
+        # (generators.resolvents._on_rows, _on_column): rows sharing poles and points
+        # compute them once
+        self.on_memo = _Memo(64)
 
     def random_response(self, Bx: np.ndarray | None) -> np.ndarray:
         """``C U_A (sI − T_A)⁻¹ U_Aᴴ Bx`` at :attr:`plant_random`, shape ``(n + 2, q, cols)``
@@ -129,9 +133,9 @@ class PlantFactor:
         return out
 
     def solve(self, pts: np.ndarray, X: np.ndarray) -> np.ndarray:
-        """``(sI − T_A)⁻¹ X`` at the points, ``(P, n, cols)``; the last few (points, X)
-        are remembered by content: the rows of a bank whose own points coincide (same
-        order, same spectrum) solve the plant there once."""
+        """``(sI − T_A)⁻¹ X`` at the points, ``(P, n, cols)``; the last (points, X) are
+        remembered by content (up to ``resolvents.MEMO_BYTES``): the rows of a bank whose
+        own points coincide (same order, same spectrum) solve the plant there once."""
         key = _digest(pts, X)
         return self._solved.get(key, lambda: _tri_solve_many(self.TA, pts, X))
 
@@ -392,7 +396,10 @@ class Composite:
             if self.on_blocks is not None:  # in F's own coordinates, O(k) per point
                 g = self.g
                 rf = np.linalg.norm(
-                    _on_column(g.F, g.M[0], self.on_blocks, s, self.vf, self._fkey), axis=1
+                    _on_column(
+                        g.F, g.M[0], self.on_blocks, s, self.vf, self._fkey, self.factor.on_memo
+                    ),
+                    axis=1,
                 )
             elif self.k:
                 rf = np.linalg.norm(_tri_solve_many(self.TF, s, self.UFvf[:, None]), axis=(1, 2))
@@ -457,7 +464,7 @@ class Composite:
         if not self.k:
             out = np.broadcast_to(D, (pts.size, *D.shape)).copy()
         elif self.on_blocks is not None:  # M (sI − F)⁻¹ in O(k) per point
-            rows = _on_rows(g.F, g.M[0], self.on_blocks, pts, self._fkey)
+            rows = _on_rows(g.F, g.M[0], self.on_blocks, pts, self._fkey, self.factor.on_memo)
             out = D[None, :, :] + (rows @ np.hstack([-g.E, g.G]))[:, None, :]
         elif self.MUF.shape[0] < self.UFEG.shape[1]:
             out = D[None, :, :] + _tri_solve_rows_many(self.TF, pts, self.MUF) @ self.UFEG

@@ -55,9 +55,10 @@ def _tri_solve_many(T: np.ndarray, pts: np.ndarray, X: np.ndarray) -> np.ndarray
     out = np.empty((P, n, c), dtype=complex)
     if P <= FEW_POINTS:  # a LAPACK triangular solve per point: no row loop to amortise
         idx = np.arange(n)
+        M = -np.asarray(T, dtype=complex)  # one work matrix: only its diagonal changes
+        d = M[idx, idx].copy()
         for p, sp in enumerate(pts):
-            M = -np.asarray(T, dtype=complex)
-            M[idx, idx] += sp
+            M[idx, idx] = d + sp
             out[p] = scipy.linalg.solve_triangular(M, X, check_finite=False)
         return out
     step = max(1, int(2_000_000 // max(n * c, 1)))
@@ -157,14 +158,22 @@ def _digest(*arrays: np.ndarray) -> bytes:
     return h.digest()
 
 
+MEMO_BYTES = 1 << 25
+"""Bytes of results a :class:`_Memo` keeps at most (32 MiB)."""
+
+
 class _Memo:
-    """The last few results of a pure function of arrays, keyed by their content: rows of a
+    """The last results of a pure function of arrays, keyed by their content: rows of a
     bank that share their evaluation points and generator poles (a sensor bank whose
     quotients are the plant in rotated coordinates) compute the shared resolvents once,
-    bit for bit the same values."""
+    bit for bit the same values.
 
-    def __init__(self, size: int) -> None:
-        self.size = size
+    At most ``size`` results and ``nbytes`` bytes are kept (the most recent result
+    always): the rows of a bank alternate between a few pole sets, each with several
+    point sets, so the budget is in bytes rather than in a few entries."""
+
+    def __init__(self, size: int, nbytes: int = MEMO_BYTES) -> None:
+        self.size, self.nbytes = size, nbytes
         self.data: dict[bytes, np.ndarray] = {}
 
     def get(self, key: bytes, make: Any) -> np.ndarray:
@@ -172,16 +181,15 @@ class _Memo:
         if hit is None:
             hit = make()
         self.data[key] = hit  # most recent last
-        while len(self.data) > self.size:
+        while len(self.data) > 1 and (
+            len(self.data) > self.size
+            or sum(v.nbytes for v in list(self.data.values())) > self.nbytes
+        ):
             try:
                 del self.data[next(iter(self.data))]
             except (KeyError, RuntimeError, StopIteration):  # another thread got there
                 break
         return hit
-
-
-_ON_MEMO = _Memo(4)
-"""Resolvents of output-normal generators (:func:`_on_rows`, :func:`_on_column`)."""
 
 
 def _on_key(F: np.ndarray, h: np.ndarray, starts: np.ndarray) -> bytes:
@@ -193,12 +201,12 @@ def _on_key(F: np.ndarray, h: np.ndarray, starts: np.ndarray) -> bytes:
 
 
 def _on_rows(
-    F: np.ndarray, h: np.ndarray, starts: np.ndarray, pts: np.ndarray, fkey: bytes
+    F: np.ndarray, h: np.ndarray, starts: np.ndarray, pts: np.ndarray, fkey: bytes, memo: _Memo
 ) -> np.ndarray:
-    """:func:`~geomfdi.generators.output_normal.rows_resolvent`, remembered by content
-    (``fkey``: :func:`_on_key` of ``(F, h)``)."""
+    """:func:`~geomfdi.generators.output_normal.rows_resolvent`, remembered by content in
+    ``memo`` (``fkey``: :func:`_on_key` of ``(F, h)``)."""
     key = b"rows" + fkey + _digest(pts)
-    return _ON_MEMO.get(key, lambda: rows_resolvent(F, h, starts, pts))
+    return memo.get(key, lambda: rows_resolvent(F, h, starts, pts))
 
 
 def _on_column(
@@ -208,11 +216,12 @@ def _on_column(
     pts: np.ndarray,
     w: np.ndarray,
     fkey: bytes,
+    memo: _Memo,
 ) -> np.ndarray:
     """:func:`~geomfdi.generators.output_normal.column_resolvent`, remembered by content
-    (``fkey``: :func:`_on_key` of ``(F, h)``)."""
+    in ``memo`` (``fkey``: :func:`_on_key` of ``(F, h)``)."""
     key = b"col" + fkey + _digest(pts, w)
-    return _ON_MEMO.get(key, lambda: column_resolvent(F, h, starts, pts, w))
+    return memo.get(key, lambda: column_resolvent(F, h, starts, pts, w))
 
 
 def _abs2_sum(X: np.ndarray) -> np.ndarray:

@@ -31,7 +31,7 @@ import numpy as np
 import scipy.linalg
 
 from geomfdi.geometry.subspace import _norm2
-from geomfdi.tolerance import rank_decision
+from geomfdi.tolerance import RankDecision, _decide, _record, rank_decision
 
 __all__ = ["Staircase", "observer_staircase"]
 
@@ -170,14 +170,17 @@ def _single_output(A: np.ndarray, C: np.ndarray, scale: float) -> Staircase:
     C = Cz @ Q
     blocks.append(1)
     gaps.append(float(dec.gap))
-    for j in range(1, n):
-        dec = rank_decision(
-            np.array([abs(Hs[j, j - 1])]), scale, n, what="observer staircase", warn=False
-        )
-        if dec.rank == 0:
+    # the couplings' decisions, one value each (rank_decision's threshold and gap on
+    # plain floats, recorded together)
+    tol, sc, decs = dec.tol, float(scale) if scale > 0 else 1.0, []
+    for v in np.abs(np.diag(Hs, -1)).tolist():
+        rank, gap = _decide([v], tol, sc)
+        decs.append(RankDecision(rank, tol, gap, "observer staircase", dec.where))
+        if rank == 0:
             break
         blocks.append(1)
-        gaps.append(float(dec.gap))
+        gaps.append(gap)
+    _record(decs, warn=False)
     return Staircase(A, C, Z, blocks, gaps)
 
 

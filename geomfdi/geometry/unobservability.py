@@ -42,7 +42,16 @@ from geomfdi.geometry.subspace import (
     kernel,
     split_kernel,
 )
-from geomfdi.tolerance import CloseRankWarning, decision_stage, rank_decision, record_decisions
+from geomfdi.tolerance import (
+    CloseRankWarning,
+    RankDecision,
+    _decide,
+    _record,
+    _stage,
+    decision_stage,
+    get_rtol,
+    record_decisions,
+)
 
 __all__ = [
     "min_unobservability_subspace",
@@ -138,18 +147,21 @@ def min_unobservability_subspace(
         axes = _axes(Wb)
         if axes is not None and bool(np.all(axes[1] > 0)):
             axes = (axes[0], None)
+        steps = _Steps(Wb, AT, nA, axes)
         new, noise = _extend(Vb[:, :0], C.T, nC, "Im Cᵀ (Ker C)", 0.0)
         history = [n]
+        X = None  # [R, new] in a work array of the steps (after one of them)
         for _ in range(n + 1):
             if new.shape[1] == 1 and R.shape[1] and Wb.shape[1]:
                 # one new direction (the common step): the operations of split_kernel,
-                # _project_out and _extend inlined, in the same order (same bits)
-                ny, nv, R, new, noise = _one_step(
-                    Vb, Yb, nv, ny, R, new, Wb, WbT, AT, nA, noise, history, axes
-                )
+                # _project_out and _extend written out, in the same order (same bits)
+                X = np.concatenate((R, new), axis=1) if X is None else X
+                ny, nv, R, new, X, noise = steps.step(X, Vb, Yb, nv, ny, noise, history)
                 if new is None:
                     break
                 continue
+            steps.flush()
+            X = None
             Y_new, R = split_kernel(np.concatenate((R, new), axis=1), WbT, 1.0, _SPLIT)
             Y_new = _project_out(Y_new, Wb)
             dv, dy = new.shape[1], Y_new.shape[1]
@@ -161,6 +173,7 @@ def min_unobservability_subspace(
             # directions extracted from a strong cancellation carry more rounding than ε:
             # the next step's floor rises accordingly (extraction_noise)
             new, noise = _extend(Vb[:, :nv], AT @ Y_new, nA, _STEP, noise)
+        steps.flush()
         Y = Yb[:, :ny].copy()
     # S* = Y^⊥: the last columns of the complete Householder QR of Y (Y orthonormal: its
     # complement needs no SVD, whose full left factor costs several times the QR's)
@@ -180,76 +193,135 @@ _SPLIT = "V ∩ W*^⊥"
 _STEP = "Im Cᵀ + Aᵀ Z^⊥ (A⁻¹(Z) ∩ Ker C)"
 
 
-def _one_step(
-    Vb: np.ndarray,
-    Yb: np.ndarray,
-    nv: int,
-    ny: int,
-    R: np.ndarray,
-    new: np.ndarray,
-    Wb: np.ndarray,
-    WbT: np.ndarray,
-    AT: np.ndarray,
-    nA: float,
-    noise: float,
-    history: list[int],
-    axes: tuple[np.ndarray, np.ndarray | None] | None,
-) -> tuple[int, int, np.ndarray, np.ndarray | None, float]:
-    """One step of the dual recursion of :func:`min_unobservability_subspace` with one new
-    direction of V: :func:`geomfdi.geometry.subspace.split_kernel` of ``[R, new]``
-    against ``W*ᵀ``, :func:`_project_out` and
-    :func:`geomfdi.geometry.subspace.extend_basis` by ``Aᵀ`` of the new direction of Y,
-    written out (the same operations in the same order, hence the same rank decisions and
-    bases bit for bit, without the per-call checks and dispatch of the general
-    functions).  Returns ``(ny, nv, R, new, noise)``; ``new`` is None when Y stopped
-    growing.  ``axes``: W*'s basis is made of signed coordinate axes (:func:`_axes`), so
-    that ``W*ᵀ X`` is a selection of rows and the projection off W* zeroes them, exactly
-    as the products do."""
-    n = Vb.shape[0]
-    X = np.concatenate((R, new), axis=1)
-    k = X.shape[1]
-    # + 0.0: a product has no negative zero (its sums start at +0); signs None: all +1
-    if axes is None:
-        MX = WbT @ X
-    else:
-        MX = X[axes[0]] + 0.0 if axes[1] is None else X[axes[0]] * axes[1][:, None] + 0.0
-    _, s, Vt, info = _DGESDD(MX, compute_uv=1, full_matrices=1)  # as _svd_vt, its input
-    if info or not math.isfinite(float(s.sum())):  # being finite by construction
-        s, Vt = _svd_vt(MX)
-    r = rank_decision(s, 1.0, max(WbT.shape[0], k), what=_SPLIT).rank
-    Y_new, R = X @ Vt[r:].T, X @ Vt[:r].T
-    Vb[:, nv : nv + 1] = new
-    nv += 1
-    dy = Y_new.shape[1]
-    if dy != 1:  # none, or several (the general path's QR)
-        Y_new = _project_out(Y_new, Wb)
-        Yb[:, ny : ny + dy] = Y_new
-        ny += dy
+class _Steps:
+    """The steps of :func:`min_unobservability_subspace` with one new direction of V,
+    written out: :func:`geomfdi.geometry.subspace.split_kernel` of ``[R, new]`` against
+    ``W*ᵀ``, :func:`_project_out` and :func:`geomfdi.geometry.subspace.extend_basis` by
+    ``Aᵀ`` of the new direction of Y, with the same operations on the same operands in the
+    same order (hence the same rank decisions and bases bit for bit), without the per-call
+    checks and dispatch of the general functions.
+
+    ``[R, new]`` of the next step is written into one of two work arrays of its width
+    (no concatenation), the in-place updates give the bits of the out-of-place ones, and
+    the rank decisions (:func:`geomfdi.tolerance.rank_decision`'s threshold and gap) are
+    recorded in order by :meth:`flush`, before any decision of the general path.
+    ``axes``: W*'s basis is made of signed coordinate axes (:func:`_axes`; signs None: all
+    +1), so that ``W*ᵀ X`` is a selection of rows and the projection off W* zeroes them,
+    exactly as the products do.
+    """
+
+    def __init__(
+        self,
+        Wb: np.ndarray,
+        AT: np.ndarray,
+        nA: float,
+        axes: tuple[np.ndarray, np.ndarray | None] | None,
+    ) -> None:
+        self.Wb, self.WbT, self.AT, self.nA = Wb, Wb.T, AT, float(nA)
+        self.rows: slice | np.ndarray | None = None
+        self.sgn: np.ndarray | None = None
+        if axes is not None:
+            rows, signs = axes
+            lo = int(rows[0])
+            run = bool(np.array_equal(rows, np.arange(lo, lo + rows.size)))
+            self.rows = slice(lo, lo + rows.size) if run else rows  # a view, not a gather
+            self.sgn = None if signs is None else signs[:, None]
+        self.where = _stage()
+        self.rtol = get_rtol(AT.shape[0])  # of the Aᵀ steps; the splits' below
+        self.split_tol: dict[int, float] = {}
+        self.pending: list[tuple[int, float, float, str]] = []
+        self.work: dict[int, list[np.ndarray]] = {}
+
+    def flush(self) -> None:
+        """Record the pending decisions (:func:`geomfdi.tolerance.record_decisions`)."""
+        if self.pending:
+            w = self.where
+            _record([RankDecision(r, t, g, what, w) for r, t, g, what in self.pending])
+            self.pending.clear()
+
+    def _next(self, k: int, X: np.ndarray) -> np.ndarray:
+        """A work array ``(n, k)`` that is not X."""
+        pair = self.work.get(k)
+        if pair is None:
+            pair = self.work[k] = [np.empty((X.shape[0], k)) for _ in range(2)]
+        return pair[1] if pair[0] is X else pair[0]
+
+    def step(
+        self,
+        X: np.ndarray,
+        Vb: np.ndarray,
+        Yb: np.ndarray,
+        nv: int,
+        ny: int,
+        noise: float,
+        history: list[int],
+    ) -> tuple[int, int, np.ndarray, np.ndarray | None, np.ndarray | None, float]:
+        """One step from ``X = [R, new]`` (C-contiguous): ``(ny, nv, R, new, X, noise)``,
+        ``new`` None when Y stopped growing, ``X`` the next ``[R, new]`` when ``new`` is
+        one direction (else None)."""
+        n, k = X.shape
+        rows, pending = self.rows, self.pending
+        # + 0.0: a product has no negative zero (its sums start at +0)
+        if rows is None:
+            MX = self.WbT @ X
+        elif self.sgn is None:
+            MX = X[rows] + 0.0
+        else:
+            MX = X[rows] * self.sgn
+            MX += 0.0
+        _, s, Vt, info = _DGESDD(MX, compute_uv=1, full_matrices=1)  # as _svd_vt, its input
+        sv = s.tolist()
+        if info or not math.isfinite(sum(sv)):  # being finite by construction
+            s, Vt = _svd_vt(MX)
+            sv = s.tolist()
+        tol = self.split_tol.get(k)
+        if tol is None:  # rank_decision(s, 1.0, max(dim W*, k))'s threshold
+            tol = self.split_tol[k] = get_rtol(max(MX.shape[0], k)) * 1.0
+        r, gap = _decide(sv, tol, 1.0)
+        pending.append((r, tol, gap, _SPLIT))
+        Vb[:, nv] = X[:, k - 1]
+        nv += 1
+        if r != k - 1:  # Y gains none or several directions (the general path's QR)
+            Y_new, R = X @ Vt[r:].T, X @ Vt[:r].T
+            self.flush()
+            Y_new = _project_out(Y_new, self.Wb)
+            dy = Y_new.shape[1]
+            Yb[:, ny : ny + dy] = Y_new
+            ny += dy
+            history.append(n - ny)
+            if not dy:
+                return ny, nv, R, None, None, noise
+            new, noise = _extend(Vb[:, :nv], self.AT @ Y_new, self.nA, _STEP, noise)
+            return ny, nv, R, new, None, noise
+        Xn = self._next(k, X)
+        Y_new = X @ Vt[r:].T
+        np.matmul(X, Vt[:r].T, out=Xn[:, :r])
+        if rows is None:
+            Wb, WbT = self.Wb, self.WbT
+            Y_new -= Wb @ (WbT @ Y_new)
+            Y_new -= Wb @ (WbT @ Y_new)
+        else:
+            Y_new[rows] = 0.0
+        y = Y_new.ravel()
+        Y_new /= max(math.sqrt(y.dot(y)), 1e-300)  # the same correctly rounded root
+        Yb[:, ny] = y
+        ny += 1
         history.append(n - ny)
-        if not dy:
-            return ny, nv, R, None, noise
-        new, noise = _extend(Vb[:, :nv], AT @ Y_new, nA, _STEP, noise)
-        return ny, nv, R, new, noise
-    if axes is None:
-        Y_new = Y_new - Wb @ (WbT @ Y_new)
-        Y_new = Y_new - Wb @ (WbT @ Y_new)
-    else:
-        Y_new[axes[0]] = 0.0
-    y = Y_new.ravel()
-    Y_new = Y_new / max(math.sqrt(y.dot(y)), 1e-300)  # the same correctly rounded root
-    Yb[:, ny : ny + 1] = Y_new
-    ny += 1
-    history.append(n - ny)
-    B = Vb[:, :nv]
-    P = AT @ Y_new
-    P = P - B @ (B.T @ P)
-    P = P - B @ (B.T @ P)
-    p = P.ravel()
-    nP = math.sqrt(p.dot(p))
-    r = rank_decision(np.array([nP]), nA, n, what=_STEP, noise=noise).rank
-    if r:
-        return ny, nv, R, P / (nP if nP > 0 else 1.0), extraction_noise(nP, nA)
-    return ny, nv, R, P[:, :0], 0.0
+        B = Vb[:, :nv]
+        BT = B.T
+        P = self.AT @ Y_new
+        P -= B @ (BT @ P)
+        P -= B @ (BT @ P)
+        p = P.ravel()
+        nP = math.sqrt(p.dot(p))
+        nA = self.nA
+        tol = max(self.rtol, noise) * nA  # rank_decision([nP], nA, n, noise=noise)'s
+        r2, gap = _decide([nP], tol, nA)
+        pending.append((r2, tol, gap, _STEP))
+        if r2:
+            np.divide(P, nP if nP > 0 else 1.0, out=Xn[:, r:])
+            return ny, nv, Xn[:, :r], Xn[:, r:], Xn, extraction_noise(nP, nA)
+        return ny, nv, Xn[:, :r], Xn[:, r:r], None, 0.0
 
 
 def _axes(W: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:

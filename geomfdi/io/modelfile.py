@@ -143,7 +143,7 @@ _DESIGN = {
 }
 _METHOD = {"poles", "normalize", "filter_pole", "margin", "residual_dim", "common_poles"}
 _SIM = {"t_end", "step", "x0", "u", "d", "K", "threshold", "window", "noise", "t_start"}
-_NOISE = {"measurement", "process", "inputs", "seed"}
+_NOISE = {"measurement", "process", "inputs", "seed", "generator"}
 _SCEN = {"name", "faults", "noise", "d"}
 _FAULT_KEYS = {
     "gain": {"type", "sensor", "start", "gain", "bias", "end"},
@@ -568,6 +568,12 @@ def _noise(ctx: _Ctx, table: Any, where: str, plant: Plant) -> dict[str, Any]:
             )
     if "seed" in t:
         out["seed"] = ctx.integer(t["seed"], f"{where}.seed", minimum=0)
+    if "generator" in t:
+        from geomfdi.simulation.noise import GENERATORS
+
+        if t["generator"] not in GENERATORS:
+            raise ctx.err(f"{where}.generator", f"expected one of {GENERATORS}")
+        out["generator"] = t["generator"]
     return out
 
 

@@ -88,8 +88,10 @@ def simulate_batch(
     faults : sequence of fault signals, or a sequence of such sequences
         One list shared by all runs, or one list per run (e.g. a sweep of fault sizes).
     noise : Noise, optional
-        Run ``i`` draws its noise from ``numpy.random.default_rng(seeds[i])``; by default
-        the seeds are ``SeedSequence(noise.seed).spawn(runs)``, so run ``i`` equals
+        Run ``i`` draws its noise from ``seeds[i]`` (``numpy.random.default_rng``, or
+        the counter generator of ``Noise(generator="counter")``, whose normals are the
+        same bits as ``simulate``'s for that seed); by default the seeds are
+        ``SeedSequence(noise.seed).spawn(runs)``, so run ``i`` equals
         ``simulate(..., noise=Noise(..., seed=seeds[i]))`` up to rounding (the bank of
         a batch runs in the compiled recursion of
         :mod:`geomfdi.simulation.compiled_recursion`; see the user guide,
@@ -150,6 +152,7 @@ def simulate_batch(
     x0a = state_vector(x0, plant.n, "x0", runs)
     xc0a = state_vector(xc0, ctx.ctrl.nc, "xc0")
     seeds = run_seeds(noise, seeds, runs)
+    kp = noise.process_rows(plant) if noise is not None else 0
     view = ctx.view
     nres = len(view.generators)
     N = ctx.N
@@ -180,7 +183,7 @@ def simulate_batch(
     kept["threads"] = work_threads()  # the noise draws of a chunk's runs, in parallel
     for a in range(0, runs, Rc):
         b = min(a + Rc, runs)
-        rngs = [None if sd is None else np.random.default_rng(sd) for sd in seeds[a:b]]
+        rngs = [None if sd is None else noise.source(sd, kp) for sd in seeds[a:b]]
         x0c = to_balanced(ctx, x0a[a:b] if x0a.shape[0] > 1 else x0a)
         chunk = schedules[a:b]
         ds = DecisionStream(thr, view.structure, rule, work)

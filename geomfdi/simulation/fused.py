@@ -53,6 +53,7 @@ from geomfdi.simulation.compiled_recursion import _layout, _lib_key, sim_backend
 from geomfdi.simulation.compiled_single import run_recursion
 from geomfdi.simulation.context import prepare, state_vector, to_balanced
 from geomfdi.simulation.lifting import Drive
+from geomfdi.simulation.workspace import Workspace
 
 __all__ = ["FusedPlan", "evaluation_struct", "fused_plan", "fused_runs", "isolate_codes"]
 
@@ -194,6 +195,8 @@ class FusedPlan:
     window: int = 0  # the chi-square window (0: residuals)
     segments: dict[Any, Any] = field(default_factory=dict)  # fault list -> profiles
     lib: Any = None  # the kernel's (run, isolate), built for the plan's dimensions
+    noise: Any = None  # the Noise (its generator: Noise.source)
+    process_rows: int = -1  # Noise.process_rows of the plant
 
 
 def _why_not(ctx: Any, schedules: Sequence[Any], x0: np.ndarray) -> str | None:
@@ -362,6 +365,8 @@ def fused_plan(
         rdst=np.array(rdst + [0], dtype=np.int64),
         w0=w0,
         window=int(window),
+        noise=noise,
+        process_rows=noise.process_rows(plant) if noise is not None else -1,
     )
     plan.lib = _library(_dims_flags(plan) if _SPECIALISE else ())
     if plan.lib is None:
@@ -475,7 +480,8 @@ def fused_runs(
     evaluation : optional
         Scores, alarm codes and divergence of the statistic, filled by the kernel.
     """
-    from geomfdi.simulation.simulate import noise_streams
+    from geomfdi.simulation.noise import CounterStream
+    from geomfdi.simulation.simulate import noise_streams, noise_window
 
     lib = plan.lib[0]
     R, N, q = len(fault_lists), plan.N, plan.q
@@ -517,27 +523,39 @@ def fused_runs(
         pool = getattr(_POOLS, "pool", None)  # this thread's draw buffers, kept
         if pool is None:
             pool = _POOLS.pool = {}
+            _POOLS.work = Workspace()
         for a1 in range(a, b, _SUB):
             b1 = min(a1 + _SUB, b)
-            rngs = [np.random.default_rng(sd) for sd in seeds[a1:b1]]
-            streams = noise_streams(ctx, rngs, pool, 1) if plan.Lv is not None else None
+            streams = None
+            if plan.Lv is not None:
+                sources = [plan.noise.source(sd, plan.process_rows) for sd in seeds[a1:b1]]
+                streams = noise_streams(ctx, sources, pool, 1)
+            # numpy's generator and a diagonal Lv: each run's draws read where they are,
+            # scaled in the kernel; otherwise the scaled window of gf.simulate_batch
+            direct = streams is not None and plan.lv is not None
+            direct = direct and not isinstance(streams[0], CounterStream)
             for s in range(0, N, WINDOW):
                 e = min(s + WINDOW, N)
+                e1 = min(e + 1, N)  # the reading at the end of the window's last interval
                 keep, ptrs = [], []
-                for st in streams or ():
-                    # the window's readings and the one at the end of its last interval
-                    z = st.take(s, min(e + 1, N))[0]
-                    if plan.lv is None:
-                        z = plan.Lv @ z
-                    if z.strides[1] != 8:
-                        z = np.ascontiguousarray(z)
-                    keep.append(z)
-                    z0, step = z.ctypes.data, z.strides[0]
-                    ptrs += [z0 + i * step for i in range(q)]
+                if direct:
+                    for st in streams:
+                        z = st.take(s, e1)[0]
+                        if z.strides[1] != 8:
+                            z = np.ascontiguousarray(z)
+                        keep.append(z)
+                        z0, step = z.ctypes.data, z.strides[0]
+                        ptrs += [z0 + i * step for i in range(q)]
+                elif streams is not None:
+                    v = noise_window(ctx, streams, s, e1, _POOLS.work)[0]
+                    keep.append(v)
+                    v0, si, sr = v.ctypes.data, v.strides[0], v.strides[1]
+                    ptrs = [v0 + r * sr + i * si for r in range(b1 - a1) for i in range(q)]
                 if ptrs:
                     zp[a1 * q : b1 * q] = ptrs
                 args = list(base)
                 args[1], args[2], args[4], args[5] = a1, b1, s, e - s
+                args[10] = plan.lv.ctypes.data if direct else None
                 args[-5] = None if out is None else out[:, :, s:].ctypes.data
                 status = int(lib(*args))
                 del keep

@@ -81,11 +81,20 @@ class Noise:
         noise.  Drawn after the process noise of each block (rows appended to its draws),
         so adding them leaves the measurement and process noise of a seed unchanged.
     seed : int, numpy SeedSequence or None
-        Seed of :func:`numpy.random.default_rng`.  In :func:`simulate_batch` run ``i``
-        uses the ``i``-th child of ``SeedSequence(seed)`` unless seeds are given.  The
-        draws are made in blocks of :data:`NOISE_BLOCK` samples (:class:`NoiseStream`):
-        the noise of a sample depends on the seed and its index only, not on how the
-        simulation cuts its time axis into chunks.
+        The seed of a run.  In :func:`simulate_batch` run ``i`` uses the ``i``-th child
+        of ``SeedSequence(seed)`` unless seeds are given.  The noise of a sample depends
+        on the seed and its index only, not on how the simulation cuts its time axis
+        into chunks or its runs into threads.
+    generator : {"numpy", "counter"}
+        How a seed becomes standard normals.  ``"numpy"`` (default):
+        :func:`numpy.random.default_rng` of the seed, drawn in blocks of
+        :data:`NOISE_BLOCK` samples (:class:`NoiseStream`).  ``"counter"``: each normal
+        is a pure function of the run's seed, the stream (measurement, process, plant
+        noise inputs), the row and the sample index (Philox4x32-10 of Salmon et al.
+        2011 and Box & Muller 1958, :mod:`geomfdi.simulation.counter_normal`), drawn by
+        a compiled kernel several times faster than numpy's generator, with the same
+        bits from its numpy fallback and on every IEEE-754 machine.  See the user
+        guide, *Simulation* (``docs/guide/simulation.md``).
 
     Examples
     --------
@@ -99,9 +108,34 @@ class Noise:
     process_input: Any = None
     seed: Any = None
     inputs: Any = None
+    generator: str = "numpy"
 
     def __post_init__(self) -> None:
         check_seed(self.seed, "noise.seed")
+        if not isinstance(self.generator, str) or self.generator not in GENERATORS:
+            raise GeomFDIError(
+                f"noise.generator: expected one of {GENERATORS}, got {self.generator!r}",
+                argument="noise.generator",
+            )
+
+    def source(self, seed: Any, process_rows: int = -1) -> Any:
+        """What draws one run's normals: ``numpy.random.default_rng(seed)``, or with
+        ``generator="counter"`` a :class:`CounterSource` (the run's key, and
+        ``process_rows``: :meth:`process_rows`, the process-noise rows before the
+        noise inputs' rows; ``-1``: all rows are process noise)."""
+        if self.generator == "numpy":
+            return np.random.default_rng(seed)
+        from geomfdi.simulation.counter_normal import run_key
+
+        return CounterSource(run_key(seed), int(process_rows))
+
+    def process_rows(self, plant: Plant) -> int:
+        """Rows of the process noise ``Lw z`` in the process draws (0: none; ``-1`` for
+        the numpy generator, which does not need them)."""
+        if self.generator == "numpy":
+            return -1
+        Lw = self.factors(plant)[2]
+        return 0 if Lw is None else Lw.shape[1]
 
     def factors(
         self, plant: Plant
@@ -145,6 +179,20 @@ class Noise:
         if not Ls:
             return None, None, None
         return np.hstack(Bx), np.hstack(Dy), scipy.linalg.block_diag(*Ls)
+
+
+#: The noise generators of :class:`Noise` (``generator=``).
+GENERATORS = ("numpy", "counter")
+
+
+@dataclass(frozen=True)
+class CounterSource:
+    """The counter generator's view of one run: its key (:func:`~geomfdi.simulation.
+    counter_normal.run_key`) and the rows of process noise before the noise inputs'
+    rows in the process draws (``-1``: every row is process noise)."""
+
+    key: np.ndarray
+    process_rows: int
 
 
 #: Samples per block of noise draws (see :class:`NoiseStream`); part of what a seed means.
@@ -248,6 +296,75 @@ class NoiseStream:
             parts_v.append(zv[:, lo:hi])
             parts_w.append(zw[:, lo:hi])
         return np.concatenate(parts_v, axis=1), np.concatenate(parts_w, axis=1)
+
+
+class CounterStream:
+    """The normals of one run from the counter generator, served by time range.
+
+    The interface of :class:`NoiseStream` (``take``, ``release``, ``pool``), but any
+    range in any order: a normal is a pure function of (key, stream, row, sample)
+    (:mod:`geomfdi.simulation.counter_normal`).  Measurement rows are stream 0, the
+    process rows stream 1, the plant's noise-input rows (after the process rows in
+    ``zw``) stream 2, each numbered from 0.  :func:`counter_normals` fills the windows
+    of many runs at once.
+    """
+
+    def __init__(self, source: CounterSource, rows_v: int, rows_w: int, N: int) -> None:
+        self.key = np.asarray(source.key, dtype=np.uint32)
+        self.rows = (int(rows_v), int(rows_w))
+        kp = source.process_rows
+        self.split = int(rows_w) if kp < 0 else min(int(kp), int(rows_w))
+        self.N = int(N)
+        self.pool: Any = None
+
+    def take(self, s: int, e: int) -> tuple[np.ndarray, np.ndarray]:
+        """Normals of samples ``s .. e-1``: ``(zv (rows_v, e-s), zw (rows_w, e-s))``."""
+        if not 0 <= s <= e <= self.N:
+            raise GeomFDIError(f"noise: range {s}..{e} outside 0..{self.N}", argument="noise")
+        zv = np.empty((self.rows[0], 1, e - s))
+        zw = np.empty((self.rows[1], 1, e - s))
+        counter_normals([self], s, e, zv, zw)
+        return zv[:, 0], zw[:, 0]
+
+    def release(self) -> None:
+        """Nothing is kept (the interface of :meth:`NoiseStream.release`)."""
+
+
+def counter_normals(
+    streams: Sequence[CounterStream],
+    s: int,
+    e: int,
+    zv: np.ndarray | None,
+    zw: np.ndarray | None,
+) -> None:
+    """The normals of samples ``s .. e-1`` of many runs, in place: ``zv`` (rows_v, R, L)
+    and ``zw`` (rows_w, R, L) (the samples contiguous), one kernel call per stream.
+
+    The streams share their row counts (one simulation's runs).
+    """
+    from geomfdi.simulation.counter_normal import STREAMS, fill_normals
+
+    if not streams:
+        return
+    keys = np.stack([st.key for st in streams])
+    kp = streams[0].split
+    if zv is not None and zv.shape[0]:
+        fill_normals(keys, STREAMS["measurement"], 0, s, e, zv.transpose(1, 0, 2))
+    if zw is not None and zw.shape[0]:
+        if kp:
+            fill_normals(keys, STREAMS["process"], 0, s, e, zw[:kp].transpose(1, 0, 2))
+        if kp < zw.shape[0]:
+            fill_normals(keys, STREAMS["inputs"], 0, s, e, zw[kp:].transpose(1, 0, 2))
+
+
+def noise_stream(
+    source: Any, rows_v: int, rows_w: int, N: int, pool: list[np.ndarray] | None = None
+) -> NoiseStream | CounterStream:
+    """The stream of one run: a :class:`NoiseStream` of a numpy generator, or a
+    :class:`CounterStream` of a :class:`CounterSource` (:meth:`Noise.source`)."""
+    if isinstance(source, CounterSource):
+        return CounterStream(source, rows_v, rows_w, N)
+    return NoiseStream(source, rows_v, rows_w, N, pool=pool)
 
 
 def check_seed(seed: Any, name: str, argument: str | None = None) -> Any:

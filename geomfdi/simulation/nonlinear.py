@@ -304,10 +304,10 @@ def simulate_nonlinear(
                 argument="noise.inputs",
             )
         Lv, Bw, Lw = noise.factors(design)
-        from geomfdi.simulation.noise import NoiseStream
+        from geomfdi.simulation.noise import noise_stream
 
-        rng = np.random.default_rng(noise.seed)
-        st = NoiseStream(rng, q if Lv is not None else 0, Lw.shape[1] if Lw is not None else 0, N)
+        rows_w = Lw.shape[1] if Lw is not None else 0
+        st = noise_stream(noise.source(noise.seed), q if Lv is not None else 0, rows_w, N)
         zv, zw = st.take(0, N)
     V = Lv @ zv if Lv is not None else np.zeros((q, N))
     Wn = (Bw @ (Lw @ zw)) if Lw is not None else np.zeros((n, N))

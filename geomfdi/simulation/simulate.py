@@ -79,7 +79,9 @@ The plant's own noise inputs (``Plant(..., Bw=, Dw=)``) are given as a signal ``
 (simulated like ``d``) or drawn at random with ``Noise(inputs=...)`` (like the process
 noise, with ``Dw`` also in the readings).
 The standard-normal draws are made in blocks of 65 536 samples
-(:class:`~geomfdi.simulation.noise.NoiseStream`), so a sample's noise depends only on
+(:class:`~geomfdi.simulation.noise.NoiseStream`), or by the counter generator
+(``Noise(generator="counter")``, :mod:`geomfdi.simulation.counter_normal`: each normal a
+pure function of the seed, stream, row and sample), so a sample's noise depends only on
 the seed and its index.
 
 *Time chunks.*  The time axis is processed in chunks sized from the memory budget
@@ -148,7 +150,13 @@ from geomfdi.simulation.context import (
     unbalance_states,
     with_input_faults,
 )
-from geomfdi.simulation.noise import Noise, NoiseStream
+from geomfdi.simulation.noise import (
+    CounterStream,
+    Noise,
+    NoiseStream,
+    counter_normals,
+    noise_stream,
+)
 from geomfdi.simulation.open_loop import OpenLoopEngine
 from geomfdi.simulation.result_memory import empty
 from geomfdi.simulation.results import (
@@ -223,11 +231,12 @@ def stop_divergent(
 
 def noise_streams(
     ctx: Context,
-    rngs: list[np.random.Generator | None],
+    rngs: list[Any],
     pool: dict[int, list[np.ndarray]] | None = None,
     parts: int = 1,
-) -> list[NoiseStream] | None:
-    """One :class:`NoiseStream` per run (``None`` without noise); ``pool``: buffers
+) -> list[NoiseStream | CounterStream] | None:
+    """One stream per run (``None`` without noise): a :class:`NoiseStream` of a numpy
+    generator or a :class:`CounterStream` (:meth:`Noise.source`); ``pool``: buffers
     shared with the streams of other chunks of runs (see :func:`noise_window`), one
     list per part of the runs (:func:`run_parts` with ``parts`` parts: the parts are
     drawn by different threads, so their streams never share a buffer)."""
@@ -235,7 +244,7 @@ def noise_streams(
         return None
     rv = ctx.plant.q if ctx.Lv is not None else 0
     rw = ctx.Lw.shape[1] if ctx.Lw is not None else 0
-    streams = [NoiseStream(rng, rv, rw, ctx.N) for rng in rngs]  # type: ignore[arg-type]
+    streams = [noise_stream(rng, rv, rw, ctx.N) for rng in rngs]
     if pool is not None:
         for k, part in enumerate(run_parts(len(streams), parts)):
             for st in streams[part]:
@@ -257,7 +266,7 @@ def run_parts(runs: int, parts: int) -> list[slice]:
 
 def noise_window(
     ctx: Context,
-    streams: list[NoiseStream] | None,
+    streams: list[NoiseStream | CounterStream] | None,
     s: int,
     e1: int,
     workspace: Workspace | None = None,
@@ -272,7 +281,9 @@ def noise_window(
     :func:`noise_streams`) and the parts drawn on as many threads
     (:func:`geomfdi._threads.thread_pool`): numpy's generators and the scaling release
     the interpreter lock, every run keeps its own generator, so the values are the
-    same as drawn one run after the other.
+    same as drawn one run after the other.  Counter streams (:class:`CounterStream`)
+    fill the normals of all runs of a part at once (:func:`counter_normals`), straight
+    into the windows when the scaling is diagonal.
     """
     if streams is None:
         return None, None
@@ -284,12 +295,32 @@ def noise_window(
     v = new("noise v", (ctx.plant.q, R, L)) if ctx.Lv is not None else None
     w = new("noise w", (ctx.Lw.shape[0], R, L)) if ctx.Lw is not None else None
     scale = [_scaling(ctx.Lv), _scaling(ctx.Lw)]
+    if isinstance(streams[0], CounterStream):
+        rows = [ctx.plant.q if v is not None else 0, ctx.Lw.shape[1] if w is not None else 0]
+        diag = [_diagonal(ctx.Lv), _diagonal(ctx.Lw)]
+        # the normals go into the window itself (diagonal scaling, in place) or a buffer
+        zbuf = [
+            None if dest is None else dest if d is not None else new(f"noise z{k}", (n, R, L))
+            for k, (dest, d, n) in enumerate(zip((v, w), diag, rows, strict=True))
+        ]
 
-    def draw(part: slice) -> None:
-        for r in range(part.start, part.stop):
-            for dest, z, f in zip((v, w), streams[r].take(s, e1), scale, strict=True):
-                if dest is not None:
-                    f(z, out=dest[:, r])
+        def draw(part: slice) -> None:
+            zp = [None if z is None else z[:, part] for z in zbuf]
+            counter_normals(streams[part], s, e1, zp[0], zp[1])  # type: ignore[arg-type]
+            for dest, z, d, Lf in zip((v, w), zp, diag, (ctx.Lv, ctx.Lw), strict=True):
+                if dest is None:
+                    continue
+                if d is not None:  # the product each row's scaling forms, in place
+                    np.multiply(d, z, out=z)
+                else:
+                    _combine(np.asarray(Lf), z, dest[:, part])
+    else:
+
+        def draw(part: slice) -> None:
+            for r in range(part.start, part.stop):
+                for dest, z, f in zip((v, w), streams[r].take(s, e1), scale, strict=True):
+                    if dest is not None:
+                        f(z, out=dest[:, r])
 
     split = run_parts(R, parts)
     if len(split) == 1:
@@ -300,6 +331,36 @@ def noise_window(
         for f in futures:
             f.result()
     return v, w
+
+
+def _combine(Lf: np.ndarray, z: np.ndarray, out: np.ndarray) -> None:
+    """``out[i] = sum_k Lf[i, k] z[k]`` term by term in the order of ``k`` (zeros
+    skipped): each element's rounding depends on its own values only, not on the
+    shape of the window (a matrix product's blocking may), so the counter generator's
+    scaled noise is the same bits for any chunks and runs."""
+    tmp = np.empty(z.shape[1:])
+    for i in range(Lf.shape[0]):
+        ks = np.flatnonzero(Lf[i])
+        if not ks.size:
+            out[i] = 0.0
+            continue
+        np.multiply(Lf[i, ks[0]], z[ks[0]], out=out[i])
+        for k in ks[1:]:
+            np.multiply(Lf[i, k], z[k], out=tmp)
+            out[i] += tmp
+
+
+def _diagonal(Lf: np.ndarray | None) -> np.ndarray | None:
+    """``diag(Lf)`` as a (k, 1, 1) column when ``Lf`` is diagonal with non-zero entries
+    (the case :func:`_scaling` multiplies row-wise), else ``None``."""
+    if Lf is None:
+        return None
+    Lf = np.asarray(Lf)
+    if Lf.ndim == 2 and Lf.shape[0] == Lf.shape[1]:
+        d = np.diagonal(Lf)
+        if np.all(d != 0) and np.count_nonzero(Lf) == d.size:
+            return np.ascontiguousarray(d)[:, None, None]
+    return None
 
 
 def _scaling(Lf: np.ndarray | None) -> Any:
@@ -536,7 +597,7 @@ def simulate(
     thr = as_threshold(threshold, len(view.generators), view.present)
     rule = as_persistence(persistence)
     window = detection_window_of(detection_window)
-    rng = np.random.default_rng(noise.seed) if noise is not None else None
+    rng = noise.source(noise.seed, noise.process_rows(plant)) if noise is not None else None
     cols = structure_columns(sched.faults, view.design_faults, plant)
     out = _stream_one(ctx, to_balanced(ctx, x0a), xc0a, rng, sched, thr, rule)
     res, alarms, isolated, candidates, suspects, x, y, yh, u, vectors, ws, xc = out

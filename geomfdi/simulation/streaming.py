@@ -254,7 +254,6 @@ class DecisionStream:
         bit = self.workspace.get("pattern bit", (R, L), dt)
         return al, self._table[pattern_codes(al, out=code, scratch=bit)], None
 
-
     def decide_compiled(
         self,
         res: np.ndarray,
