@@ -480,7 +480,7 @@ def fused_runs(
     evaluation : optional
         Scores, alarm codes and divergence of the statistic, filled by the kernel.
     """
-    from geomfdi.simulation.noise import CounterStream
+    from geomfdi.simulation.noise import CounterStream, counter_normals
     from geomfdi.simulation.simulate import noise_streams, noise_window
 
     lib = plan.lib[0]
@@ -530,15 +530,21 @@ def fused_runs(
             if plan.Lv is not None:
                 sources = [plan.noise.source(sd, plan.process_rows) for sd in seeds[a1:b1]]
                 streams = noise_streams(ctx, sources, pool, 1)
-            # numpy's generator and a diagonal Lv: each run's draws read where they are,
-            # scaled in the kernel; otherwise the scaled window of gf.simulate_batch
+            # a diagonal Lv: each run's draws read where they are (numpy's generator) or
+            # where the counter generator fills them, scaled in the kernel (the product
+            # of gf.simulate_batch's scaling); otherwise its scaled window
             direct = streams is not None and plan.lv is not None
-            direct = direct and not isinstance(streams[0], CounterStream)
+            counter = direct and isinstance(streams[0], CounterStream)
             for s in range(0, N, WINDOW):
                 e = min(s + WINDOW, N)
                 e1 = min(e + 1, N)  # the reading at the end of the window's last interval
                 keep, ptrs = [], []
-                if direct:
+                if counter:
+                    z = _POOLS.work.get("fused z", (q, b1 - a1, e1 - s))
+                    counter_normals(streams, s, e1, z, None)
+                    z0, si, sr = z.ctypes.data, z.strides[0], z.strides[1]
+                    ptrs = [z0 + r * sr + i * si for r in range(b1 - a1) for i in range(q)]
+                elif direct:
                     for st in streams:
                         z = st.take(s, e1)[0]
                         if z.strides[1] != 8:
