@@ -157,6 +157,35 @@ def test_fused_statistic_and_residuals_equal_simulate_batch(hwc, monkeypatch):
             monkeypatch.undo()
 
 
+@pytest.mark.parametrize(
+    "flags, specialise",
+    [
+        (("-DGFSIM_NV=2",), True),
+        (("-DGFSIM_NV=3",), True),
+        (("-DGFF_NO_VECTOR_EXT",), True),
+        ((), False),
+    ],
+    ids=["2-vectors", "3-vectors", "plain-loops", "dimensions-at-run-time"],
+)
+def test_every_build_of_the_kernel_gives_the_same_bits(hwc, monkeypatch, flags, specialise):
+    # every run is computed by the same operations whatever the width of the groups
+    # of runs, the vector extension or the dimensions' binding time
+    spec, bank = hwc
+    t = spec.t[:300]
+    noise = gf.Noise(measurement=0.01, seed=3)
+    lists = [[gf.BiasFault(1, start=0.2, bias=0.01 * r)] for r in range(11)]
+    lists += [[gf.GainFault(2, start=0.3, gain=1.5)], []]  # 13 runs: partial groups
+    seeds = list(np.random.SeedSequence(9).spawn(len(lists)))
+    args = dict(fault_lists=lists, noise=noise, controller=spec.K, x0=spec.x0, window=20)
+    plan, _ = fused.fused_plan(spec.plant, bank, t, spec.u, **args)
+    ref = fused.fused_runs(plan, lists, seeds)
+    monkeypatch.setattr(fused, "_FLAGS", flags)
+    monkeypatch.setattr(fused, "_SPECIALISE", specialise)
+    other, _ = fused.fused_plan(spec.plant, bank, t, spec.u, **args)
+    assert other.lib is not plan.lib
+    np.testing.assert_array_equal(fused.fused_runs(other, lists, seeds), ref)
+
+
 @pytest.mark.filterwarnings("ignore::geomfdi.simulation.initial_state.InitialStateWarning")
 def test_fused_vector_residual_discrete_plant_undecoupled_bank_no_measurement_noise():
     # a discrete plant, one generator of two outputs (its row: the norm of both)

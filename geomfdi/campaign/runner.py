@@ -153,7 +153,8 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
 
             truths = None
             if job["structure"] is not None:
-                cache: dict[Any, Any] = {}
+                # the column of each fault channel, kept by the process for the campaign
+                cache: dict[Any, Any] = job["fused"].setdefault("columns", {})
                 known: dict[int, Any] = {}  # the runs of one cell share its list
                 truths = []
                 for fl, z in zip(fault_lists, block.size, strict=True):

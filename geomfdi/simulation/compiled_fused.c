@@ -47,68 +47,70 @@
 #else
 #define GFSIM_W 2
 #endif
-#define GFSIM_G (2 * GFSIM_W)
+#ifndef GFSIM_NV
+#define GFSIM_NV 4 /* vectors per group of runs (independent operations per coefficient) */
+#endif
+#define GFSIM_G (GFSIM_NV * GFSIM_W)
 #define GFSIM_T 64
 
-#if defined(__GNUC__) || defined(__clang__)
+#if (defined(__GNUC__) || defined(__clang__)) && !defined(GFF_NO_VECTOR_EXT)
+#define GFF_VEXT 1
+#else
+#define GFF_VEXT 0
+#endif
+
+#if GFF_VEXT
 typedef double gfsim_vec __attribute__((vector_size(GFSIM_W * sizeof(double)), may_alias));
 typedef long long gfsim_ivec __attribute__((vector_size(GFSIM_W * sizeof(long long))));
 typedef struct {
-    gfsim_vec v[2];
+    gfsim_vec v[GFSIM_NV];
 } gfsim_lane;
 static const gfsim_vec gfsim_zero = {0};
-/* the lanes of v below zero set to zero (a NaN or -0.0 kept, as numpy.maximum(v, 0)) */
-#define CLIP0(v)                                                                     \
-    do {                                                                             \
-        (v).v[0] = (gfsim_vec)((gfsim_ivec)(v).v[0] & ~((v).v[0] < gfsim_zero));     \
-        (v).v[1] = (gfsim_vec)((gfsim_ivec)(v).v[1] & ~((v).v[1] < gfsim_zero));     \
-    } while (0)
+#define GFF_NV GFSIM_NV
 #define LANE(x, j) ((x).v[(j) / GFSIM_W][(j) % GFSIM_W])
-#define AXPY(y, a, x)                                                        \
-    do {                                                                     \
-        const double a_ = (a);                                               \
-        (y).v[0] += a_ * (x).v[0];                                           \
-        (y).v[1] += a_ * (x).v[1];                                           \
-    } while (0)
-#define FILL(y, s)                                                           \
-    do {                                                                     \
-        const double s_ = (s);                                               \
-        (y).v[0] = gfsim_zero + s_;                                          \
-        (y).v[1] = gfsim_zero + s_;                                          \
-    } while (0)
-/* lane copies as two vector moves (a structure copy may go through narrower moves,
-   which stall the wider loads that follow) */
-#define COPY(y, x)                                                           \
-    do {                                                                     \
-        (y).v[0] = (x).v[0];                                                 \
-        (y).v[1] = (x).v[1];                                                 \
+#define SPLAT(s) (gfsim_zero + (s))
+/* the lanes of v below zero set to zero (a NaN or -0.0 kept, as numpy.maximum(v, 0)) */
+#define CLIP0(x)                                                                     \
+    do {                                                                             \
+        int u_;                                                                      \
+        for (u_ = 0; u_ < GFF_NV; ++u_)                                              \
+            (x).v[u_] = (gfsim_vec)((gfsim_ivec)(x).v[u_] & ~((x).v[u_] < gfsim_zero)); \
     } while (0)
 #else
+/* no vector extension: a lane is GFSIM_G doubles, the same loops over them */
 typedef struct {
     double v[GFSIM_G];
 } gfsim_lane;
+#define GFF_NV GFSIM_G
 #define LANE(x, j) ((x).v[j])
+#define SPLAT(s) (s)
+#define CLIP0(x)                                                             \
+    do {                                                                     \
+        int u_;                                                              \
+        for (u_ = 0; u_ < GFSIM_G; ++u_)                                     \
+            if ((x).v[u_] < 0.0) (x).v[u_] = 0.0;                            \
+    } while (0)
+#endif
+/* y += a x, y = s, y = x over the vectors of a lane (vector moves: a structure copy may
+   go through narrower moves, which stall the wider loads that follow) */
 #define AXPY(y, a, x)                                                        \
     do {                                                                     \
         const double a_ = (a);                                               \
-        int q_;                                                              \
-        for (q_ = 0; q_ < GFSIM_G; ++q_) (y).v[q_] += a_ * (x).v[q_];        \
+        int u_;                                                              \
+        for (u_ = 0; u_ < GFF_NV; ++u_) (y).v[u_] += a_ * (x).v[u_];         \
     } while (0)
 #define FILL(y, s)                                                           \
     do {                                                                     \
         const double s_ = (s);                                               \
-        int q_;                                                              \
-        for (q_ = 0; q_ < GFSIM_G; ++q_) (y).v[q_] = s_;                     \
+        int u_;                                                              \
+        for (u_ = 0; u_ < GFF_NV; ++u_) (y).v[u_] = SPLAT(s_);               \
     } while (0)
-#define COPY(y, x) ((y) = (x))
-#define CLIP0(v)                                                             \
+#define COPY(y, x)                                                           \
     do {                                                                     \
-        int q_;                                                              \
-        for (q_ = 0; q_ < GFSIM_G; ++q_)                                     \
-            if ((v).v[q_] < 0.0) (v).v[q_] = 0.0;                            \
+        int u_;                                                              \
+        for (u_ = 0; u_ < GFF_NV; ++u_) (y).v[u_] = (x).v[u_];               \
     } while (0)
-#endif
-
+#define EACH for (u = 0; u < GFF_NV; ++u)
 
 /* Dimensions and channel layouts fixed at compile time (GFF_DIMS, set by
    geomfdi.simulation.fused for the plan: loops of known length, unrolled, the layout
@@ -166,10 +168,10 @@ static const int64_t gff_bs[] = {GFF_BSIZE 0}, gff_ost[] = {GFF_OSTART 0},
  *   codes       : (R, kend) the alarm pattern of each sample k < kend, bit rdst[o] set
  *                 when S > thr[o] and k >= kal0.
  */
-#if defined(__GNUC__) || defined(__clang__)
+#if GFF_VEXT
 #define GFF_VECTOR_EVAL 1
 typedef struct {
-    gfsim_ivec v[2];
+    gfsim_ivec v[GFSIM_NV];
 } gfsim_ilane;
 #else
 #define GFF_VECTOR_EVAL 0
@@ -194,21 +196,19 @@ GFF_INLINE void gff_evaluate(const gff_eval *ev, const gfsim_lane *rw, int64_t n
        an infinite threshold, so that only a non-finite statistic fails it) */
     gfsim_ilane cl[GFSIM_T], okl;
     const gfsim_ivec mag = {0}, one = mag + 0x7fffffffffffffffLL;
-    okl.v[0] = mag - 1;
-    okl.v[1] = mag - 1;
+    int u;
+    EACH okl.v[u] = mag - 1;
     for (t = 0; t < nt; ++t) {
-        gfsim_ivec c0 = mag, c1 = mag;
+        EACH cl[t].v[u] = mag;
         for (o = 0; o < nrow; ++o) {
             const gfsim_lane *sv = rw + t * nrow + o;
             const gfsim_vec th = gfsim_zero + ev->thr[o], li = gfsim_zero + ev->lim[o];
             const gfsim_ivec bit = mag + (1LL << rdst[o]);
-            c0 |= (gfsim_ivec)(sv->v[0] > th) & bit;
-            c1 |= (gfsim_ivec)(sv->v[1] > th) & bit;
-            okl.v[0] &= (gfsim_ivec)((gfsim_vec)((gfsim_ivec)sv->v[0] & one) <= li);
-            okl.v[1] &= (gfsim_ivec)((gfsim_vec)((gfsim_ivec)sv->v[1] & one) <= li);
+            EACH {
+                cl[t].v[u] |= (gfsim_ivec)(sv->v[u] > th) & bit;
+                okl.v[u] &= (gfsim_ivec)((gfsim_vec)((gfsim_ivec)sv->v[u] & one) <= li);
+            }
         }
-        cl[t].v[0] = c0;
-        cl[t].v[1] = c1;
     }
 #endif
     for (j = 0; j < gn; ++j) {
@@ -286,6 +286,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
     /* samples with a step from them: all but the record's last */
     const int64_t steps = s + L < N ? L : L - 1;
     int64_t g0, i, j, k, k0, c, o, t, b, i0, aoff, coff, ks, run[GFSIM_G], cur[64 * GFSIM_G];
+    int u;
     gfsim_lane *x, *xn, *y0n, *y, *eta, *lam, *d, *yo, *rw, *csl, *rg;
     void *raw;
     size_t nl;
@@ -388,8 +389,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                 }
             }
             for (t = 0; t < nv * Q_; ++t) {
-                y[t].v[0] = eta[t].v[0] * y0n[t].v[0] + lam[t].v[0];
-                y[t].v[1] = eta[t].v[1] * y0n[t].v[1] + lam[t].v[1];
+                EACH y[t].v[u] = eta[t].v[u] * y0n[t].v[u] + lam[t].v[u];
             }
             for (t = 0; t < nt; ++t) {
                 const int64_t kr = k0 + t; /* within the window */
@@ -414,11 +414,9 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                     } else {
                         gfsim_lane sq;
                         int64_t m;
-                        sq.v[0] = yo[a].v[0] * yo[a].v[0];
-                        sq.v[1] = yo[a].v[1] * yo[a].v[1];
+                        EACH sq.v[u] = yo[a].v[u] * yo[a].v[u];
                         for (m = a + 1; m < bnd; ++m) {
-                            sq.v[0] += yo[m].v[0] * yo[m].v[0];
-                            sq.v[1] += yo[m].v[1] * yo[m].v[1];
+                            EACH sq.v[u] += yo[m].v[u] * yo[m].v[u];
                         }
                         for (j = 0; j < G; ++j) LANE(rt[o], j) = sqrt(LANE(sq, j));
                     }
@@ -427,11 +425,9 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                     const int64_t slot = ks * NROW_;
                     for (o = 0; o < NROW_; ++o) {
                         gfsim_lane v, c1;
-                        c1.v[0] = csl[o].v[0] + rt[o].v[0] * rt[o].v[0];
-                        c1.v[1] = csl[o].v[1] + rt[o].v[1] * rt[o].v[1];
+                        EACH c1.v[u] = csl[o].v[u] + rt[o].v[u] * rt[o].v[u];
                         if (k >= win) {
-                            v.v[0] = c1.v[0] - rg[slot + o].v[0];
-                            v.v[1] = c1.v[1] - rg[slot + o].v[1];
+                            EACH v.v[u] = c1.v[u] - rg[slot + o].v[u];
                         } else {
                             COPY(v, c1);
                         }
@@ -452,17 +448,14 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                         COPY(v, y[t * Q_ + ii]);
                     } else if (kind == 1) {
                         const double yc = y0c[ii * N + k];
-                        v.v[0] = y[t * Q_ + ii].v[0] - et.v[0] * yc;
-                        v.v[1] = y[t * Q_ + ii].v[1] - et.v[1] * yc;
+                        EACH v.v[u] = y[t * Q_ + ii].v[u] - et.v[u] * yc;
                     } else if (kind == 2) {
                         const double yc = y0c[ii * N + k + 1];
                         const gfsim_lane *yr = y0n + (t + 1) * Q_ + ii, *lm = lam + t * Q_ + ii;
-                        v.v[0] = (et.v[0] * yr->v[0] + lm->v[0]) - et.v[0] * yc;
-                        v.v[1] = (et.v[1] * yr->v[1] + lm->v[1]) - et.v[1] * yc;
+                        EACH v.v[u] = (et.v[u] * yr->v[u] + lm->v[u]) - et.v[u] * yc;
                     } else {
                         const double sv = sh[DR_(c) * N + k + (kind == 4)];
-                        v.v[0] = (et.v[0] - 1.0) * sv;
-                        v.v[1] = (et.v[1] - 1.0) * sv;
+                        EACH v.v[u] = (et.v[u] - 1.0) * sv;
                     }
                     COPY(d[c], v);
                 }
@@ -633,3 +626,7 @@ int gffused_isolate(int64_t R, int64_t kend, int64_t nres, const uint8_t *codes,
     free(ring);
     return 0;
 }
+
+/* Runs per group of lanes of this build (geomfdi.simulation.fused cuts its parts at
+   multiples of it). */
+int64_t gffused_group(void) { return GFSIM_G; }

@@ -88,14 +88,15 @@ def evaluation_struct(arrays: dict[str, Any]) -> _Evaluation:
 
 #: Samples per window of a fused pass (the noise of a window is taken at once).
 WINDOW = 2**16
-#: Runs per SIMD group of the kernel at most (AVX-512: 16): parts of a block split
-#: between threads are cut at multiples of it.
-_GROUP = 16
 #: Fewest run-samples per thread (a shorter pass gains nothing from a second thread).
 _MIN_PART_WORK = 2**18
-#: Runs whose noise is drawn and passed through the kernel at a time (their draws stay
-#: in the cache; the next runs draw into the same buffers).
+#: Runs whose noise is drawn and passed through the kernel at a time, about (a multiple
+#: of the kernel's group of lanes; their draws stay in the cache, the next runs draw
+#: into the same buffers).
 _SUB = 16
+#: More compiler flags of the kernel (tests: ``-DGFSIM_NV=3`` three vectors per group of
+#: runs, ``-DGFF_NO_VECTOR_EXT`` the plain loops of compilers without vector types).
+_FLAGS: tuple[str, ...] = ()
 #: Build the kernel for each plan's dimensions (loops of known length; a library per
 #: layout, cached like the others); ``False``: one kernel reading them at run time.
 _SPECIALISE = True
@@ -123,7 +124,9 @@ def _library(flags: tuple[str, ...] = ()) -> Any:
             iso = dll.gffused_isolate
             iso.argtypes = [i64 if c == "i" else vp for c in "iiivviiiiiivvvvvvv"]
             iso.restype = ctypes.c_int
-            lib: Any = (fn, iso)
+            group = dll.gffused_group
+            group.restype = ctypes.c_int64
+            lib: Any = (fn, iso, int(group()))
         except (GeomFDIError, OSError) as exc:
             if flags:  # the plan's dimensions: the generic kernel does the same
                 lib = _library()
@@ -368,7 +371,7 @@ def fused_plan(
         noise=noise,
         process_rows=noise.process_rows(plant) if noise is not None else -1,
     )
-    plan.lib = _library(_dims_flags(plan) if _SPECIALISE else ())
+    plan.lib = _library((_dims_flags(plan) if _SPECIALISE else ()) + _FLAGS)
     if plan.lib is None:
         return None, "no working C compiler"
     return plan, ""
@@ -429,7 +432,11 @@ def _segments(plan: FusedPlan, fault_lists: Sequence[Sequence[Any]]) -> tuple[np
     q = plan.q
     cache = plan.segments
     runs = []
+    seen: dict[int, Any] = {}  # the runs of one cell share their list
     for fl in fault_lists:
+        if id(fl) in seen:
+            runs.append(seen[id(fl)])
+            continue
         key = _list_key(fl)
         seg = cache.get(key) if key is not None else None
         if seg is None:
@@ -438,6 +445,7 @@ def _segments(plan: FusedPlan, fault_lists: Sequence[Sequence[Any]]) -> tuple[np
                 if len(cache) > 4096:
                     cache.clear()
                 cache[key] = seg
+        seen[id(fl)] = seg
         runs.append(seg)
     ptr, ks, etas, lams = [0], [], [], []
     for i in range(q):
@@ -524,8 +532,8 @@ def fused_runs(
         if pool is None:
             pool = _POOLS.pool = {}
             _POOLS.work = Workspace()
-        for a1 in range(a, b, _SUB):
-            b1 = min(a1 + _SUB, b)
+        for a1 in range(a, b, sub):
+            b1 = min(a1 + sub, b)
             streams = None
             if plan.Lv is not None:
                 sources = [plan.noise.source(sd, plan.process_rows) for sd in seeds[a1:b1]]
@@ -571,8 +579,10 @@ def fused_runs(
                 st.release()
         return 0
 
-    k = max(1, min(work_threads(), -(-R // _GROUP), R * N // _MIN_PART_WORK))
-    edges = [0] + [round(i * R / (k * _GROUP)) * _GROUP for i in range(1, k)] + [R]
+    G = plan.lib[2]  # runs per group of lanes: parts and draws cut at multiples of it
+    sub = max(G, _SUB // G * G)
+    k = max(1, min(work_threads(), -(-R // G), R * N // _MIN_PART_WORK))
+    edges = [0] + [round(i * R / (k * G)) * G for i in range(1, k)] + [R]
     spans = [(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
     if len(spans) == 1:
         status = runs(*spans[0])
