@@ -305,16 +305,23 @@ def run_items(
 ) -> tuple[list[Any], float]:
     """``[work(job, item) for item in items]`` in a worker, and its compute seconds.
 
-    ``shipped`` is a :class:`Shipped` (or, in this process, the job itself).
+    ``shipped`` is a :class:`Shipped` (or, in this process, the job itself).  When
+    ``work`` has a ``prepare(job, items)`` attribute it runs first, untimed: the set-up
+    a process makes once and keeps for the job's later tasks (a campaign's fused plans,
+    :mod:`geomfdi.campaign.runner`), so that the first task's time, which sizes the
+    others, is what a task costs.
     """
     job = shipped.job if isinstance(shipped, Shipped) else shipped
     # a worker process (the job came shipped) shares the cores with the other workers:
     # no threads of its own (geomfdi._threads.work_threads)
     alone = using_work_threads(1) if isinstance(shipped, Shipped) else nullcontext()
-    t0 = time.perf_counter()
+    prepare = getattr(work, "prepare", None)
     with allocator_for_arrays(), alone:
+        if prepare is not None:
+            prepare(job, items)
+        t0 = time.perf_counter()
         out = [work(job, item) for item in items]
-    return out, time.perf_counter() - t0
+        return out, time.perf_counter() - t0
 
 
 # ------------------------------------------------------------------------ running

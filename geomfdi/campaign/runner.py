@@ -334,6 +334,19 @@ def _fused_plan(job: dict[str, Any], model: int) -> Any:
     return cache[model]
 
 
+def _prepare_blocks(job: dict[str, Any], blocks: Sequence[_Block]) -> None:
+    """The fused plans of the blocks' models, made before a task's timed work
+    (:func:`geomfdi.campaign.executors.run_items`)."""
+    with warnings.catch_warnings():
+        if job["perturbed"]:
+            warnings.filterwarnings("ignore", message=".*not decoupled.*")
+        for model in sorted({b.model for b in blocks}):
+            _fused_plan(job, model)
+
+
+_run_block.prepare = _prepare_blocks  # type: ignore[attr-defined]
+
+
 def _run_task(job: dict[str, Any], blocks: list[_Block]) -> list[dict[str, np.ndarray]]:
     return [_run_block(job, b) for b in blocks]
 
