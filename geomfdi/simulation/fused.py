@@ -13,8 +13,9 @@ after sample, nothing but the statistic written out:
   state ``x``, the healthy readings ``y0c``, the inputs ``u``, the bank's shared forcing
   (inputs, disturbances, and the plant state when the generators are not decoupled) and
   shared feedthrough;
-* per run and sample: ``y0n = y0c + Lv z`` (``z`` as drawn by the run's noise stream,
-  :func:`geomfdi.simulation.simulate.noise_streams`), ``y = eta y0n + lam`` (the sensor
+* per run and sample: ``y0n = y0c + Lv z`` (``z`` as drawn by the run's noise stream of
+  either generator, :meth:`geomfdi.Noise.source`; a correlated ``Lv`` applied as the
+  batch applies it), ``y = eta y0n + lam`` (the sensor
   faults, Hou, Wen & Chen 2011, eq. 3-5, with ``eta, lam`` piecewise constant per run),
   the drive channels of the first-order (or zero-order) hold over each interval, the
   generators' states and outputs (vector residuals: their norm) with the operations of
