@@ -2,14 +2,20 @@
 
 A campaign enumerates its runs in a fixed order (model, scenario, size, onset, repetition)
 and cuts them into **blocks** of at most ``block_size`` runs of one model.  A block is
-simulated in one vectorised :func:`geomfdi.simulate_batch` call and evaluated there; the
-executor only decides where blocks run (in this process, in local processes, on a Dask
-cluster) and how many blocks one task carries.  Repetition ``r`` draws its noise from
-child ``r`` of ``SeedSequence(noise.seed)`` (common random numbers across sizes, onsets and
-models), so a run's numbers depend on its index alone and the table is **bitwise
-identical** for every executor and every grouping of blocks into tasks.  (Changing
-``block_size`` itself may change the last bit of floating-point results: the vectorised
-simulation of a different set of runs rounds differently.)
+simulated and evaluated in one compiled pass over its runs
+(:mod:`geomfdi.simulation.fused`, :mod:`geomfdi.campaign.fused_scoring`: the statistic
+of a chi-square test and its scores and isolation without a pass through memory) when
+that pass covers the campaign, decided once per campaign and model; otherwise in one
+vectorised :func:`geomfdi.simulate_batch` call, evaluated with numpy.  The two give the
+same table (decisions and detections identical, numbers to rounding).  The executor
+only decides where blocks run (in this process, in local processes, on a Dask cluster)
+and how many blocks one task carries.  Repetition ``r`` draws its noise from child ``r``
+of ``SeedSequence(noise.seed)`` (common random numbers across sizes, onsets and models),
+so a run's numbers depend on its index alone and the table is **bitwise identical** for
+every executor and every grouping of blocks into tasks.  (With ``gf.simulate_batch``,
+changing ``block_size`` itself may change the last bit of floating-point results: the
+vectorised simulation of a different set of runs rounds differently; the fused pass
+computes every run alone.)
 
 Per run and residual (and for the bank: any residual), with the residual's statistic
 ``s`` normalised by its threshold (``z = s / h``, so ``z > 1`` is an alarm):
