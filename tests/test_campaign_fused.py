@@ -291,6 +291,13 @@ def test_fused_campaign_of_perturbed_models_equals_the_vectorised_simulation(hwc
     _same_tables(c.run("serial", progress=False).table, _reference(c, monkeypatch))
 
 
+def test_fused_runs_do_not_depend_on_the_block_size(hwc):
+    spec, bank = hwc
+    a = _campaign(spec, bank, samples=700, block_size=5).run("serial", progress=False)
+    b = _campaign(spec, bank, samples=700, block_size=64).run("serial", progress=False)
+    pd.testing.assert_frame_equal(a.table, b.table, check_exact=True)
+
+
 def test_fused_campaign_is_the_same_on_dask(hwc):
     distributed = pytest.importorskip("distributed")
     spec, bank = hwc
