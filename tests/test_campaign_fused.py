@@ -291,6 +291,21 @@ def test_fused_campaign_of_perturbed_models_equals_the_vectorised_simulation(hwc
     _same_tables(c.run("serial", progress=False).table, _reference(c, monkeypatch))
 
 
+def test_fused_campaign_in_windows_and_with_another_test(hwc, monkeypatch):
+    spec, bank = hwc
+    # the record in windows of 37 samples (states, sums, scores and patterns carried)
+    c = _campaign(spec, bank, samples=700)
+    want = _reference(c, monkeypatch)
+    monkeypatch.setattr(fused, "WINDOW", 37)
+    _same_tables(c.run("serial", progress=False).table, want)
+    monkeypatch.undo()
+    # thresholds on |r|: the pass gives the residuals, numpy the test's statistic
+    c = _campaign(spec, bank, samples=700, test=0.05)
+    plan = runner._fused_plan(c._job(), 0)
+    assert plan is not None and plan.window == 0
+    _same_tables(c.run("serial", progress=False).table, _reference(c, monkeypatch))
+
+
 def test_fused_runs_do_not_depend_on_the_block_size(hwc):
     spec, bank = hwc
     a = _campaign(spec, bank, samples=700, block_size=5).run("serial", progress=False)
