@@ -306,6 +306,23 @@ def test_fused_campaign_in_windows_and_with_another_test(hwc, monkeypatch):
     _same_tables(c.run("serial", progress=False).table, _reference(c, monkeypatch))
 
 
+@pytest.mark.parametrize("gen", ["numpy", "counter"])
+def test_the_draws_kept_for_a_repetition_are_the_draws(hwc, monkeypatch, gen):
+    # the runs of one repetition read the draws kept when its first cell drew them: the
+    # table is the one drawn again for every run (no cache)
+    spec, bank = hwc
+    noise = gf.Noise(measurement=[0.01, 0.02, 0.005], seed=7, generator=gen)
+    c = _campaign(spec, bank, samples=700, noise=noise, block_size=4)
+    job = c._job()
+    for block in c.blocks()[:3]:
+        runner._run_block(job, block)
+    draws = job["fused"]["draws"]
+    assert 0 < len(draws.arrays) <= c.runs and draws.nbytes <= draws.budget
+    table = c.run("serial", progress=False).table
+    monkeypatch.setattr(runner, "DRAW_CACHE_CHUNKS", 0)
+    pd.testing.assert_frame_equal(table, c.run("serial", progress=False).table, check_exact=True)
+
+
 def test_fused_runs_do_not_depend_on_the_block_size(hwc):
     spec, bank = hwc
     a = _campaign(spec, bank, samples=700, block_size=5).run("serial", progress=False)

@@ -235,6 +235,11 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
     return out
 
 
+#: The noise draws a process keeps for a campaign's repetitions (their runs in every
+#: other cell read them again), in units of ``gf.limits`` ``chunk_memory`` (4: 256 MiB
+#: by default; the draws of 1000 repetitions of 10^4 samples on 3 sensors take 240 MB).
+DRAW_CACHE_CHUNKS = 4
+
 #: A statistic this many times its threshold (or non-finite) marks a run as diverged.
 DIVERGED_RATIO = 1e6
 
@@ -335,6 +340,15 @@ def _fused_plan(job: dict[str, Any], model: int) -> Any:
             hold=job["hold"],
             window=int(test.window) if chi2 else 0,
         )
+        if plan is not None and len(job["cell_faults"]) > 1:
+            # the draws of a repetition, made once per process for all its cells (common
+            # random numbers), within DRAW_CACHE_CHUNKS times the chunk memory budget
+            from geomfdi.limits import get_limits
+            from geomfdi.simulation.fused import DrawCache
+
+            if "draws" not in cache:
+                cache["draws"] = DrawCache(DRAW_CACHE_CHUNKS * get_limits().chunk_memory)
+            plan.draws = cache["draws"]
         cache[model] = plan
         cache[("why", model)] = why
     return cache[model]

@@ -172,6 +172,43 @@ def _dims_flags(plan: FusedPlan) -> tuple[str, ...]:
     )
 
 
+class DrawCache:
+    """The standard-normal draws of the runs met, by seed, within a byte budget.
+
+    A campaign's runs of one repetition have the same seed in every (scenario, size,
+    onset) (common random numbers): their draws are made once per process and read
+    again by the runs of the other cells.  The arrays are the drawn values themselves
+    (copies of the stream's buffers), so the results are those of drawing again.
+    """
+
+    def __init__(self, budget: float) -> None:
+        self.arrays: dict[Any, np.ndarray] = {}
+        self.nbytes = 0
+        self.budget = float(budget)
+
+    def get(self, key: Any) -> np.ndarray | None:
+        return None if key is None else self.arrays.get(key)
+
+    def put(self, key: Any, z: np.ndarray) -> np.ndarray:
+        """``z`` kept under ``key`` (a copy) when the budget allows; the array to read."""
+        if key is None or self.nbytes + z.nbytes > self.budget:
+            return z
+        kept = np.array(z, order="C")
+        self.arrays[key] = kept
+        self.nbytes += kept.nbytes
+        return kept
+
+
+def _seed_key(seed: Any) -> Any:
+    """What identifies a run's draws: its seed's entropy and spawn key (None: unknown)."""
+    if isinstance(seed, np.random.SeedSequence):
+        ent = seed.entropy
+        return (tuple(ent) if isinstance(ent, list | tuple) else ent, tuple(seed.spawn_key))
+    if isinstance(seed, int | np.integer):
+        return int(seed)
+    return None
+
+
 @dataclass
 class FusedPlan:
     """What every run of a plan shares (:func:`fused_plan`); the arrays the kernel reads."""
@@ -201,6 +238,7 @@ class FusedPlan:
     lib: Any = None  # the kernel's (run, isolate), built for the plan's dimensions
     noise: Any = None  # the Noise (its generator: Noise.source)
     process_rows: int = -1  # Noise.process_rows of the plant
+    draws: DrawCache | None = None  # draws kept by seed (a campaign shares it), or None
 
 
 def _why_not(ctx: Any, schedules: Sequence[Any], x0: np.ndarray) -> str | None:
@@ -535,6 +573,11 @@ def fused_runs(
             _POOLS.work = Workspace()
         for a1 in range(a, b, sub):
             b1 = min(a1 + sub, b)
+            if cached:
+                status = kept_runs(a1, b1, pool)
+                if status != 0:
+                    return status
+                continue
             streams = None
             if plan.Lv is not None:
                 sources = [plan.noise.source(sd, plan.process_rows) for sd in seeds[a1:b1]]
@@ -582,6 +625,41 @@ def fused_runs(
 
     G = plan.lib[2]  # runs per group of lanes: parts and draws cut at multiples of it
     sub = max(G, _SUB // G * G)
+    # one window, a diagonal Lv and a cache: draws read from the cache or made and kept
+    cached = plan.draws is not None and plan.lv is not None and N <= WINDOW
+
+    def kept_runs(a1: int, b1: int, pool: dict[int, list[np.ndarray]]) -> int:
+        keys = [_seed_key(sd) for sd in seeds[a1:b1]]
+        zs = [plan.draws.get(key) for key in keys]  # type: ignore[union-attr]
+        miss = [j for j, z in enumerate(zs) if z is None]
+        if miss:
+            sources = [plan.noise.source(seeds[a1 + j], plan.process_rows) for j in miss]
+            streams = noise_streams(ctx, sources, pool, 1)
+            if isinstance(streams[0], CounterStream):
+                zb = _POOLS.work.get("fused z", (q, len(miss), N))
+                counter_normals(streams, 0, N, zb, None)
+                drawn = [zb[:, j] for j in range(len(miss))]
+            else:
+                drawn = [st.take(0, N)[0] for st in streams]
+            for j, z in zip(miss, drawn, strict=True):
+                zs[j] = plan.draws.put(keys[j], z)  # type: ignore[union-attr]
+        zs = [z if z.strides[1] == 8 else np.ascontiguousarray(z) for z in zs]  # type: ignore
+        ptrs = []
+        for z in zs:
+            z0, step = z.ctypes.data, z.strides[0]
+            ptrs += [z0 + i * step for i in range(q)]
+        zp[a1 * q : b1 * q] = ptrs
+        args = list(base)
+        args[1], args[2], args[4], args[5] = a1, b1, 0, N
+        args[10] = plan.lv.ctypes.data  # type: ignore[union-attr]
+        args[-5] = None if out is None else out.ctypes.data
+        status = int(lib(*args))
+        if miss:
+            for st in streams:
+                st.release()
+        del zs
+        return status
+
     k = max(1, min(work_threads(), -(-R // G), R * N // _MIN_PART_WORK))
     edges = [0] + [round(i * R / (k * G)) * G for i in range(1, k)] + [R]
     spans = [(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
