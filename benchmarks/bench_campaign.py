@@ -157,8 +157,9 @@ def gemm_rate(size: int = 1000, repeats: int = 3) -> float:
 
 def noise_seconds(camp: gf.Campaign, ctx: dict[str, Any], runs: int) -> float:
     """Seconds to draw the measurement noise alone (``q`` standard normals per
-    run-sample, each run from its own ``default_rng(seed)``, as the campaign does) for
-    ``runs`` runs, extrapolated to the campaign's runs."""
+    run-sample, each run from its own ``default_rng(seed)``, as ``gf.simulate`` draws
+    them; a campaign draws each repetition once per process and its runs in the other
+    cells read the draws again) for ``runs`` runs, extrapolated to the campaign's runs."""
     q, N = ctx["spec"].plant.q, ctx["t"].size
     root = np.random.SeedSequence(camp.noise.seed)
     buf = np.empty((q, N))
