@@ -111,7 +111,9 @@ def short_vs_forced_response(N: int = 10**4, repeat: int = 5) -> dict:
     }
 
 
-def batch_vs_loop(runs: int = 100, N: int = 10**5, repeat: int = 2) -> dict:
+def batch_vs_loop(
+    runs: int = 100, N: int = 10**5, repeat: int = 2, generator: str = "numpy"
+) -> dict:
     from bench_simulation import A, B, C, K, bias, inputs, make_bank
 
     bank, plant = make_bank(10), gf.Plant(A, B, C)
@@ -124,7 +126,11 @@ def batch_vs_loop(runs: int = 100, N: int = 10**5, repeat: int = 2) -> dict:
         x0=np.array([0.5, -0.3, 0.2]),
         threshold=0.01,
     )
-    noise = gf.Noise(measurement=2e-4, seed=1)
+    noise = gf.Noise(measurement=2e-4, seed=1, generator=generator)
+
+    def noise_of(seed):
+        return gf.Noise(measurement=2e-4, seed=seed, generator=generator)
+
     out = {}
 
     def batch():
@@ -134,10 +140,7 @@ def batch_vs_loop(runs: int = 100, N: int = 10**5, repeat: int = 2) -> dict:
 
     def loop():
         seeds = out["batch"].seeds
-        out["loop"] = [
-            gf.simulate(plant, bank, t, v, noise=gf.Noise(measurement=2e-4, seed=s), **kw)
-            for s in seeds
-        ]
+        out["loop"] = [gf.simulate(plant, bank, t, v, noise=noise_of(s), **kw) for s in seeds]
 
     def batch_summary():
         out["summary"] = gf.simulate_batch(
@@ -149,7 +152,7 @@ def batch_vs_loop(runs: int = 100, N: int = 10**5, repeat: int = 2) -> dict:
         seeds = out["batch"].seeds
         out["events"] = []
         for s in seeds:
-            r = gf.simulate(plant, bank, t, v, noise=gf.Noise(measurement=2e-4, seed=s), **kw)
+            r = gf.simulate(plant, bank, t, v, noise=noise_of(s), **kw)
             out["events"].append((r.events, np.max(np.abs(r.residuals), axis=1)))
 
     batch()
@@ -178,8 +181,10 @@ def batch_vs_loop(runs: int = 100, N: int = 10**5, repeat: int = 2) -> dict:
     }
 
 
-def acceptance(quick: bool = False, short_only: bool = False) -> dict:
-    """Print the ratios of both cases (``short_only``: of the short record); returns them."""
+def acceptance(quick: bool = False, short_only: bool = False, generator: str = "numpy") -> dict:
+    """Print the ratios of both cases (``short_only``: of the short record); returns them.
+    ``generator``: the noise generator of the batch case (``gf.Noise(generator=...)``),
+    the same for the batch and the loop."""
     import os
 
     print(f"load average {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
@@ -195,9 +200,9 @@ def acceptance(quick: bool = False, short_only: bool = False) -> dict:
     if short_only:
         return {"short": s}
     runs, N = (10, 10**4) if quick else (100, 10**5)
-    b = batch_vs_loop(runs=runs, N=N, repeat=1 if quick else 2)
+    b = batch_vs_loop(runs=runs, N=N, repeat=1 if quick else 2, generator=generator)
     print(
-        f"batch, {runs} runs x {N} samples, bank of 10, noise: loop of gf.simulate "
+        f"batch, {runs} runs x {N} samples, bank of 10, noise ({generator}): loop of gf.simulate "
         f"{b['loop']:.2f} s, gf.simulate_batch {b['batch']:.2f} s, ratio "
         f"{b['loop'] / b['batch']:.2f} (max |dr| {b['max_diff']:.1e})"
     )

@@ -39,7 +39,8 @@ process their time axis in chunks sized from ``gf.limits`` ``chunk_memory``.
 ``--acceptance`` prints only the throughput ratios of ``benchmarks/_throughput.py`` (a
 short record of a 12-state plant and a bank of 120 generator states against
 ``forced_response``; ``simulate_batch`` against a loop of ``simulate``); with
-``--short-only``, the short record alone.
+``--short-only``, the short record alone; ``--generator counter``: the batch case draws its
+noise with ``gf.Noise(generator="counter")`` (batch and loop alike).
 
 Run ``python benchmarks/bench_simulation.py`` (``--quick`` for a smoke run, ``--full`` to
 time ``forced_response`` at every size instead of extrapolating, ``--memory`` for the
@@ -456,6 +457,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument(
         "--short-only", action="store_true", help="acceptance: the short-record ratio alone"
     )
+    ap.add_argument(
+        "--generator",
+        choices=("numpy", "counter"),
+        default="numpy",
+        help="acceptance: noise generator of the batch case (batch and loop alike)",
+    )
     ap.add_argument("--samples", type=float, default=1e7, help="memory: one record's length")
     ap.add_argument("--batch-samples", type=float, default=1e6, help="memory: run length")
     ap.add_argument("--runs", type=int, default=100, help="memory: batch runs")
@@ -471,7 +478,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     if args.acceptance:
         from _throughput import acceptance
 
-        return [acceptance(quick=args.quick, short_only=args.short_only)]
+        return [acceptance(quick=args.quick, short_only=args.short_only, generator=args.generator)]
     if args.quick:
         kw = dict(
             sizes=(10**3, 10**4),

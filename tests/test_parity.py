@@ -181,7 +181,13 @@ def test_potter_suman_form_is_upper_triangular(H):
     pf = gf.ParityFDI(H, basis="potter")
     order = pf.potter_order
     R = pf.V[:, order[: pf.s]]
-    np.testing.assert_allclose(np.tril(R, -1), 0, atol=1e-12)
+    # R = Q[:s]^T holds to the QR's backward error over the leading block's smallest
+    # singular value (it is kept down to 1e-6; below that the sensors are pivoted)
+    sv_min = np.linalg.svd(R, compute_uv=False)[-1]
+    assert sv_min > 1e-7
+    np.testing.assert_allclose(
+        np.tril(R, -1), 0, atol=max(1e-12, 50 * np.finfo(float).eps / sv_min)
+    )
     assert np.all(np.diag(R) > 0)
 
 
