@@ -15,14 +15,29 @@ concurrent builds of the same source agree.  See the user guide, *Performance*
 
 from __future__ import annotations
 
+import ctypes
 import hashlib
 import os
 import shutil
+import threading
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from geomfdi.errors import GeomFDIError
 
-__all__ = ["FLAGS", "NATIVE", "build_library", "cache_dir", "compiler", "processor"]
+__all__ = [
+    "FLAGS",
+    "NATIVE",
+    "build_library",
+    "cache_dir",
+    "compiler",
+    "environment_key",
+    "forget_kernels",
+    "load_kernel",
+    "processor",
+    "typed",
+]
 
 # -O3: loops unrolled and vectorised; -ffp-contract=off: no fused multiply-add
 FLAGS = ("-O3", "-std=c99", "-ffp-contract=off", "-shared", "-fPIC")
@@ -120,3 +135,78 @@ def build_library(name: str, files: dict[str, str], main: str, flags: tuple[str,
             )
         os.replace(part, lib)  # atomic: concurrent builds of the same source agree
     return lib
+
+
+# ---------------------------------------------------------------- loading, once per process
+_LOADED: dict[tuple[Any, ...], Any] = {}
+_LOAD_LOCK = threading.RLock()  # re-entrant: a failure may load another kernel instead
+
+
+def environment_key() -> tuple[str | None, ...]:
+    """What selects a library besides its source and flags: the variables that set
+    :func:`cache_dir` and the compiler (read from the environment: cheap, every call
+    checks it)."""
+    env = os.environ
+    return tuple(env.get(v) for v in ("GEOMFDI_CACHE_DIR", "XDG_CACHE_HOME", "HOME", "CC"))
+
+
+def typed(fn: Any, kinds: str, restype: Any = ctypes.c_int) -> Any:
+    """``fn`` with its ctypes signature: one letter per argument, ``i`` a 64-bit
+    integer, ``v`` a pointer (``void *``); ``restype`` the result's type."""
+    fn.argtypes = [ctypes.c_int64 if c == "i" else ctypes.c_void_p for c in kinds]
+    fn.restype = restype
+    return fn
+
+
+def load_kernel(
+    name: str,
+    source: Path,
+    bind: Callable[[ctypes.CDLL], Any],
+    *,
+    flags: tuple[str, ...] = (),
+    on_fail: Callable[[Exception], Any] | None = None,
+) -> Any:
+    """The functions of the library built from ``source`` (:func:`build_library`),
+    loaded once per process.
+
+    Parameters
+    ----------
+    name : str
+        Library name (the source is compiled as ``<name>.c``).
+    source : Path
+        The C source file.
+    bind : callable
+        ``bind(dll)``: picks and types the library's functions (:func:`typed`); what it
+        returns is what this returns.
+    flags : tuple of str
+        More compiler flags.
+    on_fail : callable, optional
+        ``on_fail(exc)`` when the build or the loading fails (no compiler, a compiler
+        error, a library that does not load): its result is returned instead (``None``
+        without it), e.g. after a warning, or another kernel.
+
+    Returns
+    -------
+    object
+        ``bind``'s or ``on_fail``'s result, remembered per name, flags and
+        :func:`environment_key` (a failure is not retried in the process).
+    """
+    key = (name, flags, environment_key())
+    if key in _LOADED:
+        return _LOADED[key]
+    with _LOAD_LOCK:
+        if key not in _LOADED:
+            try:
+                src = source.read_text(encoding="utf-8")
+                path = build_library(name, {f"{name}.c": src}, f"{name}.c", flags)
+                lib = bind(ctypes.CDLL(str(path)))
+            except (GeomFDIError, OSError) as exc:
+                lib = None if on_fail is None else on_fail(exc)
+            _LOADED[key] = lib
+        return _LOADED[key]
+
+
+def forget_kernels() -> None:
+    """Forget the loaded kernels (tests: what a new process finds, the cached files)."""
+    with _LOAD_LOCK:
+        _LOADED.clear()

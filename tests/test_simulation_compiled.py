@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import geomfdi as gf
+from geomfdi._cbuild import forget_kernels
 from geomfdi.errors import BackendFallbackWarning, GeomFDIError
 from geomfdi.simulation import compiled_recursion as cr
 from geomfdi.simulation.lifting import Drive, block_recursion
@@ -196,7 +197,7 @@ def test_library_is_built_once_and_cached(monkeypatch, tmp_path):
     libs = list(tmp_path.glob("gfsim_*.so"))
     assert len(libs) == 1
     mtime = libs[0].stat().st_mtime_ns
-    cr._LIBS.clear()  # a new process: found in the cache, not rebuilt
+    forget_kernels()  # a new process: found in the cache, not rebuilt
     assert cr._library() is not None
     assert list(tmp_path.glob("gfsim_*.so")) == libs and libs[0].stat().st_mtime_ns == mtime
 

@@ -18,46 +18,24 @@ then reports it), when ``GEOMFDI_SIM_BACKEND=numpy`` or when no C compiler works
 
 from __future__ import annotations
 
-import ctypes
-import threading
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from geomfdi._cbuild import build_library
-from geomfdi.errors import GeomFDIError
-from geomfdi.simulation.compiled_recursion import _lib_key, sim_backend
+from geomfdi._cbuild import load_kernel, typed
+from geomfdi.simulation.compiled_recursion import sim_backend
 
 __all__ = ["table_decisions"]
 
 _NAME = "gfdec"
 _SOURCE = Path(__file__).with_name("compiled_decisions.c")
-_LIBS: dict[tuple[str | None, ...], Any] = {}
-_LOCK = threading.Lock()
 
 
 def _kernel() -> Any:
     """``gfdec_table`` (built on first use), or ``None`` when no compiler works (the
     batch recursion's :class:`~geomfdi.errors.BackendFallbackWarning` says so)."""
-    key = _lib_key()
-    if key in _LIBS:
-        return _LIBS[key]
-    with _LOCK:
-        if key not in _LIBS:
-            try:
-                src = _SOURCE.read_text(encoding="utf-8")
-                path = build_library(_NAME, {f"{_NAME}.c": src}, f"{_NAME}.c")
-                fn = ctypes.CDLL(str(path)).gfdec_table
-            except (GeomFDIError, OSError):
-                fn = None
-            else:
-                i64, vp = ctypes.c_int64, ctypes.c_void_p
-                fn.argtypes = [i64, i64, i64, vp, i64, i64, i64, vp, vp]
-                fn.argtypes += [vp, i64, i64, i64, vp, i64, i64, vp, i64, i64, vp, vp]
-                fn.restype = ctypes.c_int
-            _LIBS[key] = fn
-    return _LIBS[key]
+    return load_kernel(_NAME, _SOURCE, lambda dll: typed(dll.gfdec_table, "iiiviiivvviiiviiviivv"))
 
 
 def _strides(a: np.ndarray) -> list[int]:

@@ -21,9 +21,7 @@ time).  See the user guide, *Performance* (``docs/guide/performance.md``).
 
 from __future__ import annotations
 
-import ctypes
 import os
-import threading
 import warnings
 from concurrent.futures import wait
 from dataclasses import dataclass
@@ -32,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._cbuild import build_library
+from geomfdi._cbuild import load_kernel, typed
 from geomfdi._threads import thread_pool, work_threads
 from geomfdi.errors import BackendFallbackWarning, GeomFDIError, ShapeError
 from geomfdi.simulation.lifting import Drive, block_recursion
@@ -60,9 +58,6 @@ _CHAN = np.dtype(
         ("sts", np.int64),
     ]
 )
-_LIBS: dict[tuple[str, str], Any] = {}  # (cache folder, compiler) -> library, or None: failed
-_SINGLE: dict[tuple[str, str], Any] = {}  # the same library's one-run kernel
-_LOCK = threading.Lock()
 
 
 def sim_backend() -> str:
@@ -99,58 +94,39 @@ def batch_runs() -> int:
     return BATCH_RUNS if sim_backend() == "c" else 1
 
 
-def _lib_key() -> tuple[str | None, ...]:
-    """What selects a library: the variables that set :func:`geomfdi._cbuild.cache_dir`
-    and the compiler (read from the environment: cheap, every call checks it)."""
-    env = os.environ
-    return tuple(env.get(v) for v in ("GEOMFDI_CACHE_DIR", "XDG_CACHE_HOME", "HOME", "CC"))
+def _bind(dll: Any) -> tuple[Any, Any]:
+    """The batch kernel and the one-run kernel of the library, typed."""
+    # gfsim_run(nS, R, L, nb, bsize, A, nz, W, dch, fs, fsld, p, ostart, olen, C,
+    #           nd, D, ech, ys, ysld, och, X)
+    run = typed(dll.gfsim_run, "iiiivvivvviivvvivvvivv")
+    # gfsim_single(L, nr, ar, nc, ca, cb, nb, bsize, Apk, nz, V, dch, p, sptr, seg,
+    #              coef, ilp, ilc, ys, ysld, och, z)
+    single = typed(dll.gfsim_single, "iivivvivvivvivvvivvivv")
+    return run, single
+
+
+def _no_compiler(exc: Exception) -> None:
+    warnings.warn(
+        f"{exc}; simulations use the numpy recursion", BackendFallbackWarning, stacklevel=5
+    )
+
+
+def _kernels() -> tuple[Any, Any] | None:
+    return load_kernel(_NAME, _SOURCE, _bind, on_fail=_no_compiler)
 
 
 def _library() -> Any:
     """The compiled kernel (built on first use), or ``None`` when no compiler works
     (then a :class:`BackendFallbackWarning`, once per cache folder and compiler)."""
-    key = _lib_key()
-    if key in _LIBS:
-        return _LIBS[key]
-    with _LOCK:
-        if key in _LIBS:
-            return _LIBS[key]
-        try:
-            src = _SOURCE.read_text(encoding="utf-8")
-            path = build_library(_NAME, {f"{_NAME}.c": src}, f"{_NAME}.c")
-            dll = ctypes.CDLL(str(path))
-            fn = dll.gfsim_run
-            i64, vp = ctypes.c_int64, ctypes.c_void_p
-            # gfsim_run(nS, R, L, nb, bsize, A, nz, W, dch, fs, fsld, p, ostart, olen, C,
-            #           nd, D, ech, ys, ysld, och, X)
-            fn.argtypes = [i64, i64, i64, i64, vp, vp, i64, vp, vp, vp, i64, i64, vp, vp, vp]
-            fn.argtypes = [*fn.argtypes, i64, vp, vp, vp, i64, vp, vp]
-            fn.restype = ctypes.c_int
-            one = dll.gfsim_single
-            # gfsim_single(L, nr, ar, nc, ca, cb, nb, bsize, Apk, nz, V, dch, p, sptr, seg,
-            #              coef, ilp, ilc, ys, ysld, och, z)
-            one.argtypes = [i64, i64, vp, i64, vp, vp, i64, vp, vp, i64, vp, vp, i64, vp, vp]
-            one.argtypes = [*one.argtypes, vp, i64, vp, vp, i64, vp, vp]
-            one.restype = ctypes.c_int
-            _SINGLE[key] = one
-            lib: Any = fn
-        except (GeomFDIError, OSError) as exc:
-            warnings.warn(
-                f"{exc}; simulations use the numpy recursion",
-                BackendFallbackWarning,
-                stacklevel=2,
-            )
-            lib = None
-        _LIBS[key] = lib
-    return lib
+    lib = _kernels()
+    return None if lib is None else lib[0]
 
 
 def single_kernel() -> Any:
     """The one-run kernel of the same library (:mod:`geomfdi.simulation.compiled_single`),
     or ``None`` when no compiler works."""
-    key = _lib_key()
-    lib = _LIBS[key] if key in _LIBS else _library()
-    return None if lib is None else _SINGLE.get(key)
+    lib = _kernels()
+    return None if lib is None else lib[1]
 
 
 def _runs(drives: list[Drive], x0: np.ndarray, direct: Any) -> int:

@@ -30,15 +30,13 @@ generators) and *Performance* (``docs/guide/performance.md``).
 
 from __future__ import annotations
 
-import ctypes
-import threading
 import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from geomfdi._cbuild import build_library
+from geomfdi._cbuild import load_kernel, typed
 from geomfdi.errors import BackendFallbackWarning, GeomFDIError
 
 __all__ = [
@@ -96,8 +94,6 @@ COS_COEFS = tuple(
 
 _NAME = "gfnoise"
 _SOURCE = Path(__file__).with_name("counter_normal.c")
-_LIBS: dict[tuple[str | None, ...], Any] = {}
-_LOCK = threading.Lock()
 
 
 def run_key(seed: Any) -> np.ndarray:
@@ -276,38 +272,24 @@ def numpy_normals(
     return out
 
 
-def _library() -> Any:
-    """The compiled kernel, or ``None`` (no compiler: a :class:`BackendFallbackWarning`)."""
-    from geomfdi.simulation.compiled_recursion import _lib_key
+def _bind(dll: Any) -> tuple[Any, Any]:
+    """The fill and the raw Philox functions of the library, typed."""
+    return typed(dll.gfn_fill, "iiiiiivvii"), typed(dll.gfn_philox, "ivvv", None)
 
-    key = _lib_key()
-    if key in _LIBS:
-        return _LIBS[key]
-    with _LOCK:
-        if key in _LIBS:
-            return _LIBS[key]
-        try:
-            src = _SOURCE.read_text(encoding="utf-8")
-            # no errno from sqrt: the square roots run in SIMD instructions (same bits)
-            path = build_library(_NAME, {f"{_NAME}.c": src}, f"{_NAME}.c", ("-fno-math-errno",))
-            dll = ctypes.CDLL(str(path))
-            i64, vp = ctypes.c_int64, ctypes.c_void_p
-            fn = dll.gfn_fill
-            fn.argtypes = [i64, i64, i64, i64, i64, i64, vp, vp, i64, i64]
-            fn.restype = ctypes.c_int
-            raw = dll.gfn_philox
-            raw.argtypes = [i64, vp, vp, vp]
-            raw.restype = None
-            lib: Any = (fn, raw)
-        except (GeomFDIError, OSError) as exc:
-            warnings.warn(
-                f"{exc}; the counter noise generator runs in numpy (the same values)",
-                BackendFallbackWarning,
-                stacklevel=3,
-            )
-            lib = None
-        _LIBS[key] = lib
-    return lib
+
+def _no_compiler(exc: Exception) -> None:
+    warnings.warn(
+        f"{exc}; the counter noise generator runs in numpy (the same values)",
+        BackendFallbackWarning,
+        stacklevel=5,
+    )
+
+
+def _library() -> Any:
+    """The compiled kernel, or ``None`` (no compiler: a :class:`BackendFallbackWarning`).
+    Built without errno from ``sqrt``: the square roots run in SIMD instructions (the
+    same bits)."""
+    return load_kernel(_NAME, _SOURCE, _bind, flags=("-fno-math-errno",), on_fail=_no_compiler)
 
 
 def _kernel() -> Any:

@@ -47,10 +47,10 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi._cbuild import build_library
+from geomfdi._cbuild import load_kernel, typed
 from geomfdi._threads import limit_blas_threads, thread_pool, work_threads
-from geomfdi.errors import BackendFallbackWarning, GeomFDIError
-from geomfdi.simulation.compiled_recursion import _layout, _lib_key, sim_backend
+from geomfdi.errors import BackendFallbackWarning
+from geomfdi.simulation.compiled_recursion import _layout, sim_backend
 from geomfdi.simulation.compiled_single import run_recursion
 from geomfdi.simulation.context import prepare, state_vector, to_balanced
 from geomfdi.simulation.lifting import Drive
@@ -59,8 +59,6 @@ from geomfdi.simulation.workspace import Workspace
 __all__ = ["FusedPlan", "evaluation_struct", "fused_plan", "fused_runs", "isolate_codes"]
 
 _SOURCE = Path(__file__).with_name("compiled_fused.c")
-_LIBS: dict[Any, Any] = {}
-_LOCK = threading.Lock()
 _POOLS = threading.local()
 
 
@@ -103,43 +101,29 @@ _FLAGS: tuple[str, ...] = ()
 _SPECIALISE = True
 
 
+def _bind(dll: Any) -> tuple[Any, Any, int]:
+    """The run and isolate functions of the library, typed, and its group of lanes."""
+    run = typed(dll.gffused_run, "iiiiiii" + "vvvvvvvv" + "ivvvvvv" + "iivvivvvivvvivvivvvviiiv")
+    iso = typed(dll.gffused_isolate, "iiivviiiiiivvvvvvv")
+    return run, iso, int(typed(dll.gffused_group, "", ctypes.c_int64)())
+
+
 def _library(flags: tuple[str, ...] = ()) -> Any:
     """The fused kernel's ``(run, isolate)`` functions (built on first use; ``flags``
     fix the dimensions of a plan, :func:`_dims_flags`), or ``None`` without a working
     compiler (then one :class:`BackendFallbackWarning` per cache folder and compiler)."""
-    key = (_lib_key(), flags)
-    if key in _LIBS:
-        return _LIBS[key]
-    with _LOCK:
-        if key in _LIBS:
-            return _LIBS[key]
-        try:
-            src = _SOURCE.read_text(encoding="utf-8")
-            path = build_library("gffused", {"gffused.c": src}, "gffused.c", flags)
-            dll = ctypes.CDLL(str(path))
-            i64, vp = ctypes.c_int64, ctypes.c_void_p
-            fn = dll.gffused_run
-            kinds = "iiiiiii" + "vvvvvvvv" + "ivvvvvv" + "iivvivvvivvvivvivvvviiiv"
-            fn.argtypes = [i64 if c == "i" else vp for c in kinds]
-            fn.restype = ctypes.c_int
-            iso = dll.gffused_isolate
-            iso.argtypes = [i64 if c == "i" else vp for c in "iiivviiiiiivvvvvvv"]
-            iso.restype = ctypes.c_int
-            group = dll.gffused_group
-            group.restype = ctypes.c_int64
-            lib: Any = (fn, iso, int(group()))
-        except (GeomFDIError, OSError) as exc:
-            if flags:  # the plan's dimensions: the generic kernel does the same
-                lib = _library()
-            else:
-                warnings.warn(
-                    f"{exc}; campaign blocks use the vectorised simulation",
-                    BackendFallbackWarning,
-                    stacklevel=2,
-                )
-                lib = None
-        _LIBS[key] = lib
-    return lib
+
+    def failed(exc: Exception) -> Any:
+        if flags:  # the plan's dimensions: the generic kernel does the same
+            return _library()
+        warnings.warn(
+            f"{exc}; campaign blocks use the vectorised simulation",
+            BackendFallbackWarning,
+            stacklevel=6,
+        )
+        return None
+
+    return load_kernel("gffused", _SOURCE, _bind, flags=flags, on_fail=failed)
 
 
 def _dims_flags(plan: FusedPlan) -> tuple[str, ...]:
