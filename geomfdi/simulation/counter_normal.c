@@ -87,6 +87,30 @@ static void philox_one(const uint32_t ctr[4], const uint32_t key[2], uint32_t ou
    product reads the low halves only). */
 #if defined(__AVX2__)
 #include <immintrin.h>
+/* Rounds r0 .. 9 of four groups of four pairs, then their words stored at a and b. */
+static inline __attribute__((always_inline)) void philox_finish(
+    __m256i x0[4], __m256i x1[4], __m256i x2[4], __m256i x3[4], int r0, const __m256i *ka,
+    const __m256i *kb, __m256i m0, __m256i m1, uint64_t *restrict a, uint64_t *restrict b) {
+#pragma GCC unroll 10
+    for (int r = r0; r < 10; r++) {
+        for (int g = 0; g < 4; g++) {
+            __m256i p0 = _mm256_mul_epu32(x0[g], m0), p1 = _mm256_mul_epu32(x2[g], m1);
+            /* hi(M1 x2) ^ x1 ^ k0 and hi(M0 x0) ^ x3 ^ k1 (the key's xor first: off the
+               multiplication's path) */
+            x0[g] = _mm256_xor_si256(_mm256_srli_epi64(p1, 32), _mm256_xor_si256(x1[g], ka[r]));
+            x2[g] = _mm256_xor_si256(_mm256_srli_epi64(p0, 32), _mm256_xor_si256(x3[g], kb[r]));
+            x1[g] = p1;
+            x3[g] = p0;
+        }
+    }
+    for (int g = 0; g < 4; g++) { /* low half from x0 (x2), high half from x1 (x3) */
+        _mm256_storeu_si256((__m256i *)(a + 4 * g),
+                            _mm256_blend_epi32(x0[g], _mm256_slli_epi64(x1[g], 32), 0xAA));
+        _mm256_storeu_si256((__m256i *)(b + 4 * g),
+                            _mm256_blend_epi32(x2[g], _mm256_slli_epi64(x3[g], 32), 0xAA));
+    }
+}
+
 static void philox_tile(uint64_t j0, int n, uint32_t row, uint32_t c3, uint32_t k0, uint32_t k1,
                         uint64_t *restrict a, uint64_t *restrict b) {
     __m256i ka[10], kb[10];
@@ -129,22 +153,7 @@ static void philox_tile(uint64_t j0, int n, uint32_t row, uint32_t c3, uint32_t 
             x1[g] = p1;
             x3[g] = lo2;
         }
-#pragma GCC unroll 8
-        for (int r = 2; r < 10; r++) {
-            for (int g = 0; g < 4; g++) {
-                __m256i p0 = _mm256_mul_epu32(x0[g], m0), p1 = _mm256_mul_epu32(x2[g], m1);
-                x0[g] = _mm256_xor_si256(_mm256_srli_epi64(p1, 32), _mm256_xor_si256(x1[g], ka[r]));
-                x2[g] = _mm256_xor_si256(_mm256_srli_epi64(p0, 32), _mm256_xor_si256(x3[g], kb[r]));
-                x1[g] = p1;
-                x3[g] = p0;
-            }
-        }
-        for (int g = 0; g < 4; g++) { /* low half from x0 (x2), high half from x1 (x3) */
-            _mm256_storeu_si256((__m256i *)(a + t + 4 * g),
-                                _mm256_blend_epi32(x0[g], _mm256_slli_epi64(x1[g], 32), 0xAA));
-            _mm256_storeu_si256((__m256i *)(b + t + 4 * g),
-                                _mm256_blend_epi32(x2[g], _mm256_slli_epi64(x3[g], 32), 0xAA));
-        }
+        philox_finish(x0, x1, x2, x3, 2, ka, kb, m0, m1, a + t, b + t);
     }
     for (; t + 16 <= n; t += 16) { /* four groups of four pairs, interleaved */
         __m256i x0[4], x1[4], x2[4], x3[4];
@@ -155,23 +164,7 @@ static void philox_tile(uint64_t j0, int n, uint32_t row, uint32_t c3, uint32_t 
             x2[g] = vrow;
             x3[g] = vc3;
         }
-        for (int r = 0; r < 10; r++) {
-            for (int g = 0; g < 4; g++) {
-                __m256i p0 = _mm256_mul_epu32(x0[g], m0), p1 = _mm256_mul_epu32(x2[g], m1);
-                /* hi(M1 x2) ^ x1 ^ k0 and hi(M0 x0) ^ x3 ^ k1 (the key's xor first: off
-                   the multiplication's path) */
-                x0[g] = _mm256_xor_si256(_mm256_srli_epi64(p1, 32), _mm256_xor_si256(x1[g], ka[r]));
-                x2[g] = _mm256_xor_si256(_mm256_srli_epi64(p0, 32), _mm256_xor_si256(x3[g], kb[r]));
-                x1[g] = p1;
-                x3[g] = p0;
-            }
-        }
-        for (int g = 0; g < 4; g++) { /* low half from x0 (x2), high half from x1 (x3) */
-            _mm256_storeu_si256((__m256i *)(a + t + 4 * g),
-                                _mm256_blend_epi32(x0[g], _mm256_slli_epi64(x1[g], 32), 0xAA));
-            _mm256_storeu_si256((__m256i *)(b + t + 4 * g),
-                                _mm256_blend_epi32(x2[g], _mm256_slli_epi64(x3[g], 32), 0xAA));
-        }
+        philox_finish(x0, x1, x2, x3, 0, ka, kb, m0, m1, a + t, b + t);
     }
     for (; t < n; t++) {
         uint32_t ctr[4] = {(uint32_t)(j0 + (uint64_t)t), (uint32_t)((j0 + (uint64_t)t) >> 32), row,
