@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from geomfdi.errors import GeomFDIError
+from geomfdi.campaign.scoring import onset_windows
 
 __all__ = ["MAX_RULE_WINDOW", "fused_block"]
 
@@ -36,19 +36,9 @@ def _windows(
 ) -> tuple[np.ndarray, ...]:
     """Per run, ``[kpre0, kon)`` and ``[kon, kpost1)``: the samples of
     :func:`~geomfdi.campaign.scoring.evaluate_runs`'s two windows (the same masks)."""
-    tol = 1e-9 * max(1.0, float(np.abs(t).max()))
     R = onsets.size
     kpre0, kon, kpost1 = (np.zeros(R, dtype=np.int64) for _ in range(3))
-    values, which = np.unique(onsets, return_inverse=True)
-    for o, on in enumerate(values):
-        rows = which.ravel() == o
-        pre = np.flatnonzero((t < on - tol) & (t >= max(eval_start, on - window) - tol))
-        post = np.flatnonzero((t >= on - tol) & (t < on + window - tol))
-        if not pre.size:
-            raise GeomFDIError(
-                "onsets: every onset needs samples before it (after eval_start)",
-                argument="onsets",
-            )
+    for _, rows, pre, post in onset_windows(t, onsets, window, eval_start):
         kpre0[rows] = pre[0]
         # the first window ends where the second begins (the same boundary on the grid)
         kon[rows] = pre[-1] + 1

@@ -12,6 +12,7 @@ residual evaluation* (``docs/theory/evaluation.md``).
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -19,6 +20,33 @@ import numpy as np
 from geomfdi.errors import GeomFDIError
 
 __all__ = ["evaluate_runs", "isolate_runs"]
+
+
+def onset_windows(
+    t: np.ndarray, onsets: np.ndarray, window: float, eval_start: float
+) -> Iterator[tuple[float, np.ndarray, np.ndarray, np.ndarray]]:
+    """Per distinct onset ``on`` (a loop over the onsets, not the runs): ``(on, rows,
+    pre, post)``, its runs and the samples of its two windows, ``max(eval_start, on -
+    window) <= t < on`` and ``on <= t < on + window`` (to a tolerance of 1e-9 of the
+    grid's magnitude).
+
+    Raises
+    ------
+    GeomFDIError
+        An onset without samples before it (after ``eval_start``).
+    """
+    tol = 1e-9 * max(1.0, float(np.abs(t).max()))
+    values, which = np.unique(onsets, return_inverse=True)
+    for o, on in enumerate(values):
+        rows = np.flatnonzero(which.ravel() == o)
+        pre = np.flatnonzero((t < on - tol) & (t >= max(eval_start, on - window) - tol))
+        post = np.flatnonzero((t >= on - tol) & (t < on + window - tol))
+        if not pre.size:
+            raise GeomFDIError(
+                "onsets: every onset needs samples before it (after eval_start)",
+                argument="onsets",
+            )
+        yield float(on), rows, pre, post
 
 
 def evaluate_runs(
@@ -38,20 +66,10 @@ def evaluate_runs(
     thr = np.asarray(thresholds, dtype=float)
     finite = np.isfinite(thr)[:, None]
     R, n = statistic.shape[0], statistic.shape[1]
-    tol = 1e-9 * max(1.0, float(np.abs(t).max()))
     score_pre = np.full((R, n + 1), -np.inf)
     score_post = np.full((R, n + 1), -np.inf)
     delay = np.full((R, n + 1), np.nan)
-    values, which = np.unique(onsets, return_inverse=True)
-    for o, on in enumerate(values):  # (a loop over the distinct onsets, not the runs)
-        rows = np.flatnonzero(which.ravel() == o)
-        pre = np.flatnonzero((t < on - tol) & (t >= max(eval_start, on - window) - tol))
-        post = np.flatnonzero((t >= on - tol) & (t < on + window - tol))
-        if not pre.size:
-            raise GeomFDIError(
-                "onsets: every onset needs samples before it (after eval_start)",
-                argument="onsets",
-            )
+    for on, rows, pre, post in onset_windows(t, onsets, window, eval_start):
         for idx, score in ((pre, score_pre), (post, score_post)):
             if not idx.size:
                 continue

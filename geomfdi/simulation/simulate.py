@@ -370,13 +370,12 @@ def _scaling(Lf: np.ndarray | None) -> Any:
     matrix product."""
     if Lf is None:
         return None
-    Lf = np.asarray(Lf)
-    if Lf.ndim == 2 and Lf.shape[0] == Lf.shape[1]:
-        d = np.diagonal(Lf)
-        if np.all(d != 0) and np.count_nonzero(Lf) == d.size:
-            col = np.ascontiguousarray(d)[:, None]
-            return lambda z, out: np.multiply(col, z, out=out)
-    return lambda z, out: np.matmul(Lf, z, out=out)
+    d = _diagonal(Lf)
+    if d is not None:
+        col = d[:, :, 0]
+        return lambda z, out: np.multiply(col, z, out=out)
+    L = np.asarray(Lf)
+    return lambda z, out: np.matmul(L, z, out=out)
 
 
 def in_loop(ctx: Context, schedules: Sequence[FaultSchedule]) -> bool:
