@@ -82,6 +82,19 @@ static void philox_one(const uint32_t ctr[4], const uint32_t key[2], uint32_t ou
     out[3] = x3;
 }
 
+/* The words of the pairs j0 + t0 .. j0 + n - 1 one pair at a time (the tail of a tile). */
+static void philox_pairs(uint64_t j0, int t0, int n, uint32_t row, uint32_t c3, uint32_t k0,
+                         uint32_t k1, uint64_t *restrict a, uint64_t *restrict b) {
+    for (int t = t0; t < n; t++) {
+        uint32_t ctr[4] = {(uint32_t)(j0 + (uint64_t)t), (uint32_t)((j0 + (uint64_t)t) >> 32), row,
+                           c3};
+        uint32_t key[2] = {k0, k1}, x[4];
+        philox_one(ctr, key, x);
+        a[t] = ((uint64_t)x[1] << 32) | x[0];
+        b[t] = ((uint64_t)x[3] << 32) | x[2];
+    }
+}
+
 /* The words of Philox4x32-10 for pairs j0 .. j0 + n - 1: a = x1 2^32 + x0, b = x3 2^32 + x2.
    The words live in the low halves of 64-bit lanes (the high halves are ignored: a
    product reads the low halves only). */
@@ -166,26 +179,12 @@ static void philox_tile(uint64_t j0, int n, uint32_t row, uint32_t c3, uint32_t 
         }
         philox_finish(x0, x1, x2, x3, 0, ka, kb, m0, m1, a + t, b + t);
     }
-    for (; t < n; t++) {
-        uint32_t ctr[4] = {(uint32_t)(j0 + (uint64_t)t), (uint32_t)((j0 + (uint64_t)t) >> 32), row,
-                           c3};
-        uint32_t key[2] = {k0, k1}, x[4];
-        philox_one(ctr, key, x);
-        a[t] = ((uint64_t)x[1] << 32) | x[0];
-        b[t] = ((uint64_t)x[3] << 32) | x[2];
-    }
+    philox_pairs(j0, t, n, row, c3, k0, k1, a, b);
 }
 #else
 static void philox_tile(uint64_t j0, int n, uint32_t row, uint32_t c3, uint32_t k0, uint32_t k1,
                         uint64_t *restrict a, uint64_t *restrict b) {
-    for (int t = 0; t < n; t++) {
-        uint32_t ctr[4] = {(uint32_t)(j0 + (uint64_t)t), (uint32_t)((j0 + (uint64_t)t) >> 32), row,
-                           c3};
-        uint32_t key[2] = {k0, k1}, x[4];
-        philox_one(ctr, key, x);
-        a[t] = ((uint64_t)x[1] << 32) | x[0];
-        b[t] = ((uint64_t)x[3] << 32) | x[2];
-    }
+    philox_pairs(j0, 0, n, row, c3, k0, k1, a, b);
 }
 #endif
 
