@@ -11,6 +11,7 @@ import pytest
 import scipy.stats
 
 import geomfdi as gf
+from geomfdi._cbuild import load_kernel
 from geomfdi.errors import GeomFDIError
 from geomfdi.simulation import counter_normal as cn
 from geomfdi.simulation.context import prepare
@@ -109,6 +110,20 @@ def test_compiled_and_numpy_normals_are_the_same_bits(compiled, s, e):
     for stream in (0, 1, 2):
         c = normals(keys, stream, s, e, rows=3, row0=4)
         ref = cn.numpy_normals(keys, stream, 4, s, e, np.empty((4, 3, e - s)))
+        np.testing.assert_array_equal(c.view(np.uint64), ref.view(np.uint64))
+
+
+def test_the_kernel_without_avx2_gives_the_same_bits(compiled, monkeypatch):
+    """The portable loops (no AVX2: ``-mno-avx2`` after ``-march=native``) against numpy,
+    on a tile's worth of pairs and across the counter's second word."""
+    lib = load_kernel("gfnoise_plain", cn._SOURCE, cn._bind, flags=("-fno-math-errno", "-mno-avx2"))
+    if lib is None:
+        pytest.skip("the compiler refuses -mno-avx2")
+    monkeypatch.setattr(cn, "_library", lambda: lib)
+    keys = keys_of([3, 2**33])
+    for s, e in [(0, 1100), (2**33 - 40, 2**33 + 41)]:
+        c = normals(keys, 1, s, e, rows=2, row0=1)
+        ref = cn.numpy_normals(keys, 1, 1, s, e, np.empty((2, 2, e - s)))
         np.testing.assert_array_equal(c.view(np.uint64), ref.view(np.uint64))
 
 
