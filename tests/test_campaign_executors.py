@@ -10,7 +10,7 @@ import subprocess
 import sys
 import uuid
 from collections import Counter
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -180,6 +180,40 @@ def test_dask_scatters_the_job_once_per_worker_and_gives_the_serial_table(tmp_pa
             assert res.info["executor"]["tasks"] > 2
             assert _unpicklings(folder) == Counter(dict.fromkeys(pids, 1))
             pd.testing.assert_frame_equal(res.table, serial, check_exact=True)
+
+
+class _ScatteringPool(ThreadPoolExecutor):
+    """A thread pool that ``execute`` takes for a Dask client (it has ``scatter``)."""
+
+    def __init__(self):
+        super().__init__(2)
+        self.futures = []
+
+    def scatter(self, data, **kwargs):
+        return list(data)
+
+    def submit(self, fn, *args):
+        fut = super().submit(fn, *args)
+        self.futures.append(fut)
+        return fut
+
+
+def _scaled(job, item):
+    return {"x": np.full(3, job["scale"] * item), "item": item}
+
+
+def test_dask_like_tasks_bring_their_outcomes_back_as_one_pickle():
+    items = list(range(7))
+    with _ScatteringPool() as pool:
+        done, stats = executors.execute(pool, _scaled, {"scale": 2.5}, items, per=3)
+    # every task's outcome travelled as bytes, and came back as what the work returned
+    assert len(pool.futures) == 3 and stats["tasks"] == 3
+    assert all(isinstance(f.result()[0], bytes) for f in pool.futures)
+    assert sorted(done) == [0, 3, 6]
+    got = [o for i in sorted(done) for o in done[i]]
+    assert [o["item"] for o in got] == items
+    for o in got:
+        np.testing.assert_array_equal(o["x"], np.full(3, 2.5 * o["item"]))
 
 
 # ------------------------------------------------------------------- worker set-up
