@@ -116,7 +116,9 @@ def test_compiled_and_numpy_normals_are_the_same_bits(compiled, s, e):
 def test_the_kernel_without_avx2_gives_the_same_bits(compiled, monkeypatch):
     """The portable loops (no AVX2: ``-mno-avx2`` after ``-march=native``) against numpy,
     on a tile's worth of pairs and across the counter's second word."""
-    lib = load_kernel("gfnoise_plain", cn._SOURCE, cn._bind, flags=("-fno-math-errno", "-mno-avx2"))
+    lib = load_kernel(
+        "gfnoise_plain", cn._SOURCE, cn._bind, flags=("-fno-math-errno", *cn._DEFINES, "-mno-avx2")
+    )
     if lib is None:
         pytest.skip("the compiler refuses -mno-avx2")
     monkeypatch.setattr(cn, "_library", lambda: lib)

@@ -25,31 +25,18 @@
 static const uint64_t M0 = 0xD2511F53u, M1 = 0xCD9E8D57u; /* Philox4x32 multipliers */
 static const uint32_t W0 = 0x9E3779B9u, W1 = 0xBB67AE85u; /* its key increments */
 
-/* log(1 + f) = f - (f^2/2 - s (f^2/2 + R)), s = f / (2 + f), with R = z P(z), z = s^2,
-   P(z) ~ (2 atanh(s) / s - 2) / z = 2/3 + 2 z/5 + ... on 0 <= z <= (3 - 2 sqrt(2))^2:
-   the polynomial of degree 6 interpolating it at the Chebyshev nodes (computed in
-   40-digit arithmetic, rounded to double; error < 4e-16 on P, 5e-18 relative on log) */
-static const double LG[7] = {
-    0x1.5555555555558p-1, 0x1.99999999952e2p-2, 0x1.2492492df148dp-2,
-    0x1.c71c62e5800a1p-3, 0x1.7462b4ab2ef6bp-3, 0x1.39fe606542ddep-3,
-    0x1.2b584aae78a57p-3,
-};
+/* The polynomials' coefficients and log 2 in two parts come from the Python module
+   (geomfdi/simulation/counter_normal.py: LOG_COEFS, SIN_COEFS, COS_COEFS, _LN2_HI,
+   _LN2_LO, _SQRT2_MANT), as hexadecimal literals in -D flags of the build: one definition for the
+   kernel and its numpy fallback.
+   log(1 + f) = f - (f^2/2 - s (f^2/2 + R)), s = f / (2 + f), R = z LG(z), z = s^2;
+   sin(pi r / 2) = r SN(r^2), cos(pi r / 2) = 1 + r^2 CS(r^2), |r| <= 1/2 */
+static const double LG[7] = {GFN_LOG_COEFS};
+static const double SN[7] = {GFN_SIN_COEFS};
+static const double CS[7] = {GFN_COS_COEFS};
 /* log 2 = LN2_HI + LN2_LO, LN2_HI with 32 trailing zero bits (k LN2_HI exact) */
-static const double LN2_HI = 0x1.62e42p-1;
-static const double LN2_LO = 0x1.fdf473de6af28p-22;
-/* sin(pi r / 2) = r SN(r^2), cos(pi r / 2) = 1 + r^2 CS(r^2), |r| <= 1/2: SN and CS of
-   degree 6 interpolating sin(pi r/2) / r and (cos(pi r/2) - 1) / r^2 at the Chebyshev
-   nodes of 0 <= r^2 <= 1/4 (40-digit arithmetic, rounded to double; errors < 5e-18) */
-static const double SN[7] = {
-    0x1.921fb54442d18p+0, -0x1.4abbce625be41p-1, 0x1.466bc677587f8p-4,
-    -0x1.32d2cce2e5b19p-8, 0x1.50782fda12d96p-13, -0x1.e30071afc3e59p-19,
-    0x1.e3f38399551bfp-25,
-};
-static const double CS[7] = {
-    -0x1.3bd3cc9be45dep+0, 0x1.03c1f081b5ac0p-2, -0x1.55d3c7e3cb241p-6,
-    0x1.e1f5068688d5bp-11, -0x1.a6d1eef479be1p-16, 0x1.f9ce245cada0bp-22,
-    -0x1.b2f3eb054afcdp-28,
-};
+static const double LN2_HI = GFN_LN2_HI;
+static const double LN2_LO = GFN_LN2_LO;
 
 static inline double from_bits(uint64_t b) {
     double d;
@@ -219,7 +206,7 @@ static void box_muller_tile(int n, const uint64_t *restrict a, const uint64_t *r
     for (int t = 0; t < n; t++) {
         uint64_t bits = to_bits(uniform53(a[t]));
         int64_t mant = (int64_t)(bits & 0x000fffffffffffffu);
-        int64_t big = mant > 0x6a09e667f3bcd; /* the mantissa bits of sqrt(2) */
+        int64_t big = mant > GFN_SQRT2_MANT; /* the mantissa bits of sqrt(2) */
         double m = from_bits((uint64_t)mant | ((uint64_t)(0x3ff - big) << 52));
         /* k = e + big, exact, through the exponent of 2^52 */
         k[t] = from_bits(0x4330000000000000u | ((bits >> 52) + (uint64_t)big)) -

@@ -58,41 +58,49 @@ _W0, _W1 = np.uint64(0x9E3779B9), np.uint64(0xBB67AE85)  # key increments (Weyl)
 _LO32 = np.uint64(0xFFFFFFFF)
 _ROUNDS = 10
 
+
+def _hex(*literals: str) -> tuple[float, ...]:
+    """Doubles from C99 hexadecimal literals (exact: no decimal rounding)."""
+    return tuple(float.fromhex(h) for h in literals)
+
+
 #: ``P`` of ``R = z P(z)``, ``z = s^2``: ``P(z) ~ (2 atanh(s) / s - 2) / z``, degree 6,
 #: interpolating at the Chebyshev nodes of ``0 <= z <= (3 - 2 sqrt(2))^2`` (40 digits,
 #: rounded to double; relative error of ``log`` below 5e-18 before rounding).
-LOG_COEFS = tuple(
-    float.fromhex(h)
-    for h in (
-        "0x1.5555555555558p-1", "0x1.99999999952e2p-2", "0x1.2492492df148dp-2",
-        "0x1.c71c62e5800a1p-3", "0x1.7462b4ab2ef6bp-3", "0x1.39fe606542ddep-3",
-        "0x1.2b584aae78a57p-3",
-    )
+LOG_COEFS = _hex(
+    "0x1.5555555555558p-1", "0x1.99999999952e2p-2", "0x1.2492492df148dp-2",
+    "0x1.c71c62e5800a1p-3", "0x1.7462b4ab2ef6bp-3", "0x1.39fe606542ddep-3",
+    "0x1.2b584aae78a57p-3",
 )  # fmt: skip
 _LN2_HI = float.fromhex("0x1.62e42p-1")  # log 2 with 32 trailing zero bits
 _LN2_LO = float.fromhex("0x1.fdf473de6af28p-22")  # log 2 - _LN2_HI
 _SQRT2_MANT = 0x6A09E667F3BCD  # mantissa bits of sqrt(2)
 #: ``sin(pi r/2) / r`` as a polynomial of degree 6 in ``r^2``, interpolating at the
 #: Chebyshev nodes of ``0 <= r^2 <= 1/4`` (40 digits, rounded to double).
-SIN_COEFS = tuple(
-    float.fromhex(h)
-    for h in (
-        "0x1.921fb54442d18p+0", "-0x1.4abbce625be41p-1", "0x1.466bc677587f8p-4",
-        "-0x1.32d2cce2e5b19p-8", "0x1.50782fda12d96p-13", "-0x1.e30071afc3e59p-19",
-        "0x1.e3f38399551bfp-25",
-    )
+SIN_COEFS = _hex(
+    "0x1.921fb54442d18p+0", "-0x1.4abbce625be41p-1", "0x1.466bc677587f8p-4",
+    "-0x1.32d2cce2e5b19p-8", "0x1.50782fda12d96p-13", "-0x1.e30071afc3e59p-19",
+    "0x1.e3f38399551bfp-25",
 )  # fmt: skip
 #: ``(cos(pi r/2) - 1) / r^2`` as a polynomial of degree 6 in ``r^2`` (the same nodes).
-COS_COEFS = tuple(
-    float.fromhex(h)
-    for h in (
-        "-0x1.3bd3cc9be45dep+0", "0x1.03c1f081b5ac0p-2", "-0x1.55d3c7e3cb241p-6",
-        "0x1.e1f5068688d5bp-11", "-0x1.a6d1eef479be1p-16", "0x1.f9ce245cada0bp-22",
-        "-0x1.b2f3eb054afcdp-28",
-    )
+COS_COEFS = _hex(
+    "-0x1.3bd3cc9be45dep+0", "0x1.03c1f081b5ac0p-2", "-0x1.55d3c7e3cb241p-6",
+    "0x1.e1f5068688d5bp-11", "-0x1.a6d1eef479be1p-16", "0x1.f9ce245cada0bp-22",
+    "-0x1.b2f3eb054afcdp-28",
 )  # fmt: skip
 
 _NAME = "gfnoise"
+#: The kernel's constants, defined here alone (hexadecimal: the same doubles in C).
+_DEFINES = tuple(
+    f"-DGFN_{name}={','.join(float.hex(c) for c in coefs)}"
+    for name, coefs in (
+        ("LOG_COEFS", LOG_COEFS),
+        ("SIN_COEFS", SIN_COEFS),
+        ("COS_COEFS", COS_COEFS),
+        ("LN2_HI", (_LN2_HI,)),
+        ("LN2_LO", (_LN2_LO,)),
+    )
+) + (f"-DGFN_SQRT2_MANT={_SQRT2_MANT:#x}",)
 _SOURCE = Path(__file__).with_name("counter_normal.c")
 
 
@@ -289,7 +297,9 @@ def _library() -> Any:
     """The compiled kernel, or ``None`` (no compiler: a :class:`BackendFallbackWarning`).
     Built without errno from ``sqrt``: the square roots run in SIMD instructions (the
     same bits)."""
-    return load_kernel(_NAME, _SOURCE, _bind, flags=("-fno-math-errno",), on_fail=_no_compiler)
+    return load_kernel(
+        _NAME, _SOURCE, _bind, flags=("-fno-math-errno", *_DEFINES), on_fail=_no_compiler
+    )
 
 
 def _kernel() -> Any:
