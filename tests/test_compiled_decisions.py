@@ -25,7 +25,12 @@ def _numpy(res, v, table):
 
 
 @pytest.mark.parametrize("n", [1, 3, 5])
-def test_table_decisions_equal_the_numpy_passes_through_strides(n):
+@pytest.mark.parametrize("plain", [False, True])
+def test_table_decisions_equal_the_numpy_passes_through_strides(monkeypatch, n, plain):
+    if plain:  # the loops of a compiler without vector types
+        from geomfdi.simulation import compiled_decisions
+
+        monkeypatch.setattr(compiled_decisions, "_FLAGS", ("-DGFD_NO_VECTOR_EXT",))
     rng = np.random.default_rng(n)
     S = rng.random((n, n + 1)) < 0.5
     table = np.ascontiguousarray(isolate(every_pattern(n), S).isolated, dtype=np.int64)
@@ -47,12 +52,22 @@ def test_table_decisions_equal_the_numpy_passes_through_strides(n):
     assert want_al.any() and not want_al.all()  # both outcomes occur
     assert not rec_al[:2].any() and np.all(rec_iso[:2] == -5)  # nothing outside the views
     assert np.all(rec_iso[2:7, :10] == -5)
+    # contiguous rows (four samples at a time), a length that leaves a remainder
+    res = np.ascontiguousarray(big[:, :n, :299])
+    al, iso = np.zeros(res.shape, bool), np.zeros((7, 299), np.int64)
+    anyal = np.zeros((7, 299), dtype=bool)
+    peaks = table_decisions(res, v, table, al, iso, anyal)
+    want_al, want_iso, want_any, want_peaks = _numpy(res, v, table)
+    assert peaks is not None
+    assert np.array_equal(al, want_al) and np.array_equal(iso, want_iso)
+    assert np.array_equal(anyal, want_any) and np.array_equal(peaks, want_peaks)
 
 
 @pytest.mark.parametrize("bad", [np.nan, np.inf, 1e301])
-def test_table_decisions_decline_non_finite_or_huge_residuals(bad):
+@pytest.mark.parametrize("where", [7, 49])  # in the vector loop, in its remainder
+def test_table_decisions_decline_non_finite_or_huge_residuals(bad, where):
     res = np.ones((2, 2, 50))
-    res[1, 0, 7] = bad
+    res[1, 0, where] = bad
     table = np.arange(4, dtype=np.int64)
     out = table_decisions(
         res, np.ones(2), table, np.empty(res.shape, bool), np.empty((2, 50), np.int64),

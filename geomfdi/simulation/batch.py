@@ -13,7 +13,7 @@ from geomfdi.errors import ShapeError
 from geomfdi.evaluation.decision import NO_ALARM, as_threshold
 from geomfdi.evaluation.persistence import as_persistence
 from geomfdi.generators.generator import ResidualBank, ResidualGenerator
-from geomfdi.limits import check_allocation, check_runs
+from geomfdi.limits import check_allocation, check_runs, get_limits
 from geomfdi.model.plant import Plant, as_plant
 from geomfdi.simulation.compiled_recursion import batch_runs
 from geomfdi.simulation.context import (
@@ -178,10 +178,17 @@ def simulate_batch(
     width = chunk_width(ctx, keep_states=loop, loop=loop)
     Rc, L = chunk_plan(N, runs, width, runs_per_chunk=chunk_size, min_runs=batch_runs())
     bar = progress_bar(ctx.progress, runs, "runs")
+    plan = None
+    if store != "all" and consistent_init and w is None and runs * N >= FUSED_MIN_WORK:
+        plan = _fused_plan(ctx, plant, bank, t, u, noise, schedules, controller, d, x0a, xc0, hold)
     kept: dict[str, Any] = {}  # for the next chunk of runs: open-loop engine, noise buffers
     work = kept["work"] = Workspace()  # chunk-sized work arrays, reused chunk after chunk
     kept["threads"] = work_threads()  # the noise draws of a chunk's runs, in parallel
-    for a in range(0, runs, Rc):
+    if plan is not None:
+        _fused_batch(
+            plan, schedules, seeds, (thr, view.structure, rule), R_res, (R_al, R_iso), summary, bar
+        )
+    for a in range(0 if plan is None else runs, runs, Rc):
         b = min(a + Rc, runs)
         rngs = [None if sd is None else noise.source(sd, kp) for sd in seeds[a:b]]
         x0c = to_balanced(ctx, x0a[a:b] if x0a.shape[0] > 1 else x0a)
@@ -191,22 +198,7 @@ def simulate_batch(
         for s, e, pc, res, written in pieces:
             if keep_r and not written:
                 R_res[a:b, :, s:e] = res
-            records = (R_al, R_iso, a, b, s, e)
-            if thr is not None and _decide_compiled(ds, res, records, work, summary):
-                pass  # decided and summarised in one compiled pass
-            elif thr is None:  # no alarm, no decision: R_al and R_iso stay as they are
-                peaks = np.max(np.abs(res, out=work.get("abs", res.shape)), axis=-1)
-                summary.update(s, res, None, None, a, peaks=peaks)
-            else:
-                absr = np.abs(res, out=work.get("abs", res.shape))
-                peaks = np.max(absr, axis=-1)
-                dest = R_al[a:b, :, s:e] if keep_r else work.get("alarms", res.shape, bool)
-                al, isolated, suspects = ds.decide(res, absolute=absr, peaks=peaks, out=dest)
-                summary.update(s, res, al, isolated, a, suspects, peaks=peaks)
-                if keep_r:
-                    if al is not dest:
-                        R_al[a:b, :, s:e] = al
-                    R_iso[a:b, s:e] = isolated
+            _judge(ds, res, (R_al, R_iso, a, b, s, e), work, summary)
             if store == "all":
                 L_s = e - s
                 R_x[a:b, :, s:e] = from_balanced(ctx, pc.X[:, :, :L_s].transpose(1, 0, 2))
@@ -249,6 +241,114 @@ def simulate_batch(
         persistence=rule,
         false_alarm_events=fa_events,
     )
+
+
+def _judge(
+    ds: DecisionStream,
+    res: np.ndarray,
+    records: tuple[Any, ...],
+    work: Workspace,
+    summary: RunSummary,
+) -> None:
+    """Alarms, decisions and summary of the residuals ``res`` (R, n_rows, L) of the runs
+    ``a .. b-1`` and samples ``s .. e-1`` (``records``: the alarms and decisions kept, or
+    None, then ``a, b, s, e``), written into the records when they are kept."""
+    R_al, R_iso, a, b, s, e = records
+    if ds.threshold is not None and _decide_compiled(ds, res, records, work, summary):
+        return  # decided and summarised in one compiled pass
+    if ds.threshold is None:  # no alarm, no decision: R_al and R_iso stay as they are
+        peaks = np.max(np.abs(res, out=work.get("abs", res.shape)), axis=-1)
+        summary.update(s, res, None, None, a, peaks=peaks)
+        return
+    absr = np.abs(res, out=work.get("abs", res.shape))
+    peaks = np.max(absr, axis=-1)
+    dest = R_al[a:b, :, s:e] if R_al is not None else work.get("alarms", res.shape, bool)
+    al, isolated, suspects = ds.decide(res, absolute=absr, peaks=peaks, out=dest)
+    summary.update(s, res, al, isolated, a, suspects, peaks=peaks)
+    if R_al is not None:
+        if al is not dest:
+            R_al[a:b, :, s:e] = al
+        R_iso[a:b, s:e] = isolated
+
+
+#: Fewest run-samples of a batch simulated by the fused pass of
+#: :mod:`geomfdi.simulation.fused` (a smaller batch: the chunked engine, which needs no
+#: plan; both give the same residuals to rounding).
+FUSED_MIN_WORK = 2**20
+#: Chunk memory budgets (``gf.limits.get_limits().chunk_memory``) the fused plan's shared
+#: signals may take, whole records (more: the chunked engine, whose memory does not grow
+#: with the record's length).
+FUSED_PLAN_CHUNKS = 4
+
+
+def _fused_plan(
+    ctx: Any,
+    plant: Plant,
+    bank: Any,
+    t: Any,
+    u: Any,
+    noise: Noise | None,
+    schedules: list[Any],
+    controller: Any,
+    d: Any,
+    x0a: np.ndarray,
+    xc0: Any,
+    hold: str,
+) -> Any:
+    """The fused plan of the batch's runs (:func:`geomfdi.simulation.fused.fused_plan`),
+    or ``None`` when the fused pass does not cover them (then the chunked engine)."""
+    from geomfdi.simulation.fused import fused_plan
+
+    if x0a.shape[0] > 1:
+        return None
+    # the plan's signals shared by the runs, whole records (readings, forcing of every
+    # state, feedthrough, plant state and inputs): within FUSED_PLAN_CHUNKS budgets
+    p, gens = ctx.plant, [g for g in ctx.view.generators if g is not None]
+    rows = 2 * p.q + 3 * p.n + 2 * (p.m + p.nd) + sum(g.order + g.n_outputs for g in gens)
+    if 8 * ctx.N * rows > FUSED_PLAN_CHUNKS * get_limits().chunk_memory:
+        return None
+    lists: dict[int, list[Any]] = {}
+    for sc in schedules:
+        lists.setdefault(id(sc.faults), sc.faults)
+    plan, _ = fused_plan(
+        plant, bank, t, u, fault_lists=list(lists.values()), noise=noise,
+        controller=controller, d=d, x0=x0a[0], hold=hold, xc0=xc0, ctx=ctx,
+    )  # fmt: skip
+    return plan
+
+
+def _fused_batch(
+    plan: Any,
+    schedules: list[Any],
+    seeds: list[Any],
+    rule: tuple[Any, Any, Any],
+    R_res: np.ndarray | None,
+    kept: tuple[np.ndarray | None, np.ndarray | None],
+    summary: RunSummary,
+    bar: Any,
+) -> None:
+    """The runs by the fused pass: each window of a few runs judged while it is in the
+    cache (:func:`_judge`, on the thread that computed it), the residuals written
+    straight into ``R_res`` when kept (``rule``: threshold, structure and persistence of
+    the decisions; ``kept``: the alarms and decisions kept, or None)."""
+    from geomfdi.simulation.fused import fused_runs
+    from geomfdi.simulation.workspace import thread_workspace
+
+    streams: dict[int, DecisionStream] = {}  # per first run of a few: their decisions
+    R_al, R_iso = kept
+    N = plan.N
+
+    def sink(a: int, b: int, s: int, e: int, res: np.ndarray) -> None:
+        work = thread_workspace("batch decisions")
+        if s == 0:
+            streams[a] = DecisionStream(*rule, work)
+        _judge(streams[a], res, (R_al, R_iso, a, b, s, e), work, summary)
+        if e == N:
+            del streams[a]
+            if bar is not None:
+                bar.update(b - a)
+
+    fused_runs(plan, [sc.faults for sc in schedules], seeds, R_res, sink=sink)
 
 
 def _decide_compiled(

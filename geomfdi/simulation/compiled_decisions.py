@@ -32,10 +32,20 @@ _NAME = "gfdec"
 _SOURCE = Path(__file__).with_name("compiled_decisions.c")
 
 
+#: More compiler flags (tests: ``-DGFD_NO_VECTOR_EXT``, the plain loops of compilers
+#: without vector types).
+_FLAGS: tuple[str, ...] = ()
+
+
 def _kernel() -> Any:
     """``gfdec_table`` (built on first use), or ``None`` when no compiler works (the
     batch recursion's :class:`~geomfdi.errors.BackendFallbackWarning` says so)."""
-    return load_kernel(_NAME, _SOURCE, lambda dll: typed(dll.gfdec_table, "iiiviiivvviiiviiviivv"))
+    return load_kernel(
+        _NAME,
+        _SOURCE,
+        lambda dll: typed(dll.gfdec_table, "iiiviiivvviiiviiviivv"),
+        flags=_FLAGS,
+    )
 
 
 def _strides(a: np.ndarray) -> list[int]:
@@ -94,7 +104,7 @@ def table_decisions(
     thr = np.ascontiguousarray(thresholds, dtype=np.float64)
     tab = np.ascontiguousarray(table)
     peaks = np.empty((R, n))
-    code = np.empty(L, dtype=np.uint32)
+    code = np.empty(L, dtype=np.int64)
     bad = fn(
         R, n, L, res.ctypes.data, *_strides(res), thr.ctypes.data, tab.ctypes.data,
         alarms.ctypes.data, *_strides(alarms), isolated.ctypes.data, *_strides(isolated),

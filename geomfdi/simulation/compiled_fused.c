@@ -11,7 +11,11 @@
  *   rhoR_i   = (eta_i(k) y0n_i(k+1) + lam_i(k)) - eta_i(k) y0c[i, k+1]   over the interval)
  *
  * with eta and lam piecewise constant per (sensor, run) (segments: first sample, eta,
- * lam); the drive channel c of the bank is one of
+ * lam), or lam sampled: where lsp[i R + r] is not NULL it points at lam_i(k) of the run's
+ * fault list, k = 0 .. N-1, followed by its left limits lam_i(k-) (the value of the
+ * faults active at k-1, a callable bias evaluated at k), and rhoR takes lam_i(k+1-) in
+ * place of lam_i(k) (for piecewise constant lam the two are equal); the drive channel c
+ * of the bank is one of
  *
  *   kind 0: y_i(k), 1: rhoL_i, 2: rhoR_i, 3: (eta_i(k) - 1) sh[row, k],
  *   kind 4: (eta_i(k) - 1) sh[row, k+1]
@@ -30,7 +34,8 @@
  * Only the runs r0 .. r1-1 of the R runs are computed (the arrays indexed by the
  * absolute run: parts of a block run on different threads).  The states X (nS, R), the
  * running sums cs (nrow, R) and the ring of the last win running sums (win, nrow, R)
- * are carried from one window to the next.
+ * are carried from one window to the next.  out points at the sample s of run r0 (a
+ * block's array, or a window's buffer of the runs r0 .. r1-1), strides ors, oos, ots.
  *
  * Runs go in groups of GFSIM_G lanes (two vectors of the compiler's vector extension),
  * samples in tiles of GFSIM_T; the missing lanes of the last group repeat its last run
@@ -273,7 +278,8 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                 const double *y0c,
                 const double *const *zp, const int64_t *zts, const double *lv,
                 const int64_t *segptr, const int64_t *segk, const double *segeta,
-                const double *seglam, int64_t nz, const int64_t *dkind, const int64_t *dsens,
+                const double *seglam, const double *const *lsp, int64_t nz,
+                const int64_t *dkind, const int64_t *dsens,
                 const int64_t *drow, const double *W, const double *sh, const double *fs,
                 int64_t nS, int64_t nb, const int64_t *bsize, const double *A, int64_t p,
                 const int64_t *ostart, const int64_t *olen, const double *C, int64_t nd,
@@ -286,8 +292,8 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
     /* samples with a step from them: all but the record's last */
     const int64_t steps = s + L < N ? L : L - 1;
     int64_t g0, i, j, k, k0, c, o, t, b, i0, aoff, coff, ks, run[GFSIM_G], cur[64 * GFSIM_G];
-    int u;
-    gfsim_lane *x, *xn, *y0n, *y, *eta, *lam, *d, *yo, *rw, *csl, *rg;
+    int u, samp[64];
+    gfsim_lane *x, *xn, *y0n, *y, *eta, *lam, *lamr, *d, *yo, *rw, *csl, *rg;
     void *raw;
     size_t nl;
 #ifdef GFF_DIMS
@@ -295,7 +301,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
         return -3; /* not the layout this library was built for */
 #endif
     if (Q_ > 64) return -2;
-    nl = (size_t)(2 * NS_ + 4 * (T + 1) * Q_ + NZ_ + ND_ + P_ + T * NROW_ + NROW_
+    nl = (size_t)(2 * NS_ + 5 * (T + 1) * Q_ + NZ_ + ND_ + P_ + T * NROW_ + NROW_
                   + (win > 0 ? win * NROW_ : 0) + 2);
     raw = malloc(sizeof(gfsim_lane) * (nl + 1));
     if (!raw) return -1;
@@ -306,7 +312,8 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
     y = y0n + (T + 1) * Q_;
     eta = y + (T + 1) * Q_;
     lam = eta + (T + 1) * Q_;
-    d = lam + (T + 1) * Q_;
+    lamr = lam + (T + 1) * Q_; /* lam at the right end of a step (sampled profiles) */
+    d = lamr + (T + 1) * Q_;
     yo = d + NZ_;
     rw = yo + P_; /* the tile's residual rows (or statistics), rw[t nrow + j] */
     csl = rw + T * NROW_;
@@ -324,8 +331,13 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                     for (j = 0; j < G; ++j)
                         LANE(rg[t * NROW_ + o], j) = ring[(t * NROW_ + o) * R + run[j]];
         }
-        for (i = 0; i < Q_; ++i)
-            for (j = 0; j < G; ++j) cur[i * G + j] = segptr[i * R + run[j]];
+        for (i = 0; i < Q_; ++i) {
+            samp[i] = 0;
+            for (j = 0; j < G; ++j) {
+                cur[i * G + j] = segptr[i * R + run[j]];
+                if (lsp && lsp[i * R + run[j]]) samp[i] = 1;
+            }
+        }
         ks = win > 0 ? s % win : 0; /* the ring's slot of sample k (k mod win) */
         for (k0 = 0; k0 < L; k0 += T) {
             const int64_t nt = L - k0 < T ? L - k0 : T; /* outputs of the tile */
@@ -351,8 +363,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                         COPY(eta[t * Q_ + i], ev);
                         COPY(lam[t * Q_ + i], lv_);
                     }
-                    continue;
-                }
+                } else
                 for (j = 0; j < G; ++j) {
                     const int64_t r = run[j], end = segptr[i * R + r + 1];
                     int64_t sg = cur[i * G + j];
@@ -370,6 +381,18 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                     }
                     cur[i * G + j] = sg;
                 }
+                if (samp[i]) /* sampled lanes: lam and its value at the step's right end */
+                    for (j = 0; j < G; ++j) {
+                        const double *pl = lsp[i * R + run[j]];
+                        if (pl) {
+                            const double *pa = pl + s + k0, *pb = pl + N + s + k0 + 1;
+                            for (t = 0; t < nv; ++t) LANE(lam[t * Q_ + i], j) = pa[t];
+                            for (t = 0; t < ns; ++t) LANE(lamr[t * Q_ + i], j) = pb[t];
+                        } else {
+                            for (t = 0; t < ns; ++t)
+                                LANE(lamr[t * Q_ + i], j) = LANE(lam[t * Q_ + i], j);
+                        }
+                    }
             }
             /* the noisy and the faulty readings */
             for (i = 0; i < Q_; ++i) {
@@ -451,7 +474,8 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                         EACH v.v[u] = y[t * Q_ + ii].v[u] - et.v[u] * yc;
                     } else if (kind == 2) {
                         const double yc = y0c[ii * N + k + 1];
-                        const gfsim_lane *yr = y0n + (t + 1) * Q_ + ii, *lm = lam + t * Q_ + ii;
+                        const gfsim_lane *yr = y0n + (t + 1) * Q_ + ii,
+                                         *lm = (samp[ii] ? lamr : lam) + t * Q_ + ii;
                         EACH v.v[u] = (et.v[u] * yr->v[u] + lm->v[u]) - et.v[u] * yc;
                     } else {
                         const double sv = sh[DR_(c) * N + k + (kind == 4)];
@@ -486,7 +510,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
             if (out)
                 for (o = 0; o < NROW_; ++o)
                     for (j = 0; j < gn; ++j) {
-                        double *dst = out + (g0 + j) * ors + RD_(o) * oos + k0 * ots;
+                        double *dst = out + (g0 + j - r0) * ors + RD_(o) * oos + k0 * ots;
                         for (t = 0; t < nt; ++t) dst[t * ots] = LANE(rw[t * NROW_ + o], j);
                     }
             if (ev) gff_evaluate(ev, rw, NROW_, rdst, g0, gn, s + k0, nt);

@@ -16,20 +16,24 @@ after sample, nothing but the statistic written out:
 * per run and sample: ``y0n = y0c + Lv z`` (``z`` as drawn by the run's noise stream of
   either generator, :meth:`geomfdi.Noise.source`; a correlated ``Lv`` applied as the
   batch applies it), ``y = eta y0n + lam`` (the sensor
-  faults, Hou, Wen & Chen 2011, eq. 3-5, with ``eta, lam`` piecewise constant per run),
+  faults, Hou, Wen & Chen 2011, eq. 3-5, with ``eta`` piecewise constant per run and
+  ``lam`` too, or sampled where a bias is a callable),
   the drive channels of the first-order (or zero-order) hold over each interval, the
   generators' states and outputs (vector residuals: their norm) with the operations of
   the batch recursion in the same order, and, for a :class:`~geomfdi.ChiSquareTest`, the
   windowed sum of squares (the sequential running sum of ``numpy.cumsum``: the
   statistic of the residuals, bit for bit).
 
-The residuals equal those of :func:`geomfdi.simulate_batch` to rounding (and, with
-the same time chunks, bit for bit).  What the fused pass does not cover is decided once
+The residuals equal those of :func:`geomfdi.simulate_batch`'s chunked engine to
+rounding (and, with the same time chunks, bit for bit); :func:`geomfdi.simulate_batch`
+itself runs its batches through this pass when it covers them (``store`` other than
+``"all"``), judging each window of a few runs while it is in the cache (``sink`` of
+:func:`fused_runs`).  What the fused pass does not cover is decided once
 per plan (:func:`fused_plan` returns ``None`` with the reason): a nonlinear plant,
 output feedback or actuator faults inside the loop, process noise or random noise
 inputs, per-run initial states or disturbances, additive (input) faults, sensor faults
-whose profile is not a pair of numbers (a callable gain or bias, a stuck sensor holding
-its reading), ``GEOMFDI_SIM_BACKEND=numpy`` or no working C compiler (one
+whose gain is not a number (a callable gain) or that hold their reading (a stuck sensor
+without a value), ``GEOMFDI_SIM_BACKEND=numpy`` or no working C compiler (one
 :class:`~geomfdi.errors.BackendFallbackWarning`).  See the user guide, *Performance*
 (``docs/guide/performance.md``).
 """
@@ -39,7 +43,7 @@ from __future__ import annotations
 import ctypes
 import threading
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import wait
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -93,6 +97,11 @@ _MIN_PART_WORK = 2**18
 #: of the kernel's group of lanes; their draws stay in the cache, the next runs draw
 #: into the same buffers).
 _SUB = 16
+#: Samples per window handed to a ``sink`` of :func:`fused_runs` (the rows of the
+#: window's runs, 16 x rows x SINK_WINDOW doubles, stay in the cache for the sink).
+SINK_WINDOW = 2**12
+#: Most runs of a window handed to a ``sink`` (the kernel's groups of lanes fit it).
+SINK_RUNS = 64
 #: More compiler flags of the kernel (tests: ``-DGFSIM_NV=3`` three vectors per group of
 #: runs, ``-DGFF_NO_VECTOR_EXT`` the plain loops of compilers without vector types).
 _FLAGS: tuple[str, ...] = ()
@@ -103,7 +112,7 @@ _SPECIALISE = True
 
 def _bind(dll: Any) -> tuple[Any, Any, int]:
     """The run and isolate functions of the library, typed, and its group of lanes."""
-    run = typed(dll.gffused_run, "iiiiiii" + "vvvvvvvv" + "ivvvvvv" + "iivvivvvivvvivvivvvviiiv")
+    run = typed(dll.gffused_run, "iiiiiii" + "vvvvvvvvv" + "ivvvvvv" + "iivvivvvivvvivvivvvviiiv")
     iso = typed(dll.gffused_isolate, "iiivviiiiiivvvvvvv")
     return run, iso, int(typed(dll.gffused_group, "", ctypes.c_int64)())
 
@@ -227,7 +236,7 @@ class FusedPlan:
 
 def _why_not(ctx: Any, schedules: Sequence[Any], x0: np.ndarray) -> str | None:
     """Why the fused pass cannot simulate these runs (None: it can)."""
-    from geomfdi.simulation.profiles import structure_key
+    from geomfdi.simulation.profiles import _PLAIN, _values
 
     if ctx.ctrl.mode == "output":
         return "output feedback"
@@ -240,8 +249,9 @@ def _why_not(ctx: Any, schedules: Sequence[Any], x0: np.ndarray) -> str | None:
     for sc in schedules:
         if sc.inputs:
             return "actuator or additive faults"
-        if structure_key(sc.sensor) is None:
-            return "a sensor fault whose profile is not a pair of numbers"
+        for f in sc.sensor:
+            if type(f) not in _PLAIN or f.holds_reading or callable(_values(f)[0]):
+                return "a sensor fault whose gain is not a number or that holds its reading"
     return None
 
 
@@ -259,6 +269,8 @@ def fused_plan(
     x0: Any = None,
     hold: str = "foh",
     window: int = 0,
+    xc0: Any = None,
+    ctx: Any = None,
 ) -> tuple[FusedPlan | None, str]:
     """The shared part of runs whose fault lists are among ``fault_lists``, or ``None``
     and the reason when the fused pass does not cover them (module docstring).
@@ -272,6 +284,13 @@ def fused_plan(
     noise : Noise
     window : int
         The chi-square window of the statistic (0: the runs give their residuals).
+    xc0 : array_like, optional
+        The controller's initial state (zero by default), as for
+        :func:`geomfdi.simulate_batch`.
+    ctx : optional
+        The simulation context of these arguments when the caller has prepared it
+        (:func:`geomfdi.simulation.context.prepare` with consistent initial states and
+        no noise input ``w``): not prepared again.
 
     Returns
     -------
@@ -285,9 +304,11 @@ def fused_plan(
     if sim_backend() != "c":
         return None, "GEOMFDI_SIM_BACKEND=numpy"
     plant = as_plant(plant)
-    ctx = prepare(plant, bank, t, u, d, noise, controller, hold, True, False)
+    if ctx is None:
+        ctx = prepare(plant, bank, t, u, d, noise, controller, hold, True, False)
     schedules = [fault_schedule(fl, plant) for fl in fault_lists] or [fault_schedule([], plant)]
     x0a = state_vector(x0, plant.n, "x0")
+    xc0a = state_vector(xc0, ctx.ctrl.nc, "xc0")
     why = _why_not(ctx, schedules, x0a)
     if why is not None:
         return None, why
@@ -295,7 +316,7 @@ def fused_plan(
         return None, "no working C compiler"
     N, q = ctx.N, plant.q
     x0c = to_balanced(ctx, x0a)
-    eng = make_engine(ctx, x0c, np.zeros((1, 0)), schedules, False, len(schedules), N)
+    eng = make_engine(ctx, x0c, xc0a, schedules, False, len(schedules), N)
     if not isinstance(eng, OpenLoopEngine):
         return None, "faults inside the closed loop"
     p = ctx.plant
@@ -411,26 +432,43 @@ def _list_key(faults: Sequence[Any]) -> Any:
     return key
 
 
-def _profile_segments(plan: FusedPlan, faults: Sequence[Any]) -> list[tuple[list[Any], ...]]:
-    """Per sensor, the segments ``(first samples, eta, lam)`` of one run's fault list,
-    composed in list order as :func:`geomfdi.simulation.profiles.fault_profiles` does
-    (``eta <- g eta``, ``lam <- g lam + b`` where a fault is active)."""
+def _profile_segments(plan: FusedPlan, faults: Sequence[Any]) -> list[tuple[Any, ...]]:
+    """Per sensor, the segments ``(first samples, eta, lam, sampled)`` of one run's fault
+    list, composed in list order as :func:`geomfdi.simulation.profiles.fault_profiles`
+    does (``eta <- g eta``, ``lam <- g lam + b`` where a fault is active).  ``sampled``
+    is ``None``, or, for a sensor with a callable bias, ``lam`` and its left limits
+    ``(2, N)`` as :func:`geomfdi.simulation.signals.fault_profile` composes them (the
+    segments then give ``eta`` alone)."""
     from geomfdi.simulation.profiles import _values
     from geomfdi.simulation.schedule import fault_schedule
-    from geomfdi.simulation.signals import activity_span
+    from geomfdi.simulation.signals import activity_span, fault_profile
 
     q, N = plan.q, plan.N
     per: list[list[tuple[int, int, float, float]]] = [[] for _ in range(q)]
     # the sensor faults as the simulation sees them (output names resolved, gains on the
     # physical reading: geomfdi.simulation.physical)
-    for f in fault_schedule(list(faults), plan.ctx.original or plan.ctx.plant).sensor:
+    sensor_faults = fault_schedule(list(faults), plan.ctx.original or plan.ctx.plant).sensor
+    sampled: set[int] = set()
+    for f in sensor_faults:
         span = activity_span(f, plan.ctx.t)
         if span is None or span[0] >= span[1]:
             continue
         g, b = _values(f)
+        if callable(b):
+            sampled.add(f.sensor)
+            b = 0.0
         per[f.sensor].append((span[0], span[1], float(g), float(b)))
+    lam_rows: dict[int, np.ndarray] = {}
+    if sampled:
+        rows = sorted(sampled)
+        prof = fault_profile(
+            [f for f in sensor_faults if f.sensor in sampled], plan.ctx.t, None, q=q,
+            sensors=rows,
+        )  # fmt: skip
+        for j, i in enumerate(rows):
+            lam_rows[i] = np.ascontiguousarray(np.stack([prof.lam[0, j], prof.lam_left[0, j]]))
     out = []
-    for fl in per:
+    for i, fl in enumerate(per):
         cuts = sorted({0} | {k for a, z, _, _ in fl for k in (a, z) if 0 < k < N})
         ks, etas, lams = [], [], []
         for k in cuts:
@@ -444,7 +482,7 @@ def _profile_segments(plan: FusedPlan, faults: Sequence[Any]) -> list[tuple[list
             ks.append(k)
             etas.append(eta)
             lams.append(lam)
-        out.append((ks, etas, lams))
+        out.append((ks, etas, lams, lam_rows.get(i)))
     return out
 
 
@@ -470,23 +508,35 @@ def _segments(plan: FusedPlan, fault_lists: Sequence[Sequence[Any]]) -> tuple[np
                 cache[key] = seg
         seen[id(fl)] = seg
         runs.append(seg)
-    ptr, ks, etas, lams = [0], [], [], []
+    ptr, ks, etas, lams, lsp = [0], [], [], [], []
     for i in range(q):
         for seg in runs:
-            k, e, lm = seg[i]
+            k, e, lm, sampled = seg[i]
             ks += k
             etas += e
             lams += lm
             ptr.append(len(ks))
+            lsp.append(0 if sampled is None else sampled.ctypes.data)
     return (
         np.array(ptr, dtype=np.int64),
         np.array(ks, dtype=np.int64),
         np.array(etas, dtype=float),
         np.array(lams, dtype=float),
+        np.array(lsp, dtype=np.uintp) if any(lsp) else None,
+        runs,  # the sampled profiles' arrays, alive while the caller holds this
     )
 
 
 @limit_blas_threads
+def _sink_rows(runs: int, rows: int, samples: int, zero: bool) -> np.ndarray:
+    """The calling thread's buffer of a window's rows ``(runs, rows, samples)`` (the
+    rows of missing generators zeroed when ``zero``: the kernel writes only the others)."""
+    buf = _POOLS.work.get("fused sink", (SINK_RUNS, rows, SINK_WINDOW))[:runs, :, :samples]
+    if zero:
+        buf[:] = 0.0
+    return buf
+
+
 def fused_runs(
     plan: FusedPlan,
     fault_lists: Sequence[Sequence[Any]],
@@ -494,10 +544,12 @@ def fused_runs(
     out: np.ndarray | None = None,
     *,
     evaluation: _Evaluation | None = None,
+    sink: Callable[[int, int, int, int, np.ndarray], None] | None = None,
 ) -> np.ndarray | None:
     """The statistic (``plan`` with a chi-square window) or the residuals of the runs,
     ``(R, n_residuals, N)``; with ``evaluation`` (:func:`evaluation_struct`) and no
-    ``out`` only their evaluation (nothing returned).
+    ``out`` only their evaluation (nothing returned); with ``sink`` the rows of each
+    window of each few runs handed over as soon as they are computed.
 
     Parameters
     ----------
@@ -510,6 +562,13 @@ def fused_runs(
         Array ``(R, n_residuals, N)`` to fill (rows of missing generators: 0).
     evaluation : optional
         Scores, alarm codes and divergence of the statistic, filled by the kernel.
+    sink : callable, optional
+        ``sink(a, b, s, e, rows)`` after the kernel has computed the samples ``s .. e-1``
+        of the runs ``a .. b-1`` (at most :data:`SINK_RUNS` of them, windows of
+        :data:`SINK_WINDOW` samples, each run's windows in order): ``rows`` is
+        ``out[a:b, :, s:e]``, or without ``out`` a buffer of the calling thread, valid
+        until ``sink`` returns (the memory does not grow with the record's length).  Runs
+        split between work threads call ``sink`` from those threads, for disjoint runs.
     """
     from geomfdi.simulation.noise import CounterStream, counter_normals
     from geomfdi.simulation.simulate import noise_streams, noise_window
@@ -517,12 +576,13 @@ def fused_runs(
     lib = plan.lib[0]
     R, N, q = len(fault_lists), plan.N, plan.q
     nrow = plan.rbeg.size - 1
-    if out is None and evaluation is None:
+    if out is None and evaluation is None and sink is None:
         out = np.zeros((R, plan.n_rows, N))
     elif out is not None and nrow < plan.n_rows:
         out[:] = 0.0
+    wlen = SINK_WINDOW if sink is not None else WINDOW
     ctx, lay = plan.ctx, plan.lay
-    segptr, segk, segeta, seglam = _segments(plan, fault_lists)
+    segptr, segk, segeta, seglam, lsp, held = _segments(plan, fault_lists)
     win = plan.window
     nS = int(lay.bs[:-1].sum())
     X = np.array(np.broadcast_to(plan.w0[:, None], (nS, R)), order="C")
@@ -535,8 +595,8 @@ def fused_runs(
         zp.ctypes.data if plan.Lv is not None else None, zts.ctypes.data,
         plan.lv.ctypes.data if plan.lv is not None else None,
         segptr.ctypes.data, segk.ctypes.data, segeta.ctypes.data, seglam.ctypes.data,
-        plan.W.shape[1], plan.kind.ctypes.data, plan.sens.ctypes.data,
-        plan.srow.ctypes.data, plan.W.ctypes.data, plan.sh.ctypes.data,
+        None if lsp is None else lsp.ctypes.data, plan.W.shape[1], plan.kind.ctypes.data,
+        plan.sens.ctypes.data, plan.srow.ctypes.data, plan.W.ctypes.data, plan.sh.ctypes.data,
         None if plan.fs is None else plan.fs.ctypes.data,
         nS, lay.bs.size - 1, lay.bs.ctypes.data, lay.Apk.ctypes.data,
         int(plan.rbeg[-1]), lay.ostart.ctypes.data, lay.olen.ctypes.data,
@@ -571,8 +631,8 @@ def fused_runs(
             # of gf.simulate_batch's scaling); otherwise its scaled window
             direct = streams is not None and plan.lv is not None
             counter = direct and isinstance(streams[0], CounterStream)
-            for s in range(0, N, WINDOW):
-                e = min(s + WINDOW, N)
+            for s in range(0, N, wlen):
+                e = min(s + wlen, N)
                 e1 = min(e + 1, N)  # the reading at the end of the window's last interval
                 keep, ptrs = [], []
                 if counter:
@@ -598,11 +658,19 @@ def fused_runs(
                 args = list(base)
                 args[1], args[2], args[4], args[5] = a1, b1, s, e - s
                 args[10] = plan.lv.ctypes.data if direct else None
-                args[-5] = None if out is None else out[:, :, s:].ctypes.data
+                rows = None
+                if out is not None:
+                    args[-5] = out[a1:, :, s:].ctypes.data
+                elif sink is not None:
+                    rows = _sink_rows(b1 - a1, plan.n_rows, e - s, nrow < plan.n_rows)
+                    args[-5] = rows.ctypes.data
+                    args[-4:-1] = [st // 8 for st in rows.strides]
                 status = int(lib(*args))
                 del keep
                 if status != 0:
                     return status
+                if sink is not None:
+                    sink(a1, b1, s, e, out[a1:b1, :, s:e] if rows is None else rows)
             for st in streams or ():
                 st.release()
         return 0
@@ -610,7 +678,7 @@ def fused_runs(
     G = plan.lib[2]  # runs per group of lanes: parts and draws cut at multiples of it
     sub = max(G, _SUB // G * G)
     # one window, a diagonal Lv and a cache: draws read from the cache or made and kept
-    cached = plan.draws is not None and plan.lv is not None and N <= WINDOW
+    cached = plan.draws is not None and plan.lv is not None and N <= WINDOW and sink is None
 
     def kept_runs(a1: int, b1: int, pool: dict[int, list[np.ndarray]]) -> int:
         keys = [_seed_key(sd) for sd in seeds[a1:b1]]
@@ -636,7 +704,7 @@ def fused_runs(
         args = list(base)
         args[1], args[2], args[4], args[5] = a1, b1, 0, N
         args[10] = plan.lv.ctypes.data  # type: ignore[union-attr]
-        args[-5] = None if out is None else out.ctypes.data
+        args[-5] = None if out is None else out[a1:].ctypes.data
         status = int(lib(*args))
         if miss:
             for st in streams:
@@ -653,6 +721,7 @@ def fused_runs(
         futs = [thread_pool(len(spans)).submit(runs, a, b) for a, b in spans]
         wait(futs)
         status = min(f.result() for f in futs)
+    del held  # the sampled profiles, alive through the kernel's calls
     if status != 0:
         raise MemoryError("the fused block could not allocate its work arrays")
     return out
