@@ -23,8 +23,8 @@
  * and the bank is the recursion of compiled_recursion.c, the same operations in the
  * same order:
  *
- *   out[o](k) = (ys[o, k] + sum_c D[o, c] y_{esens[c]}(k)) + sum_t C[o, t] x[ostart[o] + t]
- *   x(k+1)    = (fs[:, k] + sum_c W[:, c] d_c(k)) + A x(k)
+ *   out[o](k) = (ys[k, o] + sum_c D[o, c] y_{esens[c]}(k)) + sum_t C[o, t] x[ostart[o] + t]
+ *   x(k+1)    = (fs[k, :] + sum_c W[:, c] d_c(k)) + A x(k)
  *
  * A residual row j is the output rbeg[j] (one output) or the norm of the outputs
  * rbeg[j] .. rbeg[j+1]-1; with win > 0 the statistic written is the windowed sum of
@@ -62,6 +62,11 @@
 #define GFF_VEXT 1
 #else
 #define GFF_VEXT 0
+#endif
+
+#if GFF_VEXT && GFSIM_W == 4 && defined(__AVX__)
+#include <immintrin.h>
+#define GFF_T4 1 /* the rows scattered four lanes by four samples (a transpose in registers) */
 #endif
 
 #if GFF_VEXT
@@ -409,6 +414,13 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                     } else {
                         for (t = 0; t < nv; ++t) LANE(y0n[t * Q_ + i], j) = yc[t] + src[t * ts];
                     }
+#if defined(__GNUC__) || defined(__clang__)
+                    /* the next tile's draws (a run's draws may be far from the cache: the
+                       streams of 16 runs and several sensors are more than a processor
+                       prefetches by itself) */
+                    if (src && ts == 1 && k0 + T < L)
+                        for (t = T; t < 2 * T + 1 && k0 + t < L; t += 8) __builtin_prefetch(src + t);
+#endif
                 }
             }
             for (t = 0; t < nv * Q_; ++t) {
@@ -423,7 +435,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                 for (o = 0; o < P_; ++o) { /* (each output's sum in registers) */
                     const gfsim_lane *xs = x + OST_(o);
                     gfsim_lane acc;
-                    FILL(acc, ys ? ys[o * N + k] : 0.0);
+                    FILL(acc, ys ? ys[k * P_ + o] : 0.0);
                     for (c = 0; c < ND_; ++c) AXPY(acc, D[o * ND_ + c], y[t * Q_ + ES_(c)]);
                     for (i = 0; i < OLEN_(o); ++i) AXPY(acc, C[coff + i], xs[i]);
                     COPY(yo[o], acc);
@@ -492,7 +504,7 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
                     for (i = 0; i < n; ++i) {
                         const double *Wi = W + (i0 + i) * NZ_, *Ai = A + aoff + i * n;
                         gfsim_lane acc;
-                        FILL(acc, fs ? fs[(i0 + i) * (N - 1) + k] : 0.0);
+                        FILL(acc, fs ? fs[k * NS_ + i0 + i] : 0.0);
                         for (c = 0; c < NZ_; ++c) AXPY(acc, Wi[c], d[c]);
                         for (c = 0; c < n; ++c) AXPY(acc, Ai[c], x[i0 + c]);
                         COPY(xn[i0 + i], acc);
@@ -508,11 +520,38 @@ int gffused_run(int64_t R, int64_t r0, int64_t r1, int64_t N, int64_t s, int64_t
             }
             /* scatter the tile's rows (when wanted), evaluate them (when asked) */
             if (out)
-                for (o = 0; o < NROW_; ++o)
-                    for (j = 0; j < gn; ++j) {
-                        double *dst = out + (g0 + j - r0) * ors + RD_(o) * oos + k0 * ots;
+                for (o = 0; o < NROW_; ++o) {
+                    double *row = out + (g0 - r0) * ors + RD_(o) * oos + k0 * ots;
+                    j = 0;
+#ifdef GFF_T4
+                    if (ots == 1) /* lanes j..j+3 of samples t..t+3: four vectors each way */
+                        for (; j + 4 <= gn; j += 4) {
+                            double *dj = row + j * ors;
+                            for (t = 0; t + 4 <= nt; t += 4) {
+                                const gfsim_lane *q0 = rw + t * NROW_ + o;
+                                const __m256d r0_ = (__m256d)q0[0].v[j / 4],
+                                              r1_ = (__m256d)q0[NROW_].v[j / 4],
+                                              r2_ = (__m256d)q0[2 * NROW_].v[j / 4],
+                                              r3_ = (__m256d)q0[3 * NROW_].v[j / 4];
+                                const __m256d a0 = _mm256_unpacklo_pd(r0_, r1_),
+                                              a1 = _mm256_unpackhi_pd(r0_, r1_),
+                                              a2 = _mm256_unpacklo_pd(r2_, r3_),
+                                              a3 = _mm256_unpackhi_pd(r2_, r3_);
+                                _mm256_storeu_pd(dj + t, _mm256_permute2f128_pd(a0, a2, 0x20));
+                                _mm256_storeu_pd(dj + ors + t, _mm256_permute2f128_pd(a1, a3, 0x20));
+                                _mm256_storeu_pd(dj + 2 * ors + t, _mm256_permute2f128_pd(a0, a2, 0x31));
+                                _mm256_storeu_pd(dj + 3 * ors + t, _mm256_permute2f128_pd(a1, a3, 0x31));
+                            }
+                            for (; t < nt; ++t)
+                                for (u = 0; u < 4; ++u)
+                                    dj[u * ors + t] = LANE(rw[t * NROW_ + o], j + u);
+                        }
+#endif
+                    for (; j < gn; ++j) {
+                        double *dst = row + j * ors;
                         for (t = 0; t < nt; ++t) dst[t * ots] = LANE(rw[t * NROW_ + o], j);
                     }
+                }
             if (ev) gff_evaluate(ev, rw, NROW_, rdst, g0, gn, s + k0, nt);
         }
         for (i = 0; i < NS_; ++i)

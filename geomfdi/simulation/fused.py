@@ -218,11 +218,12 @@ class FusedPlan:
     srow: np.ndarray
     W: np.ndarray  # (nS, nz) own channels' columns
     sh: np.ndarray  # (n + ne, N) shared rows scaled by (eta - 1)
-    fs: np.ndarray | None  # (nS, N-1)
+    fs: np.ndarray | None  # (N-1, nS): sample-major (a sample's forcing in a cache line or
+    # two, read in order)
     lay: Any
     esens: np.ndarray
     D: np.ndarray
-    ys: np.ndarray | None  # (p, N)
+    ys: np.ndarray | None  # (N, p), sample-major
     rbeg: np.ndarray
     rdst: np.ndarray
     w0: np.ndarray  # (nS,) initial bank state of every run
@@ -366,7 +367,7 @@ def fused_plan(
     sc = [c for c, col in enumerate(cols) if col[0] == "s"]
     if sc and N > 1:
         rows = np.array([cols[c][1][cols[c][2] : cols[c][2] + N - 1] for c in sc])
-        fs = np.ascontiguousarray(W_all[:, sc] @ rows)
+        fs = np.ascontiguousarray((W_all[:, sc] @ rows).T)
     keep = [c for c, col in enumerate(cols) if col[0] == "o" and lay.wcols[c]]
     Wp = np.ascontiguousarray(W_all[:, keep])
     kind = np.array([cols[c][1] for c in keep] + [0], dtype=np.int64)
@@ -375,7 +376,7 @@ def fused_plan(
     Dall = lay.Dall
     ys = None
     if Dall.shape[1] > q and lay.dcols[q:].any():
-        ys = np.ascontiguousarray(Dall[:, q:] @ np.concatenate(dsig))
+        ys = np.ascontiguousarray((Dall[:, q:] @ np.concatenate(dsig)).T)
     ecols = [c for c in range(q) if lay.dcols[c]]
     # ---- residual rows: the outputs of each generator (one row, or the norm of several)
     rbeg, rdst, o = [0], [], 0

@@ -45,10 +45,6 @@ _MAX_BYTES = 2**22  # larger ones: numpy asks for huge pages (a fault per 2 MiB)
 _MAPPED_BYTES = 2**20  # from here on, fresh arrays are populated mappings (mapped)
 _LOCAL = threading.local()
 _POPULATE = getattr(mmap, "MAP_POPULATE", 0)
-_HUGE_BYTES = 2**21  # a huge page (x86-64, arm64 with 4 KiB pages)
-_MADV_POPULATE_WRITE = 23  # Linux 5.14 (not among the constants of Python 3.11's mmap)
-#: Arrays of a huge page and more are mapped in huge pages where the system allows it.
-_HUGE_PAGES = True
 
 
 def mapped(shape: tuple[int, ...], dtype: Any = float, fill: Any = None) -> np.ndarray:
@@ -76,11 +72,8 @@ def mapped(shape: tuple[int, ...], dtype: Any = float, fill: Any = None) -> np.n
     if not _POPULATE or nbytes < _MAPPED_BYTES:
         a = np.zeros(shape, dtype=dt)
     else:
-        m = _huge_mapping(nbytes) if nbytes >= _HUGE_BYTES else None
         try:
-            if m is None:
-                flags = mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS | _POPULATE
-                m = mmap.mmap(-1, nbytes, flags=flags)
+            m = mmap.mmap(-1, nbytes, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS | _POPULATE)
         except OSError:  # e.g. a limit on mappings: the C library's memory instead
             a = np.zeros(shape, dtype=dt)
         else:
@@ -88,26 +81,6 @@ def mapped(shape: tuple[int, ...], dtype: Any = float, fill: Any = None) -> np.n
     if fill is not None and fill != 0:
         a.fill(fill)
     return a
-
-
-def _huge_mapping(nbytes: int) -> mmap.mmap | None:
-    """An anonymous mapping of whole huge pages, populated (``MADV_HUGEPAGE`` then
-    ``MADV_POPULATE_WRITE``: a fault and a zeroing per 2 MiB), or ``None`` where the
-    system does not take the advice (then :func:`mapped` maps small pages)."""
-    if not _HUGE_PAGES or not hasattr(mmap, "MADV_HUGEPAGE"):
-        return None
-    size = -(-nbytes // _HUGE_BYTES) * _HUGE_BYTES
-    try:
-        m = mmap.mmap(-1, size, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS)
-    except OSError:
-        return None
-    try:
-        m.madvise(mmap.MADV_HUGEPAGE)
-        m.madvise(_MADV_POPULATE_WRITE)
-    except OSError:  # no transparent huge pages, or a kernel before 5.14
-        m.close()
-        return None
-    return m
 
 
 def _pool() -> list[np.ndarray]:
