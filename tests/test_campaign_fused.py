@@ -384,3 +384,36 @@ def test_compiled_isolation_equals_isolate_runs(seed):
     delay = np.where(right >= 0, t[np.maximum(right, 0)] - onsets, np.nan)
     np.testing.assert_array_equal(delay, ref["iso_delay"])
     assert len(set(ref["outcome"].tolist())) > 1
+
+
+def test_serial_campaign_on_two_threads_is_the_loop_bit_for_bit(hwc, monkeypatch):
+    import threading
+    import warnings
+
+    from geomfdi._threads import using_work_threads
+
+    spec, bank = hwc
+    c = _campaign(spec, bank, samples=900, uncertainty=gf.Uncertainty(0.05, samples=2, seed=3))
+    with using_work_threads(1):
+        one = c.run("serial", progress=False).table
+    names = set()
+    run = runner._run_block
+
+    def seen(job, block, own_filters=True):
+        names.add(threading.current_thread().name)
+        return run(job, block, own_filters)
+
+    monkeypatch.setattr(runner, "_run_block", seen)
+    filters = list(warnings.filters)
+    with using_work_threads(2):
+        two = c.run("serial", progress=False).table
+    assert len(names) == 2 and threading.main_thread().name not in names  # blocks on threads
+    pd.testing.assert_frame_equal(one, two)  # the same numbers, in the same order
+    assert warnings.filters == filters  # the perturbed models' filter set once, and undone
+    # blocks that simulate_batch runs (no plan): one after the other, in this thread
+    names.clear()
+    monkeypatch.setattr(runner, "_fused_plan", lambda job, model: None)
+    with using_work_threads(2):
+        three = c.run("serial", progress=False).table
+    assert names == {threading.main_thread().name}
+    _same_tables(three, one)

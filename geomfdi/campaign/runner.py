@@ -44,6 +44,7 @@ See the user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``
 
 from __future__ import annotations
 
+import contextlib
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -51,6 +52,7 @@ from typing import Any
 
 import numpy as np
 
+from geomfdi._threads import limit_blas_threads, work_threads
 from geomfdi._validation import as_int, as_positive
 from geomfdi.campaign.executors import RETRIES
 from geomfdi.campaign.scoring import evaluate_runs, isolate_runs
@@ -126,8 +128,12 @@ def _truth(
     return MULTIPLE, found
 
 
-def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
-    """Simulate and evaluate one block (runs in a worker)."""
+def _run_block(
+    job: dict[str, Any], block: _Block, own_filters: bool = True
+) -> dict[str, np.ndarray]:
+    """Simulate and evaluate one block (runs in a worker).  ``own_filters=False``: the
+    caller has set the warning filters of the campaign (blocks run on threads, which
+    must not change the process's filters)."""
     from geomfdi.simulation.batch import simulate_batch
 
     root = job["seed_root"]
@@ -146,11 +152,7 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
         fault_lists.append(cells[cell])
     test = job["test"]
     stat = None
-    with warnings.catch_warnings():
-        if job["perturbed"]:
-            # a bank designed on the nominal plant is not decoupled from a perturbed one:
-            # expected, and the point of the campaign (its residuals see the inputs)
-            warnings.filterwarnings("ignore", message=".*not decoupled.*")
+    with _Filters(job["perturbed"]) if own_filters else contextlib.nullcontext():
         plan = _fused_plan(job, block.model)
         if plan is not None and plan.window:
             # simulated and judged in one pass (None: a run diverged, or a rule the
@@ -233,6 +235,23 @@ def _run_block(job: dict[str, Any], block: _Block) -> dict[str, np.ndarray]:
             )
         )
     return out
+
+
+class _Filters:
+    """``with``: a bank designed on the nominal plant is not decoupled from a perturbed
+    one: expected, and the point of the campaign (its residuals see the inputs)."""
+
+    def __init__(self, perturbed: bool) -> None:
+        self.perturbed = perturbed
+        self.saved = warnings.catch_warnings()
+
+    def __enter__(self) -> None:
+        self.saved.__enter__()
+        if self.perturbed:
+            warnings.filterwarnings("ignore", message=".*not decoupled.*")
+
+    def __exit__(self, *exc: Any) -> None:
+        self.saved.__exit__(*exc)
 
 
 #: The noise draws a process keeps for a campaign's repetitions (their runs in every
@@ -357,14 +376,58 @@ def _fused_plan(job: dict[str, Any], model: int) -> Any:
 def _prepare_blocks(job: dict[str, Any], blocks: Sequence[_Block]) -> None:
     """The fused plans of the blocks' models, made before a task's timed work
     (:func:`geomfdi.campaign.executors.run_items`)."""
-    with warnings.catch_warnings():
-        if job["perturbed"]:
-            warnings.filterwarnings("ignore", message=".*not decoupled.*")
+    with _Filters(job["perturbed"]):
         for model in sorted({b.model for b in blocks}):
             _fused_plan(job, model)
 
 
 _run_block.prepare = _prepare_blocks  # type: ignore[attr-defined]
+
+
+@limit_blas_threads
+def _run_serial(job: dict[str, Any], blocks: Sequence[_Block], bar: Any) -> dict[int, list[Any]]:
+    """The blocks in this process: one after the other, or, when every block runs
+    through the fused pass and geomfdi may use several threads
+    (:func:`geomfdi._threads.work_threads`), on as many threads, a block each (its
+    set-up in Python overlaps another block's compiled pass; each block on one thread,
+    so its numbers are those of the loop).  The plans are made first, here; the warning
+    filters are set once around the threads (a thread must not change them)."""
+    k = min(work_threads(), len(blocks))
+    if k > 1:
+        _prepare_blocks(job, blocks)
+        cache = job.get("fused") or {}
+        if not all(cache.get(m) is not None and cache[m].window for m in {b.model for b in blocks}):
+            k = 1  # blocks through simulate_batch: it splits each block itself
+    done: dict[int, list[Any]] = {}
+    if k <= 1:
+        for i, block in enumerate(blocks):
+            done[i] = [_run_block(job, block)]
+            if bar is not None:
+                bar.update(1)
+        return done
+    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+
+    with _Filters(job["perturbed"]), ThreadPoolExecutor(k) as pool:
+        pending = {}
+        it = iter(enumerate(blocks))
+        try:
+            for i, block in it:  # k blocks in flight: the table's memory as in the loop
+                pending[pool.submit(_run_block, job, block, False)] = i
+                if len(pending) < k:
+                    continue
+                ready, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for f in ready:
+                    done[pending.pop(f)] = [f.result()]
+                    if bar is not None:
+                        bar.update(1)
+            for f in list(pending):
+                done[pending.pop(f)] = [f.result()]
+                if bar is not None:
+                    bar.update(1)
+        finally:
+            for f in pending:
+                f.cancel()
+    return done
 
 
 def _run_task(job: dict[str, Any], blocks: list[_Block]) -> list[dict[str, np.ndarray]]:
@@ -697,11 +760,7 @@ class Campaign:
             bar = tqdm(total=len(blocks), desc="campaign", unit="block", leave=False)
         try:
             if isinstance(executor, str) and executor == "serial":
-                done = {}
-                for i, block in enumerate(blocks):
-                    done[i] = [_run_block(job, block)]
-                    if bar is not None:
-                        bar.update(1)
+                done = _run_serial(job, blocks, bar)
                 stats: dict[str, Any] = {"tasks": len(blocks), "items_per_task": 1}
             elif isinstance(executor, str) and executor != "processes":
                 raise GeomFDIError(

@@ -118,10 +118,15 @@ def simulate_batch(
 
     Notes
     -----
-    Open loop and state feedback are vectorised across all runs of a chunk (one compiled
-    recursion per state over the ``(runs, N)`` array).  Under output feedback runs with a
-    shared fault list are vectorised; per-run fault lists are simulated one run at a time
-    (the loop dynamics differ between runs).
+    A batch of at least :data:`FUSED_MIN_WORK` run-samples that the fused pass covers
+    (open loop or state feedback, measurement noise, sensor faults with numeric gains,
+    one initial state, ``store`` other than ``"all"``; :mod:`geomfdi.simulation.fused`)
+    runs through it: readings, faults, bank and decisions of 16 runs at a time, window
+    by window, the same results as the chunked engine (residuals to rounding).
+    Otherwise open loop and state feedback are vectorised across all runs of a chunk
+    (one compiled recursion per state over the ``(runs, N)`` array).  Under output
+    feedback runs with a shared fault list are vectorised; per-run fault lists are
+    simulated one run at a time (the loop dynamics differ between runs).
     """
     store = as_choice(store, "store", ("residuals", "all", "summary"))
     plant = as_plant(plant)

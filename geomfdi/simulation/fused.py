@@ -178,18 +178,21 @@ class DrawCache:
         self.arrays: dict[Any, np.ndarray] = {}
         self.nbytes = 0
         self.budget = float(budget)
+        self._lock = threading.Lock()  # blocks of a serial campaign run on threads
 
     def get(self, key: Any) -> np.ndarray | None:
         return None if key is None else self.arrays.get(key)
 
     def put(self, key: Any, z: np.ndarray) -> np.ndarray:
         """``z`` kept under ``key`` (a copy) when the budget allows; the array to read."""
-        if key is None or self.nbytes + z.nbytes > self.budget:
-            return z
-        kept = np.array(z, order="C")
-        self.arrays[key] = kept
-        self.nbytes += kept.nbytes
-        return kept
+        with self._lock:
+            if key is None or self.nbytes + z.nbytes > self.budget:
+                return z
+            kept = self.arrays.get(key)
+            if kept is None:  # (another thread may have drawn the same run meanwhile)
+                kept = self.arrays[key] = np.array(z, order="C")
+                self.nbytes += kept.nbytes
+            return kept
 
 
 def _seed_key(seed: Any) -> Any:
