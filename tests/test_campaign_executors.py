@@ -86,6 +86,33 @@ def test_task_size_is_the_fewest_blocks_within_the_overhead_share_unless_balance
     assert per == 1 or overhead > share * (per - 1) * block or per == balance
 
 
+@settings(max_examples=200, deadline=None)
+@given(
+    start=st.integers(0, 50),
+    items=st.integers(0, 400),
+    workers=st.integers(1, 16),
+    least=st.integers(1, 40),
+)
+def test_guided_spans_cover_the_items_in_shrinking_tasks(start, items, workers, least):
+    spans = executors.guided_spans(start, start + items, workers, least)
+    if not items:
+        assert spans == []
+        return
+    # consecutive, in order, every item once
+    assert [a for a, _ in spans] == [start] + [b for _, b in spans[:-1]]
+    assert (spans[-1][1] if spans else start) == start + items
+    sizes = [b - a for a, b in spans]
+    # none larger than its share of what was left, none smaller than least but the last
+    left = items
+    for k, z in enumerate(sizes):
+        assert z <= max(least, -(-left // (2 * workers)))
+        assert z >= least or k == len(sizes) - 1
+        left -= z
+    assert sizes == sorted(sizes, reverse=True)  # large first, small last
+    # no more tasks than a fixed size of least
+    assert len(spans) <= -(-items // least)
+
+
 def test_worker_slots_of_pools_and_clients():
     with ProcessPoolExecutor(max_workers=3) as pool:
         assert executors.worker_slots(pool) == 3
@@ -149,10 +176,14 @@ def test_auto_task_size_gives_the_serial_table(serial):
     res = c.run("processes", workers=2, progress=False)  # blocks_per_task="auto"
     info = res.info["executor"]
     assert info["block_seconds"] > 0 and info["task_overhead"] >= executors.MIN_OVERHEAD
-    # 4 one-block tasks measure; the other 8 blocks go into tasks of the rule's size
-    want = executors.task_size(8, 2, info["block_seconds"], info["task_overhead"])
-    assert info["blocks_per_task"] == want
-    assert info["tasks"] == 4 + -(-8 // want)
+    # 4 one-block tasks measure; the other 8 blocks go into shrinking tasks, none below
+    # the rule's size
+    least = executors.task_size(8, 2, info["block_seconds"], info["task_overhead"])
+    spans = executors.guided_spans(4, 12, 2, least)
+    assert info["least_blocks_per_task"] == least
+    assert info["tasks"] == 4 + len(spans)
+    sizes = sorted(b - a for a, b in spans)
+    assert info["blocks_per_task"] == sizes[len(sizes) // 2]
     pd.testing.assert_frame_equal(res.table, serial, check_exact=True)
     with pytest.raises(GeomFDIError) as exc:
         c.run("serial", blocks_per_task="many")

@@ -27,15 +27,17 @@ own, which made the final ``gather`` of a campaign of 160 blocks take 0.15-0.2 s
 fixed overhead ``o`` (submitting, scheduling, shipping the blocks and the results).  The
 first ``2 W`` tasks (``W`` worker slots) carry one block each; the first one to finish
 gives the block's compute time ``b`` (measured in the worker) and ``o`` (its round trip
-minus ``b``, at least :data:`MIN_OVERHEAD`).  The remaining ``B`` blocks go into tasks of
-:func:`task_size` blocks: the fewest for which ``o`` is at most :data:`OVERHEAD_SHARE`
-(10 %) of the task's compute time, ``ceil(o / (0.1 b))``, but no more than
-``B / (TASKS_PER_WORKER W)``, so that every slot still gets about
-:data:`TASKS_PER_WORKER` (4) tasks and the slots finish together (the last task of the
-slowest worker keeps the others idle for a quarter of a slot's share at most).  When the
-two bounds conflict (few blocks, each much shorter than the overhead) the balance wins:
-such a campaign takes a fraction of a second either way.  The grouping never changes the
-table (a run's numbers depend on its index only, see :mod:`geomfdi.campaign.runner`).
+minus ``b``, at least :data:`MIN_OVERHEAD`).  The remaining ``B`` blocks go into tasks
+that shrink toward the end (:func:`guided_spans`, guided self-scheduling): each takes
+``ceil(R / (2 W))`` of the ``R`` blocks still unassigned, but at least the
+:func:`task_size` of the overhead, the fewest blocks for which ``o`` is at most
+:data:`OVERHEAD_SHARE` (10 %) of the task's compute time (``ceil(o / (0.1 b))``, no more
+than ``B / (TASKS_PER_WORKER W)``).  The first tasks are large (few round trips), the
+last ones small, so that the slots finish together (the last task of the slowest worker
+keeps the others idle for a small task at most); a fixed size balancing as well would
+need about :data:`TASKS_PER_WORKER` times more tasks.  The tasks are submitted in that
+order, the large first.  The grouping never changes the table (a run's numbers depend on
+its index only, see :mod:`geomfdi.campaign.runner`).
 
 **Worker set-up.**  A task runs with the BLAS limited to ``gf.get_blas_threads()`` (one)
 thread.  A Dask worker's default environment sets ``MALLOC_TRIM_THRESHOLD_`` (so that
@@ -72,6 +74,7 @@ __all__ = [
     "Shipped",
     "allocator_for_arrays",
     "execute",
+    "guided_spans",
     "install",
     "lost_worker",
     "run_items",
@@ -150,6 +153,25 @@ def task_size(
     need = math.ceil(overhead / (share * block_seconds)) if block_seconds > 0 else blocks
     most = blocks // (tasks_per_worker * max(1, workers))
     return max(1, min(need, most))
+
+
+def guided_spans(start: int, stop: int, workers: int, least: int) -> list[tuple[int, int]]:
+    """The items ``start .. stop-1`` in consecutive spans that shrink toward the end:
+    each takes ``ceil(R / (2 workers))`` of the ``R`` items left, at least ``least``
+    (guided self-scheduling, Polychronopoulos & Kuck 1987, with a factor of two).
+
+    Examples
+    --------
+    >>> guided_spans(0, 40, 2, 3)
+    [(0, 10), (10, 18), (18, 24), (24, 28), (28, 31), (31, 34), (34, 37), (37, 40)]
+    """
+    spans, a = [], start
+    workers, least = max(1, int(workers)), max(1, int(least))
+    while a < stop:
+        size = min(stop - a, max(least, -(-(stop - a) // (2 * workers))))
+        spans.append((a, a + size))
+        a += size
+    return spans
 
 
 def worker_slots(executor: Any) -> int:
@@ -522,9 +544,11 @@ def _adaptive(
             o = max(MIN_OVERHEAD, rnd.overheads[0])
             per = task_size(n - first[-1][1], slots, b, o)
             stats.update(block_seconds=b, task_overhead=o)
-    rest = _spans(first[-1][1], n, per)
+    rest = guided_spans(first[-1][1], n, slots, per)
     for span in rest:
         rnd.submit(span)
     rnd.collect_from(collected, done)
-    stats["items_per_task"] = per
+    sizes = sorted(b - a for a, b in rest) or [1]
+    stats["items_per_task"] = sizes[len(sizes) // 2]  # the median task
+    stats["least_items_per_task"] = per
     return first + rest

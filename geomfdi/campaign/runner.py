@@ -725,19 +725,22 @@ class Campaign:
             ``result()`` works (a Dask client: install ``geomfdi[dask]``).
         workers : int, optional
         blocks_per_task : int or "auto"
-            Blocks carried by one task (does not change the results); ``"auto"``: sized
-            from the first task's measured block time so that the per-task overhead is
-            at most 10 % of a task while every worker still gets about 4 tasks
-            (:func:`geomfdi.campaign.executors.task_size`).
+            Blocks carried by one task (does not change the results); ``"auto"``: tasks
+            that shrink toward the end (large first, for few round trips; small last,
+            so that the workers finish together), none so small that its overhead,
+            measured on the first tasks, is over 10 % of it
+            (:func:`geomfdi.campaign.executors.guided_spans`,
+            :func:`~geomfdi.campaign.executors.task_size`).
         progress : bool, optional
             tqdm bar over the blocks (default: when stderr is a terminal).
 
         Returns
         -------
         CampaignResult
-            Its ``info["executor"]`` holds what the run measured: tasks, blocks per task,
-            the compute seconds of the tasks (in the workers), and with ``"auto"`` the
-            block time and the per-task overhead that sized the tasks.
+            Its ``info["executor"]`` holds what the run measured: tasks, blocks per task
+            (with ``"auto"``: the median task, and ``least_blocks_per_task``), the
+            compute seconds of the tasks (in the workers), and with ``"auto"`` the block
+            time and the per-task overhead that sized the tasks.
         """
         import sys
 
@@ -787,5 +790,7 @@ class Campaign:
         parts = [p for i in sorted(done) for p in done[i]]
         result = CampaignResult.from_parts(self, parts)
         stats["blocks_per_task"] = stats.pop("items_per_task")
+        if "least_items_per_task" in stats:
+            stats["least_blocks_per_task"] = stats.pop("least_items_per_task")
         result.info["executor"] = stats
         return result
