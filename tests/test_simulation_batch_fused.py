@@ -217,3 +217,28 @@ def test_fused_runs_sink_sees_every_window_once():
     assert all(
         [s for a2, s in seen if a2 == a] == sorted(s for a2, s in seen if a2 == a) for a in starts
     )
+
+
+def test_fused_runs_called_directly_use_the_blas_threads():
+    # an entry point: as many work threads as the BLAS had when it was called
+    import threading
+
+    from threadpoolctl import threadpool_limits
+
+    N, runs = 20_000, 40
+    t = np.arange(N) * 1e-3
+    p, bank = gf.Plant(A, B, C), _bank(3)
+    lists = [[gf.BiasFault(0, start=4.0, bias=0.02)]]
+    noise = gf.Noise(measurement=1e-3, seed=1)
+    plan, why = fused.fused_plan(p, bank, t, None, fault_lists=lists, noise=noise, controller=K)
+    assert plan is not None, why
+    seeds = list(np.random.SeedSequence(4).spawn(runs))
+    for threads in (1, 2):
+        names = set()
+
+        def sink(a, b, s, e, rows):
+            names.add(threading.current_thread().name)
+
+        with threadpool_limits(threads):
+            fused.fused_runs(plan, lists * runs, seeds, sink=sink)
+        assert len(names) == threads

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import contextlib
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -152,7 +152,7 @@ def _run_block(
         fault_lists.append(cells[cell])
     test = job["test"]
     stat = None
-    with _Filters(job["perturbed"]) if own_filters else contextlib.nullcontext():
+    with _filters(job["perturbed"]) if own_filters else contextlib.nullcontext():
         plan = _fused_plan(job, block.model)
         if plan is not None and plan.window:
             # simulated and judged in one pass (None: a run diverged, or a rule the
@@ -237,21 +237,15 @@ def _run_block(
     return out
 
 
-class _Filters:
-    """``with``: a bank designed on the nominal plant is not decoupled from a perturbed
-    one: expected, and the point of the campaign (its residuals see the inputs)."""
-
-    def __init__(self, perturbed: bool) -> None:
-        self.perturbed = perturbed
-        self.saved = warnings.catch_warnings()
-
-    def __enter__(self) -> None:
-        self.saved.__enter__()
-        if self.perturbed:
+@contextlib.contextmanager
+def _filters(perturbed: bool) -> Iterator[None]:
+    """The warning filters of a campaign's blocks: a bank designed on the nominal plant
+    is not decoupled from a perturbed one (expected, and the point of the campaign: its
+    residuals see the inputs)."""
+    with warnings.catch_warnings():
+        if perturbed:
             warnings.filterwarnings("ignore", message=".*not decoupled.*")
-
-    def __exit__(self, *exc: Any) -> None:
-        self.saved.__exit__(*exc)
+        yield
 
 
 #: The noise draws a process keeps for a campaign's repetitions (their runs in every
@@ -376,7 +370,7 @@ def _fused_plan(job: dict[str, Any], model: int) -> Any:
 def _prepare_blocks(job: dict[str, Any], blocks: Sequence[_Block]) -> None:
     """The fused plans of the blocks' models, made before a task's timed work
     (:func:`geomfdi.campaign.executors.run_items`)."""
-    with _Filters(job["perturbed"]):
+    with _filters(job["perturbed"]):
         for model in sorted({b.model for b in blocks}):
             _fused_plan(job, model)
 
@@ -407,11 +401,10 @@ def _run_serial(job: dict[str, Any], blocks: Sequence[_Block], bar: Any) -> dict
         return done
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
-    with _Filters(job["perturbed"]), ThreadPoolExecutor(k) as pool:
+    with _filters(job["perturbed"]), ThreadPoolExecutor(k) as pool:
         pending = {}
-        it = iter(enumerate(blocks))
         try:
-            for i, block in it:  # k blocks in flight: the table's memory as in the loop
+            for i, block in enumerate(blocks):  # k blocks in flight: memory as in the loop
                 pending[pool.submit(_run_block, job, block, False)] = i
                 if len(pending) < k:
                     continue

@@ -186,32 +186,33 @@ def simulate_batch(
     plan = None
     if store != "all" and consistent_init and w is None and runs * N >= FUSED_MIN_WORK:
         plan = _fused_plan(ctx, plant, bank, t, u, noise, schedules, controller, d, x0a, xc0, hold)
-    kept: dict[str, Any] = {}  # for the next chunk of runs: open-loop engine, noise buffers
-    work = kept["work"] = Workspace()  # chunk-sized work arrays, reused chunk after chunk
-    kept["threads"] = work_threads()  # the noise draws of a chunk's runs, in parallel
     if plan is not None:
         _fused_batch(
             plan, schedules, seeds, (thr, view.structure, rule), R_res, (R_al, R_iso), summary, bar
         )
-    for a in range(0 if plan is None else runs, runs, Rc):
-        b = min(a + Rc, runs)
-        rngs = [None if sd is None else noise.source(sd, kp) for sd in seeds[a:b]]
-        x0c = to_balanced(ctx, x0a[a:b] if x0a.shape[0] > 1 else x0a)
-        chunk = schedules[a:b]
-        ds = DecisionStream(thr, view.structure, rule, work)
-        pieces = _pieces(ctx, x0c, xc0a, rngs, chunk, not per_run, L, R_res, a, kept)
-        for s, e, pc, res, written in pieces:
-            if keep_r and not written:
-                R_res[a:b, :, s:e] = res
-            _judge(ds, res, (R_al, R_iso, a, b, s, e), work, summary)
-            if store == "all":
-                L_s = e - s
-                R_x[a:b, :, s:e] = from_balanced(ctx, pc.X[:, :, :L_s].transpose(1, 0, 2))
-                R_y[a:b, :, s:e] = pc.y[:, :, :L_s].transpose(1, 0, 2)
-                R_yh[a:b, :, s:e] = pc.y0n[:, :, :L_s].transpose(1, 0, 2)
-                R_u[a:b, :, s:e] = pc.u[:, :, :L_s].transpose(1, 0, 2)
-        if bar is not None:
-            bar.update(b - a)
+    else:
+        kept: dict[str, Any] = {}  # for the next chunk of runs: open-loop engine, noise buffers
+        work = kept["work"] = Workspace()  # chunk-sized work arrays, reused chunk after chunk
+        kept["threads"] = work_threads()  # the noise draws of a chunk's runs, in parallel
+        for a in range(0, runs, Rc):
+            b = min(a + Rc, runs)
+            rngs = [None if sd is None else noise.source(sd, kp) for sd in seeds[a:b]]
+            x0c = to_balanced(ctx, x0a[a:b] if x0a.shape[0] > 1 else x0a)
+            chunk = schedules[a:b]
+            ds = DecisionStream(thr, view.structure, rule, work)
+            pieces = _pieces(ctx, x0c, xc0a, rngs, chunk, not per_run, L, R_res, a, kept)
+            for s, e, pc, res, written in pieces:
+                if keep_r and not written:
+                    R_res[a:b, :, s:e] = res
+                _judge(ds, res, (R_al, R_iso, a, b, s, e), work, summary)
+                if store == "all":
+                    L_s = e - s
+                    R_x[a:b, :, s:e] = from_balanced(ctx, pc.X[:, :, :L_s].transpose(1, 0, 2))
+                    R_y[a:b, :, s:e] = pc.y[:, :, :L_s].transpose(1, 0, 2)
+                    R_yh[a:b, :, s:e] = pc.y0n[:, :, :L_s].transpose(1, 0, 2)
+                    R_u[a:b, :, s:e] = pc.u[:, :, :L_s].transpose(1, 0, 2)
+            if bar is not None:
+                bar.update(b - a)
     if bar is not None:
         bar.close()
     events = [summary.events(r) for r in range(runs)]
@@ -339,17 +340,17 @@ def _fused_batch(
     from geomfdi.simulation.fused import fused_runs
     from geomfdi.simulation.workspace import thread_workspace
 
-    streams: dict[int, DecisionStream] = {}  # per first run of a few: their decisions
+    deciding: dict[int, DecisionStream] = {}  # per first run of a few: their decisions
     R_al, R_iso = kept
     N = plan.N
 
     def sink(a: int, b: int, s: int, e: int, res: np.ndarray) -> None:
         work = thread_workspace("batch decisions")
         if s == 0:
-            streams[a] = DecisionStream(*rule, work)
-        _judge(streams[a], res, (R_al, R_iso, a, b, s, e), work, summary)
+            deciding[a] = DecisionStream(*rule, work)
+        _judge(deciding[a], res, (R_al, R_iso, a, b, s, e), work, summary)
         if e == N:
-            del streams[a]
+            del deciding[a]
             if bar is not None:
                 bar.update(b - a)
 

@@ -100,8 +100,6 @@ _SUB = 16
 #: Samples per window handed to a ``sink`` of :func:`fused_runs` (the rows of the
 #: window's runs, 16 x rows x SINK_WINDOW doubles, stay in the cache for the sink).
 SINK_WINDOW = 2**12
-#: Most runs of a window handed to a ``sink`` (the kernel's groups of lanes fit it).
-SINK_RUNS = 64
 #: More compiler flags of the kernel (tests: ``-DGFSIM_NV=3`` three vectors per group of
 #: runs, ``-DGFF_NO_VECTOR_EXT`` the plain loops of compilers without vector types).
 _FLAGS: tuple[str, ...] = ()
@@ -531,16 +529,17 @@ def _segments(plan: FusedPlan, fault_lists: Sequence[Sequence[Any]]) -> tuple[np
     )
 
 
-@limit_blas_threads
-def _sink_rows(runs: int, rows: int, samples: int, zero: bool) -> np.ndarray:
-    """The calling thread's buffer of a window's rows ``(runs, rows, samples)`` (the
-    rows of missing generators zeroed when ``zero``: the kernel writes only the others)."""
-    buf = _POOLS.work.get("fused sink", (SINK_RUNS, rows, SINK_WINDOW))[:runs, :, :samples]
+def _sink_rows(sub: int, runs: int, rows: int, samples: int, zero: bool) -> np.ndarray:
+    """The calling thread's buffer of a window's rows ``(runs, rows, samples)``, runs at
+    most ``sub`` (the rows of missing generators zeroed when ``zero``: the kernel writes
+    only the others)."""
+    buf = _POOLS.work.get("fused sink", (sub, rows, SINK_WINDOW))[:runs, :, :samples]
     if zero:
         buf[:] = 0.0
     return buf
 
 
+@limit_blas_threads
 def fused_runs(
     plan: FusedPlan,
     fault_lists: Sequence[Sequence[Any]],
@@ -568,7 +567,7 @@ def fused_runs(
         Scores, alarm codes and divergence of the statistic, filled by the kernel.
     sink : callable, optional
         ``sink(a, b, s, e, rows)`` after the kernel has computed the samples ``s .. e-1``
-        of the runs ``a .. b-1`` (at most :data:`SINK_RUNS` of them, windows of
+        of the runs ``a .. b-1`` (the few runs drawn at a time, 16 with AVX2; windows of
         :data:`SINK_WINDOW` samples, each run's windows in order): ``rows`` is
         ``out[a:b, :, s:e]``, or without ``out`` a buffer of the calling thread, valid
         until ``sink`` returns (the memory does not grow with the record's length).  Runs
@@ -666,7 +665,7 @@ def fused_runs(
                 if out is not None:
                     args[-5] = out[a1:, :, s:].ctypes.data
                 elif sink is not None:
-                    rows = _sink_rows(b1 - a1, plan.n_rows, e - s, nrow < plan.n_rows)
+                    rows = _sink_rows(sub, b1 - a1, plan.n_rows, e - s, nrow < plan.n_rows)
                     args[-5] = rows.ctypes.data
                     args[-4:-1] = [st // 8 for st in rows.strides]
                 status = int(lib(*args))
