@@ -236,7 +236,7 @@ def test_fused_runs_called_directly_use_the_blas_threads():
     for threads in (1, 2):
         names = set()
 
-        def sink(a, b, s, e, rows):
+        def sink(a, b, s, e, rows, names=names):
             names.add(threading.current_thread().name)
 
         with threadpool_limits(threads):
