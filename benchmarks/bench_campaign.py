@@ -278,7 +278,7 @@ def main(argv: list[str]) -> dict[str, Any]:
     ap.add_argument("--loop-runs", type=int, default=100)
     ap.add_argument("--block", type=int, default=64)
     ap.add_argument("--blocks-per-task", default="auto", help="an integer, or auto (the default)")
-    ap.add_argument("--repeats", type=int, default=None, help="default 2 (--quick: 1)")
+    ap.add_argument("--repeats", type=int, default=None, help="default 5 (--quick: 1)")
     ap.add_argument("--no-dask", action="store_true")
     ap.add_argument(
         "--skip",
@@ -291,7 +291,7 @@ def main(argv: list[str]) -> dict[str, Any]:
     )
     args = ap.parse_args(argv)
     if args.repeats is None:
-        args.repeats = 1 if args.quick else 2
+        args.repeats = 1 if args.quick else 5
     if args.quick:
         args.runs, args.samples, args.loop_runs = 256, 2000, 8
     from threadpoolctl import threadpool_info

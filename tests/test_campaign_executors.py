@@ -8,6 +8,7 @@ import os
 import pickle
 import subprocess
 import sys
+import time
 import uuid
 from collections import Counter
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
@@ -255,8 +256,8 @@ def test_tasks_run_with_one_blas_thread():
         return max(b["num_threads"] for b in threadpool_info() if b["user_api"] == "blas")
 
     with threadpool_limits(limits=2, user_api="blas"):
-        out, seconds = executors.run_items(blas_threads, None, [0, 1])
-    assert out == [1, 1] and seconds >= 0
+        out, seconds, setup = executors.run_items(blas_threads, None, [0, 1])
+    assert out == [1, 1] and seconds >= 0 and setup >= 0
 
 
 class _FakeLibc:
@@ -270,9 +271,25 @@ class _FakeLibc:
         self.calls.append(("trim", pad))
 
 
-def test_allocator_set_up_is_raised_once_and_restored_by_the_last_task(monkeypatch):
+@pytest.fixture
+def fake_libc(monkeypatch):
+    """A recording libc, with no thresholds raised or restore pending from tasks run
+    earlier in this process (a Dask cluster of threads sets ``MALLOC_TRIM_THRESHOLD_``
+    in this process's environment)."""
+    pending = executors._alloc_timer
+    if pending is not None:
+        pending.cancel()
     fake = _FakeLibc()
     monkeypatch.setattr(executors, "_glibc", lambda: fake)
+    monkeypatch.setattr(executors, "_alloc_raised", False)
+    monkeypatch.setattr(executors, "_alloc_timer", None)
+    monkeypatch.setattr(executors, "_alloc_users", 0)
+    return fake
+
+
+def test_allocator_set_up_is_raised_once_and_restored_by_the_last_task(monkeypatch, fake_libc):
+    fake = fake_libc
+    monkeypatch.setattr(executors, "ALLOCATOR_IDLE", 0.0)  # restored as the last task ends
     monkeypatch.delenv("MALLOC_MMAP_THRESHOLD_", raising=False)
     monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")
     with executors.allocator_for_arrays():
@@ -300,9 +317,34 @@ def test_allocator_set_up_is_raised_once_and_restored_by_the_last_task(monkeypat
         assert fake.calls == []
 
 
+def test_allocator_set_up_outlives_back_to_back_tasks(monkeypatch, fake_libc):
+    """A task that begins within ``ALLOCATOR_IDLE`` of the last one finds the thresholds
+    still raised (nothing handed back between them); once the process is idle that long,
+    they are restored, once."""
+    fake = fake_libc
+    monkeypatch.setattr(executors, "ALLOCATOR_IDLE", 0.3)
+    monkeypatch.delenv("MALLOC_MMAP_THRESHOLD_", raising=False)
+    monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")
+    for _ in range(3):  # three tasks back to back
+        with executors.allocator_for_arrays():
+            pass
+    assert [c[0] for c in fake.calls] == ["mallopt", "mallopt"]  # raised once, kept
+    deadline = time.monotonic() + 10
+    while len(fake.calls) < 5 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    mmap, trim = executors.M_MMAP_THRESHOLD, executors.M_TRIM_THRESHOLD
+    assert fake.calls[2:] == [("mallopt", mmap, 128 << 10), ("mallopt", trim, 65536), ("trim", 0)]
+    time.sleep(0.4)
+    assert len(fake.calls) == 5  # restored once
+    with executors.allocator_for_arrays():  # the next task raises them again
+        assert len(fake.calls) == 7
+
+
 _WHERE = """
+import time
+
 import numpy as np
-from geomfdi.campaign.executors import allocator_for_arrays
+from geomfdi.campaign.executors import ALLOCATOR_IDLE, allocator_for_arrays
 
 def on_heap(address):
     with open("/proc/self/maps") as maps:
@@ -321,6 +363,9 @@ def where():
 plain = [where() for _ in range(3)]
 with allocator_for_arrays():
     tuned = [where() for _ in range(3)]
+with allocator_for_arrays():  # a task right after: still tuned
+    tuned += [where()]
+time.sleep(ALLOCATOR_IDLE + 1.0)  # idle: the worker's own settings are back
 after = where()
 print(all(plain), any(plain), all(tuned), after)
 """

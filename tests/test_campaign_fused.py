@@ -19,6 +19,7 @@ from geomfdi.evaluation.persistence import _decide_patterns, every_pattern
 from geomfdi.io.cli import design_all
 from geomfdi.io.modelfile import load_model
 from geomfdi.simulation import fused
+from geomfdi.simulation.draw_cache import DrawCache
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 pytestmark = pytest.mark.usefixtures("c_cache")
@@ -417,3 +418,91 @@ def test_serial_campaign_on_two_threads_is_the_loop_bit_for_bit(hwc, monkeypatch
         three = c.run("serial", progress=False).table
     assert names == {threading.main_thread().name}
     _same_tables(three, one)
+
+
+# ------------------------------------------------------------- draws shared by runs
+def test_blocks_run_by_ranges_of_repetitions(hwc):
+    spec, bank = hwc
+    c = _campaign(spec, bank, samples=300, runs=7, block_size=3)
+    g = c.grid()
+    blocks = c.blocks()
+    runs = np.concatenate([b.runs for b in blocks])
+    assert np.array_equal(np.sort(runs), g["run"])  # every run once
+    ranges = [set(b.repetition // 3) for b in blocks]
+    assert all(len(r) == 1 for r in ranges)  # a block: one range of 3 repetitions
+    first = [r.pop() for r in ranges]
+    assert first == sorted(first)  # ranges one after the other
+    for b in blocks:  # one model, the grid's order inside a block, no more than 3 runs
+        assert b.runs.size <= 3 and np.all(np.diff(b.runs) > 0)
+        assert np.all(g["model"][b.runs] == b.model)
+    # fewer repetitions than the block size: the grid's order, cut every block_size runs
+    c = _campaign(spec, bank, samples=300, runs=4, block_size=10)
+    assert [list(b.runs) for b in c.blocks()] == [
+        list(range(a, min(a + 10, c.grid()["run"].size)))
+        for a in range(0, c.grid()["run"].size, 10)
+    ]
+
+
+def test_the_draw_cache_drops_the_draws_used_longest_ago():
+    cache = DrawCache(3 * 80)
+    z = {k: np.full((2, 5), float(k)) for k in range(5)}
+    for k in (0, 1, 2):
+        assert cache.put(k, z[k]) is not z[k]  # kept: a copy
+    cache.get(0)  # used again: now the newest
+    cache.put(3, z[3])  # room made by the oldest, 1
+    assert list(cache.arrays) == [2, 0, 3] and cache.nbytes == 240
+    np.testing.assert_array_equal(cache.get(0), z[0])
+    assert cache.get(1) is None
+    big = np.zeros((2, 50))
+    assert cache.put(9, big) is big and 9 not in cache.arrays  # over the whole budget
+
+
+def test_a_run_reserved_by_one_thread_is_waited_for_by_another():
+    import threading
+
+    cache = DrawCache(1e6)
+    z = np.arange(6.0).reshape(2, 3)
+    assert cache.reserve("k") == (None, None)  # this thread draws it
+    got, event = cache.reserve("k")
+    assert got is None and event is not None and not event.is_set()
+    seen = []
+
+    def other():
+        arr, ev = cache.reserve("k")
+        ev.wait(10)
+        seen.append(cache.get("k"))
+
+    th = threading.Thread(target=other)
+    th.start()
+    kept = cache.put("k", z)
+    th.join(10)
+    assert event.is_set() and seen[0] is kept
+    assert cache.reserve("k")[0] is kept  # kept: nothing to wait for
+    # a reservation given up (the drawing thread failed) lets the waiters draw
+    assert cache.reserve("j") == (None, None)
+    _, ev = cache.reserve("j")
+    cache.release("j")
+    assert ev.is_set() and cache.get("j") is None and cache.reserve("j") == (None, None)
+
+
+def test_draws_evicted_or_shared_by_threads_give_the_same_table(hwc, monkeypatch):
+    # a draw cache holding 3 runs' draws: the blocks of a range of repetitions read
+    # them while kept, draw again once dropped; blocks on two threads reserve and wait
+    spec, bank = hwc
+    c = _campaign(spec, bank, samples=700, runs=6, block_size=3)
+    want = c.run("serial", progress=False).table
+    per_run = 3 * 700 * 8
+    monkeypatch.setattr(
+        runner, "DRAW_CACHE_CHUNKS", 3 * per_run / gf.limits.get_limits().chunk_memory
+    )
+    job = c._job()
+    blocks = c.blocks()
+    runner._prepare_blocks(job, blocks)
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(2) as pool:  # the blocks of a range at once, on 2 threads
+        parts = list(pool.map(lambda b: runner._run_block(job, b, False), blocks))
+    draws = job["fused"]["draws"]
+    assert 0 < len(draws.arrays) <= 3 and not draws._pending
+    got = gf.CampaignResult.from_parts(c, parts).table
+    pd.testing.assert_frame_equal(got, want, check_exact=True)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import gc
 import mmap
 import shutil
+import sys
 
 import numpy as np
 import pytest
@@ -360,6 +361,34 @@ def test_mapped_arrays_are_populated_mappings_with_numpy_semantics(monkeypatch):
     assert _mapping(keep[1]) is not None
     assert _mapping(rm.empty((2**19,))) is not None
     gc.collect()
+
+
+def _resident_bytes() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * mmap.PAGESIZE
+
+
+@pytest.mark.skipif(
+    not sys.platform.startswith("linux") or not hasattr(mmap, "MAP_POPULATE"),
+    reason="Linux's resident set and MAP_POPULATE",
+)
+@pytest.mark.parametrize("threads", [1, 2])
+def test_large_mapped_arrays_are_resident_before_their_first_use(monkeypatch, threads):
+    # populated by one MAP_POPULATE, or by two threads' madvise (MADV_POPULATE_WRITE),
+    # each a half: every page is in memory when mapped returns, and reads as the fill
+    from geomfdi._threads import using_work_threads
+
+    monkeypatch.setattr(rm, "_PARALLEL_BYTES", 2**22)
+    shape = (2, 2**21)  # 32 MiB of float64
+    before = _resident_bytes()
+    with using_work_threads(threads):
+        a = rm.mapped(shape, fill=None)
+    grown = _resident_bytes() - before
+    assert grown >= 0.95 * a.nbytes, (grown, a.nbytes)
+    assert _mapping(a) is not None and not a.any()
+    with using_work_threads(threads):
+        b = rm.mapped((2**22,), np.int64, fill=-3)
+    assert np.all(b == -3) and not np.shares_memory(a, b)
 
 
 def test_simulate_results_do_not_share_memory():

@@ -88,8 +88,8 @@ def _probe(job, item):
 
 def test_campaign_tasks_in_worker_processes_use_one_thread():
     with th.using_work_threads(4):
-        shipped, _ = run_items.__wrapped__(_probe, Shipped({"job": 1}), [0, 1])
-        own, _ = run_items.__wrapped__(_probe, {"job": 1}, [0])  # serial: the job itself
+        shipped, _, _ = run_items.__wrapped__(_probe, Shipped({"job": 1}), [0, 1])
+        own, _, _ = run_items.__wrapped__(_probe, {"job": 1}, [0])  # serial: the job itself
     assert shipped == [1, 1]
     assert own == [4]
 

@@ -16,28 +16,30 @@ every worker process:
 
 A task then carries only its blocks (the indices of its runs with their scenario, size,
 onset and repetition: a few kB) and brings back the table numbers of its runs (scores,
-delays, isolation; never residuals or statistics).  Dask results stay on the workers
-until every task is done and come back in one ``gather`` (one message per worker rather
-than a round trip per task), each task's outcomes as one pickle (:func:`run_packed`):
-Dask would otherwise serialise every array of every block's outcome as a frame of its
-own, which made the final ``gather`` of a campaign of 160 blocks take 0.15-0.2 s against
-0.02 s.
+delays, isolation; never residuals or statistics).  A Dask task's outcome is fetched
+as soon as the task finishes (by the client's event loop, while the workers compute the
+other tasks: only the last task's transfer is left once the work is done; a final
+``gather`` of every result took 0.03-0.06 s of a 2 s campaign), as one pickle
+(:func:`run_packed`): Dask would otherwise serialise every array of every block's
+outcome as a frame of its own.
 
-**Task size** (``blocks_per_task="auto"``).  A task costs its blocks' compute time plus a
-fixed overhead ``o`` (submitting, scheduling, shipping the blocks and the results).  The
-first ``2 W`` tasks (``W`` worker slots) carry one block each; the first one to finish
-gives the block's compute time ``b`` (measured in the worker) and ``o`` (its round trip
-minus ``b``, at least :data:`MIN_OVERHEAD`).  The remaining ``B`` blocks go into tasks
-that shrink toward the end (:func:`guided_spans`, guided self-scheduling): each takes
-``ceil(R / (2 W))`` of the ``R`` blocks still unassigned, but at least the
-:func:`task_size` of the overhead, the fewest blocks for which ``o`` is at most
-:data:`OVERHEAD_SHARE` (10 %) of the task's compute time (``ceil(o / (0.1 b))``, no more
-than ``B / (TASKS_PER_WORKER W)``).  The first tasks are large (few round trips), the
-last ones small, so that the slots finish together (the last task of the slowest worker
-keeps the others idle for a small task at most); a fixed size balancing as well would
-need about :data:`TASKS_PER_WORKER` times more tasks.  The tasks are submitted in that
-order, the large first.  The grouping never changes the table (a run's numbers depend on
-its index only, see :mod:`geomfdi.campaign.runner`).
+**Task size** (``blocks_per_task="auto"``).  A task costs its blocks' compute time plus
+a fixed overhead ``o`` (submitting, scheduling, shipping the blocks and the results).
+The first ``2 W`` tasks (``W`` worker slots) carry one block each; the first one to
+finish gives the block's compute time ``b`` (measured in the worker) and ``o`` (its
+round trip minus ``b`` and minus the worker's one-time set-up for the job, unpickling it
+and building its plans, which later tasks do not pay; at least :data:`MIN_OVERHEAD`).
+The remaining ``B`` blocks go into tasks that shrink toward the end
+(:func:`guided_spans`, guided self-scheduling): each takes ``ceil(R / (2 W))`` of the
+``R`` blocks still unassigned, but at least the :func:`task_size` of the overhead, the
+fewest blocks for which ``o`` is at most :data:`OVERHEAD_SHARE` (10 %) of the task's
+compute time (``ceil(o / (0.1 b))``, no more than ``B / (TASKS_PER_WORKER W)``).  The
+first tasks are large (few round trips), the last ones small, so that the slots finish
+together (the last task of the slowest worker keeps the others idle for a small task at
+most); a fixed size balancing as well would need about :data:`TASKS_PER_WORKER` times
+more tasks.  The tasks are submitted in that order, the large first.  The grouping never
+changes the table (a run's numbers depend on its index only, see
+:mod:`geomfdi.campaign.runner`).
 
 **Worker set-up.**  A task runs with the BLAS limited to ``gf.get_blas_threads()`` (one)
 thread.  A Dask worker's default environment sets ``MALLOC_TRIM_THRESHOLD_`` (so that
@@ -46,8 +48,10 @@ freed memory goes back to the system), which also switches off glibc's adaptive
 faulted in again on first write, which makes the vectorised simulation of a block 2-2.5
 times slower than in a plain process.  While a task runs, the thresholds are raised to
 the values glibc adapts to by itself (``M_MMAP_THRESHOLD`` 32 MiB, the trim threshold
-64 MiB); they are restored and the free memory handed back (``malloc_trim``) when the
-last running task of the process ends.  Nothing is changed on other C libraries, when
+64 MiB); they are restored and the free memory handed back (``malloc_trim``) once the
+process has run no task for :data:`ALLOCATOR_IDLE` seconds (restoring after every task
+made the next one fault its arrays in again: with one block per task, 16 ms of core time
+per task against 8).  Nothing is changed on other C libraries, when
 ``MALLOC_MMAP_THRESHOLD_`` is set too, or when ``MALLOC_TRIM_THRESHOLD_`` is not set.
 """
 
@@ -67,6 +71,7 @@ from geomfdi._threads import limit_blas_threads, using_work_threads
 from geomfdi.errors import CampaignIncompleteError, GeomFDIError
 
 __all__ = [
+    "ALLOCATOR_IDLE",
     "MIN_OVERHEAD",
     "OVERHEAD_SHARE",
     "RETRIES",
@@ -242,10 +247,15 @@ def _remember(shipped: Shipped) -> Shipped:
     return shipped
 
 
+_unpacking = threading.local()  # seconds spent unpickling a job for the next task
+
+
 def _unpack(key: str, data: bytes) -> Shipped:
     hit = _JOBS.get(key)
     if hit is None:
+        t0 = time.perf_counter()
         hit = _remember(Shipped(pickle.loads(data), key, data))
+        _unpacking.seconds = getattr(_unpacking, "seconds", 0.0) + time.perf_counter() - t0
     return hit
 
 
@@ -270,6 +280,12 @@ _MMAP_DEFAULT = 128 * 1024  # glibc's fixed mmap threshold once the trim thresho
 _RAISED = {M_MMAP_THRESHOLD: 32 * 1024 * 1024, M_TRIM_THRESHOLD: 64 * 1024 * 1024}
 _alloc_lock = threading.Lock()
 _alloc_users = 0
+_alloc_raised = False
+_alloc_timer: threading.Timer | None = None
+
+ALLOCATOR_IDLE = 0.5
+"""Seconds without a running task after which a worker's own allocator thresholds are
+restored (:func:`allocator_for_arrays`)."""
 
 
 def _glibc() -> Any:
@@ -302,8 +318,11 @@ def _fixed_trim_threshold() -> int | None:
 @contextmanager
 def allocator_for_arrays() -> Any:
     """Run with glibc's adaptive-like thresholds where the environment fixed them
-    (module docstring); the first task in a process raises them, the last restores."""
-    global _alloc_users
+    (module docstring); the first task in a process raises them, and they are restored
+    :data:`ALLOCATOR_IDLE` seconds after the last one ended, unless another task began
+    meanwhile (back-to-back tasks keep their memory: a restore hands the free heap back
+    and the next task faults it in again)."""
+    global _alloc_users, _alloc_timer, _alloc_raised
     trim = _fixed_trim_threshold()
     libc = _glibc() if trim is not None else None
     if libc is None:
@@ -311,52 +330,82 @@ def allocator_for_arrays() -> Any:
         return
     with _alloc_lock:
         _alloc_users += 1
-        if _alloc_users == 1:
+        if _alloc_timer is not None:
+            _alloc_timer.cancel()
+            _alloc_timer = None
+        if not _alloc_raised:
             for param, value in _RAISED.items():
                 libc.mallopt(param, value)
+            _alloc_raised = True
     try:
         yield
     finally:
         with _alloc_lock:
             _alloc_users -= 1
             if _alloc_users == 0:
-                libc.mallopt(M_MMAP_THRESHOLD, _MMAP_DEFAULT)
-                libc.mallopt(M_TRIM_THRESHOLD, trim)
-                libc.malloc_trim(0)
+                if ALLOCATOR_IDLE > 0:
+                    _alloc_timer = threading.Timer(ALLOCATOR_IDLE, _restore, (libc, trim))
+                    _alloc_timer.daemon = True
+                    _alloc_timer.start()
+                else:
+                    _restore_locked(libc, trim)
+
+
+def _restore(libc: Any, trim: int) -> None:
+    with _alloc_lock:
+        _restore_locked(libc, trim)
+
+
+def _restore_locked(libc: Any, trim: int) -> None:
+    """The environment's thresholds back and the free memory handed back, when no task
+    runs (a task that began after the timer fired keeps the raised thresholds)."""
+    global _alloc_raised, _alloc_timer
+    if _alloc_users == 0 and _alloc_raised:
+        libc.mallopt(M_MMAP_THRESHOLD, _MMAP_DEFAULT)
+        libc.mallopt(M_TRIM_THRESHOLD, trim)
+        libc.malloc_trim(0)
+        _alloc_raised = False
+    _alloc_timer = None
 
 
 @limit_blas_threads
 def run_items(
     work: Callable[[Any, Any], Any], shipped: Any, items: Sequence[Any]
-) -> tuple[list[Any], float]:
-    """``[work(job, item) for item in items]`` in a worker, and its compute seconds.
+) -> tuple[list[Any], float, float]:
+    """``[work(job, item) for item in items]`` in a worker, its compute seconds and the
+    seconds of the task's one-time set-up.
 
     ``shipped`` is a :class:`Shipped` (or, in this process, the job itself).  When
     ``work`` has a ``prepare(job, items)`` attribute it runs first, untimed: the set-up
     a process makes once and keeps for the job's later tasks (a campaign's fused plans,
     :mod:`geomfdi.campaign.runner`), so that the first task's time, which sizes the
-    others, is what a task costs.
+    others, is what a task costs.  The set-up seconds (``prepare``, and unpickling the
+    job when this task brought it to the process) are returned apart: the first task's
+    round trip minus both is the per-task overhead (:func:`execute`).
     """
     job = shipped.job if isinstance(shipped, Shipped) else shipped
+    setup = getattr(_unpacking, "seconds", 0.0)
+    _unpacking.seconds = 0.0
     # a worker process (the job came shipped) shares the cores with the other workers:
     # no threads of its own (geomfdi._threads.work_threads)
     alone = using_work_threads(1) if isinstance(shipped, Shipped) else nullcontext()
     prepare = getattr(work, "prepare", None)
     with allocator_for_arrays(), alone:
+        t0 = time.perf_counter()
         if prepare is not None:
             prepare(job, items)
-        t0 = time.perf_counter()
+        t1 = time.perf_counter()
         out = [work(job, item) for item in items]
-        return out, time.perf_counter() - t0
+        return out, time.perf_counter() - t1, setup + t1 - t0
 
 
 def run_packed(
     work: Callable[[Any, Any], Any], shipped: Any, items: Sequence[Any]
-) -> tuple[bytes, float]:
+) -> tuple[bytes, float, float]:
     """:func:`run_items` with the outcomes returned as one pickle (a Dask task: its
     result then travels as one frame, not one frame per array of every outcome)."""
-    out, seconds = run_items(work, shipped, items)
-    return pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL), seconds
+    out, seconds, setup = run_items(work, shipped, items)
+    return pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL), seconds, setup
 
 
 # ------------------------------------------------------------------------ running
@@ -396,13 +445,18 @@ class _Round:
         self.why = f"{type(exc).__name__}: {exc}"
 
     def _store(
-        self, k: int, out: list[Any] | bytes, seconds: float, done: dict[int, list[Any]]
+        self,
+        k: int,
+        out: list[Any] | bytes,
+        seconds: float,
+        setup: float,
+        done: dict[int, list[Any]],
     ) -> None:
         span, _, t0 = self.futures[k]
         if isinstance(out, bytes):  # (run_packed)
             out = pickle.loads(out)
         if k == 0:
-            self.overheads.append(time.perf_counter() - t0 - seconds)
+            self.overheads.append(time.perf_counter() - t0 - seconds - setup)
         self.seconds.append(seconds)
         done[span[0]] = out
         if self.bar is not None:
@@ -412,16 +466,16 @@ class _Round:
         """The outcome of task ``k`` (waiting for it)."""
         span, fut, _ = self.futures[k]
         try:
-            out, seconds = fut.result()
+            out, seconds, setup = fut.result()
         except Exception as exc:
             self._failed(span, exc)
             return
-        self._store(k, out, seconds, done)
+        self._store(k, out, seconds, setup, done)
 
     def collect_from(self, start: int, done: dict[int, list[Any]]) -> None:
-        """The outcomes of tasks ``start, ...``: one by one, or for Dask futures all
-        fetched in one ``gather`` once every task has finished (one message per worker
-        instead of one round trip per task)."""
+        """The outcomes of tasks ``start, ...``: one by one, or for Dask futures in the
+        order they finish, each fetched by the client's event loop while the workers
+        compute the others (only the last task's transfer is left at the end)."""
         ks = range(start, len(self.futures))
         if not ks:
             return
@@ -432,30 +486,13 @@ class _Round:
         from distributed import as_completed
 
         index = {self.futures[k][1].key: k for k in ks}
-        finished = []
-        for fut in as_completed([self.futures[k][1] for k in ks]):
+        futs = [self.futures[k][1] for k in ks]
+        for fut, res in as_completed(futs, with_results=True, raise_errors=False):
             k = index[fut.key]
             if fut.status != "finished":  # an error, a lost or recomputed task
                 self.collect(k, done)
-                continue
-            finished.append(k)
-            if self.bar is not None:
-                self.bar.update(self.futures[k][0][1] - self.futures[k][0][0])
-        if finished:
-            futs = [self.futures[k][1] for k in finished]
-            bar, self.bar = self.bar, None  # (counted above)
-            try:
-                outs = futs[0].client.gather(futs)
-            except Exception as exc:  # a worker lost with results: task by task
-                if not lost_worker(exc):
-                    raise
-                for k in finished:
-                    self.collect(k, done)
             else:
-                for k, (out, seconds) in zip(finished, outs, strict=True):
-                    self._store(k, out, seconds, done)
-            finally:
-                self.bar = bar
+                self._store(k, *res, done)
 
 
 def execute(

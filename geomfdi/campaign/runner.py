@@ -1,7 +1,8 @@
 """Monte-Carlo campaigns: seeds x fault sizes x onsets x plant models, on any executor.
 
 A campaign enumerates its runs in a fixed order (model, scenario, size, onset, repetition)
-and cuts them into **blocks** of at most ``block_size`` runs of one model.  A block is
+and cuts them into **blocks** of at most ``block_size`` runs of one model, by ranges of
+repetitions (:mod:`geomfdi.campaign.blocks`).  A block is
 simulated and evaluated in one compiled pass over its runs
 (:mod:`geomfdi.simulation.fused`, :mod:`geomfdi.campaign.fused_scoring`: the statistic
 of a chi-square test and its scores and isolation without a pass through memory) when
@@ -45,15 +46,16 @@ See the user guide, *Theory: residual evaluation* (``docs/theory/evaluation.md``
 from __future__ import annotations
 
 import contextlib
+import os
 import warnings
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from geomfdi._threads import limit_blas_threads, work_threads
 from geomfdi._validation import as_int, as_positive
+from geomfdi.campaign.blocks import Block, cut_blocks, grid_order
 from geomfdi.campaign.executors import RETRIES
 from geomfdi.campaign.scoring import evaluate_runs, isolate_runs
 from geomfdi.campaign.spec import Scenario, Uncertainty
@@ -65,16 +67,6 @@ __all__ = ["Campaign", "TABLE_ROW_BYTES", "RETRIES", "evaluate_runs", "isolate_r
 TABLE_ROW_BYTES = 160
 """Bytes of one row of a campaign's table (one run and residual: its numbers, the
 summary's copies), as used in the size estimate."""
-
-
-@dataclass
-class _Block:
-    model: int
-    runs: np.ndarray  # global run indices
-    scenario: np.ndarray
-    size: np.ndarray
-    onset: np.ndarray
-    repetition: np.ndarray
 
 
 def _as_test(test: Any, n_res: int) -> Any:
@@ -129,7 +121,7 @@ def _truth(
 
 
 def _run_block(
-    job: dict[str, Any], block: _Block, own_filters: bool = True
+    job: dict[str, Any], block: Block, own_filters: bool = True
 ) -> dict[str, np.ndarray]:
     """Simulate and evaluate one block (runs in a worker).  ``own_filters=False``: the
     caller has set the warning filters of the campaign (blocks run on threads, which
@@ -357,17 +349,25 @@ def _fused_plan(job: dict[str, Any], model: int) -> Any:
             # the draws of a repetition, made once per process for all its cells (common
             # random numbers), within DRAW_CACHE_CHUNKS times the chunk memory budget
             from geomfdi.limits import get_limits
-            from geomfdi.simulation.fused import DrawCache
+            from geomfdi.simulation.draw_cache import DrawCache
 
             if "draws" not in cache:
-                cache["draws"] = DrawCache(DRAW_CACHE_CHUNKS * get_limits().chunk_memory)
+                budget = DRAW_CACHE_CHUNKS * get_limits().chunk_memory
+                if job.get("slots"):
+                    # tasks run their blocks by ranges of repetitions (Campaign.blocks):
+                    # the ranges of the tasks running in this process (at most one per
+                    # task slot) and one more are all it reads again, and the memory of
+                    # the draws dropped holds the next ones (no fresh pages)
+                    per_range = job["block_size"] * plan.q * plan.N * 8
+                    budget = min(budget, (job["slots"] + 1) * per_range)
+                cache["draws"] = DrawCache(budget)
             plan.draws = cache["draws"]
         cache[model] = plan
         cache[("why", model)] = why
     return cache[model]
 
 
-def _prepare_blocks(job: dict[str, Any], blocks: Sequence[_Block]) -> None:
+def _prepare_blocks(job: dict[str, Any], blocks: Sequence[Block]) -> None:
     """The fused plans of the blocks' models, made before a task's timed work
     (:func:`geomfdi.campaign.executors.run_items`)."""
     with _filters(job["perturbed"]):
@@ -379,7 +379,7 @@ _run_block.prepare = _prepare_blocks  # type: ignore[attr-defined]
 
 
 @limit_blas_threads
-def _run_serial(job: dict[str, Any], blocks: Sequence[_Block], bar: Any) -> dict[int, list[Any]]:
+def _run_serial(job: dict[str, Any], blocks: Sequence[Block], bar: Any) -> dict[int, list[Any]]:
     """The blocks in this process: one after the other, or, when every block runs
     through the fused pass and geomfdi may use several threads
     (:func:`geomfdi._threads.work_threads`), on as many threads, a block each (its
@@ -387,15 +387,22 @@ def _run_serial(job: dict[str, Any], blocks: Sequence[_Block], bar: Any) -> dict
     so its numbers are those of the loop).  The plans are made first, here; the warning
     filters are set once around the threads (a thread must not change them)."""
     k = min(work_threads(), len(blocks))
-    if k > 1:
-        _prepare_blocks(job, blocks)
-        cache = job.get("fused") or {}
-        if not all(cache.get(m) is not None and cache[m].window for m in {b.model for b in blocks}):
-            k = 1  # blocks through simulate_batch: it splits each block itself
+    _prepare_blocks(job, blocks)
+    cache = job.get("fused") or {}
+    models = {b.model for b in blocks}
+    if k > 1 and not all(cache.get(m) is not None and cache[m].window for m in models):
+        k = 1  # blocks through simulate_batch: it splits each block itself
     done: dict[int, list[Any]] = {}
+    order = list(range(len(blocks)))
+    draws = cache.get("draws")
+    plans = [cache.get(m) for m in models]
+    if draws is not None and all(p is not None for p in plans):
+        reps = max(int(b.repetition.max()) for b in blocks) + 1
+        if reps * max(p.q * p.N * 8 for p in plans) <= draws.budget:
+            order = grid_order(blocks)  # every draw stays: geomfdi.campaign.blocks
     if k <= 1:
-        for i, block in enumerate(blocks):
-            done[i] = [_run_block(job, block)]
+        for i in order:
+            done[i] = [_run_block(job, blocks[i])]
             if bar is not None:
                 bar.update(1)
         return done
@@ -404,8 +411,8 @@ def _run_serial(job: dict[str, Any], blocks: Sequence[_Block], bar: Any) -> dict
     with _filters(job["perturbed"]), ThreadPoolExecutor(k) as pool:
         pending = {}
         try:
-            for i, block in enumerate(blocks):  # k blocks in flight: memory as in the loop
-                pending[pool.submit(_run_block, job, block, False)] = i
+            for i in order:  # k blocks in flight: memory as in the loop
+                pending[pool.submit(_run_block, job, blocks[i], False)] = i
                 if len(pending) < k:
                     continue
                 ready, _ = wait(pending, return_when=FIRST_COMPLETED)
@@ -423,7 +430,7 @@ def _run_serial(job: dict[str, Any], blocks: Sequence[_Block], bar: Any) -> dict
     return done
 
 
-def _run_task(job: dict[str, Any], blocks: list[_Block]) -> list[dict[str, np.ndarray]]:
+def _run_task(job: dict[str, Any], blocks: list[Block]) -> list[dict[str, np.ndarray]]:
     return [_run_block(job, b) for b in blocks]
 
 
@@ -634,25 +641,10 @@ class Campaign:
         out["run"] = np.arange(out["repetition"].size)
         return out
 
-    def blocks(self) -> list[_Block]:
-        """The grid cut into blocks of at most ``block_size`` runs of one model."""
-        g = self.grid()
-        out = []
-        for mi in range(len(self.plants)):
-            idx = np.flatnonzero(g["model"] == mi)
-            for a in range(0, idx.size, self.block_size):
-                sel = idx[a : a + self.block_size]
-                out.append(
-                    _Block(
-                        mi,
-                        sel,
-                        g["scenario"][sel],
-                        g["size"][sel],
-                        g["onset"][sel],
-                        g["repetition"][sel],
-                    )
-                )
-        return out
+    def blocks(self) -> list[Block]:
+        """The grid cut into blocks of at most ``block_size`` runs of one model, by
+        ranges of ``block_size`` repetitions (:mod:`geomfdi.campaign.blocks`)."""
+        return cut_blocks(self.grid(), self.block_size)
 
     def _job(self) -> dict[str, Any]:
         seed = self.noise.seed
@@ -678,6 +670,8 @@ class Campaign:
             "nominal": self.plant,
             "design_faults": list(getattr(self.bank, "faults", [])),
             "persistence": self.persistence,
+            "block_size": self.block_size,
+            "slots": 0,  # tasks at once on the executor's workers (Campaign.run)
             "fused": PlanCache(),
             "cell_faults": [
                 list(sc.faults(float(z), float(o)))
@@ -737,7 +731,7 @@ class Campaign:
         """
         import sys
 
-        from geomfdi.campaign.executors import execute
+        from geomfdi.campaign.executors import execute, worker_slots
         from geomfdi.campaign.result import CampaignResult
 
         per = (
@@ -767,6 +761,8 @@ class Campaign:
                 raise GeomFDIError("executor: has no submit method", argument="executor")
             else:
                 own = isinstance(executor, str)  # "processes": a pool for this call
+                slots = (workers or os.cpu_count() or 1) if own else worker_slots(executor)
+                job["slots"] = slots
                 done, stats = execute(
                     None if own else executor,
                     _run_block,

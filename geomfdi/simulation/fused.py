@@ -57,6 +57,7 @@ from geomfdi.errors import BackendFallbackWarning
 from geomfdi.simulation.compiled_recursion import _layout, sim_backend
 from geomfdi.simulation.compiled_single import run_recursion
 from geomfdi.simulation.context import prepare, state_vector, to_balanced
+from geomfdi.simulation.draw_cache import DrawCache
 from geomfdi.simulation.lifting import Drive
 from geomfdi.simulation.workspace import Workspace
 
@@ -161,36 +162,6 @@ def _dims_flags(plan: FusedPlan) -> tuple[str, ...]:
         f"-DGFF_RBEG={ints(plan.rbeg)}",
         f"-DGFF_RDST={ints(plan.rdst[:nrow])}",
     )
-
-
-class DrawCache:
-    """The standard-normal draws of the runs met, by seed, within a byte budget.
-
-    A campaign's runs of one repetition have the same seed in every (scenario, size,
-    onset) (common random numbers): their draws are made once per process and read
-    again by the runs of the other cells.  The arrays are the drawn values themselves
-    (copies of the stream's buffers), so the results are those of drawing again.
-    """
-
-    def __init__(self, budget: float) -> None:
-        self.arrays: dict[Any, np.ndarray] = {}
-        self.nbytes = 0
-        self.budget = float(budget)
-        self._lock = threading.Lock()  # blocks of a serial campaign run on threads
-
-    def get(self, key: Any) -> np.ndarray | None:
-        return None if key is None else self.arrays.get(key)
-
-    def put(self, key: Any, z: np.ndarray) -> np.ndarray:
-        """``z`` kept under ``key`` (a copy) when the budget allows; the array to read."""
-        with self._lock:
-            if key is None or self.nbytes + z.nbytes > self.budget:
-                return z
-            kept = self.arrays.get(key)
-            if kept is None:  # (another thread may have drawn the same run meanwhile)
-                kept = self.arrays[key] = np.array(z, order="C")
-                self.nbytes += kept.nbytes
-            return kept
 
 
 def _seed_key(seed: Any) -> Any:
@@ -682,22 +653,51 @@ def fused_runs(
     sub = max(G, _SUB // G * G)
     # one window, a diagonal Lv and a cache: draws read from the cache or made and kept
     cached = plan.draws is not None and plan.lv is not None and N <= WINDOW and sink is None
+    cache: DrawCache = plan.draws  # type: ignore[assignment]
+
+    def draw(a1: int, js: list[int], keys: list[Any], zs: list[Any], pool: Any) -> list[Any]:
+        """Runs ``a1 + j`` (``j`` in ``js``) drawn and offered to the cache; the streams
+        to release once the kernel has read them."""
+        sources = [plan.noise.source(seeds[a1 + j], plan.process_rows) for j in js]
+        streams = noise_streams(ctx, sources, pool, 1)
+        if isinstance(streams[0], CounterStream):
+            zb = _POOLS.work.get("fused z", (q, len(js), N))
+            counter_normals(streams, 0, N, zb, None)
+            drawn = [zb[:, j] for j in range(len(js))]
+        else:
+            drawn = [st.take(0, N)[0] for st in streams]
+        for j, z in zip(js, drawn, strict=True):
+            zs[j] = cache.put(keys[j], z)
+        return streams
 
     def kept_runs(a1: int, b1: int, pool: dict[int, list[np.ndarray]]) -> int:
         keys = [_seed_key(sd) for sd in seeds[a1:b1]]
-        zs = [plan.draws.get(key) for key in keys]  # type: ignore[union-attr]
-        miss = [j for j, z in enumerate(zs) if z is None]
-        if miss:
-            sources = [plan.noise.source(seeds[a1 + j], plan.process_rows) for j in miss]
-            streams = noise_streams(ctx, sources, pool, 1)
-            if isinstance(streams[0], CounterStream):
-                zb = _POOLS.work.get("fused z", (q, len(miss), N))
-                counter_normals(streams, 0, N, zb, None)
-                drawn = [zb[:, j] for j in range(len(miss))]
-            else:
-                drawn = [st.take(0, N)[0] for st in streams]
-            for j, z in zip(miss, drawn, strict=True):
-                zs[j] = plan.draws.put(keys[j], z)  # type: ignore[union-attr]
+        zs: list[Any] = [None] * len(keys)
+        miss, waits = [], []
+        for j, key in enumerate(keys):
+            zs[j], event = cache.reserve(key)
+            if zs[j] is None:
+                (miss.append(j) if event is None else waits.append((j, event)))
+        streams: list[Any] = []
+        try:
+            if miss:  # reserved here: drawn before waiting for any other thread's
+                streams = draw(a1, miss, keys, zs, pool)
+        finally:
+            for j in miss:
+                cache.release(keys[j])  # (a no-op once put; an error: the waiters go on)
+        for _, event in waits:
+            event.wait()
+        late = []  # reserved by another thread and not kept (the budget): drawn here
+        for j, _ in waits:
+            zs[j] = cache.get(keys[j])
+            if zs[j] is None:
+                late.append(j)
+        if late:
+            if streams:
+                for st in streams:
+                    st.release()
+            miss = sorted(miss + late)
+            streams = draw(a1, miss, keys, zs, pool)
         zs = [z if z.strides[1] == 8 else np.ascontiguousarray(z) for z in zs]  # type: ignore
         ptrs = []
         for z in zs:
@@ -709,9 +709,8 @@ def fused_runs(
         args[10] = plan.lv.ctypes.data  # type: ignore[union-attr]
         args[-5] = None if out is None else out[a1:].ctypes.data
         status = int(lib(*args))
-        if miss:
-            for st in streams:
-                st.release()
+        for st in streams:
+            st.release()
         del zs
         return status
 
