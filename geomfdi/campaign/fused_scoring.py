@@ -103,7 +103,7 @@ def fused_block(
     score_pre = np.full((R, n + 1), -np.inf)
     score_post = np.full((R, n + 1), -np.inf)
     delay = np.full((R, n + 1), np.nan)
-    missing = np.setdiff1d(np.arange(n), rows)
+    missing = np.flatnonzero(~np.isin(np.arange(n), rows))
     has_post = kpost1 > kon
     score_pre[:, rows] = arrays["spre"]
     score_pre[:, missing] = 0.0  # z = 0 on a missing row (an infinite threshold)
@@ -124,16 +124,20 @@ def fused_block(
         return out
     # ---- the first isolation decision (isolate_runs)
     truth = np.array([tr for tr, _ in truths], dtype=np.int64)
-    pats = every_pattern(n)
-    table = (
-        isolate(pats, structure)
-        if rule is None or rule.trivial
-        else _decide_patterns(pats, structure)
-    )
+    # the decision of every alarm pattern: the same for every block of the campaign,
+    # made once per process
+    table = job["fused"].get(("patterns", n))
+    if table is None:
+        pats = every_pattern(n)
+        table = job["fused"][("patterns", n)] = (
+            isolate(pats, structure)
+            if rule is None or rule.trivial
+            else _decide_patterns(pats, structure)
+        )
     right_lut = None
     multi = np.flatnonzero(truth == MULTIPLE)
     if multi.size:
-        right_lut = np.zeros((R, pats.shape[1]), dtype=np.uint8)
+        right_lut = np.zeros((R, table.suspects.shape[1]), dtype=np.uint8)
         for r in multi:
             want = np.zeros(structure.shape[1], dtype=bool)
             want[list(truths[r][1])] = True

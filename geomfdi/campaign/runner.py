@@ -129,10 +129,17 @@ def _run_block(
     from geomfdi.simulation.batch import simulate_batch
 
     root = job["seed_root"]
-    seeds = [
-        np.random.SeedSequence(entropy=root.entropy, spawn_key=(*root.spawn_key, int(r)))
-        for r in block.repetition
-    ]
+    # a repetition's seed, made once per process (a SeedSequence is not changed by
+    # drawing from it; the runs of its other cells reuse it)
+    memo = job["fused"].setdefault("seeds", {}) if job.get("fused") is not None else {}
+    seeds = []
+    for r in block.repetition.tolist():
+        sd = memo.get(r)
+        if sd is None:
+            sd = memo[r] = np.random.SeedSequence(
+                entropy=root.entropy, spawn_key=(*root.spawn_key, r)
+            )
+        seeds.append(sd)
     scen = job["scenarios"]
     # one list per (scenario, size, onset), shared by its runs (nothing changes a list)
     cells: dict[tuple[int, float, float], list[Any]] = {}

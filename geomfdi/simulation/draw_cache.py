@@ -38,7 +38,7 @@ class DrawCache:
         self.nbytes = 0
         self.budget = float(budget)
         self._lock = threading.Lock()  # blocks of a serial campaign run on threads
-        self._pending: dict[Any, threading.Event] = {}
+        self._pending: dict[Any, threading.Event | None] = {}
 
     def get(self, key: Any) -> np.ndarray | None:
         if key is None:
@@ -54,18 +54,30 @@ class DrawCache:
         the caller, who draws and :meth:`put` s them (or :meth:`release` s the key);
         ``(None, event)``: being drawn by another thread, kept once ``event`` is set
         (then :meth:`get` them; None if the budget did not allow)."""
-        if key is None:
-            return None, None
+        return self.reserve_all([key])[0]
+
+    def reserve_all(
+        self, keys: list[Any]
+    ) -> list[tuple[np.ndarray | None, threading.Event | None]]:
+        """:meth:`reserve` of every key, under one lock (an event is made only for a
+        key another thread waits for)."""
+        out: list[tuple[np.ndarray | None, threading.Event | None]] = []
         with self._lock:
-            z = self.arrays.get(key)
-            if z is not None:
-                self.arrays.move_to_end(key)
-                return z, None
-            event = self._pending.get(key)
-            if event is not None:
-                return None, event
-            self._pending[key] = threading.Event()
-            return None, None
+            for key in keys:
+                z = self.arrays.get(key) if key is not None else None
+                if z is not None:
+                    self.arrays.move_to_end(key)
+                    out.append((z, None))
+                elif key is None or key not in self._pending:
+                    if key is not None:
+                        self._pending[key] = None  # reserved; no one waits yet
+                    out.append((None, None))
+                else:
+                    event = self._pending[key]
+                    if event is None:
+                        event = self._pending[key] = threading.Event()
+                    out.append((None, event))
+        return out
 
     def release(self, key: Any) -> None:
         """End a reservation (the threads waiting for it go on)."""

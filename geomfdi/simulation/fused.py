@@ -674,9 +674,9 @@ def fused_runs(
         keys = [_seed_key(sd) for sd in seeds[a1:b1]]
         zs: list[Any] = [None] * len(keys)
         miss, waits = [], []
-        for j, key in enumerate(keys):
-            zs[j], event = cache.reserve(key)
-            if zs[j] is None:
+        for j, (z, event) in enumerate(cache.reserve_all(keys)):
+            zs[j] = z
+            if z is None:
                 (miss.append(j) if event is None else waits.append((j, event)))
         streams: list[Any] = []
         try:
