@@ -177,12 +177,13 @@ def test_auto_task_size_gives_the_serial_table(serial):
     res = c.run("processes", workers=2, progress=False)  # blocks_per_task="auto"
     info = res.info["executor"]
     assert info["block_seconds"] > 0 and info["task_overhead"] >= executors.MIN_OVERHEAD
-    # 4 one-block tasks measure; the other 8 blocks go into shrinking tasks, none below
-    # the rule's size
-    least = executors.task_size(8, 2, info["block_seconds"], info["task_overhead"])
-    spans = executors.guided_spans(4, 12, 2, least)
+    # 3 one-block tasks a worker measure; the other 6 blocks go into shrinking tasks,
+    # none below the rule's size
+    first = executors.FIRST_TASKS_PER_SLOT * 2
+    least = executors.task_size(12 - first, 2, info["block_seconds"], info["task_overhead"])
+    spans = executors.guided_spans(first, 12, 2, least)
     assert info["least_blocks_per_task"] == least
-    assert info["tasks"] == 4 + len(spans)
+    assert info["tasks"] == first + len(spans)
     sizes = sorted(b - a for a, b in spans)
     assert info["blocks_per_task"] == sizes[len(sizes) // 2]
     pd.testing.assert_frame_equal(res.table, serial, check_exact=True)
