@@ -506,3 +506,19 @@ def test_draws_evicted_or_shared_by_threads_give_the_same_table(hwc, monkeypatch
     assert 0 < len(draws.arrays) <= 3 and not draws._pending
     got = gf.CampaignResult.from_parts(c, parts).table
     pd.testing.assert_frame_equal(got, want, check_exact=True)
+    # a serial campaign whose draws do not all fit runs its blocks by ranges (in the
+    # order of Campaign.blocks, not the grid's): the same table
+    seen = []
+    run = runner._run_block
+
+    def spy(job, block, own_filters=True):
+        seen.append(int(block.runs[0]))
+        return run(job, block, own_filters)
+
+    from geomfdi._threads import using_work_threads
+
+    monkeypatch.setattr(runner, "_run_block", spy)
+    with using_work_threads(1):  # (one thread: the blocks start in the order run)
+        table = c.run("serial", progress=False).table
+    pd.testing.assert_frame_equal(table, want, check_exact=True)
+    assert seen == [int(b.runs[0]) for b in blocks] and seen != sorted(seen)
