@@ -52,9 +52,10 @@ times slower than in a plain process.  While a task runs, the thresholds are rai
 the values glibc adapts to by itself (``M_MMAP_THRESHOLD`` 32 MiB, the trim threshold
 64 MiB); they are restored and the free memory handed back (``malloc_trim``) once the
 process has run no task for :data:`ALLOCATOR_IDLE` seconds (restoring after every task
-made the next one fault its arrays in again: with one block per task, 16 ms of core time
-per task against 8).  Nothing is changed on other C libraries, when
-``MALLOC_MMAP_THRESHOLD_`` is set too, or when ``MALLOC_TRIM_THRESHOLD_`` is not set.
+made the next one fault its arrays in again: with one block per task, a campaign of 157
+tasks on 2 workers took 3.1 s against 2.5 s, medians of four runs).  Nothing is changed
+on other C libraries, when ``MALLOC_MMAP_THRESHOLD_`` is set too, or when
+``MALLOC_TRIM_THRESHOLD_`` is not set.
 """
 
 from __future__ import annotations
@@ -297,17 +298,18 @@ restored (:func:`allocator_for_arrays`)."""
 def _glibc() -> Any:
     """glibc's ``mallopt`` and ``malloc_trim`` (None on other C libraries)."""
     import ctypes
-    import platform
 
-    if platform.libc_ver()[0] != "glibc":
+    from geomfdi._libc import is_glibc, libc
+
+    lib = libc() if is_glibc() else None
+    if lib is None:
         return None
     try:
-        libc = ctypes.CDLL(None)
-        libc.mallopt.argtypes = [ctypes.c_int, ctypes.c_int]
-        libc.malloc_trim.argtypes = [ctypes.c_size_t]
-    except (OSError, AttributeError):  # pragma: no cover - a static or unusual libc
+        lib.mallopt.argtypes = [ctypes.c_int, ctypes.c_int]
+        lib.malloc_trim.argtypes = [ctypes.c_size_t]
+    except AttributeError:  # pragma: no cover - an unusual libc
         return None
-    return libc
+    return lib
 
 
 def _fixed_trim_threshold() -> int | None:

@@ -365,7 +365,7 @@ def _fused_plan(job: dict[str, Any], model: int) -> Any:
                     # the ranges of the tasks running in this process (at most one per
                     # task slot) and one more are all it reads again, and the memory of
                     # the draws dropped holds the next ones (no fresh pages)
-                    per_range = job["block_size"] * plan.q * plan.N * 8
+                    per_range = job["block_size"] * plan.run_draw_bytes
                     budget = min(budget, (job["slots"] + 1) * per_range)
                 cache["draws"] = DrawCache(budget)
             plan.draws = cache["draws"]
@@ -405,7 +405,7 @@ def _run_serial(job: dict[str, Any], blocks: Sequence[Block], bar: Any) -> dict[
     plans = [cache.get(m) for m in models]
     if draws is not None and all(p is not None for p in plans):
         reps = max(int(b.repetition.max()) for b in blocks) + 1
-        if reps * max(p.q * p.N * 8 for p in plans) <= draws.budget:
+        if reps * max(p.run_draw_bytes for p in plans) <= draws.budget:
             order = grid_order(blocks)  # every draw stays: geomfdi.campaign.blocks
     if k <= 1:
         for i in order:

@@ -206,6 +206,11 @@ class FusedPlan:
     process_rows: int = -1  # Noise.process_rows of the plant
     draws: DrawCache | None = None  # draws kept by seed (a campaign shares it), or None
 
+    @property
+    def run_draw_bytes(self) -> int:
+        """Bytes of one run's draws as the cache keeps them (``q`` rows of ``N``)."""
+        return self.q * self.N * 8
+
 
 def _why_not(ctx: Any, schedules: Sequence[Any], x0: np.ndarray) -> str | None:
     """Why the fused pass cannot simulate these runs (None: it can)."""

@@ -36,6 +36,7 @@ they are not used.
 
 from __future__ import annotations
 
+import functools
 import math
 import mmap
 import sys
@@ -57,7 +58,6 @@ _PARALLEL_BYTES = 2**26  # from here on, the pages are populated by the work thr
 _LOCAL = threading.local()
 _POPULATE = getattr(mmap, "MAP_POPULATE", 0)
 _MADV_POPULATE_WRITE = 23  # Linux's madvise option (5.14 and later)
-_MADVISE: Any = None  # the C library's madvise (False: none)
 
 
 def mapped(shape: tuple[int, ...], dtype: Any = float, fill: Any = None) -> np.ndarray:
@@ -100,22 +100,22 @@ def mapped(shape: tuple[int, ...], dtype: Any = float, fill: Any = None) -> np.n
     return a
 
 
+@functools.cache
 def _madvise() -> Any:
     """The C library's ``madvise`` (through ctypes, which lets other threads run during
     the call), or None where ``MADV_POPULATE_WRITE`` is unknown (not Linux)."""
-    global _MADVISE
-    if _MADVISE is None:
-        _MADVISE = False
-        if sys.platform.startswith("linux"):
-            import ctypes
+    import ctypes
 
-            try:
-                libc = ctypes.CDLL(None, use_errno=True)
-                libc.madvise.argtypes = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int]
-                _MADVISE = libc.madvise
-            except (OSError, AttributeError):  # pragma: no cover - an unusual libc
-                pass
-    return _MADVISE or None
+    from geomfdi._libc import libc
+
+    lib = libc() if sys.platform.startswith("linux") else None
+    if lib is None:
+        return None
+    try:
+        lib.madvise.argtypes = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int]
+    except AttributeError:  # pragma: no cover - an unusual libc
+        return None
+    return lib.madvise
 
 
 def _populate(m: mmap.mmap, nbytes: int, k: int) -> None:
