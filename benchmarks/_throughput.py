@@ -7,12 +7,18 @@
 * ``batch``: ``gf.simulate_batch`` of ``runs`` Monte-Carlo runs (measurement noise, a
   bias fault, state feedback, the bank of 10 of ``bench_simulation.make_bank``) against
   a loop of ``gf.simulate`` calls with the same seeds, both keeping every record
-  (residuals, alarms, decisions: about 1 GB for 100 runs of 10^5 samples, whose fresh
-  pages the operating system maps and zeroes: system time that varies from call to call
-  with the memory's state, less since large records are populated mappings, see
-  ``geomfdi.simulation.result_memory.mapped``); then what a Monte-Carlo study keeps, the events
-  and peaks of every run: ``simulate_batch(store="summary")`` against a loop that keeps
-  each run's events and peaks only.
+  (residuals, alarms, decisions: about 1 GB for 100 runs of 10^5 samples, whose pages
+  the operating system maps and zeroes, populated at once by
+  ``geomfdi.simulation.result_memory.mapped``).  Each call first drops its own previous
+  records, so that both write into memory the process has just freed.  On a virtual
+  machine that hands free memory back to its host (a balloon's free-page reporting), a
+  page not used for a few seconds costs 2-17 microseconds on its next first touch, 0.5-4.5
+  s of system time for the batch's 1 GB against about 0.5 s for memory just freed; when
+  each call replaced its previous records only after making the new ones, the alternation
+  gave the loop the batch's freed memory and the batch memory unused for the loop's 10 s.
+  Then what a Monte-Carlo study keeps, the events and peaks of every run:
+  ``simulate_batch(store="summary")`` against a loop that keeps each run's events and
+  peaks only.
 
 Baseline and candidate are timed alternately, each the best of ``repeat`` wall-clock
 times, every call started after a pause that lets the BLAS worker threads go idle
@@ -133,13 +139,19 @@ def batch_vs_loop(
 
     out = {}
 
+    # each call first drops its own previous records (about 1 GB), as a loop over
+    # studies does (``del res`` before ``res = ...``): both then write into memory the
+    # process has just freed.  Replacing them afterwards instead (``res = ...``) charged
+    # the batch with fresh memory and the loop with the batch's freed memory, whatever the
+    # speed of either: see the module docstring.
     def batch():
+        out.pop("batch", None)
         out["batch"] = gf.simulate_batch(
             plant, bank, t, v, runs=runs, noise=noise, progress=False, **kw
         )
 
     def loop():
-        seeds = out["batch"].seeds
+        out.pop("loop", None)
         out["loop"] = [gf.simulate(plant, bank, t, v, noise=noise_of(s), **kw) for s in seeds]
 
     def batch_summary():
@@ -149,13 +161,13 @@ def batch_vs_loop(
 
     def loop_events():
         # what a Monte-Carlo loop keeps of each run: its events and peaks, not the record
-        seeds = out["batch"].seeds
         out["events"] = []
         for s in seeds:
             r = gf.simulate(plant, bank, t, v, noise=noise_of(s), **kw)
             out["events"].append((r.events, np.max(np.abs(r.residuals), axis=1)))
 
     batch()
+    seeds = out["batch"].seeds
     (tb, ub, sb), (tl, ul, sl) = best_by_clocks([batch, loop], repeat, CLOCKS)
     diff = max(
         float(np.max(np.abs(r.residuals - out["batch"].residuals[i])))
@@ -200,7 +212,7 @@ def acceptance(quick: bool = False, short_only: bool = False, generator: str = "
     if short_only:
         return {"short": s}
     runs, N = (10, 10**4) if quick else (100, 10**5)
-    b = batch_vs_loop(runs=runs, N=N, repeat=1 if quick else 2, generator=generator)
+    b = batch_vs_loop(runs=runs, N=N, repeat=1 if quick else 3, generator=generator)
     print(
         f"batch, {runs} runs x {N} samples, bank of 10, noise ({generator}): loop of gf.simulate "
         f"{b['loop']:.2f} s, gf.simulate_batch {b['batch']:.2f} s, ratio "

@@ -20,8 +20,9 @@ the best of ``--repeats`` is kept):
 * **processes, 1 / 2 workers**: a ``ProcessPoolExecutor`` with 1 and with 2 processes
   (started and warmed up before timing);
 * **dask, 1 / 2 workers**: one ``distributed.LocalCluster`` of 2 single-threaded worker
-  processes; the 1-worker case pins every task to one worker (skipped without
-  ``distributed`` or with ``--no-dask``).
+  processes; the 2-worker case passes the ``Client`` itself to ``Campaign.run`` (as a
+  user does: the scheduler places the tasks), the 1-worker case pins every task to one
+  worker (skipped without ``distributed`` or with ``--no-dask``).
 
 A task carries ``--blocks-per-task`` blocks (default ``auto``: sized by
 ``Campaign.run`` from the first task's measured block time so that the per-task overhead
@@ -340,7 +341,7 @@ def main(argv: list[str]) -> dict[str, Any]:
         else:
             addrs = sorted(client.scheduler_info()["workers"])
             for w in (1, 2):
-                ex = _Pinned(client, addrs[:w])
+                ex = client if w == len(addrs) else _Pinned(client, addrs[:w])
                 methods[f"dask, {w} worker{'s' * (w > 1)}"] = lambda c, ex=ex, w=w: c.run(
                     ex, blocks_per_task=per, progress=False
                 )

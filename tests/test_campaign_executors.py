@@ -103,15 +103,21 @@ def test_guided_spans_cover_the_items_in_shrinking_tasks(start, items, workers, 
     assert [a for a, _ in spans] == [start] + [b for _, b in spans[:-1]]
     assert (spans[-1][1] if spans else start) == start + items
     sizes = [b - a for a, b in spans]
-    # none larger than its share of what was left, none smaller than least but the last
-    left = items
-    for k, z in enumerate(sizes):
-        assert z <= max(least, -(-left // (2 * workers)))
-        assert z >= least or k == len(sizes) - 1
+    # none larger than its share of what was left; none smaller than least while more
+    # than workers * least were left, then shrinking to one item
+    left, tail = items, 0
+    for z in sizes:
+        share = -(-left // (2 * workers))
+        if left > workers * least:
+            assert z == min(left, max(least, share))
+        else:
+            assert z == max(1, share)
+            tail += 1
         left -= z
     assert sizes == sorted(sizes, reverse=True)  # large first, small last
-    # no more tasks than a fixed size of least
-    assert len(spans) <= -(-items // least)
+    assert sizes[-1] == 1 or tail == 0  # the tail ends with one item
+    # before the tail, no more tasks than a fixed size of least
+    assert len(spans) - tail <= -(-items // least)
 
 
 def test_worker_slots_of_pools_and_clients():

@@ -35,11 +35,16 @@ The remaining ``B`` blocks go into tasks that shrink toward the end
 (:func:`guided_spans`, guided self-scheduling): each takes ``ceil(R / (2 W))`` of the
 ``R`` blocks still unassigned, but at least the :func:`task_size` of the overhead, the
 fewest blocks for which ``o`` is at most :data:`OVERHEAD_SHARE` (10 %) of the task's
-compute time (``ceil(o / (0.1 b))``, no more than ``B / (TASKS_PER_WORKER W)``).  The
-first tasks are large (few round trips), the last ones small, so that the slots finish
-together (the last task of the slowest worker keeps the others idle for a small task at
-most); a fixed size balancing as well would need about :data:`TASKS_PER_WORKER` times
-more tasks.  The tasks are submitted in that order, the large first.  The grouping never
+compute time (``ceil(o / (0.1 b))``, no more than ``B / (TASKS_PER_WORKER W)``), until
+``W`` such tasks are all that is left: those shrink on to one block.  The first tasks
+are large (few round trips), the last ones small, so that the slots finish together
+(the last task of the slowest worker keeps the others idle for about one block); a
+fixed size balancing as well would need about :data:`TASKS_PER_WORKER` times more
+tasks.  ``o`` is the whole round trip, which a worker pays once at the end only (its
+next task is queued while it computes): with Dask it is 10-40 ms, mostly the
+scheduler's dispatch, so the least size is 4-7 blocks of about 60 ms while the gap
+between a worker's tasks is 3-7 ms; ending on tasks of that size left a slot idle for up
+to 140 ms.  The tasks are submitted in that order, the large first.  The grouping never
 changes the table (a run's numbers depend on its index only, see
 :mod:`geomfdi.campaign.runner`).
 
@@ -169,18 +174,23 @@ def task_size(
 
 def guided_spans(start: int, stop: int, workers: int, least: int) -> list[tuple[int, int]]:
     """The items ``start .. stop-1`` in consecutive spans that shrink toward the end:
-    each takes ``ceil(R / (2 workers))`` of the ``R`` items left, at least ``least``
-    (guided self-scheduling, Polychronopoulos & Kuck 1987, with a factor of two).
+    each takes ``ceil(R / (2 workers))`` of the ``R`` items left (guided self-scheduling,
+    Polychronopoulos & Kuck 1987, with a factor of two), at least ``least`` while more
+    than ``workers * least`` are left; the last ones shrink on to one item, so that the
+    workers finish within about one item of each other (a worker has its next task
+    queued while it computes, so a task's round trip is paid at the end only).
 
     Examples
     --------
     >>> guided_spans(0, 40, 2, 3)
-    [(0, 10), (10, 18), (18, 24), (24, 28), (28, 31), (31, 34), (34, 37), (37, 40)]
-    """
+    [(0, 10), (10, 18), (18, 24), (24, 28), (28, 31), (31, 34), (34, 36), (36, 37), (37, 38), (38, 39), (39, 40)]
+    """  # noqa: E501
     spans, a = [], start
     workers, least = max(1, int(workers)), max(1, int(least))
     while a < stop:
-        size = min(stop - a, max(least, -(-(stop - a) // (2 * workers))))
+        left = stop - a
+        floor = least if left > workers * least else 1
+        size = min(left, max(floor, -(-left // (2 * workers))))
         spans.append((a, a + size))
         a += size
     return spans

@@ -722,7 +722,8 @@ class Campaign:
             Blocks carried by one task (does not change the results); ``"auto"``: tasks
             that shrink toward the end (large first, for few round trips; small last,
             so that the workers finish together), none so small that its overhead,
-            measured on the first tasks, is over 10 % of it
+            measured on the first tasks, is over 10 % of it, but the last few, which
+            shrink on to one block
             (:func:`geomfdi.campaign.executors.guided_spans`,
             :func:`~geomfdi.campaign.executors.task_size`).
         progress : bool, optional

@@ -296,6 +296,26 @@ def _tail(x: np.ndarray, h: int) -> np.ndarray:
     return np.array(x[..., max(x.shape[-1] - h, 0) :])
 
 
+def _rows(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """``x[mask]``, or ``x`` itself (no copy) when the mask selects every row."""
+    return x if mask.all() else x[mask]
+
+
+def _pick(x: np.ndarray, loc: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """The rows ``loc[mask]`` of ``x`` (a span's run), ``x`` itself when those are all of
+    its rows in order (one span per run, every span selected: no copy)."""
+    rows = loc[mask]
+    if rows.size == x.shape[0] and (rows == np.arange(rows.size)).all():
+        return x
+    return x[rows]
+
+
+def _within(hit: np.ndarray, inside: np.ndarray | None, mask: np.ndarray) -> np.ndarray:
+    """``hit`` restricted to the samples of its spans (``inside[mask]``; ``None``: every
+    span covers the chunk)."""
+    return hit if inside is None else hit & _rows(inside, mask)
+
+
 class RunSummary:
     """Peaks, fault events and false alarms of runs, accumulated chunk by chunk.
 
@@ -406,14 +426,15 @@ class RunSummary:
             return
         idx = np.arange(L)
         a = alarms.any(axis=-2) if any_alarm is None else any_alarm
-        h = a & (idx < n_h[:, None])
-        self.fa_alarms[r0 : r0 + R] += np.count_nonzero(h, axis=-1)
-        rise = np.count_nonzero(h[:, 1:] & ~h[:, :-1], axis=-1)
-        rise += h[:, 0] & ~self._prev[r0 : r0 + R]
-        self.fa_edges[r0 : r0 + R] += rise
-        self._prev[r0 : r0 + R] = np.where(
-            n_h > 0, h[np.arange(R), np.maximum(n_h - 1, 0)], self._prev[r0 : r0 + R]
-        )
+        if n_h.any():  # (else no run is healthy in the chunk: nothing changes)
+            h = a if n_h.min() == L else a & (idx < n_h[:, None])
+            self.fa_alarms[r0 : r0 + R] += np.count_nonzero(h, axis=-1)
+            rise = np.count_nonzero(h[:, 1:] & ~h[:, :-1], axis=-1)
+            rise += h[:, 0] & ~self._prev[r0 : r0 + R]
+            self.fa_edges[r0 : r0 + R] += rise
+            self._prev[r0 : r0 + R] = np.where(
+                n_h > 0, h[np.arange(R), np.maximum(n_h - 1, 0)], self._prev[r0 : r0 + R]
+            )
         # the spans of these runs that overlap the chunk
         sp = np.arange(self._first[r0], self._first[r0 + R])
         lo, hi = np.maximum(self._ks[sp], s), np.minimum(self._ke[sp], e)
@@ -421,27 +442,30 @@ class RunSummary:
         if not sp.size:
             return
         loc = self._run[sp] - r0
-        inside = (idx >= (lo - s)[:, None]) & (idx < (hi - s)[:, None])  # (spans, L)
+        # (spans, L): the chunk's samples in each span; None when every span covers it
+        full = lo.max() == s and hi.min() == e
+        inside = None if full else (idx >= (lo - s)[:, None]) & (idx < (hi - s)[:, None])
         # only what is still open is read: the first detection, isolation and decision
         # of each span, the rows that have not alarmed in it yet
         det = self._det[sp] < 0
         if det.any():
-            hit = a[loc[det]] & inside[det]
+            hit = _within(_pick(a, loc, det), inside, det)
             new = hit.any(axis=-1)
             self._det[sp[det][new]] = s + np.argmax(hit[new], axis=-1)
         col = self._col[sp]
         iso_open, dec_open = (self._iso[sp] < 0) & (col >= 0), ~self._decided[sp]
         use = iso_open | dec_open
         if use.any():
-            spu, insu, iso = sp[use], inside[use], isolated[loc[use]]
+            spu, iso = sp[use], _pick(isolated, loc, use)
+            insu = None if inside is None else inside[use]
             io, do = iso_open[use], dec_open[use]
             if io.any():
-                hit = (iso[io] == col[use][io, None]) & insu[io]
+                hit = _within(_rows(iso, io) == col[use][io, None], insu, io)
                 new = hit.any(axis=-1)
                 self._iso[spu[io][new]] = s + np.argmax(hit[new], axis=-1)
             if do.any():
-                isd = iso[do]
-                made = ((isd >= 0) | (isd == MULTIPLE)) & insu[do]
+                isd = _rows(iso, do)
+                made = _within((isd >= 0) | (isd == MULTIPLE), insu, do)
                 new = made.any(axis=-1)
                 if new.any():
                     k = np.argmax(made[new], axis=-1)
@@ -456,7 +480,10 @@ class RunSummary:
                             self._hyp[i] = tuple(int(f) for f in np.flatnonzero(sus))
         si, ri = np.nonzero(~self._rows[sp])
         if si.size:
-            self._rows[sp[si], ri] |= (alarms[loc[si], ri] & inside[si]).any(axis=-1)
+            hit = alarms[loc[si], ri]
+            if inside is not None:
+                hit &= inside[si]
+            self._rows[sp[si], ri] |= hit.any(axis=-1)
 
     def events(self, r: int) -> list[FaultEvent]:
         """The fault events of run ``r`` (as :func:`detection_events` gives them)."""
