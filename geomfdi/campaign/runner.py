@@ -407,33 +407,21 @@ def _run_serial(job: dict[str, Any], blocks: Sequence[Block], bar: Any) -> dict[
         reps = max(int(b.repetition.max()) for b in blocks) + 1
         if reps * max(p.run_draw_bytes for p in plans) <= draws.budget:
             order = grid_order(blocks)  # every draw stays: geomfdi.campaign.blocks
-    if k <= 1:
-        for i in order:
-            done[i] = [_run_block(job, blocks[i])]
+    with contextlib.ExitStack() as stack:
+        if k <= 1:
+            outs: Iterator[Any] = (_run_block(job, blocks[i]) for i in order)
+        else:
+            from concurrent.futures import ThreadPoolExecutor
+
+            stack.enter_context(_filters(job["perturbed"]))  # (left after the threads)
+            pool = stack.enter_context(ThreadPoolExecutor(k))
+            # k blocks run at once (the others wait in the queue: memory as in the
+            # loop); an error cancels the blocks not begun
+            outs = pool.map(lambda i: _run_block(job, blocks[i], False), order)
+        for i, out in zip(order, outs, strict=True):
+            done[i] = [out]
             if bar is not None:
                 bar.update(1)
-        return done
-    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
-
-    with _filters(job["perturbed"]), ThreadPoolExecutor(k) as pool:
-        pending = {}
-        try:
-            for i in order:  # k blocks in flight: memory as in the loop
-                pending[pool.submit(_run_block, job, blocks[i], False)] = i
-                if len(pending) < k:
-                    continue
-                ready, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for f in ready:
-                    done[pending.pop(f)] = [f.result()]
-                    if bar is not None:
-                        bar.update(1)
-            for f in list(pending):
-                done[pending.pop(f)] = [f.result()]
-                if bar is not None:
-                    bar.update(1)
-        finally:
-            for f in pending:
-                f.cancel()
     return done
 
 
