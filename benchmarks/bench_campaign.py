@@ -20,9 +20,12 @@ the best of ``--repeats`` is kept):
 * **processes, 1 / 2 workers**: a ``ProcessPoolExecutor`` with 1 and with 2 processes
   (started and warmed up before timing);
 * **dask, 1 / 2 workers**: one ``distributed.LocalCluster`` of 2 single-threaded worker
-  processes; the 2-worker case passes the ``Client`` itself to ``Campaign.run`` (as a
-  user does: the scheduler places the tasks), the 1-worker case pins every task to one
-  worker (skipped without ``distributed`` or with ``--no-dask``).
+  processes made by ``geomfdi.campaign.executors.local_dask_client`` (Dask's worker
+  profiler off, its event-loop check once a second: ``DASK_THROUGHPUT``;
+  ``--dask-defaults``: Dask's own settings); the 2-worker case passes the ``Client``
+  itself to ``Campaign.run`` (as a user does: the scheduler places the tasks), the
+  1-worker case pins every task to one worker (skipped without ``distributed`` or with
+  ``--no-dask``).
 
 A task carries ``--blocks-per-task`` blocks (default ``auto``: sized by
 ``Campaign.run`` from the first task's measured block time so that the per-task overhead
@@ -75,6 +78,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from _threads import run_thread_modes  # noqa: E402
 
 import geomfdi as gf  # noqa: E402
+from geomfdi.campaign.executors import DASK_THROUGHPUT  # noqa: E402
 from geomfdi.campaign.runner import evaluate_runs, isolate_runs  # noqa: E402
 from geomfdi.io.cli import design_all  # noqa: E402
 from geomfdi.io.modelfile import load_model  # noqa: E402
@@ -255,21 +259,34 @@ class _Pinned:
         return {w: n for w, n in self.client.nthreads().items() if w in self.workers}
 
 
-def _dask() -> Any:
+def _dask(defaults: bool) -> Any:
+    """The benchmark's Dask client, made once (both thread modes use it):
+    :func:`~geomfdi.campaign.executors.local_dask_client`, or with ``defaults`` a
+    ``LocalCluster`` of the same workers under Dask's own settings."""
     if "client" not in _STATE:
+        from contextlib import ExitStack
+
         from distributed import Client, LocalCluster
 
-        cluster = LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
-        )
-        _STATE["cluster"], _STATE["client"] = cluster, Client(cluster)
+        from geomfdi.campaign.executors import local_dask_client
+
+        stack = _STATE["stack"] = ExitStack()
+        if defaults:
+            cluster = stack.enter_context(
+                LocalCluster(
+                    n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+                )
+            )
+            _STATE["client"] = stack.enter_context(Client(cluster, set_as_default=False))
+        else:
+            _STATE["client"] = stack.enter_context(local_dask_client(2))
     return _STATE["client"]
 
 
 def _close_dask() -> None:
     if "client" in _STATE:
-        _STATE.pop("client").close()
-        _STATE.pop("cluster").close()
+        _STATE.pop("client")
+        _STATE.pop("stack").close()
 
 
 def main(argv: list[str]) -> dict[str, Any]:
@@ -281,6 +298,11 @@ def main(argv: list[str]) -> dict[str, Any]:
     ap.add_argument("--blocks-per-task", default="auto", help="an integer, or auto (the default)")
     ap.add_argument("--repeats", type=int, default=None, help="default 5 (--quick: 1)")
     ap.add_argument("--no-dask", action="store_true")
+    ap.add_argument(
+        "--dask-defaults",
+        action="store_true",
+        help="Dask's own settings for the cluster (default: geomfdi's DASK_THROUGHPUT)",
+    )
     ap.add_argument(
         "--skip",
         default="",
@@ -335,7 +357,7 @@ def main(argv: list[str]) -> dict[str, Any]:
     dask_note = ""
     if not args.no_dask:
         try:
-            client = _dask()
+            client = _dask(args.dask_defaults)
         except ImportError:
             dask_note = "(dask skipped: distributed is not installed)"
         else:
@@ -362,6 +384,10 @@ def main(argv: list[str]) -> dict[str, Any]:
         where["a Dask worker without the allocator set-up"] = fut.result()
         env = _STATE["client"].run(_worker_env)
         print(f"Dask worker environment: {next(iter(env.values()))}")
+        print(
+            "Dask settings: "
+            + ("Dask's defaults" if args.dask_defaults else f"DASK_THROUGHPUT {DASK_THROUGHPUT}")
+        )
     print(
         f"one block of {args.block} runs: " + ", ".join(f"{k} {v:.2f} s" for k, v in where.items())
     )

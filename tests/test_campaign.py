@@ -235,7 +235,8 @@ def test_same_table_on_a_dask_local_cluster(seed001, serial):
         distributed.LocalCluster(
             n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
         ) as cluster,
-        distributed.Client(cluster) as client,
+        # not the default client: the campaign must use the one it is given
+        distributed.Client(cluster, set_as_default=False) as client,
     ):
         assert len(client.scheduler_info()["workers"]) == 2
         dk = c.run(client)

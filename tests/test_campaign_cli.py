@@ -116,3 +116,16 @@ def test_cli_campaign_from_a_saved_bank_with_progress(tmp_path, capsys):
     (tmp_path / "bad.json").write_text("{}")
     bad = main([*args, "--out", str(tmp_path / "c"), "--bank", str(tmp_path / "bad.json")])
     assert bad == 2 and "bad.json" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_cli_campaign_on_a_local_dask_cluster_gives_the_serial_table(tmp_path):
+    pytest.importorskip("distributed")
+    model = str(ROOT / "examples" / "discrete_disturbance.toml")
+    args = ["campaign", model, "--runs", "2", "--no-plots", "--quiet"]
+    assert main([*args, "--out", str(tmp_path / "s"), "--executor", "serial"]) == 0
+    dask_args = ["--executor", "dask", "--workers", "2"]
+    assert main([*args, "--out", str(tmp_path / "d"), *dask_args]) == 0
+    a = pd.read_csv(tmp_path / "s" / "campaign.csv")
+    b = pd.read_csv(tmp_path / "d" / "campaign.csv")
+    pd.testing.assert_frame_equal(a, b, check_exact=True)

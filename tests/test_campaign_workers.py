@@ -107,16 +107,20 @@ def test_cli_saves_the_completed_part_marked_incomplete(tmp_path, monkeypatch, c
 @pytest.mark.slow
 @pytest.mark.parametrize("n_workers", [1, 2])
 def test_a_killed_dask_worker_is_retried(tmp_path: Path, n_workers: int) -> None:
-    distributed = pytest.importorskip("distributed")
+    pytest.importorskip("distributed")
     import cloudpickle
+    import dask
 
     cloudpickle.register_pickle_by_value(sys.modules[__name__])
-    with (
-        distributed.LocalCluster(
-            n_workers=n_workers, threads_per_worker=1, dashboard_address=None, processes=True
-        ) as cluster,
-        distributed.Client(cluster) as client,
-    ):
+    from geomfdi.campaign.executors import DASK_THROUGHPUT, local_dask_client
+
+    with local_dask_client(n_workers) as client:
         res = _campaign(_Killer(str(tmp_path / "kill"), 1.0)).run(client, progress=False)
+        # the worker started again in place of the killed one has the settings too
+        client.wait_for_workers(n_workers, timeout=30)
+        settings = client.run(lambda: {k: dask.config.get(k) for k in DASK_THROUGHPUT})
+        threads = client.nthreads()
     assert (tmp_path / "kill.0").exists()
     pd.testing.assert_frame_equal(_table(res), _serial())
+    assert len(settings) == n_workers and all(v == DASK_THROUGHPUT for v in settings.values())
+    assert sorted(threads.values()) == [1] * n_workers

@@ -82,7 +82,14 @@ def test_no_page_cites_internal_notes():
 GUIDE = [DOCS / "index.md", DOCS / "getting-started.md", *sorted((DOCS / "guide").glob("*.md"))]
 
 
-@pytest.mark.parametrize("path", GUIDE, ids=lambda p: p.name)
+
+def _page(path: Path) -> object:
+    """A page as a test parameter: marked slow when its code starts a Dask cluster."""
+    slow = "local_dask_client(" in path.read_text(encoding="utf-8")
+    return pytest.param(path, marks=pytest.mark.slow) if slow else path
+
+
+@pytest.mark.parametrize("path", [_page(p) for p in GUIDE], ids=lambda p: p.name)
 def test_guide_code_runs(path, monkeypatch, capsys):
     """Every ``python`` block of a page runs, in order, in one namespace."""
     blocks = re.findall(r"```python\n(.*?)```", path.read_text(encoding="utf-8"), re.S)

@@ -604,9 +604,11 @@ def _campaign_parser(sub: Any) -> None:
         "--executor",
         choices=("serial", "processes", "dask"),
         default="serial",
-        help="where the blocks run (dask: a LocalCluster, or --scheduler)",
+        help="where the blocks run (dask: a local cluster, or --scheduler)",
     )
-    sp.add_argument("--workers", type=int, default=2, help="processes or Dask workers")
+    sp.add_argument(
+        "--workers", type=int, default=2, help="worker processes (one thread each), local or Dask"
+    )
     sp.add_argument("--scheduler", default=None, help="address of a running Dask scheduler")
     _bank_and_progress(sp)
     sp.add_argument("--no-plots", action="store_true", help="do not write PNG figures")
@@ -640,17 +642,13 @@ def campaign_command(args: argparse.Namespace) -> int:
         cfg = load_campaign(args.model, runs=args.runs, bank=args.bank)
         progress = args.progress or (sys.stderr.isatty() and not args.quiet)
         if args.executor == "dask":
-            from distributed import Client, LocalCluster
+            from distributed import Client
 
-            if args.scheduler:
-                with Client(args.scheduler) as client:
-                    result = cfg.campaign.run(client, progress=progress)
-            else:
-                with (
-                    LocalCluster(n_workers=args.workers, dashboard_address=None) as cluster,
-                    Client(cluster) as client,
-                ):
-                    result = cfg.campaign.run(client, progress=progress)
+            from geomfdi.campaign.executors import local_dask_client
+
+            make = Client(args.scheduler) if args.scheduler else local_dask_client(args.workers)
+            with make as client:
+                result = cfg.campaign.run(client, progress=progress)
         else:
             result = cfg.campaign.run(args.executor, workers=args.workers, progress=progress)
         files = write_outputs(result, args.out, plots=not args.no_plots, name=cfg.spec.name)
