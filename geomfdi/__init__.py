@@ -52,6 +52,7 @@ def _register(module: str, *names: str) -> None:
 
 
 _register("geomfdi._threads", "get_blas_threads", "set_blas_threads")
+_register("geomfdi.campaign.executors", "local_dask_client")
 _register("geomfdi.campaign.result", "CampaignResult")
 _register("geomfdi.campaign.runner", "Campaign")
 _register("geomfdi.campaign.spec", "Scenario", "Uncertainty")
@@ -282,6 +283,7 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:  # static analysers and IDEs see every public name
     from geomfdi import errors, tolerance  # noqa: F401
     from geomfdi._threads import get_blas_threads, set_blas_threads  # noqa: F401
+    from geomfdi.campaign.executors import local_dask_client  # noqa: F401
     from geomfdi.campaign.result import CampaignResult  # noqa: F401
     from geomfdi.campaign.runner import Campaign  # noqa: F401
     from geomfdi.campaign.spec import Scenario, Uncertainty  # noqa: F401

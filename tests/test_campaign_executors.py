@@ -401,3 +401,13 @@ def test_allocator_set_up_puts_large_arrays_on_the_heap_in_a_dask_like_worker():
     )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split()[1:] == ["True", "True", "True"]
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True, "2"])
+def test_local_dask_client_refuses_a_bad_worker_count(bad) -> None:
+    from geomfdi.campaign.executors import local_dask_client
+
+    with pytest.raises(GeomFDIError, match="workers") as info:
+        with local_dask_client(bad):
+            pass
+    assert info.value.argument == "workers"

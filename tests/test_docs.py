@@ -82,7 +82,6 @@ def test_no_page_cites_internal_notes():
 GUIDE = [DOCS / "index.md", DOCS / "getting-started.md", *sorted((DOCS / "guide").glob("*.md"))]
 
 
-
 def _page(path: Path) -> object:
     """A page as a test parameter: marked slow when its code starts a Dask cluster."""
     slow = "local_dask_client(" in path.read_text(encoding="utf-8")

@@ -11,8 +11,16 @@ Layer: above simulation and evaluation.  It may import :mod:`geomfdi.model`,
 and, inside functions, :mod:`geomfdi.plotting`; never the synthesis.
 """
 
+from geomfdi.campaign.executors import DASK_THROUGHPUT, local_dask_client
 from geomfdi.campaign.result import CampaignResult
 from geomfdi.campaign.runner import Campaign
 from geomfdi.campaign.spec import Scenario, Uncertainty
 
-__all__ = ["Campaign", "CampaignResult", "Scenario", "Uncertainty"]
+__all__ = [
+    "DASK_THROUGHPUT",
+    "Campaign",
+    "CampaignResult",
+    "Scenario",
+    "Uncertainty",
+    "local_dask_client",
+]

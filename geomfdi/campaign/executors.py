@@ -66,6 +66,7 @@ on other C libraries, when ``MALLOC_MMAP_THRESHOLD_`` is set too, or when
 from __future__ import annotations
 
 import math
+import numbers
 import os
 import pickle
 import threading
@@ -122,16 +123,17 @@ DASK_THROUGHPUT: dict[str, Any] = {
     "distributed.worker.profile.enabled": False,
     "distributed.admin.tick.interval": "1s",
 }
-"""Dask settings for a cluster that runs campaigns (``dask.config.set(DASK_THROUGHPUT)``
-in force while the cluster lives, as in :func:`local_dask_client`, or in a Dask
-configuration file: a worker started again after a loss reads them anew).  By default every worker
-samples its task thread's stack every 10 ms for the dashboard's profile and every Dask
-server checks its event loop every 20 ms: an idle ``LocalCluster`` of two workers then
-took 0.16 of a core (0.066 in the calling process, which holds the scheduler and the
-nannies, and 0.05 in each worker), 8 % of a two-core machine taken from the
-campaign's workers.  Without the profiler and with the event-loop check once a second,
-0.04 of a core.  What is lost: the dashboard's profile page, and a blocked event loop is
-noticed after a second instead of 20 ms."""
+"""Dask settings for a cluster that runs campaigns: ``dask.config.set(DASK_THROUGHPUT)``
+in force while the cluster lives (as in :func:`local_dask_client`), or the same in a
+Dask configuration file (a worker started again after a loss reads them anew).
+
+By default every worker samples its task thread's stack every 10 ms for the dashboard's
+profile, and every Dask server checks its event loop every 20 ms: an idle
+``LocalCluster`` of two workers took 0.16 of a core (0.066 in the calling process,
+which holds the scheduler and the nannies, and 0.05 in each worker), 8 % of a two-core
+machine taken from the campaign's workers.  Without the profiler and with the event-loop
+check once a second: 0.04 of a core.  What is lost: the dashboard's profile page, and a
+blocked event loop is noticed after a second instead of 20 ms."""
 
 _LOST = {
     "BrokenProcessPool",
@@ -149,8 +151,18 @@ def local_dask_client(workers: int) -> Iterator[Any]:
     worker processes under :data:`DASK_THROUGHPUT`, closed with the cluster on exit
     (the settings are in force in this process until then).
 
-    Raises ``ImportError`` without the ``distributed`` package (``geomfdi[dask]``).
+    Raises :class:`~geomfdi.errors.GeomFDIError` for ``workers`` not a positive integer,
+    ``ImportError`` without the ``distributed`` package (``geomfdi[dask]``).
+
+    Examples
+    --------
+    >>> with gf.local_dask_client(2) as client:  # doctest: +SKIP
+    ...     result = campaign.run(client)
     """
+    if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 1:
+        raise GeomFDIError(
+            f"workers: expected a positive integer, got {workers!r}", argument="workers"
+        )
     import dask
     from distributed import Client, LocalCluster
 
