@@ -704,7 +704,8 @@ class Campaign:
             Where the tasks run.  ``"processes"`` starts a local
             :class:`concurrent.futures.ProcessPoolExecutor` with ``workers`` processes for
             this call.  Any object with ``submit(fn, *args)`` returning a future with
-            ``result()`` works (a Dask client: install ``geomfdi[dask]``).
+            ``result()`` works (a Dask client: install ``geomfdi[dask]``; a local one
+            with settings for throughput: :func:`~geomfdi.campaign.executors.local_dask_client`).
         workers : int, optional
         blocks_per_task : int or "auto"
             Blocks carried by one task (does not change the results); ``"auto"``: tasks
