@@ -83,7 +83,8 @@ def _same_tables(a: pd.DataFrame, b: pd.DataFrame) -> None:
 @pytest.mark.parametrize(
     "hold, rule",
     [
-        ("foh", gf.Persistence(2, 3)),
+        # (the first builds the kernels the others reuse: 8-9 s on a fresh checkout)
+        pytest.param("foh", gf.Persistence(2, 3), marks=pytest.mark.slow),
         ("zoh", gf.Persistence(3, 5, reset=20)),
         ("foh", gf.Persistence(2, 4, latch=False)),
         ("foh", None),
@@ -187,6 +188,7 @@ def test_every_build_of_the_kernel_gives_the_same_bits(hwc, monkeypatch, flags, 
     np.testing.assert_array_equal(fused.fused_runs(other, lists, seeds), ref)
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::geomfdi.simulation.initial_state.InitialStateWarning")
 def test_fused_vector_residual_discrete_plant_undecoupled_bank_no_measurement_noise():
     # a discrete plant, one generator of two outputs (its row: the norm of both)

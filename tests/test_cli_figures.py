@@ -39,6 +39,7 @@ def _run_driver(out: Path, *extra: str) -> dict:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow
 def test_run_loads_neither_scipy_signal_nor_stats(tmp_path: Path) -> None:
     """The Hou-Wen-Chen example run (pole placement, simulation, exact proof) without scipy.signal
     (about 0.6 s to import) or scipy.stats; the figures are drawn in another process,
