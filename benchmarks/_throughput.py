@@ -140,10 +140,7 @@ def batch_vs_loop(
     out = {}
 
     # each call first drops its own previous records (about 1 GB), as a loop over
-    # studies does (``del res`` before ``res = ...``): both then write into memory the
-    # process has just freed.  Replacing them afterwards instead (``res = ...``) charged
-    # the batch with fresh memory and the loop with the batch's freed memory, whatever the
-    # speed of either: see the module docstring.
+    # studies does (``del res`` before ``res = ...``): module docstring
     def batch():
         out.pop("batch", None)
         out["batch"] = gf.simulate_batch(

@@ -131,7 +131,7 @@ def _run_block(
     root = job["seed_root"]
     # a repetition's seed, made once per process (a SeedSequence is not changed by
     # drawing from it; the runs of its other cells reuse it)
-    memo = job["fused"].setdefault("seeds", {}) if job.get("fused") is not None else {}
+    memo = job["fused"].setdefault("seeds", {})
     seeds = []
     for r in block.repetition.tolist():
         sd = memo.get(r)
@@ -330,8 +330,8 @@ def _fused_plan(job: dict[str, Any], model: int) -> Any:
     builds only the lists of its own runs): a campaign whose faults, noise or plant
     the fused pass does not cover (:mod:`geomfdi.simulation.fused`) never uses it.
     """
-    cache = job.get("fused")
-    if cache is None or job.get("system") is not None:
+    cache = job["fused"]
+    if job.get("system") is not None:
         return None
     if model not in cache:
         from geomfdi.evaluation.statistics import ChiSquareTest
@@ -395,7 +395,7 @@ def _run_serial(job: dict[str, Any], blocks: Sequence[Block], bar: Any) -> dict[
     filters are set once around the threads (a thread must not change them)."""
     k = min(work_threads(), len(blocks))
     _prepare_blocks(job, blocks)
-    cache = job.get("fused") or {}
+    cache = job["fused"]
     models = {b.model for b in blocks}
     if k > 1 and not all(cache.get(m) is not None and cache[m].window for m in models):
         k = 1  # blocks through simulate_batch: it splits each block itself

@@ -681,8 +681,10 @@ def fused_runs(
         miss, waits = [], []
         for j, (z, event) in enumerate(cache.reserve_all(keys)):
             zs[j] = z
-            if z is None:
-                (miss.append(j) if event is None else waits.append((j, event)))
+            if z is None and event is None:
+                miss.append(j)  # reserved here
+            elif z is None:
+                waits.append((j, event))  # being drawn by another thread
         streams: list[Any] = []
         try:
             if miss:  # reserved here: drawn before waiting for any other thread's
