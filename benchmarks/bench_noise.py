@@ -8,7 +8,10 @@ Fills of ``--samples`` normals (default 10^7, one buffer, allocated once), the b
   one call (the layout of a campaign block);
 * **counter, numpy**: the numpy fallback (the same bits; on a tenth of the samples);
 * **numpy PCG64 / SFC64**: ``Generator.standard_normal(out=)`` (ziggurat), and PCG64's
-  uniforms ``random(out=)`` for scale.
+  uniforms ``random(out=)`` for scale;
+* **numpy PCG64, compiled**: :func:`geomfdi.simulation.pcg64_normal.standard_normal`,
+  numpy's PCG64 normals (the same bits) drawn by geomfdi's compiled loop, what
+  simulations with ``generator="numpy"`` use.
 
 Prints ns per normal and the ratio of numpy's PCG64 and SFC64 to the counter kernel.
 Everything runs twice (``benchmarks/_threads.py``: one BLAS thread, then the default
@@ -34,6 +37,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from _threads import run_thread_modes  # noqa: E402
 
 from geomfdi.simulation import counter_normal as cn  # noqa: E402
+from geomfdi.simulation import pcg64_normal as pn  # noqa: E402
 
 
 def best_ns(fn: Any, count: int, repeats: int) -> float:
@@ -63,7 +67,10 @@ def main(argv: list[str]) -> dict[str, float]:
     flat = buf.reshape(-1)
     pcg = np.random.Generator(np.random.PCG64(1))
     sfc = np.random.Generator(np.random.SFC64(1))
-    print(f"compiled kernel: {cn.compiled()}; {n} normals per fill, best of {rep}")
+    print(
+        f"compiled kernels: counter {cn.compiled()}, numpy PCG64 {pn.compiled()}; "
+        f"{n} normals per fill, best of {rep}"
+    )
     out = {
         "counter, C": best_ns(lambda: cn.fill_normals(key, 0, 0, 0, n, buf), n, rep),
         f"counter, C, {runs} runs x {rows} rows": best_ns(
@@ -73,6 +80,7 @@ def main(argv: list[str]) -> dict[str, float]:
             lambda: cn.numpy_normals(key, 0, 0, 0, small.shape[2], small), small.size, 1
         ),
         "numpy PCG64 standard_normal": best_ns(lambda: pcg.standard_normal(out=flat), n, rep),
+        "numpy PCG64, compiled (same bits)": best_ns(lambda: pn.standard_normal(pcg, flat), n, rep),
         "numpy SFC64 standard_normal": best_ns(lambda: sfc.standard_normal(out=flat), n, rep),
         "numpy PCG64 uniforms (random)": best_ns(lambda: pcg.random(out=flat), n, rep),
     }

@@ -13,6 +13,7 @@ import scipy.linalg
 from geomfdi._validation import as_matrix, as_real_array
 from geomfdi.errors import GeomFDIError, ShapeError
 from geomfdi.model.plant import Plant
+from geomfdi.simulation.pcg64_normal import standard_normal
 
 
 # =================================================================== noise
@@ -258,9 +259,10 @@ class NoiseStream:
         b = self._next
         L = min(self.block, self.N - b * self.block)
         rv, rw = self.rows
-        # straight into the block's buffer: the values of rng.standard_normal((rows, L))
-        zv = self.rng.standard_normal(out=self._buffer(rv, L)) if rv else np.zeros((0, L))
-        zw = self.rng.standard_normal(out=self._buffer(rw, L)) if rw else np.zeros((0, L))
+        # straight into the block's buffer: the values of rng.standard_normal((rows, L)),
+        # drawn by the compiled loop for PCG64 (geomfdi.simulation.pcg64_normal)
+        zv = standard_normal(self.rng, self._buffer(rv, L)) if rv else np.zeros((0, L))
+        zw = standard_normal(self.rng, self._buffer(rw, L)) if rw else np.zeros((0, L))
         self._blocks[b] = (zv, zw)
         self._next += 1
 
