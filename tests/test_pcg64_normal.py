@@ -79,6 +79,15 @@ def test_a_kernel_one_ulp_off_is_refused_at_load(compiled):
     assert not pn._agrees((behind, fn))
 
 
+def test_a_numpy_without_the_function_draws_itself(monkeypatch):
+    def missing():
+        raise AttributeError("random_standard_normal")
+
+    monkeypatch.setattr(pn, "_numpy_normal", missing)
+    with pytest.warns(gf.BackendFallbackWarning, match="not found"):
+        assert pn._bind(None) is None
+
+
 def test_where_the_loop_does_not_apply_numpy_draws(compiled):
     # another bit generator, an out in Fortran order, a short draw: numpy's values
     for rng_of in (

@@ -8,7 +8,9 @@
   :mod:`~geomfdi.simulation.compiled_recursion` (many runs) and
   :mod:`~geomfdi.simulation.compiled_single` (one run) -- its compiled kernels.
 * :mod:`~geomfdi.simulation.noise`, :mod:`~geomfdi.simulation.initial_state`,
-  :mod:`~geomfdi.simulation.context` -- the inputs of a simulation.
+  :mod:`~geomfdi.simulation.context` -- the inputs of a simulation;
+  :mod:`~geomfdi.simulation.pcg64_normal` (numpy's normals, compiled) and
+  :mod:`~geomfdi.simulation.counter_normal` (the counter generator) -- the noise draws.
 * :mod:`~geomfdi.simulation.open_loop`, :mod:`~geomfdi.simulation.closed_loop` -- the engines,
   advanced in time chunks; :mod:`~geomfdi.simulation.streaming` -- chunk sizes, decisions
   and summaries accumulated chunk by chunk.
