@@ -263,25 +263,15 @@ class _Pinned:
 
 def _dask(defaults: bool) -> Any:
     """The benchmark's Dask client, made once (both thread modes use it):
-    :func:`~geomfdi.campaign.executors.local_dask_client`, or with ``defaults`` a
-    ``LocalCluster`` of the same workers under Dask's own settings."""
+    :func:`~geomfdi.campaign.executors.local_dask_client`, with ``defaults`` under Dask's
+    own settings."""
     if "client" not in _STATE:
         from contextlib import ExitStack
-
-        from distributed import Client, LocalCluster
 
         from geomfdi.campaign.executors import local_dask_client
 
         stack = _STATE["stack"] = ExitStack()
-        if defaults:
-            cluster = stack.enter_context(
-                LocalCluster(
-                    n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
-                )
-            )
-            _STATE["client"] = stack.enter_context(Client(cluster, set_as_default=False))
-        else:
-            _STATE["client"] = stack.enter_context(local_dask_client(2))
+        _STATE["client"] = stack.enter_context(local_dask_client(2, {} if defaults else None))
     return _STATE["client"]
 
 

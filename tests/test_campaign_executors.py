@@ -411,3 +411,17 @@ def test_local_dask_client_refuses_a_bad_worker_count(bad) -> None:
         with local_dask_client(bad):
             pass
     assert info.value.argument == "workers"
+
+
+def test_local_dask_client_with_dask_own_settings() -> None:
+    pytest.importorskip("distributed")
+    import dask
+
+    from geomfdi.campaign.executors import DASK_THROUGHPUT, local_dask_client
+
+    own = {k: dask.config.get(k) for k in DASK_THROUGHPUT}
+    assert own != DASK_THROUGHPUT
+    with local_dask_client(1, settings={}) as client:
+        got = client.run(lambda: {k: dask.config.get(k) for k in DASK_THROUGHPUT})
+        assert client.nthreads() and sorted(client.nthreads().values()) == [1]
+    assert list(got.values()) == [own]

@@ -65,6 +65,7 @@ on other C libraries, when ``MALLOC_MMAP_THRESHOLD_`` is set too, or when
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 import os
@@ -146,10 +147,11 @@ _LOST = {
 
 
 @contextmanager
-def local_dask_client(workers: int) -> Iterator[Any]:
+def local_dask_client(workers: int, settings: dict[str, Any] | None = None) -> Iterator[Any]:
     """A ``distributed.Client`` of a ``LocalCluster`` of ``workers`` single-threaded
-    worker processes under :data:`DASK_THROUGHPUT`, closed with the cluster on exit
-    (the settings are in force in this process until then).
+    worker processes under the Dask configuration ``settings`` (default
+    :data:`DASK_THROUGHPUT`; ``{}``: Dask's own), closed with the cluster on exit (the
+    settings are in force in this process until then).
 
     Raises :class:`~geomfdi.errors.GeomFDIError` for ``workers`` not a positive integer,
     ``ImportError`` without the ``distributed`` package (``geomfdi[dask]``).
@@ -170,7 +172,7 @@ def local_dask_client(workers: int) -> Iterator[Any]:
     # then (its nanny keeps a shallow copy of the configuration, which a set that has
     # ended no longer holds)
     with (
-        dask.config.set(DASK_THROUGHPUT),
+        dask.config.set(DASK_THROUGHPUT if settings is None else settings),
         LocalCluster(
             n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
         ) as cluster,
@@ -358,8 +360,9 @@ ALLOCATOR_IDLE = 0.5
 restored (:func:`allocator_for_arrays`)."""
 
 
+@functools.cache
 def _glibc() -> Any:
-    """glibc's ``mallopt`` and ``malloc_trim`` (None on other C libraries)."""
+    """glibc's ``mallopt`` and ``malloc_trim``, typed once (None on other C libraries)."""
     import ctypes
 
     from geomfdi._libc import is_glibc, libc
